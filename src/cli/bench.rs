@@ -1,0 +1,135 @@
+//! `hindsight bench`: throughput of ingest on a generated log.
+
+use anyhow::{Context, Result};
+use hindsight::ingest::{self, IngestOptions};
+use hindsight::sim::{synthetic, writer};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// Measure ingest throughput on a generated survey log (IMU 100 Hz, magnetometer 50 Hz,
+/// DVL 5 Hz, EM log, depth and altimeter 2 Hz, RPM 1 Hz, fins, attitude and truth 10 Hz),
+/// one thread.
+///
+/// Stages, each timed over --repeat runs (median printed):
+///   scan          container only: read, decompress chunks, walk records
+///   ingest        scan + JSON decode + validation + sort + statistics (what `info` does)
+///   ingest+merge  ingest + the time-ordered k-way merge over all topics
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct BenchArgs {
+    /// Length of the generated log, minutes.
+    #[arg(long, default_value_t = 60.0)]
+    pub minutes: f64,
+
+    /// Runs per stage; medians are reported.
+    #[arg(long, default_value_t = 5)]
+    pub repeat: usize,
+
+    /// Seed of the generated log.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+
+    /// Keep the generated log at this path (otherwise a temporary file is removed).
+    #[arg(long, value_name = "FILE")]
+    pub keep: Option<PathBuf>,
+}
+
+pub fn run(args: BenchArgs) -> Result<()> {
+    anyhow::ensure!(
+        args.minutes > 0.0 && args.minutes <= 24.0 * 60.0,
+        "--minutes must be in (0, 1440]"
+    );
+    anyhow::ensure!(args.repeat >= 1, "--repeat must be at least 1");
+    let path = args.keep.clone().unwrap_or_else(|| {
+        std::env::temp_dir().join(format!("hindsight-bench-{}.mcap", std::process::id()))
+    });
+    eprintln!("generating a {} min log ...", args.minutes);
+    let spec = synthetic::SurveySpec {
+        duration_s: args.minutes * 60.0,
+        seed: args.seed,
+        ..Default::default()
+    };
+    let file =
+        std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+    let mut w = writer::LogWriter::new(
+        std::io::BufWriter::new(file),
+        writer::WriterOptions::default(),
+    )?;
+    synthetic::write_survey(&mut w, &spec)?;
+    w.finish()?;
+    let result = measure(&path, args.repeat);
+    if args.keep.is_none() {
+        let _ = std::fs::remove_file(&path);
+    }
+    result
+}
+
+fn measure(path: &PathBuf, repeat: usize) -> Result<()> {
+    let file_bytes = std::fs::metadata(path)?.len() as f64;
+    let open = || -> Result<_> {
+        Ok(std::io::BufReader::with_capacity(
+            1 << 20,
+            std::fs::File::open(path)?,
+        ))
+    };
+    let totals = ingest::scan(open()?)?;
+    println!(
+        "log: {}  {:.1} MB on disk, {} messages, {:.1} MB of JSON",
+        path.display(),
+        file_bytes / 1e6,
+        totals.messages,
+        totals.payload_bytes as f64 / 1e6
+    );
+    let opts = IngestOptions::default();
+    let scan = time(repeat, || Ok(ingest::scan(open()?)?.messages))?;
+    let ingest_only = time(
+        repeat,
+        || Ok(ingest::read_log(path, &opts)?.message_count()),
+    )?;
+    let merge = time(repeat, || {
+        let log = ingest::read_log(path, &opts)?;
+        Ok(hindsight::align::merged(&log.streams).count() as u64)
+    })?;
+    let n = totals.messages as f64;
+    println!(
+        "{:<14} {:>10} {:>14} {:>12} {:>12}",
+        "stage", "median s", "messages/s", "file MB/s", "JSON MB/s"
+    );
+    for (name, d) in [
+        ("scan", scan),
+        ("ingest", ingest_only),
+        ("ingest+merge", merge),
+    ] {
+        let s = d.as_secs_f64();
+        println!(
+            "{name:<14} {s:>10.3} {:>14.0} {:>12.1} {:>12.1}",
+            n / s,
+            file_bytes / s / 1e6,
+            totals.payload_bytes as f64 / s / 1e6
+        );
+    }
+    let (a, b, c) = (
+        scan.as_secs_f64(),
+        ingest_only.as_secs_f64(),
+        merge.as_secs_f64(),
+    );
+    println!(
+        "time shares of ingest+merge: container {:.0} %, decode+validate+sort {:.0} %, merge {:.0} %",
+        100.0 * a / c,
+        100.0 * (b - a) / c,
+        100.0 * (c - b) / c
+    );
+    Ok(())
+}
+
+/// Median wall time of `repeat` runs of `f`.
+fn time(repeat: usize, mut f: impl FnMut() -> Result<u64>) -> Result<Duration> {
+    let mut times = Vec::with_capacity(repeat);
+    for _ in 0..repeat {
+        let t = Instant::now();
+        std::hint::black_box(f()?);
+        times.push(t.elapsed());
+    }
+    times.sort();
+    Ok(times[times.len() / 2])
+}

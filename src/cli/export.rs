@@ -1,0 +1,136 @@
+//! `hindsight export LOG --out DIR`: every topic to Parquet, plus all streams on one clock.
+
+use super::{LogArgs, OutputFailed};
+use anyhow::{bail, Context, Result};
+use hindsight::ingest::Log;
+use hindsight::output::{atomic::Staging, parquet::write_batches, parquet::ROWS_PER_BATCH, tables};
+use std::path::{Path, PathBuf};
+
+/// Most rows accepted in aligned.parquet (protects against a typo in --rate).
+const MAX_ALIGNED_ROWS: usize = 50_000_000;
+
+/// Export a log to Parquet: one file per topic (`imu.parquet`, `dvl.parquet`, ...) with
+/// `stamp_ns` and `log_time_ns` as timestamp[ns, UTC] and one column per field (vectors as
+/// `_x/_y/_z`, Euler triples as `_roll/_pitch/_yaw`, units in the column metadata), and
+/// `aligned.parquet`: every stream sampled on a common clock, each with its latest value
+/// and that value's age (`<topic>_age_s`).
+///
+/// Streams are sorted by stamp with duplicates dropped (see `hindsight info`). Files are
+/// written under temporary names and renamed only when all are complete.
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct ExportArgs {
+    #[command(flatten)]
+    pub log: LogArgs,
+
+    /// Output folder (created if missing; files of the same names are replaced).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+
+    /// Rate of the common clock of aligned.parquet, Hz.
+    #[arg(long, default_value_t = 10.0, value_name = "HZ")]
+    pub rate: f64,
+}
+
+pub fn run(args: ExportArgs) -> Result<()> {
+    if !(args.rate.is_finite() && args.rate > 0.0 && args.rate <= 1e6) {
+        bail!("--rate {}: give a rate in Hz between 0 and 1e6", args.rate);
+    }
+    let period_ns = (1e9 / args.rate).round() as i64;
+    let log = super::load(&args.log.log, &args.log.ingest_options(), &args.log.offsets)?;
+    if log.message_count() == 0 {
+        return Err(hindsight::ingest::IngestError::Corrupt {
+            offset: 0,
+            detail: "the log holds no decodable message".into(),
+        })
+        .with_context(|| format!("reading {}", args.log.log.display()));
+    }
+    let clock = clock(&log, period_ns)?;
+    std::fs::create_dir_all(&args.out).with_context(|| OutputFailed {
+        path: args.out.clone(),
+    })?;
+    let written = write_all(&log, &clock, &args.out)?;
+    for (path, rows) in written {
+        println!("{}  {rows} rows", path.display());
+    }
+    Ok(())
+}
+
+fn clock(log: &Log, period_ns: i64) -> Result<Vec<i64>> {
+    let span = log
+        .streams
+        .iter()
+        .filter_map(|s| s.timing.span_ns)
+        .fold(None, |acc: Option<(i64, i64)>, (a, b)| {
+            Some(acc.map_or((a, b), |(x, y)| (x.min(a), y.max(b))))
+        });
+    if let Some((a, b)) = span {
+        let rows = (b.saturating_sub(a) / period_ns) as usize;
+        if rows > MAX_ALIGNED_ROWS {
+            bail!(
+                "aligned.parquet would have {rows} rows (log spans {:.0} s); lower --rate",
+                (b - a) as f64 * 1e-9
+            );
+        }
+    }
+    Ok(tables::aligned_clock(&log.streams, period_ns))
+}
+
+/// File stem of each stream: the topic without its leading slash, `/` as `.`, made unique.
+fn file_stems(log: &Log) -> Vec<String> {
+    let mut stems: Vec<String> = Vec::new();
+    for s in &log.streams {
+        let base = tables::topic_prefix(&s.topic)
+            .trim_end_matches('_')
+            .to_string();
+        let mut stem = base.clone();
+        let mut n = 2;
+        while stems.contains(&stem) || stem == "aligned" {
+            stem = format!("{base}_{n}");
+            n += 1;
+        }
+        stems.push(stem);
+    }
+    stems
+}
+
+fn write_all(log: &Log, clock: &[i64], dir: &Path) -> Result<Vec<(PathBuf, usize)>> {
+    let mut staging = Staging::new();
+    let mut written = Vec::new();
+    for (stream, stem) in log.streams.iter().zip(file_stems(log)) {
+        let path = dir.join(format!("{stem}.parquet"));
+        let n = stream.samples.len();
+        let file = staging
+            .create(&path)
+            .with_context(|| OutputFailed { path: path.clone() })?;
+        let mut start = 0;
+        let mut next = || {
+            (start < n).then(|| {
+                let end = (start + ROWS_PER_BATCH).min(n);
+                let b = tables::stream_batch(stream, start..end);
+                start = end;
+                b
+            })
+        };
+        let first = next().unwrap_or_else(|| tables::stream_batch(stream, 0..0))?;
+        write_batches(file, first, next).with_context(|| OutputFailed { path: path.clone() })?;
+        written.push((path, n));
+    }
+    let path = dir.join("aligned.parquet");
+    let file = staging
+        .create(&path)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    let mut chunks = clock.chunks(ROWS_PER_BATCH);
+    let first = tables::aligned_batch(&log.streams, chunks.next().unwrap_or(&[]))?;
+    write_batches(file, first, || {
+        chunks
+            .next()
+            .map(|c| tables::aligned_batch(&log.streams, c))
+    })
+    .with_context(|| OutputFailed { path: path.clone() })?;
+    written.push((path, clock.len()));
+    staging.commit().with_context(|| OutputFailed {
+        path: dir.to_path_buf(),
+    })?;
+    Ok(written)
+}

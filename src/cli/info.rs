@@ -1,0 +1,185 @@
+//! `hindsight info LOG`: what is in a log, per topic.
+
+use super::LogArgs;
+use anyhow::Result;
+use hindsight::ingest::{stats::GAP_FACTOR, Ending, IngestOptions, Log, Stream};
+use hindsight::time::format_utc;
+
+/// Show what a log holds: per topic its schema, rate, span, gaps and defects, plus the
+/// mission metadata.
+///
+/// Columns: count = messages kept; rate = 1 / median interval; jitter = standard deviation of
+/// the intervals that are not gaps; gaps = intervals over 3x the median; dup = repeated
+/// stamps (dropped); ooo = messages stamped earlier than one already received (sorted into
+/// place); invalid = failed decoding or validation (dropped; the first is shown). Every
+/// message is decoded and checked, streaming the file.
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct InfoArgs {
+    #[command(flatten)]
+    pub log: LogArgs,
+
+    /// List every gap with its time and length.
+    #[arg(long)]
+    pub gaps: bool,
+}
+
+pub fn run(args: InfoArgs) -> Result<()> {
+    // info reports every defect instead of stopping at the first.
+    let options = IngestOptions {
+        skip_unknown: true,
+        max_invalid_fraction: 1.0,
+    };
+    let log = super::load(&args.log.log, &options, &args.log.offsets)?;
+    print!(
+        "{}",
+        render(&log, &args.log.log.display().to_string(), args.gaps)
+    );
+    Ok(())
+}
+
+fn render(log: &Log, name: &str, list_gaps: bool) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let f = &log.file;
+    let _ = writeln!(
+        out,
+        "{name}: {} bytes, written by {}, {}{}",
+        f.bytes_read,
+        if f.library.is_empty() {
+            "(unnamed library)"
+        } else {
+            &f.library
+        },
+        if f.has_summary {
+            "with summary"
+        } else {
+            "no summary"
+        },
+        match f.ending {
+            Ending::Complete => String::new(),
+            Ending::Truncated { whole_records_end } =>
+                format!(", CUT SHORT at byte {whole_records_end}"),
+        }
+    );
+    match log.mission() {
+        Ok(m) => {
+            let _ = writeln!(
+                out,
+                "mission: origin {:.7} deg N, {:.7} deg E; vehicle {}; initial yaw {}\n  {}",
+                m.origin_latitude_deg,
+                m.origin_longitude_deg,
+                m.vehicle,
+                m.initial_yaw_rad
+                    .map(|y| format!("{:.1} deg", y.to_degrees()))
+                    .unwrap_or_else(|| "none".into()),
+                m.description
+            );
+        }
+        Err(e) => {
+            let _ = writeln!(out, "mission: {e}");
+        }
+    }
+    let header = [
+        "topic",
+        "schema",
+        "enc",
+        "count",
+        "rate Hz",
+        "jitter ms",
+        "first stamp (UTC)",
+        "last stamp (UTC)",
+        "gaps",
+        "dup",
+        "ooo",
+        "invalid",
+    ];
+    let mut rows: Vec<Vec<String>> = log.streams.iter().map(row).collect();
+    for s in &log.skipped {
+        let mut r = vec![String::new(); header.len()];
+        r[0] = s.topic.clone();
+        r[1] = s.schema_name.clone();
+        r[2] = s.message_encoding.clone();
+        r[3] = s.messages.to_string();
+        r[4] = "(no decoder: skipped)".into();
+        rows.push(r);
+    }
+    out.push_str(&table(&header, &rows));
+    for s in &log.streams {
+        if list_gaps {
+            for g in &s.timing.gaps {
+                let _ = writeln!(
+                    out,
+                    "gap  {}: {:.3} s after {}",
+                    s.topic,
+                    g.duration_ns as f64 * 1e-9,
+                    format_utc(g.after_ns)
+                );
+            }
+        }
+        if let Some(issue) = s.issues.first() {
+            let _ = writeln!(out, "invalid  {issue}");
+        }
+    }
+    if !list_gaps && log.streams.iter().any(|s| !s.timing.gaps.is_empty()) {
+        let _ = writeln!(
+            out,
+            "(gaps: intervals over {GAP_FACTOR}x the median; --gaps lists them)"
+        );
+    }
+    out
+}
+
+fn row(s: &Stream) -> Vec<String> {
+    let t = &s.timing;
+    let c = &s.counts;
+    let stamp = |x: Option<i64>| x.map(format_utc).unwrap_or_else(|| "-".into());
+    vec![
+        s.topic.clone(),
+        s.schema_name.clone(),
+        s.message_encoding.clone(),
+        s.samples.len().to_string(),
+        t.rate_hz()
+            .map(|r| format!("{r:.3}"))
+            .unwrap_or_else(|| "-".into()),
+        t.jitter_s
+            .map(|j| format!("{:.3}", j * 1e3))
+            .unwrap_or_else(|| "-".into()),
+        stamp(t.span_ns.map(|s| s.0)),
+        stamp(t.span_ns.map(|s| s.1)),
+        t.gaps.len().to_string(),
+        c.duplicates.to_string(),
+        c.out_of_order.to_string(),
+        c.invalid.to_string(),
+    ]
+}
+
+/// Left-aligned text columns, numbers right-aligned.
+fn table(header: &[&str], rows: &[Vec<String>]) -> String {
+    let mut widths: Vec<usize> = header.iter().map(|h| h.len()).collect();
+    for r in rows {
+        for (w, cell) in widths.iter_mut().zip(r) {
+            *w = (*w).max(cell.chars().count());
+        }
+    }
+    let numeric = |i: usize| i >= 3 && !matches!(i, 6 | 7);
+    let line = |cells: Vec<&str>| {
+        let parts: Vec<String> = cells
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                if numeric(i) {
+                    format!("{c:>w$}", w = widths[i])
+                } else {
+                    format!("{c:<w$}", w = widths[i])
+                }
+            })
+            .collect();
+        parts.join("  ").trim_end().to_string() + "\n"
+    };
+    let mut out = line(header.to_vec());
+    for r in rows {
+        out.push_str(&line(r.iter().map(String::as_str).collect()));
+    }
+    out
+}

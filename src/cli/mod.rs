@@ -1,0 +1,128 @@
+//! Command-line interface: clap arguments, validated settings, one file per command.
+//!
+//! Errors carry context here (anyhow); [`exit_code`] is the one place that maps them to the
+//! process exit status.
+
+mod bench;
+mod export;
+mod info;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use hindsight::align::{AlignError, ClockOffset};
+use hindsight::ingest::{IngestError, IngestOptions, Log, MissionError};
+use std::path::{Path, PathBuf};
+
+/// Exit status: an unexpected failure.
+pub const EXIT_FAILURE: u8 = 1;
+/// Exit status: the input log cannot be read or breaks the log contract.
+pub const EXIT_BAD_INPUT: u8 = 3;
+/// Exit status: an output file could not be written.
+pub const EXIT_OUTPUT: u8 = 4;
+
+const AFTER_HELP: &str = "\
+Exit status: 0 success; 2 bad command line; 3 the input log cannot be read or breaks the log
+contract (the message names topic, log time and field); 4 an output could not be written;
+1 anything else.
+
+Logs follow the recorded-log contract: MCAP with JSON messages whose schemas are in schemas/.";
+
+/// Reconstruct what an underwater vehicle did from its recorded sensor logs (MCAP).
+#[derive(Debug, Parser)]
+#[command(name = "hindsight", version, about, after_help = AFTER_HELP)]
+pub struct Args {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    Info(info::InfoArgs),
+    Export(export::ExportArgs),
+    Bench(bench::BenchArgs),
+}
+
+/// Output written by a command could not be written (exit status 4).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write {}", path.display())]
+pub struct OutputFailed {
+    pub path: PathBuf,
+}
+
+/// Runs a command.
+pub fn run(args: Args) -> Result<()> {
+    match args.command {
+        Command::Info(a) => info::run(a),
+        Command::Export(a) => export::run(a),
+        Command::Bench(a) => bench::run(a),
+    }
+}
+
+/// Maps an error to the exit status (see [`AFTER_HELP`]).
+pub fn exit_code(err: &anyhow::Error) -> u8 {
+    for cause in err.chain() {
+        if cause.is::<OutputFailed>() {
+            return EXIT_OUTPUT;
+        }
+        if cause.is::<IngestError>() || cause.is::<AlignError>() || cause.is::<MissionError>() {
+            return EXIT_BAD_INPUT;
+        }
+    }
+    EXIT_FAILURE
+}
+
+/// Options shared by the commands that read a log.
+#[derive(Debug, Clone, clap::Args)]
+pub struct LogArgs {
+    /// Recorded log (MCAP, contract schemas, JSON messages).
+    pub log: PathBuf,
+
+    /// Clock offset of one topic, added to its stamps: TOPIC=SECONDS (repeatable),
+    /// e.g. --offset /dvl=-0.120 when the DVL stamps run 120 ms late.
+    #[arg(long = "offset", value_name = "TOPIC=SECONDS")]
+    pub offsets: Vec<ClockOffset>,
+
+    /// Skip topics whose schema or encoding hindsight cannot decode (counted and reported)
+    /// instead of failing.
+    #[arg(long)]
+    pub skip_unknown: bool,
+
+    /// Largest fraction of invalid messages per topic that is dropped with a warning; more
+    /// fails the run (0 = any invalid message fails, 1 = never fail).
+    #[arg(long = "max-invalid", value_name = "FRACTION", default_value_t = 0.01,
+          value_parser = parse_fraction)]
+    pub max_invalid_fraction: f64,
+}
+
+fn parse_fraction(text: &str) -> Result<f64, String> {
+    let v: f64 = text
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number"))?;
+    if (0.0..=1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{v} is not a fraction in [0, 1]"))
+    }
+}
+
+impl LogArgs {
+    fn ingest_options(&self) -> IngestOptions {
+        IngestOptions {
+            skip_unknown: self.skip_unknown,
+            max_invalid_fraction: self.max_invalid_fraction,
+        }
+    }
+}
+
+/// Reads a log, applies the clock offsets and prints warnings to stderr.
+fn load(path: &Path, options: &IngestOptions, offsets: &[ClockOffset]) -> Result<Log> {
+    use anyhow::Context;
+    let mut log = hindsight::ingest::read_log(path, options)
+        .with_context(|| format!("reading {}", path.display()))?;
+    hindsight::align::apply_offsets(&mut log, offsets)
+        .with_context(|| format!("aligning {}", path.display()))?;
+    for w in log.warnings() {
+        eprintln!("warning: {w}");
+    }
+    Ok(log)
+}

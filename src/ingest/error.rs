@@ -1,0 +1,68 @@
+//! Typed errors of ingest. Each names what is wrong and where; the binary adds the file name.
+
+use crate::time;
+
+/// A problem with one message: which topic, when it was logged, which field.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MessageIssue {
+    pub topic: String,
+    /// MCAP `log_time` of the message (the stamp may be the broken part).
+    pub log_time_ns: u64,
+    /// JSON path of the field at fault.
+    pub field: String,
+    pub reason: String,
+}
+
+impl std::fmt::Display for MessageIssue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let t = i64::try_from(self.log_time_ns).unwrap_or(i64::MAX);
+        write!(
+            f,
+            "topic {} at log time {} ({} ns): field `{}`: {}",
+            self.topic,
+            time::format_utc(t),
+            self.log_time_ns,
+            self.field,
+            self.reason
+        )
+    }
+}
+
+/// Why a log could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum IngestError {
+    #[error("read failed: {0}")]
+    Io(#[from] std::io::Error),
+
+    #[error("the file is empty (0 bytes), not an MCAP log")]
+    Empty,
+
+    #[error("not an MCAP file: it starts with {found} where the MCAP magic 89 4D 43 41 50 30 0D 0A belongs")]
+    NotMcap { found: String },
+
+    #[error("corrupt MCAP record at byte {offset}: {detail}")]
+    Corrupt { offset: u64, detail: String },
+
+    #[error(
+        "topic {topic}: no decoder for schema `{schema}` with message encoding `{encoding}` \
+         (hindsight reads the `json` encoding of: {known}); pass --skip-unknown to ignore the topic"
+    )]
+    UnknownSchema {
+        topic: String,
+        schema: String,
+        encoding: String,
+        known: String,
+    },
+
+    #[error(
+        "{first}; {invalid} of {received} messages on {topic} are invalid, over the allowed \
+         fraction {allowed} (see `hindsight info` for all topics; --max-invalid raises the limit)"
+    )]
+    TooManyInvalid {
+        topic: String,
+        invalid: u64,
+        received: u64,
+        allowed: f64,
+        first: Box<MessageIssue>,
+    },
+}

@@ -1,0 +1,15 @@
+//! hindsight: post-dive reconstruction of what an underwater vehicle did, from its recorded
+//! sensor logs (MCAP).
+//!
+//! The pipeline reads a log ([`ingest`]), puts its asynchronous streams on one clock
+//! ([`align`]), and writes tables ([`output`]). The log contract lives in [`contract`] (Rust
+//! types) and `schemas/` (JSON Schemas). [`sim`] writes logs through the same contract.
+//! `ARCHITECTURE.md` maps the modules and what each may import.
+
+pub mod align;
+pub mod angle;
+pub mod contract;
+pub mod ingest;
+pub mod output;
+pub mod sim;
+pub mod time;

@@ -1,0 +1,8 @@
+//! Output at the edge: Arrow tables built from decoded streams, Parquet files, all written
+//! under temporary names and renamed only when every file of a run is complete.
+//!
+//! May import: `contract`, `ingest` (types), `align`, `time`, `arrow-*`, `parquet`, `std::fs`.
+
+pub mod atomic;
+pub mod parquet;
+pub mod tables;

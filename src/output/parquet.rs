@@ -1,0 +1,31 @@
+//! Parquet files from Arrow batches (zstd-compressed, Arrow schema embedded).
+
+use arrow_array::RecordBatch;
+use parquet::arrow::ArrowWriter;
+use parquet::basic::{Compression, ZstdLevel};
+use parquet::file::properties::WriterProperties;
+use std::io::Write;
+
+/// Rows per record batch and row group when writing a stream.
+pub const ROWS_PER_BATCH: usize = 64 * 1024;
+
+/// Error of a Parquet write.
+pub type ParquetError = parquet::errors::ParquetError;
+
+/// Writes batches (all of one schema) produced by `next_batch` until it returns `None`.
+pub fn write_batches<W: Write + Send>(
+    out: W,
+    first: RecordBatch,
+    mut next_batch: impl FnMut() -> Option<Result<RecordBatch, arrow_schema::ArrowError>>,
+) -> Result<W, ParquetError> {
+    let props = WriterProperties::builder()
+        .set_compression(Compression::ZSTD(ZstdLevel::default()))
+        .set_created_by(concat!("hindsight ", env!("CARGO_PKG_VERSION")).to_string())
+        .build();
+    let mut writer = ArrowWriter::try_new(out, first.schema(), Some(props))?;
+    writer.write(&first)?;
+    while let Some(batch) = next_batch() {
+        writer.write(&batch?)?;
+    }
+    writer.into_inner()
+}

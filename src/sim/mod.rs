@@ -1,0 +1,7 @@
+//! Log production: the project's MCAP writer and generated logs for tests, benchmarks and
+//! `sample-logs/`.
+//!
+//! May import: `contract`, `ingest` (for [`Mission`](crate::ingest::Mission)), `time`, `mcap`.
+
+pub mod synthetic;
+pub mod writer;
