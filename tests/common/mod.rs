@@ -1,0 +1,68 @@
+//! Helpers shared by the integration tests: logs built in memory with the project's writer.
+#![allow(dead_code)]
+
+use hindsight::contract::PropValue;
+use hindsight::ingest::{read_log_from, IngestOptions, Log};
+use hindsight::sim::synthetic::{write_survey, SurveySpec};
+use hindsight::sim::writer::{to_bytes, WriterOptions};
+
+/// A short synthetic survey with every contract stream, as MCAP bytes.
+pub fn survey_bytes(options: WriterOptions, seconds: f64) -> Vec<u8> {
+    let spec = SurveySpec {
+        duration_s: seconds,
+        seed: 7,
+        ..SurveySpec::default()
+    };
+    to_bytes(options, |w| write_survey(w, &spec).map(|_| ())).expect("in-memory write")
+}
+
+/// Reads MCAP bytes with default options.
+pub fn read(bytes: &[u8]) -> Log {
+    read_log_from(bytes, &IngestOptions::default()).expect("log reads")
+}
+
+/// Asserts two logs hold the same streams with the same messages.
+pub fn assert_same_content(a: &Log, b: &Log) {
+    assert_eq!(a.streams.len(), b.streams.len());
+    for (sa, sb) in a.streams.iter().zip(&b.streams) {
+        assert_eq!(sa.topic, sb.topic);
+        assert_eq!(sa.schema_name, sb.schema_name);
+        assert_eq!(sa.samples.len(), sb.samples.len(), "{}", sa.topic);
+        assert_eq!(sa.log_time_ns, sb.log_time_ns, "{}", sa.topic);
+        for i in 0..sa.samples.len() {
+            assert_eq!(sa.samples.stamp_ns(i), sb.samples.stamp_ns(i));
+            for p in 0..sa.samples.properties().len() {
+                assert_eq!(
+                    sa.samples.get(i, p),
+                    sb.samples.get(i, p),
+                    "{} #{i}",
+                    sa.topic
+                );
+            }
+        }
+    }
+    assert_eq!(a.metadata, b.metadata);
+}
+
+/// Whether two property values agree to within `rel` (relative) in every number.
+pub fn close(a: PropValue<'_>, b: PropValue<'_>, rel: f64) -> bool {
+    match (a, b) {
+        (PropValue::Bool(x), PropValue::Bool(y)) => x == y,
+        (PropValue::Str(x), PropValue::Str(y)) => x == y,
+        (PropValue::OptF64(None), PropValue::OptF64(None)) => true,
+        _ if a.kind() == b.kind() => (0..3).all(|c| match (a.component(c), b.component(c)) {
+            (Some(x), Some(y)) => (x - y).abs() <= rel * x.abs().max(y.abs()),
+            (None, None) => true,
+            _ => false,
+        }),
+        _ => false,
+    }
+}
+
+/// A fresh empty folder under the system temp folder.
+pub fn scratch_dir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("hindsight-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}

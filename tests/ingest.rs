@@ -1,0 +1,278 @@
+//! Ingest on logs built in memory with the project's own writer.
+
+mod common;
+
+use hindsight::align::merged;
+use hindsight::contract::*;
+use hindsight::ingest::{read_log_from, Ending, IngestOptions, Log};
+use hindsight::sim::writer::{to_bytes, Compression, LogWriter, WriterOptions};
+use std::io::Cursor;
+
+fn rewrite<T: Message>(source: &Log, w: &mut LogWriter<Cursor<Vec<u8>>>) -> Vec<T> {
+    let msgs: Vec<T> = source.messages::<T>(T::DEFAULT_TOPIC).unwrap().to_vec();
+    for (i, m) in msgs.iter().enumerate() {
+        w.write(T::DEFAULT_TOPIC, m, m.stamp_ns() as u64 + i as u64)
+            .unwrap();
+    }
+    msgs
+}
+
+fn assert_round_trip<T: Message>(written: &[T], log: &Log) {
+    let read = log.messages::<T>(T::DEFAULT_TOPIC).unwrap();
+    assert_eq!(read.len(), written.len(), "{}", T::SCHEMA_NAME);
+    assert!(!read.is_empty());
+    for (a, b) in written.iter().zip(read) {
+        assert_eq!(a, b, "{}", T::SCHEMA_NAME);
+    }
+}
+
+#[test]
+fn every_schema_round_trips() {
+    let source = common::read(&common::survey_bytes(WriterOptions::default(), 3.0));
+    let mut written = None;
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        written = Some((
+            rewrite::<Imu>(&source, w),
+            rewrite::<MagneticField>(&source, w),
+            rewrite::<Dvl>(&source, w),
+            rewrite::<SpeedLog>(&source, w),
+            rewrite::<Depth>(&source, w),
+            rewrite::<Altimeter>(&source, w),
+            rewrite::<Propeller>(&source, w),
+            rewrite::<ControlSurfaces>(&source, w),
+            rewrite::<Attitude>(&source, w),
+            rewrite::<GnssFix>(&source, w),
+            rewrite::<PositionFix>(&source, w),
+            rewrite::<Truth>(&source, w),
+        ));
+        Ok(())
+    })
+    .unwrap();
+    let log = common::read(&bytes);
+    let w = written.unwrap();
+    assert_round_trip(&w.0, &log);
+    assert_round_trip(&w.1, &log);
+    assert_round_trip(&w.2, &log);
+    assert_round_trip(&w.3, &log);
+    assert_round_trip(&w.4, &log);
+    assert_round_trip(&w.5, &log);
+    assert_round_trip(&w.6, &log);
+    assert_round_trip(&w.7, &log);
+    assert_round_trip(&w.8, &log);
+    assert_round_trip(&w.9, &log);
+    assert_round_trip(&w.10, &log);
+    assert_round_trip(&w.11, &log);
+    assert_eq!(log.streams.len(), 12);
+    // Log times travel with their messages.
+    let imu = log.stream("/imu").unwrap();
+    assert_eq!(imu.log_time_ns[3], imu.samples.stamp_ns(3) as u64 + 3);
+}
+
+#[test]
+fn all_container_layouts_read_the_same() {
+    let reference = common::read(&common::survey_bytes(WriterOptions::default(), 20.0));
+    assert_eq!(reference.file.ending, Ending::Complete);
+    assert!(reference.file.has_summary);
+    let layouts = [
+        (true, Compression::None, true),
+        (true, Compression::Lz4, true),
+        (true, Compression::Zstd, false),
+        (true, Compression::Lz4, false),
+        (false, Compression::None, true),
+        (false, Compression::None, false),
+    ];
+    for (chunked, compression, summary) in layouts {
+        let options = WriterOptions {
+            chunked,
+            compression,
+            summary,
+            chunk_size: 64 * 1024,
+        };
+        let log = common::read(&common::survey_bytes(options, 20.0));
+        assert_eq!(log.file.ending, Ending::Complete, "{options:?}");
+        assert_eq!(log.file.has_summary, summary, "{options:?}");
+        common::assert_same_content(&reference, &log);
+    }
+}
+
+#[test]
+fn truncated_file_recovers_every_whole_record() {
+    for chunked in [false, true] {
+        let options = WriterOptions {
+            chunked,
+            chunk_size: 16 * 1024,
+            ..WriterOptions::default()
+        };
+        let full = common::survey_bytes(options, 10.0);
+        let ends = top_level_ends(&full);
+        let complete = common::read(&full);
+        let total: usize = complete.streams.iter().map(|s| s.samples.len()).sum();
+        // Cut at many places, including exactly at record boundaries.
+        let mut cuts: Vec<usize> = (1..40).map(|k| full.len() * k / 41).collect();
+        cuts.extend(ends.iter().take(50).map(|&(end, _)| end as usize));
+        for cut in cuts {
+            if cut >= full.len() - 8 {
+                continue;
+            }
+            let log = read_log_from(&full[..cut], &IngestOptions::default())
+                .unwrap_or_else(|e| panic!("cut at {cut}: {e}"));
+            let expected: u64 = ends
+                .iter()
+                .filter(|(end, _)| *end as usize <= cut)
+                .map(|(_, n)| n)
+                .sum();
+            let got: u64 = log.streams.iter().map(|s| s.counts.received).sum();
+            assert_eq!(
+                got,
+                expected,
+                "chunked {chunked}, cut at {cut} of {}",
+                full.len()
+            );
+            let whole = ends
+                .iter()
+                .map(|(e, _)| *e)
+                .filter(|&e| e as usize <= cut)
+                .max()
+                .unwrap_or(8);
+            assert_eq!(
+                log.file.ending,
+                Ending::Truncated {
+                    whole_records_end: whole
+                },
+                "cut at {cut}"
+            );
+            assert!(log.warnings()[0].contains(&format!("recovered {expected} messages")));
+            assert!(got as usize <= total);
+        }
+    }
+}
+
+/// (end offset, messages inside) of every top-level record, by walking the raw framing
+/// (opcode u8, length u64 LE, body) and opening chunks with the `mcap` crate.
+fn top_level_ends(bytes: &[u8]) -> Vec<(u64, u64)> {
+    let mut out = Vec::new();
+    let mut pos = 8usize;
+    while pos + 9 <= bytes.len() {
+        let op = bytes[pos];
+        let len = u64::from_le_bytes(bytes[pos + 1..pos + 9].try_into().unwrap()) as usize;
+        let body = &bytes[pos + 9..pos + 9 + len];
+        let messages = match mcap::parse_record(op, body).unwrap() {
+            mcap::records::Record::Chunk { header, data } => {
+                mcap::read::ChunkReader::new(header, &data)
+                    .unwrap()
+                    .filter(|r| matches!(r, Ok(mcap::records::Record::Message { .. })))
+                    .count() as u64
+            }
+            mcap::records::Record::Message { .. } => 1,
+            mcap::records::Record::Footer(_) => {
+                out.push(((pos + 9 + len) as u64, 0));
+                break;
+            }
+            _ => 0,
+        };
+        pos += 9 + len;
+        out.push((pos as u64, messages));
+    }
+    out
+}
+
+fn imu(stamp_ms: i64, tag: f64) -> Imu {
+    Imu {
+        stamp_ns: 1_700_000_000_000_000_000 + stamp_ms * 1_000_000,
+        angular_velocity: [tag, 0.0, 0.0],
+        specific_force: [0.0, 0.0, -9.81],
+    }
+}
+
+#[test]
+fn counts_out_of_order_duplicates_and_gaps() {
+    // File order of stamps (ms): 15 is late (out of order), the second 20 repeats a stamp,
+    // 100 follows a 60 ms hole (over 3x the 10 ms median), 5 is late again.
+    let stamps_ms = [0, 10, 20, 15, 20, 30, 40, 100, 110, 5];
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        for (i, &s) in stamps_ms.iter().enumerate() {
+            w.write("/imu", &imu(s, i as f64), i as u64)?;
+        }
+        Ok(())
+    })
+    .unwrap();
+    let log = common::read(&bytes);
+    let s = log.stream("/imu").unwrap();
+    assert_eq!(s.counts.received, 10);
+    assert_eq!(
+        s.counts.out_of_order, 2,
+        "15 and 5 arrive after later stamps"
+    );
+    assert_eq!(s.counts.duplicates, 1);
+    assert_eq!(s.counts.invalid, 0);
+    let kept: Vec<i64> = (0..s.samples.len())
+        .map(|i| (s.samples.stamp_ns(i) - imu(0, 0.0).stamp_ns) / 1_000_000)
+        .collect();
+    assert_eq!(kept, vec![0, 5, 10, 15, 20, 30, 40, 100, 110]);
+    // The first message stamped 20 (tag 2) is kept, the repeat (tag 4) dropped.
+    let msgs = s.messages::<Imu>().unwrap();
+    assert_eq!(msgs[4].angular_velocity[0], 2.0);
+    assert_eq!(
+        s.log_time_ns[1], 9,
+        "log times follow their messages through the sort"
+    );
+    assert_eq!(s.timing.gaps.len(), 1);
+    assert_eq!(s.timing.gaps[0].duration_ns, 60_000_000);
+    // Intervals 5, 5, 5, 5, 10, 10, 60, 10 ms: median 7.5 ms.
+    assert!((s.timing.median_period_s.unwrap() - 0.0075).abs() < 1e-12);
+}
+
+#[test]
+fn merged_stream_is_time_ordered_and_stable() {
+    let t0 = 1_700_000_000_000_000_000i64;
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        // Three topics with coinciding stamps, written in scrambled file order.
+        for k in (0..50).rev() {
+            let t = t0 + k * 20_000_000;
+            w.write(
+                "/depth",
+                &Depth {
+                    stamp_ns: t,
+                    depth: k as f64,
+                },
+                0,
+            )?;
+        }
+        for k in 0..100 {
+            w.write("/imu", &imu(k * 10, k as f64), 0)?;
+            if k % 5 == 0 {
+                let t = t0 + k * 10_000_000;
+                w.write(
+                    "/rpm",
+                    &Propeller {
+                        stamp_ns: t,
+                        rpm: k as f64,
+                    },
+                    0,
+                )?;
+            }
+        }
+        Ok(())
+    })
+    .unwrap();
+    let log = common::read(&bytes);
+    let order: Vec<&str> = log.streams.iter().map(|s| s.topic.as_str()).collect();
+    assert_eq!(order, vec!["/depth", "/imu", "/rpm"]);
+    let events: Vec<_> = merged(&log.streams).collect();
+    assert_eq!(events.len(), 50 + 100 + 20);
+    for pair in events.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        assert!(a.stamp_ns <= b.stamp_ns, "time order");
+        if a.stamp_ns == b.stamp_ns {
+            assert!(
+                (a.stream, a.index) < (b.stream, b.index),
+                "ties in stream order"
+            );
+        }
+        let stamp = log.streams[b.stream].samples.stamp_ns(b.index);
+        assert_eq!(stamp, b.stamp_ns);
+    }
+    // At t0 all three topics coincide: depth, imu, rpm in that order.
+    let first3: Vec<usize> = events[..3].iter().map(|e| e.stream).collect();
+    assert_eq!(first3, vec![0, 1, 2]);
+}
