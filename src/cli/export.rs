@@ -28,14 +28,20 @@ pub struct ExportArgs {
     pub out: PathBuf,
 
     /// Rate of the common clock of aligned.parquet, Hz.
-    #[arg(long, default_value_t = 10.0, value_name = "HZ")]
+    #[arg(long, default_value_t = 10.0, value_name = "HZ", value_parser = parse_rate)]
     pub rate: f64,
 }
 
-pub fn run(args: ExportArgs) -> Result<()> {
-    if !(args.rate.is_finite() && args.rate > 0.0 && args.rate <= 1e6) {
-        bail!("--rate {}: give a rate in Hz between 0 and 1e6", args.rate);
+fn parse_rate(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(hz) if hz.is_finite() && hz > 0.0 && hz <= 1e6 => Ok(hz),
+        _ => Err(format!(
+            "`{text}`: give a rate in Hz, above 0 and at most 1e6"
+        )),
     }
+}
+
+pub fn run(args: ExportArgs) -> Result<()> {
     let period_ns = (1e9 / args.rate).round() as i64;
     let log = super::load(&args.log.log, &args.log.ingest_options(), &args.log.offsets)?;
     if log.message_count() == 0 {

@@ -60,15 +60,17 @@ pub fn run(args: Args) -> Result<()> {
 
 /// Maps an error to the exit status (see [`AFTER_HELP`]).
 pub fn exit_code(err: &anyhow::Error) -> u8 {
-    for cause in err.chain() {
-        if cause.is::<OutputFailed>() {
-            return EXIT_OUTPUT;
-        }
-        if cause.is::<IngestError>() || cause.is::<AlignError>() || cause.is::<MissionError>() {
-            return EXIT_BAD_INPUT;
-        }
+    // downcast_ref sees context values and the root error through every context layer.
+    if err.downcast_ref::<OutputFailed>().is_some() {
+        EXIT_OUTPUT
+    } else if err.downcast_ref::<IngestError>().is_some()
+        || err.downcast_ref::<AlignError>().is_some()
+        || err.downcast_ref::<MissionError>().is_some()
+    {
+        EXIT_BAD_INPUT
+    } else {
+        EXIT_FAILURE
     }
-    EXIT_FAILURE
 }
 
 /// Options shared by the commands that read a log.
