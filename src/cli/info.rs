@@ -58,8 +58,7 @@ fn render(log: &Log, name: &str, list_gaps: bool) -> String {
         },
         match f.ending {
             Ending::Complete => String::new(),
-            Ending::Truncated { whole_records_end } =>
-                format!(", CUT SHORT at byte {whole_records_end}"),
+            Ending::Truncated { .. } => ", CUT SHORT (no footer; see the warning)".to_string(),
         }
     );
     match log.mission() {

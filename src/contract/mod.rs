@@ -80,8 +80,9 @@ macro_rules! message {
             }
             fn get(&self, index: usize) -> $crate::contract::PropValue<'_> {
                 use $crate::contract::property::AsProp;
-                let fields: &[&dyn AsProp] = &[ $( &self.$field ),+ ];
-                fields[index].as_prop()
+                type Getter = for<'a> fn(&'a $name) -> $crate::contract::PropValue<'a>;
+                const GETTERS: &[Getter] = &[ $( |m| AsProp::as_prop(&m.$field) ),+ ];
+                GETTERS[index](self)
             }
             fn set_component(&mut self, index: usize, component: usize, value: f64) {
                 use $crate::contract::property::AsProp;

@@ -114,11 +114,19 @@ impl FileReport {
     pub fn truncation_warning(&self, messages: u64) -> Option<String> {
         match self.ending {
             Ending::Complete => None,
-            Ending::Truncated { whole_records_end } => Some(format!(
-                "the log is cut short (no footer): recovered {messages} messages from the first \
-                 {whole_records_end} of {} bytes ({:.1} %), up to the last whole record",
+            Ending::Truncated {
+                whole_records_end,
+                partial_chunk_messages,
+            } => Some(format!(
+                "the log is cut short (no footer): recovered {messages} messages, up to the last \
+                 whole record: {whole_records_end} of {} bytes ({:.1} %) in whole records{}",
                 self.bytes_read,
-                100.0 * whole_records_end as f64 / self.bytes_read.max(1) as f64
+                100.0 * whole_records_end as f64 / self.bytes_read.max(1) as f64,
+                if partial_chunk_messages > 0 {
+                    format!(", then {partial_chunk_messages} messages from the cut-off chunk")
+                } else {
+                    String::new()
+                }
             )),
         }
     }
@@ -215,7 +223,8 @@ pub fn read_log_from<R: Read>(input: R, options: &IngestOptions) -> Result<Log, 
 struct Builder<'o> {
     options: &'o IngestOptions,
     schemas: HashMap<u16, (String, String)>,
-    channel_to_slot: HashMap<u16, usize>,
+    /// Slot of each channel id (a channel id is a u16: a direct table beats hashing).
+    channel_to_slot: Vec<Option<usize>>,
     slots: Vec<Slot>,
     metadata: BTreeMap<String, BTreeMap<String, String>>,
     library: String,
@@ -243,7 +252,7 @@ impl<'o> Builder<'o> {
         Builder {
             options,
             schemas: HashMap::new(),
-            channel_to_slot: HashMap::new(),
+            channel_to_slot: vec![None; usize::from(u16::MAX) + 1],
             slots: Vec::new(),
             metadata: BTreeMap::new(),
             library: String::new(),
@@ -281,7 +290,7 @@ impl<'o> Builder<'o> {
     }
 
     fn on_channel(&mut self, c: mcap::records::Channel) -> Result<(), IngestError> {
-        if self.channel_to_slot.contains_key(&c.id) {
+        if self.channel_to_slot[usize::from(c.id)].is_some() {
             return Ok(()); // repeated in the summary, or re-announced
         }
         let schema_name = self
@@ -323,12 +332,12 @@ impl<'o> Builder<'o> {
                 self.slots.len() - 1
             }
         };
-        self.channel_to_slot.insert(c.id, slot);
+        self.channel_to_slot[usize::from(c.id)] = Some(slot);
         Ok(())
     }
 
     fn on_message(&mut self, channel_id: u16, log_time_ns: u64, data: &[u8]) {
-        let Some(&slot) = self.channel_to_slot.get(&channel_id) else {
+        let Some(slot) = self.channel_to_slot[usize::from(channel_id)] else {
             self.orphan_messages += 1;
             return;
         };

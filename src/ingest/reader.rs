@@ -1,36 +1,43 @@
-//! Streams the records of an MCAP file from any `Read`, chunk by chunk, with bounded memory.
+//! Streams the records of an MCAP file from any `Read`, one top-level record at a time, with
+//! bounded memory.
 //!
-//! Only this file knows the container. It feeds the sans-I/O `mcap` reader at most
-//! [`READ_BLOCK`] bytes at a time, opens chunks one at a time, and knows where the last whole
-//! top-level record ended, so a file cut short (no footer) is read up to that record.
+//! Only this file knows the container. Top-level framing (opcode u8, length u64 LE, body) is
+//! read here; bodies are parsed by the `mcap` crate. A record's body is buffered only as its
+//! bytes arrive, so a corrupt length cannot make the reader allocate more than the file holds.
+//! A file cut short is read up to its last whole record, including the whole records at the
+//! start of a chunk that was being written when the file ended.
 
 use super::error::IngestError;
-use mcap::records::{ChunkHeader, Record};
-use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use mcap::records::{op, ChunkHeader, Record};
 use mcap::McapError;
 use std::io::Read;
 
-/// Largest single read handed to the decoder: bounds memory even when a corrupt record claims
-/// an absurd length (the buffer only grows with bytes that really exist).
+/// Largest single read: a record body grows by at most this much per read.
 const READ_BLOCK: usize = 1 << 20;
 
 /// Largest decompressed chunk accepted (a corrupt header could claim petabytes).
 const MAX_CHUNK_BYTES: u64 = 1 << 32;
 
+/// Opcode and length prefix of every record.
+const RECORD_PREFIX: usize = 9;
+
 /// How reading ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Ending {
-    /// Footer and closing magic read.
+    /// The footer was read.
     Complete,
-    /// The file stops inside a record, or before the footer; everything up to
-    /// `whole_records_end` (bytes from the file start) was read.
-    Truncated { whole_records_end: u64 },
+    /// The file stops before the footer. Every top-level record up to `whole_records_end`
+    /// (bytes from the file start) was read, plus `partial_chunk_messages` messages from the
+    /// beginning of a chunk cut off by the end of the file.
+    Truncated {
+        whole_records_end: u64,
+        partial_chunk_messages: u64,
+    },
 }
 
-/// Reads every record, calling `on_record` for each record outside and inside chunks.
+/// Reads every record in file order, opening chunks and passing on their records too.
 ///
-/// Chunks are opened and their records passed on in order. Returns how reading ended and the
-/// number of bytes read.
+/// Returns how reading ended and the number of bytes read.
 pub fn for_each_record<R: Read>(
     mut input: R,
     mut on_record: impl FnMut(Record<'_>) -> Result<(), IngestError>,
@@ -45,74 +52,64 @@ pub fn for_each_record<R: Read>(
             found: describe_bytes(&magic[..got]),
         });
     }
-    if got < magic.len() {
-        return Ok((
-            Ending::Truncated {
-                whole_records_end: 0,
-            },
-            got as u64,
-        ));
-    }
-
-    let options = LinearReaderOptions::default()
-        .with_skip_start_magic(true)
-        .with_emit_chunks(true);
-    let mut reader = LinearReader::new_with_options(options);
-    let mut record_end: u64 = magic.len() as u64; // end of the last whole top-level record
-    let mut fed: u64 = magic.len() as u64;
-    let mut footer_seen = false;
-    let mut chunks = ChunkOpener::default();
-    while let Some(event) = reader.next_event() {
-        match event {
-            Ok(LinearReadEvent::ReadRequest(need)) => {
-                let n = need.clamp(1, READ_BLOCK);
-                let read = read_up_to(&mut input, reader.insert(n))?;
-                fed += read as u64;
-                reader.notify_read(read);
-            }
-            Ok(LinearReadEvent::Record { opcode, data }) => {
-                let start = record_end;
-                record_end += 9 + data.len() as u64;
-                let record = mcap::parse_record(opcode, data).map_err(|e| corrupt(start, e))?;
-                match record {
-                    Record::Chunk { header, data } => {
-                        if header.uncompressed_size > MAX_CHUNK_BYTES {
-                            return Err(IngestError::Corrupt {
-                                offset: start,
-                                detail: format!(
-                                    "chunk claims {} uncompressed bytes (limit {MAX_CHUNK_BYTES})",
-                                    header.uncompressed_size
-                                ),
-                            });
-                        }
-                        chunks.read(&header, &data, start, &mut on_record)?;
-                    }
-                    Record::Footer(_) => {
-                        footer_seen = true;
-                        on_record(record)?;
-                    }
-                    other => on_record(other)?,
-                }
-            }
-            Err(McapError::UnexpectedEof) => {
-                return Ok((
-                    Ending::Truncated {
-                        whole_records_end: record_end,
-                    },
-                    fed,
-                ));
-            }
-            Err(e) => return Err(corrupt(record_end, e)),
-        }
-    }
-    let ending = if footer_seen {
-        Ending::Complete
-    } else {
-        Ending::Truncated {
-            whole_records_end: record_end,
-        }
+    let truncated = |whole_records_end, partial_chunk_messages| Ending::Truncated {
+        whole_records_end,
+        partial_chunk_messages,
     };
-    Ok((ending, fed))
+    let mut offset = got as u64; // end of the last whole top-level record
+    if got < magic.len() {
+        return Ok((truncated(0, 0), offset));
+    }
+    let mut chunks = ChunkOpener::default();
+    let mut body = Vec::new();
+    loop {
+        let mut prefix = [0u8; RECORD_PREFIX];
+        let got = read_up_to(&mut input, &mut prefix)?;
+        if got < RECORD_PREFIX {
+            return Ok((truncated(offset, 0), offset + got as u64));
+        }
+        let opcode = prefix[0];
+        let len = u64::from_le_bytes(prefix[1..].try_into().expect("8 bytes"));
+        let complete = read_body(&mut input, len, &mut body)?;
+        let start = offset;
+        if !complete {
+            let read = start + RECORD_PREFIX as u64 + body.len() as u64;
+            let partial = if opcode == op::CHUNK {
+                chunks.read_partial(&body, start, &mut on_record)?
+            } else {
+                0
+            };
+            return Ok((truncated(start, partial), read));
+        }
+        offset += RECORD_PREFIX as u64 + len;
+        match mcap::parse_record(opcode, &body).map_err(|e| corrupt(start, e))? {
+            Record::Chunk { header, data } => chunks.read(&header, &data, start, &mut on_record)?,
+            footer @ Record::Footer(_) => {
+                on_record(footer)?;
+                return Ok((Ending::Complete, offset));
+            }
+            other => on_record(other)?,
+        }
+    }
+}
+
+/// Reads up to `len` bytes into `body` (replacing its contents), in blocks, so memory follows
+/// the bytes that exist. Returns whether all `len` bytes were there.
+fn read_body<R: Read>(input: &mut R, len: u64, body: &mut Vec<u8>) -> std::io::Result<bool> {
+    body.clear();
+    let mut left = len;
+    while left > 0 {
+        let block = left.min(READ_BLOCK as u64) as usize;
+        let start = body.len();
+        body.resize(start + block, 0);
+        let got = read_up_to(input, &mut body[start..])?;
+        body.truncate(start + got);
+        if got < block {
+            return Ok(false);
+        }
+        left -= block as u64;
+    }
+    Ok(true)
 }
 
 /// Opens chunks: decompresses into one reused buffer, checks the CRC, and walks the records
@@ -132,6 +129,12 @@ impl ChunkOpener {
         on_record: &mut impl FnMut(Record<'_>) -> Result<(), IngestError>,
     ) -> Result<(), IngestError> {
         let bad = |detail: String| IngestError::Corrupt { offset, detail };
+        if header.uncompressed_size > MAX_CHUNK_BYTES {
+            return Err(bad(format!(
+                "chunk claims {} uncompressed bytes (limit {MAX_CHUNK_BYTES})",
+                header.uncompressed_size
+            )));
+        }
         let expected = header.uncompressed_size as usize;
         let records: &[u8] = match header.compression.as_str() {
             "" => compressed,
@@ -156,11 +159,7 @@ impl ChunkOpener {
                     .map_err(|e| bad(format!("lz4 chunk does not decompress: {e}")))?;
                 &self.buffer
             }
-            other => {
-                return Err(bad(format!(
-                    "chunk compression `{other}` is not supported (none, lz4, zstd are)"
-                )))
-            }
+            other => return Err(bad(unsupported(other))),
         };
         if records.len() != expected {
             return Err(bad(format!(
@@ -171,25 +170,101 @@ impl ChunkOpener {
         if header.uncompressed_crc != 0 && crc32fast::hash(records) != header.uncompressed_crc {
             return Err(bad("chunk CRC mismatch".into()));
         }
-        let mut rest = records;
-        while !rest.is_empty() {
-            if rest.len() < 9 {
-                return Err(bad("chunk ends inside a record header".into()));
-            }
-            let opcode = rest[0];
-            let len = u64::from_le_bytes(rest[1..9].try_into().expect("8 bytes"));
-            let body_end = usize::try_from(len)
-                .ok()
-                .and_then(|l| l.checked_add(9))
-                .filter(|&end| end <= rest.len())
-                .ok_or_else(|| bad(format!("record of {len} bytes overruns its chunk")))?;
-            let record =
-                mcap::parse_record(opcode, &rest[9..body_end]).map_err(|e| corrupt(offset, e))?;
-            on_record(record)?;
-            rest = &rest[body_end..];
+        let (_, complete) = walk_records(records, offset, on_record)?;
+        if !complete {
+            return Err(bad("chunk ends inside a record".into()));
         }
         Ok(())
     }
+
+    /// Recovers the whole records at the start of a chunk cut off by the end of the file.
+    /// Returns the number of messages recovered.
+    fn read_partial(
+        &mut self,
+        body: &[u8],
+        offset: u64,
+        on_record: &mut impl FnMut(Record<'_>) -> Result<(), IngestError>,
+    ) -> Result<u64, IngestError> {
+        let Some((compression, data)) = partial_chunk_parts(body) else {
+            return Ok(0);
+        };
+        self.buffer.clear();
+        let records: &[u8] = match compression {
+            b"" => data,
+            b"zstd" => {
+                if let Ok(d) = zstd::stream::read::Decoder::with_buffer(data) {
+                    drain_prefix(d, &mut self.buffer);
+                }
+                &self.buffer
+            }
+            b"lz4" => {
+                if let Ok(d) = lz4::Decoder::new(data) {
+                    drain_prefix(d, &mut self.buffer);
+                }
+                &self.buffer
+            }
+            _ => return Ok(0),
+        };
+        let mut messages = 0;
+        let mut counting = |r: Record<'_>| {
+            messages += u64::from(matches!(r, Record::Message { .. }));
+            on_record(r)
+        };
+        walk_records(records, offset, &mut counting)?;
+        Ok(messages)
+    }
+}
+
+/// Calls `on_record` for each whole record in `records`; returns the bytes walked and whether
+/// the slice ended exactly at a record boundary.
+fn walk_records(
+    records: &[u8],
+    offset: u64,
+    on_record: &mut impl FnMut(Record<'_>) -> Result<(), IngestError>,
+) -> Result<(usize, bool), IngestError> {
+    let mut rest = records;
+    while rest.len() >= RECORD_PREFIX {
+        let opcode = rest[0];
+        let len = u64::from_le_bytes(rest[1..RECORD_PREFIX].try_into().expect("8 bytes"));
+        let Some(end) = usize::try_from(len)
+            .ok()
+            .and_then(|l| l.checked_add(RECORD_PREFIX))
+            .filter(|&end| end <= rest.len())
+        else {
+            break;
+        };
+        let record = mcap::parse_record(opcode, &rest[RECORD_PREFIX..end])
+            .map_err(|e| corrupt(offset, e))?;
+        on_record(record)?;
+        rest = &rest[end..];
+    }
+    Ok((records.len() - rest.len(), rest.is_empty()))
+}
+
+/// The compression name and the available compressed bytes of a chunk record body cut short:
+/// start time u64, end time u64, uncompressed size u64, CRC u32, compression (u32 length +
+/// text), records (u64 length + bytes).
+fn partial_chunk_parts(body: &[u8]) -> Option<(&[u8], &[u8])> {
+    let name_len = u32::from_le_bytes(body.get(28..32)?.try_into().ok()?) as usize;
+    let name_end = 32usize.checked_add(name_len)?;
+    let name = body.get(32..name_end)?;
+    let data = body.get(name_end.checked_add(8)?..)?;
+    Some((name, data))
+}
+
+/// Reads a decompressor until it ends or fails (the input is cut short), keeping what it gave.
+fn drain_prefix(mut decoder: impl Read, out: &mut Vec<u8>) {
+    let mut block = vec![0u8; 64 * 1024];
+    while let Ok(n) = decoder.read(&mut block) {
+        if n == 0 {
+            break;
+        }
+        out.extend_from_slice(&block[..n]);
+    }
+}
+
+fn unsupported(name: &str) -> String {
+    format!("chunk compression `{name}` is not supported (none, lz4 and zstd are)")
 }
 
 fn corrupt(offset: u64, e: McapError) -> IngestError {
@@ -213,7 +288,7 @@ fn read_up_to<R: Read>(input: &mut R, buf: &mut [u8]) -> std::io::Result<usize> 
     Ok(filled)
 }
 
-/// `"PK\x03\x04..." (50 4B 03 04 ...)`: the bytes as hex, and as text when printable.
+/// `50 4B 03 04 ("PK..")`: the bytes as hex, and as text with unprintable bytes as dots.
 fn describe_bytes(bytes: &[u8]) -> String {
     let hex: Vec<String> = bytes.iter().map(|b| format!("{b:02X}")).collect();
     let text: String = bytes
