@@ -6,9 +6,10 @@ use hindsight::sim::{synthetic, writer};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-/// Measure ingest throughput on a generated survey log (IMU 100 Hz, magnetometer 50 Hz,
-/// DVL 5 Hz, EM log, depth and altimeter 2 Hz, RPM 1 Hz, fins, attitude and truth 10 Hz),
-/// one thread.
+/// Measure ingest throughput on a generated log, one thread.
+///
+/// The log is a synthetic survey (IMU 100 Hz, magnetometer 50 Hz, DVL 5 Hz, EM log, depth
+/// and altimeter 2 Hz, RPM 1 Hz, fins, attitude and truth 10 Hz).
 ///
 /// Stages, each timed over --repeat runs (median printed):
 ///   scan          container only: read, decompress chunks, walk records

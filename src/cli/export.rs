@@ -1,6 +1,6 @@
 //! `hindsight export LOG --out DIR`: every topic to Parquet, plus all streams on one clock.
 
-use super::{LogArgs, OutputFailed};
+use super::{LogArgs, OutputFailed, PolicyArgs};
 use anyhow::{bail, Context, Result};
 use hindsight::ingest::Log;
 use hindsight::output::{atomic::Staging, parquet::write_batches, parquet::ROWS_PER_BATCH, tables};
@@ -9,7 +9,9 @@ use std::path::{Path, PathBuf};
 /// Most rows accepted in aligned.parquet (protects against a typo in --rate).
 const MAX_ALIGNED_ROWS: usize = 50_000_000;
 
-/// Export a log to Parquet: one file per topic (`imu.parquet`, `dvl.parquet`, ...) with
+/// Export a log to Parquet: one file per topic, and aligned.parquet on a common clock.
+///
+/// One file per topic (`imu.parquet`, `dvl.parquet`, ...) with
 /// `stamp_ns` and `log_time_ns` as timestamp[ns, UTC] and one column per field (vectors as
 /// `_x/_y/_z`, Euler triples as `_roll/_pitch/_yaw`, units in the column metadata), and
 /// `aligned.parquet`: every stream sampled on a common clock, each with its latest value
@@ -22,6 +24,9 @@ const MAX_ALIGNED_ROWS: usize = 50_000_000;
 pub struct ExportArgs {
     #[command(flatten)]
     pub log: LogArgs,
+
+    #[command(flatten)]
+    pub policy: PolicyArgs,
 
     /// Output folder (created if missing; files of the same names are replaced).
     #[arg(long, value_name = "DIR")]
@@ -43,7 +48,11 @@ fn parse_rate(text: &str) -> Result<f64, String> {
 
 pub fn run(args: ExportArgs) -> Result<()> {
     let period_ns = (1e9 / args.rate).round() as i64;
-    let log = super::load(&args.log.log, &args.log.ingest_options(), &args.log.offsets)?;
+    let log = super::load(
+        &args.log.log,
+        &args.policy.ingest_options(),
+        &args.log.offsets,
+    )?;
     if log.message_count() == 0 {
         return Err(hindsight::ingest::IngestError::Corrupt {
             offset: 0,

@@ -5,14 +5,14 @@ use anyhow::Result;
 use hindsight::ingest::{stats::GAP_FACTOR, Ending, IngestOptions, Log, Stream};
 use hindsight::time::format_utc;
 
-/// Show what a log holds: per topic its schema, rate, span, gaps and defects, plus the
-/// mission metadata.
+/// Show what a log holds: per topic its schema, rate, span, gaps and defects; the mission.
 ///
 /// Columns: count = messages kept; rate = 1 / median interval; jitter = standard deviation of
 /// the intervals that are not gaps; gaps = intervals over 3x the median; dup = repeated
 /// stamps (dropped); ooo = messages stamped earlier than one already received (sorted into
 /// place); invalid = failed decoding or validation (dropped; the first is shown). Every
-/// message is decoded and checked, streaming the file.
+/// message is decoded and checked, streaming the file; info reports every defect and
+/// skipped topic instead of stopping at the first.
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct InfoArgs {

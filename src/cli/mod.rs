@@ -83,7 +83,11 @@ pub struct LogArgs {
     /// e.g. --offset /dvl=-0.120 when the DVL stamps run 120 ms late.
     #[arg(long = "offset", value_name = "TOPIC=SECONDS")]
     pub offsets: Vec<ClockOffset>,
+}
 
+/// What a command that needs clean data tolerates in a log.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PolicyArgs {
     /// Skip topics whose schema or encoding hindsight cannot decode (counted and reported)
     /// instead of failing.
     #[arg(long)]
@@ -107,7 +111,7 @@ fn parse_fraction(text: &str) -> Result<f64, String> {
     }
 }
 
-impl LogArgs {
+impl PolicyArgs {
     fn ingest_options(&self) -> IngestOptions {
         IngestOptions {
             skip_unknown: self.skip_unknown,

@@ -21,7 +21,7 @@ use serde::{de::DeserializeOwned, Serialize};
 
 /// One message of the contract.
 pub trait Message:
-    Clone + std::fmt::Debug + PartialEq + Send + Sync + Serialize + DeserializeOwned + 'static
+    Clone + Default + std::fmt::Debug + PartialEq + Send + Sync + Serialize + DeserializeOwned + 'static
 {
     /// Schema name as in the contract, e.g. `hindsight.Imu`.
     const SCHEMA_NAME: &'static str;
@@ -41,6 +41,8 @@ pub trait Message:
     /// Sets numeric component `component` of property `index`; ignored for non-numeric
     /// properties and out-of-range indexes.
     fn set_component(&mut self, index: usize, component: usize, value: f64);
+    /// Sets property `index`; `false` (and no change) when the value's kind does not match.
+    fn set(&mut self, index: usize, value: PropValue<'_>) -> bool;
 }
 
 /// Declares a contract message: the struct, its serde form and its [`Message`] impl.
@@ -56,7 +58,7 @@ macro_rules! message {
         }
     ) => {
         $(#[$meta])*
-        #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+        #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
         pub struct $name {
             /// Time of validity, nanoseconds since the Unix epoch.
             pub stamp_ns: i64,
@@ -90,6 +92,11 @@ macro_rules! message {
                 if let Some(field) = fields.get_mut(index) {
                     field.set_component(component, value);
                 }
+            }
+            fn set(&mut self, index: usize, value: $crate::contract::PropValue<'_>) -> bool {
+                use $crate::contract::property::AsProp;
+                let fields: &mut [&mut dyn AsProp] = &mut [ $( &mut self.$field ),+ ];
+                fields.get_mut(index).is_some_and(|field| field.set(value))
             }
         }
     };

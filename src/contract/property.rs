@@ -177,6 +177,8 @@ impl PropValue<'_> {
 pub trait AsProp {
     fn as_prop(&self) -> PropValue<'_>;
     fn set_component(&mut self, component: usize, value: f64);
+    /// Takes `value` if it is of this field's kind.
+    fn set(&mut self, value: PropValue<'_>) -> bool;
 }
 
 impl AsProp for f64 {
@@ -186,6 +188,15 @@ impl AsProp for f64 {
     fn set_component(&mut self, component: usize, value: f64) {
         if component == 0 {
             *self = value;
+        }
+    }
+    fn set(&mut self, value: PropValue<'_>) -> bool {
+        match value {
+            PropValue::F64(v) => {
+                *self = v;
+                true
+            }
+            _ => false,
         }
     }
 }
@@ -199,6 +210,15 @@ impl AsProp for [f64; 3] {
             *c = value;
         }
     }
+    fn set(&mut self, value: PropValue<'_>) -> bool {
+        match value {
+            PropValue::Vec3(v) => {
+                *self = v;
+                true
+            }
+            _ => false,
+        }
+    }
 }
 
 impl AsProp for Option<f64> {
@@ -210,6 +230,15 @@ impl AsProp for Option<f64> {
             *self = Some(value);
         }
     }
+    fn set(&mut self, value: PropValue<'_>) -> bool {
+        match value {
+            PropValue::OptF64(v) => {
+                *self = v;
+                true
+            }
+            _ => false,
+        }
+    }
 }
 
 impl AsProp for bool {
@@ -217,6 +246,15 @@ impl AsProp for bool {
         PropValue::Bool(*self)
     }
     fn set_component(&mut self, _: usize, _: f64) {}
+    fn set(&mut self, value: PropValue<'_>) -> bool {
+        match value {
+            PropValue::Bool(v) => {
+                *self = v;
+                true
+            }
+            _ => false,
+        }
+    }
 }
 
 impl AsProp for String {
@@ -224,4 +262,13 @@ impl AsProp for String {
         PropValue::Str(self)
     }
     fn set_component(&mut self, _: usize, _: f64) {}
+    fn set(&mut self, value: PropValue<'_>) -> bool {
+        match value {
+            PropValue::Str(v) => {
+                v.clone_into(self);
+                true
+            }
+            _ => false,
+        }
+    }
 }

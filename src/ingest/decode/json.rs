@@ -34,9 +34,12 @@ impl<T: Message> Decoder for JsonDecoder<T> {
     }
 }
 
-/// Parses one JSON message. The fast path is plain serde; only a failing message is parsed a
-/// second time to name the field at fault.
+/// Parses one JSON message: the flat fast path when the message has the plain shape, serde
+/// otherwise; a failing message is parsed once more to name the field at fault.
 pub fn decode<T: Message>(data: &[u8]) -> Result<T, FieldIssue> {
+    if let Some(msg) = super::flat_json::parse::<T>(data) {
+        return Ok(msg);
+    }
     serde_json::from_slice::<T>(data).map_err(|_| explain::<T>(data))
 }
 

@@ -4,6 +4,7 @@
 //! decoder ([`json::JsonDecoder`]); ROS 2 `cdr` decoders will be added here, one per type,
 //! without touching the ingest loop.
 
+mod flat_json;
 pub mod json;
 
 use super::samples::Samples;
