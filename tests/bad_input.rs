@@ -125,6 +125,7 @@ fn corrupted_logs_never_panic() {
                 &IngestOptions {
                     max_invalid_fraction: 1.0,
                     skip_unknown: true,
+                    ..IngestOptions::default()
                 },
             ) {
                 assert!(!e.to_string().contains('\n'), "{e}");

@@ -321,3 +321,24 @@ fn merged_stream_is_time_ordered_and_stable() {
     let first3: Vec<usize> = events[..3].iter().map(|e| e.stream).collect();
     assert_eq!(first3, vec![0, 1, 2]);
 }
+
+#[test]
+fn stats_only_reading_counts_the_same() {
+    let bytes = common::survey_bytes(WriterOptions::default(), 20.0);
+    let full = common::read(&bytes);
+    let lean = read_log_from(
+        &bytes[..],
+        &IngestOptions {
+            keep_messages: false,
+            ..IngestOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(full.streams.len(), lean.streams.len());
+    for (a, b) in full.streams.iter().zip(&lean.streams) {
+        assert_eq!(a.counts, b.counts, "{}", a.topic);
+        assert_eq!(a.timing, b.timing, "{}", a.topic);
+        assert_eq!(a.counts.kept as usize, a.samples.len());
+        assert!(b.samples.is_empty() && b.log_time_ns.is_empty());
+    }
+}

@@ -29,6 +29,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
     let options = IngestOptions {
         skip_unknown: true,
         max_invalid_fraction: 1.0,
+        keep_messages: false,
     };
     let log = super::load(&args.log.log, &options, &args.log.offsets)?;
     print!(
@@ -137,7 +138,7 @@ fn row(s: &Stream) -> Vec<String> {
         s.topic.clone(),
         s.schema_name.clone(),
         s.message_encoding.clone(),
-        s.samples.len().to_string(),
+        c.kept.to_string(),
         t.rate_hz()
             .map(|r| format!("{r:.3}"))
             .unwrap_or_else(|| "-".into()),

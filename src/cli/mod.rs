@@ -116,6 +116,7 @@ impl PolicyArgs {
         IngestOptions {
             skip_unknown: self.skip_unknown,
             max_invalid_fraction: self.max_invalid_fraction,
+            keep_messages: true,
         }
     }
 }

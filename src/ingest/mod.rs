@@ -38,6 +38,10 @@ pub struct IngestOptions {
     /// Largest fraction of invalid messages per topic that is dropped with a warning; above it,
     /// reading fails. `1.0` never fails (what `info` uses).
     pub max_invalid_fraction: f64,
+    /// Keep the decoded messages. `false` still decodes and checks every message but keeps
+    /// only stamps and counts (what `info` needs): memory then stays at 8 bytes per message
+    /// and the streams hold no messages.
+    pub keep_messages: bool,
 }
 
 impl Default for IngestOptions {
@@ -45,6 +49,7 @@ impl Default for IngestOptions {
         IngestOptions {
             skip_unknown: false,
             max_invalid_fraction: 0.01,
+            keep_messages: true,
         }
     }
 }
@@ -60,6 +65,8 @@ pub struct StreamCounts {
     pub duplicates: u64,
     /// Messages stamped earlier than one already received (kept, sorted into place).
     pub out_of_order: u64,
+    /// Valid messages with distinct stamps: `received - invalid - duplicates`.
+    pub kept: u64,
 }
 
 /// One topic of the log, decoded and sorted by `stamp_ns`.
@@ -241,6 +248,7 @@ struct Slot {
     message_encoding: String,
     decoder: Option<&'static dyn Decoder>,
     samples: Option<Box<dyn Samples>>,
+    stamps_ns: Vec<i64>,
     log_time_ns: Vec<u64>,
     counts: StreamCounts,
     latest_stamp_ns: i64,
@@ -324,6 +332,7 @@ impl<'o> Builder<'o> {
                     message_encoding: c.message_encoding,
                     decoder,
                     samples: decoder.map(|d| d.new_samples()),
+                    stamps_ns: Vec::new(),
                     log_time_ns: Vec::new(),
                     counts: StreamCounts::default(),
                     latest_stamp_ns: i64::MIN,
@@ -349,10 +358,14 @@ impl<'o> Builder<'o> {
         match decoder.decode_into(data, samples.as_mut()) {
             Ok(()) => {
                 let stamp = samples.stamp_ns(samples.len() - 1);
+                if !self.options.keep_messages {
+                    samples.clear();
+                }
                 if stamp < s.latest_stamp_ns {
                     s.counts.out_of_order += 1;
                 }
                 s.latest_stamp_ns = s.latest_stamp_ns.max(stamp);
+                s.stamps_ns.push(stamp);
                 s.log_time_ns.push(log_time_ns);
             }
             Err(issue) => {
@@ -395,20 +408,26 @@ impl<'o> Builder<'o> {
                     first: Box::new(slot.issues[0].clone()),
                 });
             }
-            let stamps: Vec<i64> = (0..samples.len()).map(|i| samples.stamp_ns(i)).collect();
+            let stamps = slot.stamps_ns;
             let (order, duplicates) = stats::sorted_unique_order(&stamps);
             counts.duplicates = duplicates;
+            counts.kept = order.len() as u64;
             let in_order =
                 order.iter().enumerate().all(|(k, &i)| k == i) && order.len() == stamps.len();
-            let (log_time_ns, sorted) = if in_order {
+            let (mut log_time_ns, sorted) = if in_order {
                 (slot.log_time_ns, stamps)
             } else {
-                samples.permute(&order);
+                if self.options.keep_messages {
+                    samples.permute(&order);
+                }
                 (
                     order.iter().map(|&i| slot.log_time_ns[i]).collect(),
                     order.iter().map(|&i| stamps[i]).collect(),
                 )
             };
+            if !self.options.keep_messages {
+                log_time_ns = Vec::new();
+            }
             streams.push(Stream {
                 topic: slot.topic,
                 schema_name: slot.schema_name,

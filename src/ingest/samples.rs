@@ -22,6 +22,8 @@ pub trait Samples: Send + Sync + std::fmt::Debug {
     fn properties(&self) -> &'static [Property];
     /// Keeps the messages at `order`, in that order.
     fn permute(&mut self, order: &[usize]);
+    /// Drops every message.
+    fn clear(&mut self);
     /// Adds `offset_ns` to every stamp (saturating).
     fn shift_stamps(&mut self, offset_ns: i64);
     /// Upcast for typed access.
@@ -46,6 +48,9 @@ impl<T: Message> Samples for Vec<T> {
     fn permute(&mut self, order: &[usize]) {
         let mut taken: Vec<Option<T>> = self.drain(..).map(Some).collect();
         self.extend(order.iter().filter_map(|&i| taken[i].take()));
+    }
+    fn clear(&mut self) {
+        Vec::clear(self);
     }
     fn shift_stamps(&mut self, offset_ns: i64) {
         for m in self.iter_mut() {
