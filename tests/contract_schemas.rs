@@ -167,19 +167,11 @@ fn check<T: Message>(log: &hindsight::ingest::Log) {
 #[test]
 fn schemas_and_rust_types_agree() {
     let log = common::read(&common::survey_bytes(Default::default(), 5.0));
-    check::<Imu>(&log);
-    check::<MagneticField>(&log);
-    check::<Dvl>(&log);
-    check::<SpeedLog>(&log);
-    check::<Depth>(&log);
-    check::<Altimeter>(&log);
-    check::<Propeller>(&log);
-    check::<ControlSurfaces>(&log);
-    check::<Attitude>(&log);
-    check::<GnssFix>(&log);
-    check::<PositionFix>(&log);
-    check::<Truth>(&log);
-    // The list above covers every kind, and every schema file belongs to a kind.
+    macro_rules! check_all {
+        ($($t:ident),*) => { $( check::<$t>(&log); )* };
+    }
+    hindsight::for_each_message!(check_all);
+    // Every schema file belongs to a kind.
     assert_eq!(all_kinds().len(), 12);
     let files: Vec<String> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/schemas"))
         .unwrap()

@@ -5,67 +5,42 @@ mod common;
 use hindsight::align::merged;
 use hindsight::contract::*;
 use hindsight::ingest::{read_log_from, Ending, IngestOptions, Log};
-use hindsight::sim::writer::{to_bytes, Compression, LogWriter, WriterOptions};
-use std::io::Cursor;
+use hindsight::sim::writer::{to_bytes, Compression, WriterOptions};
 
-fn rewrite<T: Message>(source: &Log, w: &mut LogWriter<Cursor<Vec<u8>>>) -> Vec<T> {
-    let msgs: Vec<T> = source.messages::<T>(T::DEFAULT_TOPIC).unwrap().to_vec();
-    for (i, m) in msgs.iter().enumerate() {
-        w.write(T::DEFAULT_TOPIC, m, m.stamp_ns() as u64 + i as u64)
-            .unwrap();
-    }
-    msgs
-}
-
-fn assert_round_trip<T: Message>(written: &[T], log: &Log) {
-    let read = log.messages::<T>(T::DEFAULT_TOPIC).unwrap();
-    assert_eq!(read.len(), written.len(), "{}", T::SCHEMA_NAME);
-    assert!(!read.is_empty());
-    for (a, b) in written.iter().zip(read) {
-        assert_eq!(a, b, "{}", T::SCHEMA_NAME);
+/// Writes every message of type `T` from `source` into a new log, reads it back, and checks
+/// that each message and its log time come back unchanged.
+fn round_trip<T: Message>(source: &Log) {
+    let written: Vec<T> = source.messages::<T>(T::DEFAULT_TOPIC).unwrap().to_vec();
+    assert!(!written.is_empty(), "{}", T::SCHEMA_NAME);
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        for (i, m) in written.iter().enumerate() {
+            w.write(T::DEFAULT_TOPIC, m, m.stamp_ns() as u64 + i as u64)?;
+        }
+        Ok(())
+    })
+    .unwrap();
+    let log = common::read(&bytes);
+    let stream = log.stream(T::DEFAULT_TOPIC).unwrap();
+    assert_eq!(stream.schema_name, T::SCHEMA_NAME);
+    assert_eq!(
+        stream.messages::<T>().unwrap(),
+        &written[..],
+        "{}",
+        T::SCHEMA_NAME
+    );
+    for (i, m) in written.iter().enumerate() {
+        assert_eq!(stream.log_time_ns[i], m.stamp_ns() as u64 + i as u64);
     }
 }
 
 #[test]
 fn every_schema_round_trips() {
     let source = common::read(&common::survey_bytes(WriterOptions::default(), 3.0));
-    let mut written = None;
-    let bytes = to_bytes(WriterOptions::default(), |w| {
-        written = Some((
-            rewrite::<Imu>(&source, w),
-            rewrite::<MagneticField>(&source, w),
-            rewrite::<Dvl>(&source, w),
-            rewrite::<SpeedLog>(&source, w),
-            rewrite::<Depth>(&source, w),
-            rewrite::<Altimeter>(&source, w),
-            rewrite::<Propeller>(&source, w),
-            rewrite::<ControlSurfaces>(&source, w),
-            rewrite::<Attitude>(&source, w),
-            rewrite::<GnssFix>(&source, w),
-            rewrite::<PositionFix>(&source, w),
-            rewrite::<Truth>(&source, w),
-        ));
-        Ok(())
-    })
-    .unwrap();
-    let log = common::read(&bytes);
-    let w = written.unwrap();
-    assert_round_trip(&w.0, &log);
-    assert_round_trip(&w.1, &log);
-    assert_round_trip(&w.2, &log);
-    assert_round_trip(&w.3, &log);
-    assert_round_trip(&w.4, &log);
-    assert_round_trip(&w.5, &log);
-    assert_round_trip(&w.6, &log);
-    assert_round_trip(&w.7, &log);
-    assert_round_trip(&w.8, &log);
-    assert_round_trip(&w.9, &log);
-    assert_round_trip(&w.10, &log);
-    assert_round_trip(&w.11, &log);
-    assert_eq!(log.streams.len(), 12);
-    // Log times travel with their messages.
-    let imu = log.stream("/imu").unwrap();
-    assert_eq!(imu.log_time_ns[3], imu.samples.stamp_ns(3) as u64 + 3);
+    macro_rules! round_trip_all {
+        ($($t:ident),*) => { $( round_trip::<$t>(&source); )* };
+    }
+    hindsight::for_each_message!(round_trip_all);
+    assert_eq!(source.streams.len(), all_kinds().len());
 }
 
 #[test]

@@ -39,20 +39,12 @@ impl<T: Message> MessageKind for Kind<T> {
     }
 }
 
-static ALL: &[&dyn MessageKind] = &[
-    &Kind::<Imu>::NEW,
-    &Kind::<MagneticField>::NEW,
-    &Kind::<Dvl>::NEW,
-    &Kind::<SpeedLog>::NEW,
-    &Kind::<Depth>::NEW,
-    &Kind::<Altimeter>::NEW,
-    &Kind::<Propeller>::NEW,
-    &Kind::<ControlSurfaces>::NEW,
-    &Kind::<Attitude>::NEW,
-    &Kind::<GnssFix>::NEW,
-    &Kind::<PositionFix>::NEW,
-    &Kind::<Truth>::NEW,
-];
+macro_rules! kinds {
+    ($($t:ident),*) => {
+        static ALL: &[&dyn MessageKind] = &[$(&Kind::<$t>::NEW),*];
+    };
+}
+crate::for_each_message!(kinds);
 
 /// Every message kind of the contract, in the contract's table order.
 pub fn all_kinds() -> &'static [&'static dyn MessageKind] {

@@ -19,6 +19,28 @@ pub use validate::{validate, FieldIssue};
 
 use serde::{de::DeserializeOwned, Serialize};
 
+/// Calls macro `$callback` with the list of every contract message type, in the contract's
+/// table order: the one list that registries (kinds, decoders) and tests expand.
+#[macro_export]
+macro_rules! for_each_message {
+    ($callback:ident) => {
+        $callback! {
+            Imu,
+            MagneticField,
+            Dvl,
+            SpeedLog,
+            Depth,
+            Altimeter,
+            Propeller,
+            ControlSurfaces,
+            Attitude,
+            GnssFix,
+            PositionFix,
+            Truth
+        }
+    };
+}
+
 /// One message of the contract.
 pub trait Message:
     Clone + Default + std::fmt::Debug + PartialEq + Send + Sync + Serialize + DeserializeOwned + 'static

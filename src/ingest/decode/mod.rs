@@ -23,20 +23,12 @@ pub trait Decoder: Send + Sync {
     fn decode_into(&self, data: &[u8], out: &mut dyn Samples) -> Result<(), FieldIssue>;
 }
 
-static DECODERS: &[&dyn Decoder] = &[
-    &JsonDecoder::<Imu>::NEW,
-    &JsonDecoder::<MagneticField>::NEW,
-    &JsonDecoder::<Dvl>::NEW,
-    &JsonDecoder::<SpeedLog>::NEW,
-    &JsonDecoder::<Depth>::NEW,
-    &JsonDecoder::<Altimeter>::NEW,
-    &JsonDecoder::<Propeller>::NEW,
-    &JsonDecoder::<ControlSurfaces>::NEW,
-    &JsonDecoder::<Attitude>::NEW,
-    &JsonDecoder::<GnssFix>::NEW,
-    &JsonDecoder::<PositionFix>::NEW,
-    &JsonDecoder::<Truth>::NEW,
-];
+macro_rules! json_decoders {
+    ($($t:ident),*) => {
+        static DECODERS: &[&dyn Decoder] = &[$(&JsonDecoder::<$t>::NEW),*];
+    };
+}
+crate::for_each_message!(json_decoders);
 
 /// Every registered decoder.
 pub fn decoders() -> &'static [&'static dyn Decoder] {
