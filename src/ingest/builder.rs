@@ -1,0 +1,242 @@
+//! Accumulates the records of a log into per-topic typed streams.
+
+use super::decode::{self, Decoder};
+use super::error::{IngestError, MessageIssue};
+use super::log::{FileReport, IngestOptions, Log, SkippedTopic, Stream, StreamCounts};
+use super::reader::Ending;
+use super::samples::Samples;
+use super::stats;
+use mcap::records::Record;
+use std::collections::{BTreeMap, HashMap};
+
+/// How many issues are kept per topic for the report (all are counted).
+const ISSUES_KEPT_PER_TOPIC: usize = 5;
+
+/// Accumulates records into streams.
+pub(super) struct Builder<'o> {
+    options: &'o IngestOptions,
+    schemas: HashMap<u16, (String, String)>,
+    /// Slot of each channel id (a channel id is a u16: a direct table beats hashing).
+    channel_to_slot: Vec<Option<usize>>,
+    slots: Vec<Slot>,
+    metadata: BTreeMap<String, BTreeMap<String, String>>,
+    library: String,
+    profile: String,
+    in_summary: bool,
+    summary_records: u64,
+    orphan_messages: u64,
+}
+
+/// One topic being read.
+struct Slot {
+    topic: String,
+    schema_name: String,
+    message_encoding: String,
+    decoder: Option<&'static dyn Decoder>,
+    samples: Option<Box<dyn Samples>>,
+    stamps_ns: Vec<i64>,
+    log_time_ns: Vec<u64>,
+    counts: StreamCounts,
+    latest_stamp_ns: i64,
+    issues: Vec<MessageIssue>,
+}
+
+impl<'o> Builder<'o> {
+    pub(super) fn new(options: &'o IngestOptions) -> Self {
+        Builder {
+            options,
+            schemas: HashMap::new(),
+            channel_to_slot: vec![None; usize::from(u16::MAX) + 1],
+            slots: Vec::new(),
+            metadata: BTreeMap::new(),
+            library: String::new(),
+            profile: String::new(),
+            in_summary: false,
+            summary_records: 0,
+            orphan_messages: 0,
+        }
+    }
+
+    pub(super) fn on_record(&mut self, record: Record<'_>) -> Result<(), IngestError> {
+        if self.in_summary && !matches!(record, Record::Footer(_)) {
+            self.summary_records += 1;
+        }
+        match record {
+            Record::Header(h) => {
+                self.library = h.library;
+                self.profile = h.profile;
+            }
+            Record::Schema { header, .. } => {
+                self.schemas
+                    .insert(header.id, (header.name, header.encoding));
+            }
+            Record::Channel(c) => self.on_channel(c)?,
+            Record::Message { header, data } if !self.in_summary => {
+                self.on_message(header.channel_id, header.log_time, &data)
+            }
+            Record::Metadata(m) => {
+                self.metadata.insert(m.name, m.metadata);
+            }
+            Record::DataEnd(_) => self.in_summary = true,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn on_channel(&mut self, c: mcap::records::Channel) -> Result<(), IngestError> {
+        if self.channel_to_slot[usize::from(c.id)].is_some() {
+            return Ok(()); // repeated in the summary, or re-announced
+        }
+        let schema_name = self
+            .schemas
+            .get(&c.schema_id)
+            .map(|(name, _)| name.clone())
+            .unwrap_or_default();
+        let slot = match self
+            .slots
+            .iter()
+            .position(|s| s.topic == c.topic && s.schema_name == schema_name)
+        {
+            Some(i) => i,
+            None => {
+                let decoder = decode::find(&schema_name, &c.message_encoding);
+                if decoder.is_none() && !self.options.skip_unknown {
+                    return Err(IngestError::UnknownSchema {
+                        topic: c.topic,
+                        schema: schema_name,
+                        encoding: c.message_encoding,
+                        known: crate::contract::all_kinds()
+                            .iter()
+                            .map(|k| k.schema_name())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    });
+                }
+                self.slots.push(Slot {
+                    topic: c.topic,
+                    schema_name,
+                    message_encoding: c.message_encoding,
+                    decoder,
+                    samples: decoder.map(|d| d.new_samples()),
+                    stamps_ns: Vec::new(),
+                    log_time_ns: Vec::new(),
+                    counts: StreamCounts::default(),
+                    latest_stamp_ns: i64::MIN,
+                    issues: Vec::new(),
+                });
+                self.slots.len() - 1
+            }
+        };
+        self.channel_to_slot[usize::from(c.id)] = Some(slot);
+        Ok(())
+    }
+
+    fn on_message(&mut self, channel_id: u16, log_time_ns: u64, data: &[u8]) {
+        let Some(slot) = self.channel_to_slot[usize::from(channel_id)] else {
+            self.orphan_messages += 1;
+            return;
+        };
+        let s = &mut self.slots[slot];
+        s.counts.received += 1;
+        let (Some(decoder), Some(samples)) = (s.decoder, s.samples.as_mut()) else {
+            return;
+        };
+        match decoder.decode_into(data, samples.as_mut()) {
+            Ok(()) => {
+                let stamp = samples.stamp_ns(samples.len() - 1);
+                if !self.options.keep_messages {
+                    samples.clear();
+                }
+                if stamp < s.latest_stamp_ns {
+                    s.counts.out_of_order += 1;
+                }
+                s.latest_stamp_ns = s.latest_stamp_ns.max(stamp);
+                s.stamps_ns.push(stamp);
+                s.log_time_ns.push(log_time_ns);
+            }
+            Err(issue) => {
+                s.counts.invalid += 1;
+                if s.issues.len() < ISSUES_KEPT_PER_TOPIC {
+                    s.issues.push(MessageIssue {
+                        topic: s.topic.clone(),
+                        log_time_ns,
+                        field: issue.field,
+                        reason: issue.reason,
+                    });
+                }
+            }
+        }
+    }
+
+    pub(super) fn finish(self, ending: Ending, bytes_read: u64) -> Result<Log, IngestError> {
+        let mut streams = Vec::new();
+        let mut skipped = Vec::new();
+        for slot in self.slots {
+            let Some(mut samples) = slot.samples else {
+                skipped.push(SkippedTopic {
+                    topic: slot.topic,
+                    schema_name: slot.schema_name,
+                    message_encoding: slot.message_encoding,
+                    messages: slot.counts.received,
+                });
+                continue;
+            };
+            let mut counts = slot.counts;
+            if counts.invalid > 0
+                && counts.invalid as f64
+                    > self.options.max_invalid_fraction * counts.received as f64
+            {
+                return Err(IngestError::TooManyInvalid {
+                    topic: slot.topic,
+                    invalid: counts.invalid,
+                    received: counts.received,
+                    allowed: self.options.max_invalid_fraction,
+                    first: Box::new(slot.issues[0].clone()),
+                });
+            }
+            let stamps = slot.stamps_ns;
+            let (order, duplicates) = stats::sorted_unique_order(&stamps);
+            counts.duplicates = duplicates;
+            counts.kept = order.len() as u64;
+            let in_order =
+                order.iter().enumerate().all(|(k, &i)| k == i) && order.len() == stamps.len();
+            let (mut log_time_ns, sorted) = if in_order {
+                (slot.log_time_ns, stamps)
+            } else {
+                if self.options.keep_messages {
+                    samples.permute(&order);
+                }
+                (
+                    order.iter().map(|&i| slot.log_time_ns[i]).collect(),
+                    order.iter().map(|&i| stamps[i]).collect(),
+                )
+            };
+            if !self.options.keep_messages {
+                log_time_ns = Vec::new();
+            }
+            streams.push(Stream {
+                topic: slot.topic,
+                schema_name: slot.schema_name,
+                message_encoding: slot.message_encoding,
+                samples,
+                log_time_ns,
+                counts,
+                timing: stats::timing(&sorted),
+                issues: slot.issues,
+            });
+        }
+        Ok(Log {
+            streams,
+            skipped,
+            metadata: self.metadata,
+            file: FileReport {
+                bytes_read,
+                ending,
+                library: self.library,
+                profile: self.profile,
+                has_summary: self.summary_records > 0,
+                orphan_messages: self.orphan_messages,
+            },
+        })
+    }
+}
