@@ -317,3 +317,49 @@ fn stats_only_reading_counts_the_same() {
         assert!(b.samples.is_empty() && b.log_time_ns.is_empty());
     }
 }
+
+#[test]
+fn clock_offset_moves_stamps_span_and_gaps_of_one_topic() {
+    let t0 = 1_700_000_000_000_000_000i64;
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        for k in [0i64, 1, 2, 10, 11] {
+            w.write(
+                "/depth",
+                &Depth {
+                    stamp_ns: t0 + k * 1_000_000_000,
+                    depth: 1.0,
+                },
+                0,
+            )?;
+            w.write(
+                "/rpm",
+                &Propeller {
+                    stamp_ns: t0 + k * 1_000_000_000,
+                    rpm: 1.0,
+                },
+                0,
+            )?;
+        }
+        Ok(())
+    })
+    .unwrap();
+    let mut log = common::read(&bytes);
+    let offsets = ["/depth=-0.25".parse().unwrap()];
+    hindsight::align::apply_offsets(&mut log, &offsets).unwrap();
+    let depth = log.stream("/depth").unwrap();
+    let rpm = log.stream("/rpm").unwrap();
+    assert_eq!(depth.samples.stamp_ns(0), t0 - 250_000_000);
+    assert_eq!(rpm.samples.stamp_ns(0), t0);
+    assert_eq!(
+        depth.timing.span_ns,
+        Some((t0 - 250_000_000, t0 + 11_000_000_000 - 250_000_000))
+    );
+    assert_eq!(
+        depth.timing.gaps[0].after_ns,
+        t0 + 2_000_000_000 - 250_000_000
+    );
+    assert_eq!(rpm.timing.gaps[0].after_ns, t0 + 2_000_000_000);
+    // The merged stream now puts the depth sample first.
+    let first = merged(&log.streams).next().unwrap();
+    assert_eq!(log.streams[first.stream].topic, "/depth");
+}

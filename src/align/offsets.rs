@@ -59,10 +59,15 @@ pub fn apply_offsets(log: &mut Log, offsets: &[ClockOffset]) -> Result<(), Align
             });
         }
         for i in matching {
-            log.streams[i].samples.shift_stamps(offset.offset_ns);
-            if let Some((a, b)) = log.streams[i].timing.span_ns.as_mut() {
+            let stream = &mut log.streams[i];
+            stream.samples.shift_stamps(offset.offset_ns);
+            let timing = &mut stream.timing;
+            if let Some((a, b)) = timing.span_ns.as_mut() {
                 *a = a.saturating_add(offset.offset_ns);
                 *b = b.saturating_add(offset.offset_ns);
+            }
+            for gap in &mut timing.gaps {
+                gap.after_ns = gap.after_ns.saturating_add(offset.offset_ns);
             }
         }
     }
