@@ -2,7 +2,7 @@
 
 use super::{LogArgs, OutputFailed, PolicyArgs};
 use anyhow::{bail, Context, Result};
-use hindsight::ingest::Log;
+use hindsight::ingest::{Log, Stream};
 use hindsight::output::{atomic::Staging, parquet::write_batches, parquet::ROWS_PER_BATCH, tables};
 use std::path::{Path, PathBuf};
 
@@ -109,43 +109,74 @@ fn file_stems(log: &Log) -> Vec<String> {
     stems
 }
 
+/// Writes every file under its staged name (topics in parallel with the aligned table), then
+/// renames them all; on any failure nothing is renamed and the staged files are removed.
 fn write_all(log: &Log, clock: &[i64], dir: &Path) -> Result<Vec<(PathBuf, usize)>> {
+    use rayon::prelude::*;
     let mut staging = Staging::new();
-    let mut written = Vec::new();
+    let mut jobs = Vec::new();
     for (stream, stem) in log.streams.iter().zip(file_stems(log)) {
         let path = dir.join(format!("{stem}.parquet"));
-        let n = stream.samples.len();
         let file = staging
             .create(&path)
             .with_context(|| OutputFailed { path: path.clone() })?;
-        let mut start = 0;
-        let mut next = || {
-            (start < n).then(|| {
-                let end = (start + ROWS_PER_BATCH).min(n);
-                let b = tables::stream_batch(stream, start..end);
-                start = end;
-                b
-            })
-        };
-        let first = next().unwrap_or_else(|| tables::stream_batch(stream, 0..0))?;
-        write_batches(file, first, next).with_context(|| OutputFailed { path: path.clone() })?;
-        written.push((path, n));
+        jobs.push((stream, path, file));
     }
-    let path = dir.join("aligned.parquet");
-    let file = staging
-        .create(&path)
-        .with_context(|| OutputFailed { path: path.clone() })?;
+    let aligned_path = dir.join("aligned.parquet");
+    let aligned_file = staging
+        .create(&aligned_path)
+        .with_context(|| OutputFailed {
+            path: aligned_path.clone(),
+        })?;
+
+    let (topics, aligned) = rayon::join(
+        || {
+            jobs.into_par_iter()
+                .map(|(stream, path, file)| {
+                    write_stream(stream, file)
+                        .with_context(|| OutputFailed { path: path.clone() })?;
+                    Ok((path, stream.samples.len()))
+                })
+                .collect::<Result<Vec<_>>>()
+        },
+        || {
+            write_aligned(log, clock, aligned_file).with_context(|| OutputFailed {
+                path: aligned_path.clone(),
+            })
+        },
+    );
+    let mut written = topics?;
+    aligned?;
+    written.push((aligned_path, clock.len()));
+    staging.commit().with_context(|| OutputFailed {
+        path: dir.to_path_buf(),
+    })?;
+    Ok(written)
+}
+
+fn write_stream(stream: &Stream, file: std::fs::File) -> Result<()> {
+    let n = stream.samples.len();
+    let mut start = 0;
+    let mut next = || {
+        (start < n).then(|| {
+            let end = (start + ROWS_PER_BATCH).min(n);
+            let b = tables::stream_batch(stream, start..end);
+            start = end;
+            b
+        })
+    };
+    let first = next().unwrap_or_else(|| tables::stream_batch(stream, 0..0))?;
+    write_batches(file, first, next)?;
+    Ok(())
+}
+
+fn write_aligned(log: &Log, clock: &[i64], file: std::fs::File) -> Result<()> {
     let mut chunks = clock.chunks(ROWS_PER_BATCH);
     let first = tables::aligned_batch(&log.streams, chunks.next().unwrap_or(&[]))?;
     write_batches(file, first, || {
         chunks
             .next()
             .map(|c| tables::aligned_batch(&log.streams, c))
-    })
-    .with_context(|| OutputFailed { path: path.clone() })?;
-    written.push((path, clock.len()));
-    staging.commit().with_context(|| OutputFailed {
-        path: dir.to_path_buf(),
     })?;
-    Ok(written)
+    Ok(())
 }
