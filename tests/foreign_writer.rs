@@ -68,3 +68,38 @@ fn reads_python_lz4_chunked_log() {
 fn reads_python_unchunked_log() {
     check(&fixture("python_unchunked.mcap"));
 }
+
+/// The BROAD benchmark logs in `../shared/benchmarks/broad/` (written by the Python `mcap`
+/// package with zstd chunks): every trial reads completely, without an invalid, duplicated or
+/// out-of-order message. Needs the shared folder, so it is ignored by default:
+/// `cargo test --release --test foreign_writer -- --ignored`.
+#[test]
+#[ignore = "needs ../shared/benchmarks/broad"]
+fn broad_trials_read_clean() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/benchmarks/broad");
+    let mut trials = 0;
+    for entry in std::fs::read_dir(&dir).expect("../shared/benchmarks/broad exists") {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "mcap") {
+            continue;
+        }
+        let log = read_log(&path, &IngestOptions::default())
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert_eq!(log.file.ending, Ending::Complete, "{}", path.display());
+        assert_eq!(log.mission().unwrap().vehicle, "broad-imu");
+        for s in &log.streams {
+            let c = &s.counts;
+            assert_eq!(
+                (c.invalid, c.duplicates, c.out_of_order),
+                (0, 0, 0),
+                "{} {}",
+                path.display(),
+                s.topic
+            );
+        }
+        let imu = log.messages::<Imu>("/imu").unwrap();
+        assert!(imu.len() > 20_000, "{}", path.display());
+        trials += 1;
+    }
+    assert_eq!(trials, 25);
+}

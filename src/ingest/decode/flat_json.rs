@@ -280,6 +280,44 @@ mod tests {
     }
 
     #[test]
+    fn agrees_with_serde_on_mutated_messages() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let seeds = [
+            r#"{"stamp_ns":1700000000000000000,"angular_velocity":[0.001,-2e-3,0],"specific_force":[0.1,-0.2,-9.81]}"#,
+            r#"{"stamp_ns":5,"velocity":[1.5,0,-0.01],"valid":true,"altitude":12.5}"#,
+            r#"{"stamp_ns":5,"north_m":1,"east_m":-2.5,"down_m":null,"sigma_m":0.05,"label":"start"}"#,
+        ];
+        let alphabet = b"0123456789.eE-+,:[]{}\" nultrfas\\x";
+        let mut accepted = 0;
+        for _ in 0..30_000 {
+            let mut text = seeds[rng.random_range(0..seeds.len())].as_bytes().to_vec();
+            for _ in 0..rng.random_range(1..3) {
+                let i = rng.random_range(0..text.len());
+                let c = alphabet[rng.random_range(0..alphabet.len())];
+                match rng.random_range(0..3) {
+                    0 => text[i] = c,
+                    1 => text.insert(i, c),
+                    _ => {
+                        text.remove(i);
+                    }
+                }
+            }
+            let Ok(text) = String::from_utf8(text) else {
+                continue;
+            };
+            let hits = [
+                agrees::<Imu>(&text).is_some(),
+                agrees::<Dvl>(&text).is_some(),
+                agrees::<PositionFix>(&text).is_some(),
+            ];
+            accepted += hits.iter().filter(|h| **h).count();
+        }
+        // Some mutations stay valid (a digit changed): those exercise agreement on values.
+        assert!(accepted > 1000, "{accepted}");
+    }
+
+    #[test]
     fn agrees_with_serde_on_many_generated_numbers() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
