@@ -9,6 +9,8 @@
 pub mod align;
 pub mod angle;
 pub mod contract;
+pub mod filters;
+pub mod geodesy;
 pub mod ingest;
 pub mod output;
 pub mod sim;

@@ -3,5 +3,8 @@
 //!
 //! May import: `contract`, `ingest` (for [`Mission`](crate::ingest::Mission)), `time`, `mcap`.
 
+pub mod inertial;
+pub mod profile;
 pub mod synthetic;
+pub mod trajectory;
 pub mod writer;

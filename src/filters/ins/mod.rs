@@ -1,0 +1,3 @@
+//! Inertial navigation: the strapdown mechanization (the error-state filter comes later).
+
+pub mod mechanization;

@@ -1,0 +1,5 @@
+//! Estimators. Pure: models in, estimates out; no I/O and no `ingest`/`output` imports.
+//!
+//! May import: `geodesy`, `frames`, `angle`, `time`, `nalgebra`.
+
+pub mod ins;

@@ -1,0 +1,131 @@
+//! WGS-84: the ellipsoid, Earth rate, radii of curvature, normal gravity, transport rate.
+//!
+//! Heights are ellipsoidal, positive up (`height_m = -depth_m` for a vehicle at a surface
+//! of zero height). Vectors are in the local NED frame.
+
+use nalgebra::Vector3;
+
+/// Semi-major axis, m.
+pub const A_M: f64 = 6_378_137.0;
+/// Flattening.
+pub const F: f64 = 1.0 / 298.257_223_563;
+/// First eccentricity squared.
+pub const E2: f64 = F * (2.0 - F);
+/// Earth rotation rate, rad/s.
+pub const OMEGA_IE_RAD_S: f64 = 7.292_115e-5;
+/// Normal gravity at the equator, m/s^2 (Somigliana).
+pub const GAMMA_EQUATOR_M_S2: f64 = 9.780_325_335_9;
+/// Somigliana's constant k = (b gamma_p - a gamma_e) / (a gamma_e).
+pub const SOMIGLIANA_K: f64 = 0.001_931_852_652_41;
+/// m = omega^2 a^2 b / GM.
+pub const M_RATIO: f64 = 0.003_449_786_506_84;
+/// Standard gravity, m/s^2 (for unit conversions only, not for navigation).
+pub const G0_M_S2: f64 = 9.806_65;
+
+/// Meridian radius of curvature R_N (north-south), m.
+pub fn meridian_radius_m(lat_rad: f64) -> f64 {
+    let s2 = lat_rad.sin().powi(2);
+    A_M * (1.0 - E2) / (1.0 - E2 * s2).powf(1.5)
+}
+
+/// Prime-vertical radius of curvature R_E (east-west), m.
+pub fn prime_vertical_radius_m(lat_rad: f64) -> f64 {
+    A_M / (1.0 - E2 * lat_rad.sin().powi(2)).sqrt()
+}
+
+/// Normal gravity magnitude at latitude and ellipsoidal height (Somigliana's formula with the
+/// second-order free-air correction of NIMA TR8350.2 eq. 4-3), m/s^2.
+pub fn normal_gravity_m_s2(lat_rad: f64, height_m: f64) -> f64 {
+    let s2 = lat_rad.sin().powi(2);
+    let gamma0 = GAMMA_EQUATOR_M_S2 * (1.0 + SOMIGLIANA_K * s2) / (1.0 - E2 * s2).sqrt();
+    gamma0
+        * (1.0 - 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2) * height_m
+            + 3.0 * height_m * height_m / (A_M * A_M))
+}
+
+/// Gravity (gravitation plus centrifugal) in NED: `[0, 0, gamma]`, along the ellipsoid normal.
+pub fn gravity_ned_m_s2(lat_rad: f64, height_m: f64) -> Vector3<f64> {
+    Vector3::new(0.0, 0.0, normal_gravity_m_s2(lat_rad, height_m))
+}
+
+/// Earth rate in NED, omega_ie^n, rad/s.
+pub fn earth_rate_ned(lat_rad: f64) -> Vector3<f64> {
+    Vector3::new(
+        OMEGA_IE_RAD_S * lat_rad.cos(),
+        0.0,
+        -OMEGA_IE_RAD_S * lat_rad.sin(),
+    )
+}
+
+/// Transport rate omega_en^n (rotation of NED over the ellipsoid), rad/s.
+pub fn transport_rate_ned(lat_rad: f64, height_m: f64, vel_ned: &Vector3<f64>) -> Vector3<f64> {
+    let re = prime_vertical_radius_m(lat_rad) + height_m;
+    let rn = meridian_radius_m(lat_rad) + height_m;
+    Vector3::new(
+        vel_ned.y / re,
+        -vel_ned.x / rn,
+        -vel_ned.y * lat_rad.tan() / re,
+    )
+}
+
+/// Rates of latitude, longitude (rad/s) and height (m/s) for a NED velocity.
+pub fn position_rates(lat_rad: f64, height_m: f64, vel_ned: &Vector3<f64>) -> Vector3<f64> {
+    let re = prime_vertical_radius_m(lat_rad) + height_m;
+    let rn = meridian_radius_m(lat_rad) + height_m;
+    Vector3::new(vel_ned.x / rn, vel_ned.y / (re * lat_rad.cos()), -vel_ned.z)
+}
+
+/// North and east offsets (m) of a position from an origin, on the local tangent of the
+/// origin's radii (good to millimetres over a few kilometres).
+pub fn local_north_east_m(
+    origin_lat_rad: f64,
+    origin_lon_rad: f64,
+    lat_rad: f64,
+    lon_rad: f64,
+) -> (f64, f64) {
+    let rn = meridian_radius_m(origin_lat_rad);
+    let re = prime_vertical_radius_m(origin_lat_rad);
+    (
+        (lat_rad - origin_lat_rad) * rn,
+        (lon_rad - origin_lon_rad) * re * origin_lat_rad.cos(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gravity_matches_published_values() {
+        // NIMA TR8350.2: equator 9.7803253359, pole 9.8321849378 m/s^2.
+        assert!((normal_gravity_m_s2(0.0, 0.0) - 9.780_325_335_9).abs() < 1e-10);
+        let pole = normal_gravity_m_s2(std::f64::consts::FRAC_PI_2, 0.0);
+        assert!((pole - 9.832_184_937_8).abs() < 1e-9, "{pole}");
+        // Free-air gradient about -3.086e-6 s^-2 at mid latitudes.
+        let lat = 45f64.to_radians();
+        let gradient = (normal_gravity_m_s2(lat, 100.0) - normal_gravity_m_s2(lat, -100.0)) / 200.0;
+        assert!((gradient + 3.086e-6).abs() < 0.01e-6, "{gradient}");
+    }
+
+    #[test]
+    fn radii_at_equator_and_pole() {
+        assert!((prime_vertical_radius_m(0.0) - A_M).abs() < 1e-6);
+        assert!((meridian_radius_m(0.0) - A_M * (1.0 - E2)).abs() < 1e-6);
+        let b = A_M * (1.0 - F);
+        let polar = A_M * A_M / b;
+        assert!((meridian_radius_m(std::f64::consts::FRAC_PI_2) - polar).abs() < 1e-4);
+        assert!((prime_vertical_radius_m(std::f64::consts::FRAC_PI_2) - polar).abs() < 1e-4);
+    }
+
+    #[test]
+    fn rates_of_a_northward_run() {
+        let lat = 0.6;
+        let v = Vector3::new(2.0, 0.0, 0.5);
+        let r = position_rates(lat, -100.0, &v);
+        assert!((r.x - 2.0 / (meridian_radius_m(lat) - 100.0)).abs() < 1e-18);
+        assert_eq!(r.y, 0.0);
+        assert_eq!(r.z, -0.5);
+        let w = transport_rate_ned(lat, -100.0, &v);
+        assert!((w.y + r.x).abs() < 1e-18);
+    }
+}
