@@ -5,6 +5,7 @@
 
 pub mod inertial;
 pub mod profile;
+pub mod sensors;
 pub mod synthetic;
 pub mod trajectory;
 pub mod writer;
