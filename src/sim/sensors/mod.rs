@@ -5,7 +5,9 @@
 //! number per sensor ([`rng_for`]), so a log depends only on (scenario, seed): not on threads,
 //! not on which other sensors are enabled.
 
+pub mod dvl;
 pub mod imu;
+pub mod mag;
 pub mod scalar;
 
 use rand::SeedableRng;
