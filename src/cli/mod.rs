@@ -6,6 +6,7 @@
 mod bench;
 mod export;
 mod info;
+mod simulate;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -39,6 +40,7 @@ pub struct Args {
 pub enum Command {
     Info(info::InfoArgs),
     Export(export::ExportArgs),
+    Simulate(simulate::SimulateArgs),
     Bench(bench::BenchArgs),
 }
 
@@ -54,6 +56,7 @@ pub fn run(args: Args) -> Result<()> {
     match args.command {
         Command::Info(a) => info::run(a),
         Command::Export(a) => export::run(a),
+        Command::Simulate(a) => simulate::run(a),
         Command::Bench(a) => bench::run(a),
     }
 }

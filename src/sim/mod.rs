@@ -5,6 +5,8 @@
 
 pub mod inertial;
 pub mod profile;
+pub mod run;
+pub mod scenario;
 pub mod sensors;
 pub mod synthetic;
 pub mod trajectory;

@@ -217,18 +217,51 @@ impl TrajectoryBuilder {
         self
     }
 
+    /// Speed at the end of the segments so far.
+    pub fn speed_m_s(&self) -> f64 {
+        self.speed.final_value()
+    }
+
     /// Turns by `angle_rad` (positive to starboard) at `rate_rad_s`, entering and leaving the
     /// turn over `ramp_s` each.
-    pub fn turn(
+    pub fn turn(&mut self, angle_rad: f64, rate_rad_s: f64, ramp_s: f64) -> Result<&mut Self, SegmentError> {
+        let d = self.plan_turn(self.t_s, angle_rad, rate_rad_s, ramp_s)?;
+        self.t_s += d;
+        Ok(self)
+    }
+
+    /// Dives or climbs to `depth_m` at up to `pitch_rad` (magnitude), pitching over `ramp_s`,
+    /// at the current speed.
+    pub fn depth_to(&mut self, depth_m: f64, pitch_rad: f64, ramp_s: f64) -> Result<&mut Self, SegmentError> {
+        let d = self.plan_depth(self.t_s, depth_m, pitch_rad, ramp_s)?;
+        self.t_s += d;
+        Ok(self)
+    }
+
+    /// A turn and a depth change at once (a spiral when the turn is several full circles).
+    pub fn spiral(
         &mut self,
         angle_rad: f64,
         rate_rad_s: f64,
+        depth_m: f64,
+        pitch_rad: f64,
         ramp_s: f64,
     ) -> Result<&mut Self, SegmentError> {
+        let turn = self.plan_turn(self.t_s, angle_rad, rate_rad_s, ramp_s)?;
+        let dive = self.plan_depth(self.t_s, depth_m, pitch_rad, ramp_s)?;
+        self.t_s += turn.max(dive);
+        Ok(self)
+    }
+
+    /// Schedules a turn from `t0`; returns its duration.
+    fn plan_turn(&mut self, t0: f64, angle_rad: f64, rate_rad_s: f64, ramp_s: f64) -> Result<f64, SegmentError> {
+        if angle_rad == 0.0 {
+            return Ok(0.0);
+        }
         let rate = rate_rad_s.abs() * angle_rad.signum();
         // Each ramp turns rate * ramp / 2; the steady part turns the rest.
         let steady_s = angle_rad.abs() / rate.abs() - ramp_s;
-        if !(steady_s >= 0.0 && steady_s.is_finite()) {
+        if !(steady_s >= 0.0 && steady_s.is_finite() && ramp_s > 0.0) {
             return Err(self.fail(format!(
                 "a turn of {:.1} deg at {:.2} deg/s needs ramps shorter than {:.1} s",
                 angle_rad.to_degrees(),
@@ -236,28 +269,20 @@ impl TrajectoryBuilder {
                 angle_rad.abs() / rate.abs()
             )));
         }
-        self.turn_rate.ramp(self.t_s, ramp_s, rate);
-        self.turn_rate
-            .ramp(self.t_s + ramp_s + steady_s, ramp_s, 0.0);
-        self.t_s += 2.0 * ramp_s + steady_s;
-        Ok(self)
+        self.turn_rate.ramp(t0, ramp_s, rate);
+        self.turn_rate.ramp(t0 + ramp_s + steady_s, ramp_s, 0.0);
+        Ok(2.0 * ramp_s + steady_s)
     }
 
-    /// Dives or climbs to `depth_m` at up to `pitch_rad` (magnitude), pitching over `ramp_s`,
-    /// at the current speed.
-    pub fn depth_to(
-        &mut self,
-        depth_m: f64,
-        pitch_rad: f64,
-        ramp_s: f64,
-    ) -> Result<&mut Self, SegmentError> {
+    /// Schedules a depth change from `t0`; returns its duration.
+    fn plan_depth(&mut self, t0: f64, depth_m: f64, pitch_rad: f64, ramp_s: f64) -> Result<f64, SegmentError> {
         let change = depth_m - self.depth_m;
         if change == 0.0 {
-            return Ok(self);
+            return Ok(0.0);
         }
-        let speed = self.speed.at(self.t_s).value;
-        if speed <= 0.0 {
-            return Err(self.fail("a depth change needs forward speed"));
+        let speed = self.speed.at(t0).value;
+        if speed <= 0.0 || ramp_s <= 0.0 || pitch_rad == 0.0 {
+            return Err(self.fail("a depth change needs forward speed, a pitch and a ramp time"));
         }
         // Depth covered by one pitch ramp of magnitude p: speed * integral of sin(p s(x)).
         let ramp_depth = |p: f64| speed * ramp_s * ramp_sine_integral(p);
@@ -278,15 +303,10 @@ impl TrajectoryBuilder {
             steady_s = 0.0;
         }
         let theta = -p * change.signum(); // nose down to go deeper
-        self.pitch.ramp(self.t_s, ramp_s, theta);
-        if steady_s > 0.0 {
-            self.pitch.ramp(self.t_s + ramp_s + steady_s, ramp_s, 0.0);
-        } else {
-            self.pitch.ramp(self.t_s + ramp_s, ramp_s, 0.0);
-        }
-        self.t_s += 2.0 * ramp_s + steady_s;
+        self.pitch.ramp(t0, ramp_s, theta);
+        self.pitch.ramp(t0 + ramp_s + steady_s, ramp_s, 0.0);
         self.depth_m = depth_m;
-        Ok(self)
+        Ok(2.0 * ramp_s + steady_s)
     }
 
     /// The trajectory, ending `tail_s` after the last segment.

@@ -30,6 +30,9 @@ pub struct DvlSpec {
     /// Logging latency, s.
     #[serde(default)]
     pub latency_s: f64,
+    /// The DVL logs nothing after this time from the start, s (switched off or failed).
+    #[serde(default)]
+    pub until_s: Option<f64>,
 }
 
 fn default_max_altitude() -> f64 {
@@ -108,6 +111,7 @@ mod tests {
             max_altitude_m: 100.0,
             out_of_range_noise_m_s: 0.0,
             latency_s: 0.0,
+            until_s: None,
         }
     }
 

@@ -1,0 +1,223 @@
+//! Runs a scenario: truth at the IMU rate, every sensor on its schedule, one MCAP log.
+
+use super::inertial::perfect_imu;
+use super::scenario::{Scenario, ScenarioError};
+use super::sensors::dvl::DvlSensor;
+use super::sensors::imu::Triad;
+use super::sensors::mag::MagSensor;
+use super::sensors::scalar::{Propeller as PropellerModel, ScalarSensor};
+use super::sensors::{normal, rng_for, stream};
+use super::trajectory::PositionIntegrator;
+use super::writer::{LogWriter, WriteError};
+use crate::contract::*;
+use crate::geodesy;
+use crate::ingest::Mission;
+use std::io::{Seek, Write};
+
+/// Error of a simulation run.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    #[error(transparent)]
+    Write(#[from] WriteError),
+}
+
+/// What a run wrote.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunSummary {
+    pub messages: u64,
+    pub duration_s: f64,
+}
+
+/// A sensor's sampling times: every `1/rate`, starting at 0.
+struct Schedule {
+    period_ns: i64,
+    next_ns: i64,
+}
+
+impl Schedule {
+    fn new(rate_hz: f64) -> Self {
+        Schedule { period_ns: (1e9 / rate_hz).round() as i64, next_ns: 0 }
+    }
+
+    /// Whether a sample is due at `t_ns` (each IMU tick; a due sample is taken on the first
+    /// tick at or after its time).
+    fn due(&mut self, t_ns: i64) -> bool {
+        if t_ns >= self.next_ns {
+            self.next_ns += self.period_ns;
+            true
+        } else {
+            false
+        }
+    }
+}
+
+fn secs_ns(s: f64) -> i64 {
+    (s * 1e9).round() as i64
+}
+
+/// Simulates `scenario` with `seed` into `w`. Deterministic: the same scenario and seed give
+/// the same messages, bit for bit.
+pub fn run<W: Write + Seek>(scenario: &Scenario, seed: u64, w: &mut LogWriter<W>) -> Result<RunSummary, SimError> {
+    let traj = scenario.trajectory()?;
+    let origin_lat = scenario.mission.origin_latitude_deg.to_radians();
+    let origin_lon = scenario.mission.origin_longitude_deg.to_radians();
+    w.write_mission(&Mission {
+        origin_latitude_deg: scenario.mission.origin_latitude_deg,
+        origin_longitude_deg: scenario.mission.origin_longitude_deg,
+        vehicle: scenario.mission.vehicle.clone(),
+        description: format!("simulated `{}` (seed {seed}): {}", scenario.name, scenario.description),
+        initial_yaw_rad: None,
+    })?;
+
+    let mut gyro = Triad::new(scenario.imu.gyro.triad(), rng_for(seed, stream::GYRO));
+    let mut accel = Triad::new(scenario.imu.accel.triad(), rng_for(seed, stream::ACCEL));
+    let mut mag = scenario.mag.map(|s| (MagSensor::new(s, rng_for(seed, stream::MAG)), Schedule::new(s.rate_hz)));
+    let mut dvl = scenario.dvl.map(|s| (DvlSensor::new(s, rng_for(seed, stream::DVL)), Schedule::new(s.rate_hz), s.latency_s));
+    let dvl_until_ns = scenario.dvl.and_then(|s| s.until_s).map_or(i64::MAX, secs_ns);
+    let scalar = |spec: Option<super::scenario::RatedScalar>, id| {
+        spec.map(|s| (ScalarSensor::new(s.errors, rng_for(seed, id)), Schedule::new(s.rate_hz), s.latency_s))
+    };
+    let mut eml = scalar(scenario.eml, stream::EML);
+    let mut depth = scalar(scenario.depth, stream::DEPTH);
+    let mut altimeter = scalar(scenario.altimeter, stream::ALTIMETER);
+    let mut rpm = scenario.rpm.map(|s| (PropellerModel::new(s.model, rng_for(seed, stream::RPM)), Schedule::new(s.rate_hz)));
+    let mut gnss = scenario.gnss.map(|s| (s, Schedule::new(s.rate_hz)));
+    let mut gnss_rng = rng_for(seed, stream::GNSS);
+    let mut fix_rng = rng_for(seed, stream::FIX);
+    let mut usbl = scenario.fixes.filter(|f| f.usbl_every_s > 0.0).map(|f| Schedule::new(1.0 / f.usbl_every_s));
+    let mut truth_schedule = Schedule::new(scenario.truth_rate_hz);
+
+    let dt_ns = (1e9 / scenario.imu.rate_hz).round() as i64;
+    let dt_s = dt_ns as f64 * 1e-9;
+    let end_ns = secs_ns(traj.duration_s());
+    let mut position = PositionIntegrator::new(&traj);
+    let mut count = 0u64;
+    let mut t_ns = 0i64;
+    loop {
+        let t_s = t_ns as f64 * 1e-9;
+        position.advance_to(t_s);
+        let p = position.position;
+        let (lat, lon, height) = (p.x, p.y, p.z);
+        let kin = traj.kinematics(t_s);
+        let stamp_ns = scenario.start_stamp_ns + t_ns;
+        let log_ns = |latency_s: f64| (stamp_ns + secs_ns(latency_s)).max(0) as u64;
+        let (north, east) = geodesy::local_north_east_m(origin_lat, origin_lon, lat, lon);
+        let depth_m = -height;
+        let ned_from_body = kin.ned_from_body();
+        let vel_body = ned_from_body.inverse() * kin.vel_ned();
+
+        let ideal = perfect_imu(&kin, lat, height);
+        let imu = Imu {
+            stamp_ns,
+            angular_velocity: gyro.measure(&ideal.omega_ib_body, dt_s).into(),
+            specific_force: accel.measure(&ideal.specific_force_body, dt_s).into(),
+        };
+        w.write("/imu", &imu, log_ns(scenario.imu.latency_s))?;
+        count += 1;
+
+        if let Some((m, sched)) = mag.as_mut() {
+            if sched.due(t_ns) {
+                let magnetic_field = m.measure(&ned_from_body).into();
+                w.write("/mag", &MagneticField { stamp_ns, magnetic_field }, log_ns(0.0))?;
+                count += 1;
+            }
+        }
+        let altitude_m = scenario.seabed.depth_m(north, east) - depth_m;
+        if let Some((d, sched, latency)) = dvl.as_mut() {
+            if sched.due(t_ns) && t_ns <= dvl_until_ns {
+                let r = d.measure(&vel_body, altitude_m);
+                let msg = Dvl { stamp_ns, velocity: r.velocity_body_m_s.into(), valid: r.valid, altitude: r.altitude_m };
+                w.write("/dvl", &msg, log_ns(*latency))?;
+                count += 1;
+            }
+        }
+        if let Some((s, sched, latency)) = eml.as_mut() {
+            if sched.due(t_ns) {
+                let speed = s.measure(kin.speed_m_s).max(0.0);
+                w.write("/eml", &SpeedLog { stamp_ns, speed }, log_ns(*latency))?;
+                count += 1;
+            }
+        }
+        if let Some((s, sched, latency)) = depth.as_mut() {
+            if sched.due(t_ns) {
+                w.write("/depth", &Depth { stamp_ns, depth: s.measure(depth_m) }, log_ns(*latency))?;
+                count += 1;
+            }
+        }
+        if let Some((s, sched, latency)) = altimeter.as_mut() {
+            if sched.due(t_ns) {
+                let altitude = s.measure(altitude_m).max(0.0);
+                w.write("/altimeter", &Altimeter { stamp_ns, altitude }, log_ns(*latency))?;
+                count += 1;
+            }
+        }
+        if let Some((prop, sched)) = rpm.as_mut() {
+            if sched.due(t_ns) {
+                w.write("/rpm", &Propeller { stamp_ns, rpm: prop.measure(kin.speed_m_s) }, log_ns(0.0))?;
+                count += 1;
+            }
+        }
+        if let Some((g, sched)) = gnss.as_mut() {
+            if sched.due(t_ns) && depth_m <= g.surface_depth_m {
+                let dn = g.sigma_m * normal(&mut gnss_rng);
+                let de = g.sigma_m * normal(&mut gnss_rng);
+                let fix = GnssFix {
+                    stamp_ns,
+                    latitude_deg: (lat + dn / geodesy::meridian_radius_m(lat)).to_degrees(),
+                    longitude_deg: (lon + de / (geodesy::prime_vertical_radius_m(lat) * lat.cos())).to_degrees(),
+                    horizontal_sigma_m: g.sigma_m,
+                };
+                w.write("/gnss", &fix, log_ns(0.1))?;
+                count += 1;
+            }
+        }
+        if let Some(f) = scenario.fixes {
+            let mut fix = |label: &str, sigma: f64, down: Option<f64>| {
+                let msg = PositionFix {
+                    stamp_ns,
+                    north_m: north + sigma * normal(&mut fix_rng),
+                    east_m: east + sigma * normal(&mut fix_rng),
+                    down_m: down.map(|d| d + sigma * normal(&mut fix_rng)),
+                    sigma_m: sigma,
+                    label: label.into(),
+                };
+                w.write("/position_fix", &msg, log_ns(0.5))
+            };
+            if f.mark_sigma_m > 0.0 && (t_ns == 0 || t_ns + dt_ns > end_ns) {
+                fix(if t_ns == 0 { "start" } else { "end" }, f.mark_sigma_m, None)?;
+                count += 1;
+            }
+            if let Some(sched) = usbl.as_mut() {
+                if t_ns > 0 && sched.due(t_ns) {
+                    fix("usbl", f.usbl_sigma_m, Some(depth_m))?;
+                    count += 1;
+                } else if t_ns == 0 {
+                    sched.due(0);
+                }
+            }
+        }
+        if truth_schedule.due(t_ns) {
+            let truth = Truth {
+                stamp_ns,
+                latitude_deg: lat.to_degrees(),
+                longitude_deg: lon.to_degrees(),
+                north_m: north,
+                east_m: east,
+                down_m: depth_m,
+                velocity_body: vel_body.into(),
+                velocity_ned: kin.vel_ned().into(),
+                attitude: [kin.roll_rad, kin.pitch_rad, crate::angle::wrap_pi(kin.yaw_rad)],
+                angular_velocity: kin.omega_nb_body().into(),
+            };
+            w.write("/truth", &truth, log_ns(0.0))?;
+            count += 1;
+        }
+        if t_ns + dt_ns > end_ns {
+            break;
+        }
+        t_ns += dt_ns;
+    }
+    Ok(RunSummary { messages: count, duration_s: t_ns as f64 * 1e-9 })
+}

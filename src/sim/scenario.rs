@@ -1,0 +1,431 @@
+//! Scenario definitions: data (TOML), not code paths. A scenario gives the mission, the start,
+//! the manoeuvre segments and the sensors with their error parameters in the units data
+//! sheets use; [`Scenario::trajectory`] and the runner turn it into a log.
+
+use super::sensors::dvl::DvlSpec;
+use super::sensors::imu::TriadSpec;
+use super::sensors::mag::MagSpec;
+use super::sensors::scalar::{PropellerSpec, ScalarSpec};
+use super::trajectory::{SegmentError, Trajectory, TrajectoryBuilder};
+use crate::geodesy;
+use serde::{Deserialize, Serialize};
+
+/// The scenarios shipped in the binary: (name, TOML text).
+pub const BUILT_IN: &[(&str, &str)] = &[
+    ("survey", include_str!("../../scenarios/survey.toml")),
+    ("pool-circle", include_str!("../../scenarios/pool-circle.toml")),
+    ("pool-rectangle", include_str!("../../scenarios/pool-rectangle.toml")),
+    ("dive-27min", include_str!("../../scenarios/dive-27min.toml")),
+    ("long-dive", include_str!("../../scenarios/long-dive.toml")),
+];
+
+/// Why a scenario cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    #[error("unknown scenario `{name}` (built in: {known}); or give --scenario-file")]
+    Unknown { name: String, known: String },
+    #[error("scenario file: {0}")]
+    Parse(#[from] toml::de::Error),
+    #[error("scenario `{name}`: {reason}")]
+    Invalid { name: String, reason: String },
+    #[error("scenario `{name}`: {source}")]
+    Segment {
+        name: String,
+        #[source]
+        source: SegmentError,
+    },
+}
+
+/// A whole scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub name: String,
+    pub description: String,
+    /// Time after the last segment, s.
+    #[serde(default)]
+    pub tail_s: f64,
+    /// UTC stamp of the start, ns since the epoch.
+    #[serde(default = "default_start_stamp")]
+    pub start_stamp_ns: i64,
+    pub mission: MissionSpec,
+    pub start: StartSpec,
+    #[serde(rename = "segment")]
+    pub segments: Vec<Segment>,
+    pub imu: ImuSpec,
+    pub mag: Option<MagSpec>,
+    pub dvl: Option<DvlSpec>,
+    pub eml: Option<RatedScalar>,
+    pub depth: Option<RatedScalar>,
+    pub altimeter: Option<RatedScalar>,
+    pub rpm: Option<RatedPropeller>,
+    pub gnss: Option<GnssSpec>,
+    pub fixes: Option<FixSpec>,
+    #[serde(default)]
+    pub seabed: SeabedSpec,
+    #[serde(default = "default_truth_rate")]
+    pub truth_rate_hz: f64,
+}
+
+fn default_start_stamp() -> i64 {
+    1_700_000_000_000_000_000
+}
+
+fn default_truth_rate() -> f64 {
+    10.0
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MissionSpec {
+    pub origin_latitude_deg: f64,
+    pub origin_longitude_deg: f64,
+    pub vehicle: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartSpec {
+    #[serde(default)]
+    pub north_m: f64,
+    #[serde(default)]
+    pub east_m: f64,
+    #[serde(default)]
+    pub depth_m: f64,
+    #[serde(default)]
+    pub yaw_deg: f64,
+    #[serde(default)]
+    pub speed_m_s: f64,
+}
+
+/// One manoeuvre. Angles in degrees, positive yaw change to starboard.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Segment {
+    /// Straight and level.
+    Cruise { duration_s: f64 },
+    /// Change speed.
+    Speed { to_m_s: f64, ramp_s: f64 },
+    /// Coordinated turn by an angle.
+    Turn { angle_deg: f64, rate_deg_s: f64, ramp_s: f64 },
+    /// Dive or climb to a depth.
+    Depth { to_m: f64, pitch_deg: f64, ramp_s: f64 },
+    /// Climb to the surface (depth 0).
+    Surface { pitch_deg: f64, ramp_s: f64 },
+    /// A horizontal spiral: turns of `angle_deg` in all while changing depth to `to_m`.
+    Spiral { angle_deg: f64, rate_deg_s: f64, to_m: f64, pitch_deg: f64, ramp_s: f64 },
+    /// Alternating turns of +-`angle_deg` with `leg_s` straight between, `legs` times.
+    Zigzag { legs: u32, angle_deg: f64, leg_s: f64, rate_deg_s: f64, ramp_s: f64 },
+    /// Survey lanes: `lanes` straight runs of `lane_s` joined by alternating 180 deg turns.
+    Lawnmower { lanes: u32, lane_s: f64, rate_deg_s: f64, ramp_s: f64 },
+    /// Stop, hold still for `duration_s`, and resume the previous speed.
+    Hold { duration_s: f64, ramp_s: f64 },
+}
+
+/// IMU rate and error grades in data-sheet units.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuSpec {
+    pub rate_hz: f64,
+    #[serde(default)]
+    pub latency_s: f64,
+    #[serde(default)]
+    pub gyro: GyroGrade,
+    #[serde(default)]
+    pub accel: AccelGrade,
+}
+
+/// Gyro errors: deg/h, ppm, mrad, deg/sqrt(h).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GyroGrade {
+    pub bias_deg_h: f64,
+    pub bias_instability_deg_h: f64,
+    pub bias_correlation_s: f64,
+    pub scale_ppm: f64,
+    pub misalignment_mrad: f64,
+    pub arw_deg_rt_h: f64,
+}
+
+/// Accelerometer errors: micro-g, ppm, mrad, micro-g/sqrt(Hz).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AccelGrade {
+    pub bias_ug: f64,
+    pub bias_instability_ug: f64,
+    pub bias_correlation_s: f64,
+    pub scale_ppm: f64,
+    pub misalignment_mrad: f64,
+    pub vrw_ug_rt_hz: f64,
+}
+
+const DEG_H: f64 = std::f64::consts::PI / 180.0 / 3600.0;
+const UG: f64 = geodesy::G0_M_S2 * 1e-6;
+
+impl GyroGrade {
+    /// In SI (rad/s; ARW deg/sqrt(h) = (pi/180)/60 rad/sqrt(s)).
+    pub fn triad(&self) -> TriadSpec {
+        TriadSpec {
+            bias: self.bias_deg_h * DEG_H,
+            bias_instability: self.bias_instability_deg_h * DEG_H,
+            bias_correlation_s: self.bias_correlation_s,
+            scale_ppm: self.scale_ppm,
+            misalignment_rad: self.misalignment_mrad * 1e-3,
+            noise_density: self.arw_deg_rt_h.to_radians() / 60.0,
+        }
+    }
+}
+
+impl AccelGrade {
+    /// In SI (m/s^2; noise density m/s^2/sqrt(Hz)).
+    pub fn triad(&self) -> TriadSpec {
+        TriadSpec {
+            bias: self.bias_ug * UG,
+            bias_instability: self.bias_instability_ug * UG,
+            bias_correlation_s: self.bias_correlation_s,
+            scale_ppm: self.scale_ppm,
+            misalignment_rad: self.misalignment_mrad * 1e-3,
+            noise_density: self.vrw_ug_rt_hz * UG,
+        }
+    }
+}
+
+/// A one-number sensor with its rate.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RatedScalar {
+    pub rate_hz: f64,
+    #[serde(default)]
+    pub latency_s: f64,
+    #[serde(flatten)]
+    pub errors: ScalarSpec,
+}
+
+/// The propeller with its rate.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RatedPropeller {
+    pub rate_hz: f64,
+    #[serde(flatten)]
+    pub model: PropellerSpec,
+}
+
+/// GNSS: fixes only within `surface_depth_m` of the surface.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GnssSpec {
+    pub rate_hz: f64,
+    pub sigma_m: f64,
+    #[serde(default = "default_surface_depth")]
+    pub surface_depth_m: f64,
+}
+
+fn default_surface_depth() -> f64 {
+    0.5
+}
+
+/// Known positions: surveyed start/end marks and periodic USBL-like fixes.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FixSpec {
+    /// 1-sigma of the start and end marks, m (0: no marks).
+    #[serde(default)]
+    pub mark_sigma_m: f64,
+    /// Period of USBL-like fixes, s (0: none).
+    #[serde(default)]
+    pub usbl_every_s: f64,
+    #[serde(default)]
+    pub usbl_sigma_m: f64,
+}
+
+/// Seabed depth along a bearing: piecewise linear in the distance along it, constant beyond.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SeabedSpec {
+    #[serde(default)]
+    pub bearing_deg: f64,
+    /// (distance along the bearing from the origin m, seabed depth m), increasing distance.
+    pub profile: Vec<[f64; 2]>,
+}
+
+impl Default for SeabedSpec {
+    fn default() -> Self {
+        SeabedSpec {
+            bearing_deg: 0.0,
+            profile: vec![[0.0, 100.0]],
+        }
+    }
+}
+
+impl SeabedSpec {
+    /// Seabed depth below the point (north, east) of the mission frame, m.
+    pub fn depth_m(&self, north_m: f64, east_m: f64) -> f64 {
+        let b = self.bearing_deg.to_radians();
+        let d = north_m * b.cos() + east_m * b.sin();
+        let p = &self.profile;
+        match p.iter().position(|q| q[0] > d) {
+            None => p.last().map_or(100.0, |q| q[1]),
+            Some(0) => p[0][1],
+            Some(i) => {
+                let (a, c) = (p[i - 1], p[i]);
+                a[1] + (c[1] - a[1]) * (d - a[0]) / (c[0] - a[0])
+            }
+        }
+    }
+}
+
+impl Scenario {
+    /// A built-in scenario by name.
+    pub fn built_in(name: &str) -> Result<Scenario, ScenarioError> {
+        let text = BUILT_IN
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, t)| *t)
+            .ok_or_else(|| ScenarioError::Unknown {
+                name: name.into(),
+                known: BUILT_IN.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+            })?;
+        Scenario::from_toml(text)
+    }
+
+    /// Parses and checks a scenario.
+    pub fn from_toml(text: &str) -> Result<Scenario, ScenarioError> {
+        let s: Scenario = toml::from_str(text)?;
+        s.check()?;
+        Ok(s)
+    }
+
+    fn check(&self) -> Result<(), ScenarioError> {
+        let bad = |reason: String| ScenarioError::Invalid { name: self.name.clone(), reason };
+        let rate_ok = |r: f64| r.is_finite() && r > 0.0 && r <= self.imu.rate_hz;
+        if !(self.imu.rate_hz.is_finite() && (1.0..=2000.0).contains(&self.imu.rate_hz)) {
+            return Err(bad(format!("imu.rate_hz {} is not in [1, 2000]", self.imu.rate_hz)));
+        }
+        let rates = [
+            ("mag", self.mag.map(|m| m.rate_hz)),
+            ("dvl", self.dvl.map(|d| d.rate_hz)),
+            ("eml", self.eml.map(|d| d.rate_hz)),
+            ("depth", self.depth.map(|d| d.rate_hz)),
+            ("altimeter", self.altimeter.map(|d| d.rate_hz)),
+            ("rpm", self.rpm.map(|d| d.rate_hz)),
+            ("gnss", self.gnss.map(|d| d.rate_hz)),
+            ("truth", Some(self.truth_rate_hz)),
+        ];
+        for (name, rate) in rates {
+            if let Some(r) = rate {
+                if !rate_ok(r) {
+                    return Err(bad(format!("{name}.rate_hz {r} must be above 0 and at most the IMU rate")));
+                }
+            }
+        }
+        if self.seabed.profile.is_empty() || self.seabed.profile.windows(2).any(|w| w[1][0] <= w[0][0]) {
+            return Err(bad("seabed.profile needs points of increasing distance".into()));
+        }
+        Ok(())
+    }
+
+    /// The truth trajectory of the segments.
+    pub fn trajectory(&self) -> Result<Trajectory, ScenarioError> {
+        let origin_lat = self.mission.origin_latitude_deg.to_radians();
+        let lat = origin_lat + self.start.north_m / geodesy::meridian_radius_m(origin_lat);
+        let lon = self.mission.origin_longitude_deg.to_radians()
+            + self.start.east_m / (geodesy::prime_vertical_radius_m(origin_lat) * origin_lat.cos());
+        let mut b = TrajectoryBuilder::new(
+            lat.to_degrees(),
+            lon.to_degrees(),
+            self.start.depth_m,
+            self.start.yaw_deg.to_radians(),
+            self.start.speed_m_s,
+        );
+        let wrap = |source| ScenarioError::Segment { name: self.name.clone(), source };
+        for seg in &self.segments {
+            apply(&mut b, seg).map_err(wrap)?;
+        }
+        Ok(b.build(self.tail_s))
+    }
+}
+
+fn apply(b: &mut TrajectoryBuilder, seg: &Segment) -> Result<(), SegmentError> {
+    let r = f64::to_radians;
+    match *seg {
+        Segment::Cruise { duration_s } => {
+            b.cruise(duration_s);
+        }
+        Segment::Speed { to_m_s, ramp_s } => {
+            b.speed_to(to_m_s, ramp_s);
+        }
+        Segment::Turn { angle_deg, rate_deg_s, ramp_s } => {
+            b.turn(r(angle_deg), r(rate_deg_s), ramp_s)?;
+        }
+        Segment::Depth { to_m, pitch_deg, ramp_s } => {
+            b.depth_to(to_m, r(pitch_deg), ramp_s)?;
+        }
+        Segment::Surface { pitch_deg, ramp_s } => {
+            b.depth_to(0.0, r(pitch_deg), ramp_s)?;
+        }
+        Segment::Spiral { angle_deg, rate_deg_s, to_m, pitch_deg, ramp_s } => {
+            b.spiral(r(angle_deg), r(rate_deg_s), to_m, r(pitch_deg), ramp_s)?;
+        }
+        Segment::Zigzag { legs, angle_deg, leg_s, rate_deg_s, ramp_s } => {
+            // First swing half the angle so the mean heading is kept.
+            b.turn(r(angle_deg) / 2.0, r(rate_deg_s), ramp_s.min(angle_deg / 2.0 / rate_deg_s / 2.0))?;
+            let mut side = -1.0;
+            for _ in 0..legs {
+                b.cruise(leg_s);
+                b.turn(side * r(angle_deg), r(rate_deg_s), ramp_s)?;
+                side = -side;
+            }
+            b.turn(side * r(angle_deg) / 2.0, r(rate_deg_s), ramp_s.min(angle_deg / 2.0 / rate_deg_s / 2.0))?;
+        }
+        Segment::Lawnmower { lanes, lane_s, rate_deg_s, ramp_s } => {
+            let mut side = 1.0;
+            for lane in 0..lanes {
+                b.cruise(lane_s);
+                if lane + 1 < lanes {
+                    b.turn(side * std::f64::consts::PI, r(rate_deg_s), ramp_s)?;
+                    side = -side;
+                }
+            }
+        }
+        Segment::Hold { duration_s, ramp_s } => {
+            let speed = b.speed_m_s();
+            b.speed_to(0.0, ramp_s);
+            b.cruise(duration_s);
+            b.speed_to(speed, ramp_s);
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_built_in_scenario_parses_and_builds() {
+        for (name, _) in BUILT_IN {
+            let s = Scenario::built_in(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(&s.name, name);
+            let t = s.trajectory().unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(t.duration_s() > 60.0, "{name}");
+        }
+        assert!(matches!(Scenario::built_in("nope"), Err(ScenarioError::Unknown { .. })));
+    }
+
+    #[test]
+    fn seabed_profile_interpolates() {
+        let s = SeabedSpec { bearing_deg: 90.0, profile: vec![[0.0, 50.0], [100.0, 150.0]] };
+        assert!((s.depth_m(0.0, 50.0) - 100.0).abs() < 1e-9);
+        assert_eq!(s.depth_m(0.0, -10.0), 50.0);
+        assert_eq!(s.depth_m(0.0, 500.0), 150.0);
+    }
+
+    #[test]
+    fn rejects_bad_rates_and_unknown_keys() {
+        let text = Scenario::built_in("survey").map(|_| BUILT_IN[0].1).unwrap();
+        let bad = text.replacen("rate_hz = 100", "rate_hz = 0", 1);
+        assert!(matches!(Scenario::from_toml(&bad), Err(ScenarioError::Invalid { .. })));
+        let unknown = format!("{text}\nbogus = 1\n");
+        assert!(matches!(Scenario::from_toml(&unknown), Err(ScenarioError::Parse(_))));
+    }
+}
