@@ -11,7 +11,7 @@ use std::process::{Command, Output};
 
 const SAMPLE: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
-    "/sample-logs/synthetic-survey-2min.mcap"
+    "/sample-logs/survey-short-seed1.mcap"
 );
 
 fn hindsight(args: &[&str]) -> Output {
@@ -62,7 +62,7 @@ fn export_writes_typed_parquet_and_a_correct_aligned_table() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read(SAMPLE).unwrap(), before, "input untouched");
     let names = files_in(&out);
-    assert_eq!(names.len(), 13, "{names:?}");
+    assert_eq!(names.len(), 10, "{names:?}");
     assert!(names.iter().all(|n| !n.contains(".tmp-")), "{names:?}");
 
     let imu = read_parquet(&out.join("imu.parquet"));
@@ -192,7 +192,7 @@ fn info_prints_the_table() {
     let cells: Vec<&str> = imu.split_whitespace().collect();
     assert_eq!(
         &cells[..5],
-        ["/imu", "hindsight.Imu", "json", "12001", "100.000"]
+        ["/imu", "hindsight.Imu", "json", "36276", "100.000"]
     );
     let dvl = text.lines().find(|l| l.starts_with("/dvl ")).unwrap();
     assert!(dvl.contains("5.000"), "{dvl}");

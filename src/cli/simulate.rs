@@ -47,17 +47,25 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     }
     let scenario = match (&args.scenario, &args.scenario_file) {
         (_, Some(path)) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
             Scenario::from_toml(&text).with_context(|| format!("in {}", path.display()))?
         }
         (Some(name), None) => Scenario::built_in(name)?,
         (None, None) => bail!("give --scenario NAME or --scenario-file FILE"),
     };
-    let Some(out) = args.out else { bail!("give --out FILE.mcap") };
+    let Some(out) = args.out else {
+        bail!("give --out FILE.mcap")
+    };
     let started = std::time::Instant::now();
     let mut staging = Staging::new();
-    let file = staging.create(&out).with_context(|| OutputFailed { path: out.clone() })?;
-    let mut w = writer::LogWriter::new(std::io::BufWriter::new(file), writer::WriterOptions::default())?;
+    let file = staging
+        .create(&out)
+        .with_context(|| OutputFailed { path: out.clone() })?;
+    let mut w = writer::LogWriter::new(
+        std::io::BufWriter::new(file),
+        writer::WriterOptions::default(),
+    )?;
     eprintln!("simulating `{}` (seed {}) ...", scenario.name, args.seed);
     let summary = run::run(&scenario, args.seed, &mut w)?;
     w.finish()?
@@ -66,7 +74,9 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         .with_context(|| OutputFailed { path: out.clone() })?
         .sync_all()
         .with_context(|| OutputFailed { path: out.clone() })?;
-    staging.commit().with_context(|| OutputFailed { path: out.clone() })?;
+    staging
+        .commit()
+        .with_context(|| OutputFailed { path: out.clone() })?;
     let bytes = std::fs::metadata(&out).map(|m| m.len()).unwrap_or(0);
     println!(
         "{}: {} messages, {:.0} s of mission, {:.1} MB, simulated in {:.1} s",

@@ -38,7 +38,10 @@ struct Schedule {
 
 impl Schedule {
     fn new(rate_hz: f64) -> Self {
-        Schedule { period_ns: (1e9 / rate_hz).round() as i64, next_ns: 0 }
+        Schedule {
+            period_ns: (1e9 / rate_hz).round() as i64,
+            next_ns: 0,
+        }
     }
 
     /// Whether a sample is due at `t_ns` (each IMU tick; a due sample is taken on the first
@@ -59,7 +62,11 @@ fn secs_ns(s: f64) -> i64 {
 
 /// Simulates `scenario` with `seed` into `w`. Deterministic: the same scenario and seed give
 /// the same messages, bit for bit.
-pub fn run<W: Write + Seek>(scenario: &Scenario, seed: u64, w: &mut LogWriter<W>) -> Result<RunSummary, SimError> {
+pub fn run<W: Write + Seek>(
+    scenario: &Scenario,
+    seed: u64,
+    w: &mut LogWriter<W>,
+) -> Result<RunSummary, SimError> {
     let traj = scenario.trajectory()?;
     let origin_lat = scenario.mission.origin_latitude_deg.to_radians();
     let origin_lon = scenario.mission.origin_longitude_deg.to_radians();
@@ -67,26 +74,57 @@ pub fn run<W: Write + Seek>(scenario: &Scenario, seed: u64, w: &mut LogWriter<W>
         origin_latitude_deg: scenario.mission.origin_latitude_deg,
         origin_longitude_deg: scenario.mission.origin_longitude_deg,
         vehicle: scenario.mission.vehicle.clone(),
-        description: format!("simulated `{}` (seed {seed}): {}", scenario.name, scenario.description),
+        description: format!(
+            "simulated `{}` (seed {seed}): {}",
+            scenario.name, scenario.description
+        ),
         initial_yaw_rad: None,
     })?;
 
     let mut gyro = Triad::new(scenario.imu.gyro.triad(), rng_for(seed, stream::GYRO));
     let mut accel = Triad::new(scenario.imu.accel.triad(), rng_for(seed, stream::ACCEL));
-    let mut mag = scenario.mag.map(|s| (MagSensor::new(s, rng_for(seed, stream::MAG)), Schedule::new(s.rate_hz)));
-    let mut dvl = scenario.dvl.map(|s| (DvlSensor::new(s, rng_for(seed, stream::DVL)), Schedule::new(s.rate_hz), s.latency_s));
-    let dvl_until_ns = scenario.dvl.and_then(|s| s.until_s).map_or(i64::MAX, secs_ns);
+    let mut mag = scenario.mag.map(|s| {
+        (
+            MagSensor::new(s, rng_for(seed, stream::MAG)),
+            Schedule::new(s.rate_hz),
+        )
+    });
+    let mut dvl = scenario.dvl.map(|s| {
+        (
+            DvlSensor::new(s, rng_for(seed, stream::DVL)),
+            Schedule::new(s.rate_hz),
+            s.latency_s,
+        )
+    });
+    let dvl_until_ns = scenario
+        .dvl
+        .and_then(|s| s.until_s)
+        .map_or(i64::MAX, secs_ns);
     let scalar = |spec: Option<super::scenario::RatedScalar>, id| {
-        spec.map(|s| (ScalarSensor::new(s.errors, rng_for(seed, id)), Schedule::new(s.rate_hz), s.latency_s))
+        spec.map(|s| {
+            (
+                ScalarSensor::new(s.errors, rng_for(seed, id)),
+                Schedule::new(s.rate_hz),
+                s.latency_s,
+            )
+        })
     };
     let mut eml = scalar(scenario.eml, stream::EML);
     let mut depth = scalar(scenario.depth, stream::DEPTH);
     let mut altimeter = scalar(scenario.altimeter, stream::ALTIMETER);
-    let mut rpm = scenario.rpm.map(|s| (PropellerModel::new(s.model, rng_for(seed, stream::RPM)), Schedule::new(s.rate_hz)));
+    let mut rpm = scenario.rpm.map(|s| {
+        (
+            PropellerModel::new(s.model, rng_for(seed, stream::RPM)),
+            Schedule::new(s.rate_hz),
+        )
+    });
     let mut gnss = scenario.gnss.map(|s| (s, Schedule::new(s.rate_hz)));
     let mut gnss_rng = rng_for(seed, stream::GNSS);
     let mut fix_rng = rng_for(seed, stream::FIX);
-    let mut usbl = scenario.fixes.filter(|f| f.usbl_every_s > 0.0).map(|f| Schedule::new(1.0 / f.usbl_every_s));
+    let mut usbl = scenario
+        .fixes
+        .filter(|f| f.usbl_every_s > 0.0)
+        .map(|f| Schedule::new(1.0 / f.usbl_every_s));
     let mut truth_schedule = Schedule::new(scenario.truth_rate_hz);
 
     let dt_ns = (1e9 / scenario.imu.rate_hz).round() as i64;
@@ -120,7 +158,14 @@ pub fn run<W: Write + Seek>(scenario: &Scenario, seed: u64, w: &mut LogWriter<W>
         if let Some((m, sched)) = mag.as_mut() {
             if sched.due(t_ns) {
                 let magnetic_field = m.measure(&ned_from_body).into();
-                w.write("/mag", &MagneticField { stamp_ns, magnetic_field }, log_ns(0.0))?;
+                w.write(
+                    "/mag",
+                    &MagneticField {
+                        stamp_ns,
+                        magnetic_field,
+                    },
+                    log_ns(0.0),
+                )?;
                 count += 1;
             }
         }
@@ -128,7 +173,12 @@ pub fn run<W: Write + Seek>(scenario: &Scenario, seed: u64, w: &mut LogWriter<W>
         if let Some((d, sched, latency)) = dvl.as_mut() {
             if sched.due(t_ns) && t_ns <= dvl_until_ns {
                 let r = d.measure(&vel_body, altitude_m);
-                let msg = Dvl { stamp_ns, velocity: r.velocity_body_m_s.into(), valid: r.valid, altitude: r.altitude_m };
+                let msg = Dvl {
+                    stamp_ns,
+                    velocity: r.velocity_body_m_s.into(),
+                    valid: r.valid,
+                    altitude: r.altitude_m,
+                };
                 w.write("/dvl", &msg, log_ns(*latency))?;
                 count += 1;
             }
@@ -142,20 +192,38 @@ pub fn run<W: Write + Seek>(scenario: &Scenario, seed: u64, w: &mut LogWriter<W>
         }
         if let Some((s, sched, latency)) = depth.as_mut() {
             if sched.due(t_ns) {
-                w.write("/depth", &Depth { stamp_ns, depth: s.measure(depth_m) }, log_ns(*latency))?;
+                w.write(
+                    "/depth",
+                    &Depth {
+                        stamp_ns,
+                        depth: s.measure(depth_m),
+                    },
+                    log_ns(*latency),
+                )?;
                 count += 1;
             }
         }
         if let Some((s, sched, latency)) = altimeter.as_mut() {
             if sched.due(t_ns) {
                 let altitude = s.measure(altitude_m).max(0.0);
-                w.write("/altimeter", &Altimeter { stamp_ns, altitude }, log_ns(*latency))?;
+                w.write(
+                    "/altimeter",
+                    &Altimeter { stamp_ns, altitude },
+                    log_ns(*latency),
+                )?;
                 count += 1;
             }
         }
         if let Some((prop, sched)) = rpm.as_mut() {
             if sched.due(t_ns) {
-                w.write("/rpm", &Propeller { stamp_ns, rpm: prop.measure(kin.speed_m_s) }, log_ns(0.0))?;
+                w.write(
+                    "/rpm",
+                    &Propeller {
+                        stamp_ns,
+                        rpm: prop.measure(kin.speed_m_s),
+                    },
+                    log_ns(0.0),
+                )?;
                 count += 1;
             }
         }
@@ -166,7 +234,8 @@ pub fn run<W: Write + Seek>(scenario: &Scenario, seed: u64, w: &mut LogWriter<W>
                 let fix = GnssFix {
                     stamp_ns,
                     latitude_deg: (lat + dn / geodesy::meridian_radius_m(lat)).to_degrees(),
-                    longitude_deg: (lon + de / (geodesy::prime_vertical_radius_m(lat) * lat.cos())).to_degrees(),
+                    longitude_deg: (lon + de / (geodesy::prime_vertical_radius_m(lat) * lat.cos()))
+                        .to_degrees(),
                     horizontal_sigma_m: g.sigma_m,
                 };
                 w.write("/gnss", &fix, log_ns(0.1))?;
@@ -186,7 +255,11 @@ pub fn run<W: Write + Seek>(scenario: &Scenario, seed: u64, w: &mut LogWriter<W>
                 w.write("/position_fix", &msg, log_ns(0.5))
             };
             if f.mark_sigma_m > 0.0 && (t_ns == 0 || t_ns + dt_ns > end_ns) {
-                fix(if t_ns == 0 { "start" } else { "end" }, f.mark_sigma_m, None)?;
+                fix(
+                    if t_ns == 0 { "start" } else { "end" },
+                    f.mark_sigma_m,
+                    None,
+                )?;
                 count += 1;
             }
             if let Some(sched) = usbl.as_mut() {
@@ -208,7 +281,11 @@ pub fn run<W: Write + Seek>(scenario: &Scenario, seed: u64, w: &mut LogWriter<W>
                 down_m: depth_m,
                 velocity_body: vel_body.into(),
                 velocity_ned: kin.vel_ned().into(),
-                attitude: [kin.roll_rad, kin.pitch_rad, crate::angle::wrap_pi(kin.yaw_rad)],
+                attitude: [
+                    kin.roll_rad,
+                    kin.pitch_rad,
+                    crate::angle::wrap_pi(kin.yaw_rad),
+                ],
                 angular_velocity: kin.omega_nb_body().into(),
             };
             w.write("/truth", &truth, log_ns(0.0))?;
@@ -219,5 +296,8 @@ pub fn run<W: Write + Seek>(scenario: &Scenario, seed: u64, w: &mut LogWriter<W>
         }
         t_ns += dt_ns;
     }
-    Ok(RunSummary { messages: count, duration_s: t_ns as f64 * 1e-9 })
+    Ok(RunSummary {
+        messages: count,
+        duration_s: t_ns as f64 * 1e-9,
+    })
 }

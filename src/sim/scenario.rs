@@ -13,9 +13,22 @@ use serde::{Deserialize, Serialize};
 /// The scenarios shipped in the binary: (name, TOML text).
 pub const BUILT_IN: &[(&str, &str)] = &[
     ("survey", include_str!("../../scenarios/survey.toml")),
-    ("pool-circle", include_str!("../../scenarios/pool-circle.toml")),
-    ("pool-rectangle", include_str!("../../scenarios/pool-rectangle.toml")),
-    ("dive-27min", include_str!("../../scenarios/dive-27min.toml")),
+    (
+        "survey-short",
+        include_str!("../../scenarios/survey-short.toml"),
+    ),
+    (
+        "pool-circle",
+        include_str!("../../scenarios/pool-circle.toml"),
+    ),
+    (
+        "pool-rectangle",
+        include_str!("../../scenarios/pool-rectangle.toml"),
+    ),
+    (
+        "dive-27min",
+        include_str!("../../scenarios/dive-27min.toml"),
+    ),
     ("long-dive", include_str!("../../scenarios/long-dive.toml")),
 ];
 
@@ -96,6 +109,9 @@ pub struct StartSpec {
     pub yaw_deg: f64,
     #[serde(default)]
     pub speed_m_s: f64,
+    /// Turn rate at the start, deg/s (a run that starts already turning, e.g. a circle).
+    #[serde(default)]
+    pub turn_rate_deg_s: f64,
 }
 
 /// One manoeuvre. Angles in degrees, positive yaw change to starboard.
@@ -107,17 +123,42 @@ pub enum Segment {
     /// Change speed.
     Speed { to_m_s: f64, ramp_s: f64 },
     /// Coordinated turn by an angle.
-    Turn { angle_deg: f64, rate_deg_s: f64, ramp_s: f64 },
+    Turn {
+        angle_deg: f64,
+        rate_deg_s: f64,
+        ramp_s: f64,
+    },
     /// Dive or climb to a depth.
-    Depth { to_m: f64, pitch_deg: f64, ramp_s: f64 },
+    Depth {
+        to_m: f64,
+        pitch_deg: f64,
+        ramp_s: f64,
+    },
     /// Climb to the surface (depth 0).
     Surface { pitch_deg: f64, ramp_s: f64 },
     /// A horizontal spiral: turns of `angle_deg` in all while changing depth to `to_m`.
-    Spiral { angle_deg: f64, rate_deg_s: f64, to_m: f64, pitch_deg: f64, ramp_s: f64 },
+    Spiral {
+        angle_deg: f64,
+        rate_deg_s: f64,
+        to_m: f64,
+        pitch_deg: f64,
+        ramp_s: f64,
+    },
     /// Alternating turns of +-`angle_deg` with `leg_s` straight between, `legs` times.
-    Zigzag { legs: u32, angle_deg: f64, leg_s: f64, rate_deg_s: f64, ramp_s: f64 },
+    Zigzag {
+        legs: u32,
+        angle_deg: f64,
+        leg_s: f64,
+        rate_deg_s: f64,
+        ramp_s: f64,
+    },
     /// Survey lanes: `lanes` straight runs of `lane_s` joined by alternating 180 deg turns.
-    Lawnmower { lanes: u32, lane_s: f64, rate_deg_s: f64, ramp_s: f64 },
+    Lawnmower {
+        lanes: u32,
+        lane_s: f64,
+        rate_deg_s: f64,
+        ramp_s: f64,
+    },
     /// Stop, hold still for `duration_s`, and resume the previous speed.
     Hold { duration_s: f64, ramp_s: f64 },
 }
@@ -283,7 +324,11 @@ impl Scenario {
             .map(|(_, t)| *t)
             .ok_or_else(|| ScenarioError::Unknown {
                 name: name.into(),
-                known: BUILT_IN.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+                known: BUILT_IN
+                    .iter()
+                    .map(|(n, _)| *n)
+                    .collect::<Vec<_>>()
+                    .join(", "),
             })?;
         Scenario::from_toml(text)
     }
@@ -296,10 +341,16 @@ impl Scenario {
     }
 
     fn check(&self) -> Result<(), ScenarioError> {
-        let bad = |reason: String| ScenarioError::Invalid { name: self.name.clone(), reason };
+        let bad = |reason: String| ScenarioError::Invalid {
+            name: self.name.clone(),
+            reason,
+        };
         let rate_ok = |r: f64| r.is_finite() && r > 0.0 && r <= self.imu.rate_hz;
         if !(self.imu.rate_hz.is_finite() && (1.0..=2000.0).contains(&self.imu.rate_hz)) {
-            return Err(bad(format!("imu.rate_hz {} is not in [1, 2000]", self.imu.rate_hz)));
+            return Err(bad(format!(
+                "imu.rate_hz {} is not in [1, 2000]",
+                self.imu.rate_hz
+            )));
         }
         let rates = [
             ("mag", self.mag.map(|m| m.rate_hz)),
@@ -314,12 +365,18 @@ impl Scenario {
         for (name, rate) in rates {
             if let Some(r) = rate {
                 if !rate_ok(r) {
-                    return Err(bad(format!("{name}.rate_hz {r} must be above 0 and at most the IMU rate")));
+                    return Err(bad(format!(
+                        "{name}.rate_hz {r} must be above 0 and at most the IMU rate"
+                    )));
                 }
             }
         }
-        if self.seabed.profile.is_empty() || self.seabed.profile.windows(2).any(|w| w[1][0] <= w[0][0]) {
-            return Err(bad("seabed.profile needs points of increasing distance".into()));
+        if self.seabed.profile.is_empty()
+            || self.seabed.profile.windows(2).any(|w| w[1][0] <= w[0][0])
+        {
+            return Err(bad(
+                "seabed.profile needs points of increasing distance".into()
+            ));
         }
         Ok(())
     }
@@ -336,8 +393,12 @@ impl Scenario {
             self.start.depth_m,
             self.start.yaw_deg.to_radians(),
             self.start.speed_m_s,
-        );
-        let wrap = |source| ScenarioError::Segment { name: self.name.clone(), source };
+        )
+        .with_turn_rate(self.start.turn_rate_deg_s.to_radians());
+        let wrap = |source| ScenarioError::Segment {
+            name: self.name.clone(),
+            source,
+        };
         for seg in &self.segments {
             apply(&mut b, seg).map_err(wrap)?;
         }
@@ -354,30 +415,63 @@ fn apply(b: &mut TrajectoryBuilder, seg: &Segment) -> Result<(), SegmentError> {
         Segment::Speed { to_m_s, ramp_s } => {
             b.speed_to(to_m_s, ramp_s);
         }
-        Segment::Turn { angle_deg, rate_deg_s, ramp_s } => {
+        Segment::Turn {
+            angle_deg,
+            rate_deg_s,
+            ramp_s,
+        } => {
             b.turn(r(angle_deg), r(rate_deg_s), ramp_s)?;
         }
-        Segment::Depth { to_m, pitch_deg, ramp_s } => {
+        Segment::Depth {
+            to_m,
+            pitch_deg,
+            ramp_s,
+        } => {
             b.depth_to(to_m, r(pitch_deg), ramp_s)?;
         }
         Segment::Surface { pitch_deg, ramp_s } => {
             b.depth_to(0.0, r(pitch_deg), ramp_s)?;
         }
-        Segment::Spiral { angle_deg, rate_deg_s, to_m, pitch_deg, ramp_s } => {
+        Segment::Spiral {
+            angle_deg,
+            rate_deg_s,
+            to_m,
+            pitch_deg,
+            ramp_s,
+        } => {
             b.spiral(r(angle_deg), r(rate_deg_s), to_m, r(pitch_deg), ramp_s)?;
         }
-        Segment::Zigzag { legs, angle_deg, leg_s, rate_deg_s, ramp_s } => {
+        Segment::Zigzag {
+            legs,
+            angle_deg,
+            leg_s,
+            rate_deg_s,
+            ramp_s,
+        } => {
             // First swing half the angle so the mean heading is kept.
-            b.turn(r(angle_deg) / 2.0, r(rate_deg_s), ramp_s.min(angle_deg / 2.0 / rate_deg_s / 2.0))?;
+            b.turn(
+                r(angle_deg) / 2.0,
+                r(rate_deg_s),
+                ramp_s.min(angle_deg / 2.0 / rate_deg_s / 2.0),
+            )?;
             let mut side = -1.0;
             for _ in 0..legs {
                 b.cruise(leg_s);
                 b.turn(side * r(angle_deg), r(rate_deg_s), ramp_s)?;
                 side = -side;
             }
-            b.turn(side * r(angle_deg) / 2.0, r(rate_deg_s), ramp_s.min(angle_deg / 2.0 / rate_deg_s / 2.0))?;
+            b.turn(
+                side * r(angle_deg) / 2.0,
+                r(rate_deg_s),
+                ramp_s.min(angle_deg / 2.0 / rate_deg_s / 2.0),
+            )?;
         }
-        Segment::Lawnmower { lanes, lane_s, rate_deg_s, ramp_s } => {
+        Segment::Lawnmower {
+            lanes,
+            lane_s,
+            rate_deg_s,
+            ramp_s,
+        } => {
             let mut side = 1.0;
             for lane in 0..lanes {
                 b.cruise(lane_s);
@@ -409,12 +503,18 @@ mod tests {
             let t = s.trajectory().unwrap_or_else(|e| panic!("{name}: {e}"));
             assert!(t.duration_s() > 60.0, "{name}");
         }
-        assert!(matches!(Scenario::built_in("nope"), Err(ScenarioError::Unknown { .. })));
+        assert!(matches!(
+            Scenario::built_in("nope"),
+            Err(ScenarioError::Unknown { .. })
+        ));
     }
 
     #[test]
     fn seabed_profile_interpolates() {
-        let s = SeabedSpec { bearing_deg: 90.0, profile: vec![[0.0, 50.0], [100.0, 150.0]] };
+        let s = SeabedSpec {
+            bearing_deg: 90.0,
+            profile: vec![[0.0, 50.0], [100.0, 150.0]],
+        };
         assert!((s.depth_m(0.0, 50.0) - 100.0).abs() < 1e-9);
         assert_eq!(s.depth_m(0.0, -10.0), 50.0);
         assert_eq!(s.depth_m(0.0, 500.0), 150.0);
@@ -424,8 +524,14 @@ mod tests {
     fn rejects_bad_rates_and_unknown_keys() {
         let text = Scenario::built_in("survey").map(|_| BUILT_IN[0].1).unwrap();
         let bad = text.replacen("rate_hz = 100", "rate_hz = 0", 1);
-        assert!(matches!(Scenario::from_toml(&bad), Err(ScenarioError::Invalid { .. })));
+        assert!(matches!(
+            Scenario::from_toml(&bad),
+            Err(ScenarioError::Invalid { .. })
+        ));
         let unknown = format!("{text}\nbogus = 1\n");
-        assert!(matches!(Scenario::from_toml(&unknown), Err(ScenarioError::Parse(_))));
+        assert!(matches!(
+            Scenario::from_toml(&unknown),
+            Err(ScenarioError::Parse(_))
+        ));
     }
 }

@@ -187,6 +187,12 @@ impl TrajectoryBuilder {
         }
     }
 
+    /// Starts already turning at `rate_rad_s` (coordinated, so already banked).
+    pub fn with_turn_rate(mut self, rate_rad_s: f64) -> Self {
+        self.turn_rate = Profile::new(rate_rad_s);
+        self
+    }
+
     /// Time at the end of the segments so far.
     pub fn time_s(&self) -> f64 {
         self.t_s
@@ -224,7 +230,12 @@ impl TrajectoryBuilder {
 
     /// Turns by `angle_rad` (positive to starboard) at `rate_rad_s`, entering and leaving the
     /// turn over `ramp_s` each.
-    pub fn turn(&mut self, angle_rad: f64, rate_rad_s: f64, ramp_s: f64) -> Result<&mut Self, SegmentError> {
+    pub fn turn(
+        &mut self,
+        angle_rad: f64,
+        rate_rad_s: f64,
+        ramp_s: f64,
+    ) -> Result<&mut Self, SegmentError> {
         let d = self.plan_turn(self.t_s, angle_rad, rate_rad_s, ramp_s)?;
         self.t_s += d;
         Ok(self)
@@ -232,7 +243,12 @@ impl TrajectoryBuilder {
 
     /// Dives or climbs to `depth_m` at up to `pitch_rad` (magnitude), pitching over `ramp_s`,
     /// at the current speed.
-    pub fn depth_to(&mut self, depth_m: f64, pitch_rad: f64, ramp_s: f64) -> Result<&mut Self, SegmentError> {
+    pub fn depth_to(
+        &mut self,
+        depth_m: f64,
+        pitch_rad: f64,
+        ramp_s: f64,
+    ) -> Result<&mut Self, SegmentError> {
         let d = self.plan_depth(self.t_s, depth_m, pitch_rad, ramp_s)?;
         self.t_s += d;
         Ok(self)
@@ -254,7 +270,13 @@ impl TrajectoryBuilder {
     }
 
     /// Schedules a turn from `t0`; returns its duration.
-    fn plan_turn(&mut self, t0: f64, angle_rad: f64, rate_rad_s: f64, ramp_s: f64) -> Result<f64, SegmentError> {
+    fn plan_turn(
+        &mut self,
+        t0: f64,
+        angle_rad: f64,
+        rate_rad_s: f64,
+        ramp_s: f64,
+    ) -> Result<f64, SegmentError> {
         if angle_rad == 0.0 {
             return Ok(0.0);
         }
@@ -275,7 +297,13 @@ impl TrajectoryBuilder {
     }
 
     /// Schedules a depth change from `t0`; returns its duration.
-    fn plan_depth(&mut self, t0: f64, depth_m: f64, pitch_rad: f64, ramp_s: f64) -> Result<f64, SegmentError> {
+    fn plan_depth(
+        &mut self,
+        t0: f64,
+        depth_m: f64,
+        pitch_rad: f64,
+        ramp_s: f64,
+    ) -> Result<f64, SegmentError> {
         let change = depth_m - self.depth_m;
         if change == 0.0 {
             return Ok(0.0);
