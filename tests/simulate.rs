@@ -150,3 +150,42 @@ fn pool_paths_have_the_papers_lengths_and_close() {
         assert_eq!(labels, ["start", "end"]);
     }
 }
+
+#[test]
+fn usbl_fixes_have_their_sigma() {
+    let text = hindsight::sim::scenario::BUILT_IN
+        .iter()
+        .find(|(n, _)| *n == "survey-short")
+        .unwrap()
+        .1;
+    let text = format!("{text}\n[fixes]\nusbl_every_s = 0.5\nusbl_sigma_m = 2.0\n");
+    let scenario = Scenario::from_toml(&text).unwrap();
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        hindsight::sim::run::run(&scenario, 5, w)
+            .map(|_| ())
+            .map_err(|e| match e {
+                hindsight::sim::run::SimError::Write(w) => w,
+                other => panic!("{other}"),
+            })
+    })
+    .unwrap();
+    let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
+    let truth = log.messages::<Truth>("/truth").unwrap();
+    let fixes = log
+        .messages::<hindsight::contract::PositionFix>("/position_fix")
+        .unwrap();
+    assert!(fixes.len() > 600, "{}", fixes.len());
+    let mut sq = [0.0; 3];
+    for f in fixes {
+        assert_eq!(f.label, "usbl");
+        let (t, age) = hindsight::align::latest_at(truth, f.stamp_ns).unwrap();
+        assert_eq!(age, 0);
+        sq[0] += (f.north_m - t.north_m).powi(2);
+        sq[1] += (f.east_m - t.east_m).powi(2);
+        sq[2] += (f.down_m.unwrap() - t.down_m).powi(2);
+    }
+    for s in sq {
+        let sigma = (s / fixes.len() as f64).sqrt();
+        assert!((sigma / 2.0 - 1.0).abs() < 0.1, "{sigma}");
+    }
+}
