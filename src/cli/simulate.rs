@@ -67,7 +67,15 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         writer::WriterOptions::default(),
     )?;
     eprintln!("simulating `{}` (seed {}) ...", scenario.name, args.seed);
-    let summary = run::run(&scenario, args.seed, &mut w)?;
+    let interactive = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let summary = run::run_with_progress(&scenario, args.seed, &mut w, |done| {
+        if interactive {
+            eprint!("\r  {:3.0} % of the mission", done * 100.0);
+        }
+    })?;
+    if interactive {
+        eprintln!();
+    }
     w.finish()?
         .into_inner()
         .map_err(|e| e.into_error())

@@ -67,6 +67,16 @@ pub fn run<W: Write + Seek>(
     seed: u64,
     w: &mut LogWriter<W>,
 ) -> Result<RunSummary, SimError> {
+    run_with_progress(scenario, seed, w, |_| {})
+}
+
+/// [`run`], calling `progress` with the fraction of mission time done, every 1 %.
+pub fn run_with_progress<W: Write + Seek>(
+    scenario: &Scenario,
+    seed: u64,
+    w: &mut LogWriter<W>,
+    mut progress: impl FnMut(f64),
+) -> Result<RunSummary, SimError> {
     let traj = scenario.trajectory()?;
     let origin_lat = scenario.mission.origin_latitude_deg.to_radians();
     let origin_lon = scenario.mission.origin_longitude_deg.to_radians();
@@ -133,7 +143,13 @@ pub fn run<W: Write + Seek>(
     let mut position = PositionIntegrator::new(&traj);
     let mut count = 0u64;
     let mut t_ns = 0i64;
+    let progress_every_ns = (end_ns / 100).max(1);
+    let mut next_progress_ns = 0;
     loop {
+        if t_ns >= next_progress_ns {
+            progress(t_ns as f64 / end_ns.max(1) as f64);
+            next_progress_ns += progress_every_ns;
+        }
         let t_s = t_ns as f64 * 1e-9;
         position.advance_to(t_s);
         let p = position.position;
