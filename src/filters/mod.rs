@@ -3,3 +3,4 @@
 //! May import: `geodesy`, `frames`, `angle`, `time`, `nalgebra`.
 
 pub mod ins;
+pub mod kalman;
