@@ -43,6 +43,37 @@ pub fn normal_gravity_m_s2(lat_rad: f64, height_m: f64) -> f64 {
             + 3.0 * height_m * height_m / (A_M * A_M))
 }
 
+/// d R_N / d latitude, m/rad.
+pub fn meridian_radius_derivative(lat_rad: f64) -> f64 {
+    let (s, c) = lat_rad.sin_cos();
+    3.0 * A_M * (1.0 - E2) * E2 * s * c / (1.0 - E2 * s * s).powf(2.5)
+}
+
+/// d R_E / d latitude, m/rad.
+pub fn prime_vertical_radius_derivative(lat_rad: f64) -> f64 {
+    let (s, c) = lat_rad.sin_cos();
+    A_M * E2 * s * c / (1.0 - E2 * s * s).powf(1.5)
+}
+
+/// Partial derivatives of [`normal_gravity_m_s2`]: (d gamma / d lat per rad, d gamma / d h per m).
+pub fn normal_gravity_partials(lat_rad: f64, height_m: f64) -> (f64, f64) {
+    let (s, c) = lat_rad.sin_cos();
+    let s2 = s * s;
+    let root = (1.0 - E2 * s2).sqrt();
+    let gamma0 = GAMMA_EQUATOR_M_S2 * (1.0 + SOMIGLIANA_K * s2) / root;
+    let dgamma0 = GAMMA_EQUATOR_M_S2
+        * (2.0 * SOMIGLIANA_K * s * c / root
+            + (1.0 + SOMIGLIANA_K * s2) * E2 * s * c / root.powi(3));
+    let c1 = 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2);
+    let dc1 = -8.0 * F * s * c / A_M;
+    let h = height_m;
+    let factor = 1.0 - c1 * h + 3.0 * h * h / (A_M * A_M);
+    (
+        dgamma0 * factor - gamma0 * dc1 * h,
+        gamma0 * (-c1 + 6.0 * h / (A_M * A_M)),
+    )
+}
+
 /// Gravity (gravitation plus centrifugal) in NED: `[0, 0, gamma]`, along the ellipsoid normal.
 pub fn gravity_ned_m_s2(lat_rad: f64, height_m: f64) -> Vector3<f64> {
     Vector3::new(0.0, 0.0, normal_gravity_m_s2(lat_rad, height_m))
@@ -115,6 +146,25 @@ mod tests {
         let polar = A_M * A_M / b;
         assert!((meridian_radius_m(std::f64::consts::FRAC_PI_2) - polar).abs() < 1e-4);
         assert!((prime_vertical_radius_m(std::f64::consts::FRAC_PI_2) - polar).abs() < 1e-4);
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        for lat_deg in [-70.0, -20.0, 0.0, 35.0, 80.0] {
+            let lat = f64::to_radians(lat_deg);
+            let h = -300.0;
+            let d = 1e-6;
+            let fd = |f: &dyn Fn(f64) -> f64| (f(lat + d) - f(lat - d)) / (2.0 * d);
+            assert!((meridian_radius_derivative(lat) - fd(&meridian_radius_m)).abs() < 1e-3);
+            assert!(
+                (prime_vertical_radius_derivative(lat) - fd(&prime_vertical_radius_m)).abs() < 1e-3
+            );
+            let (dlat, dh) = normal_gravity_partials(lat, h);
+            let g_lat = fd(&|l| normal_gravity_m_s2(l, h));
+            let g_h = (normal_gravity_m_s2(lat, h + 1.0) - normal_gravity_m_s2(lat, h - 1.0)) / 2.0;
+            assert!((dlat - g_lat).abs() < 1e-8, "{dlat} {g_lat}");
+            assert!((dh - g_h).abs() < 1e-12, "{dh} {g_h}");
+        }
     }
 
     #[test]

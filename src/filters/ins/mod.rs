@@ -1,3 +1,4 @@
 //! Inertial navigation: the strapdown mechanization (the error-state filter comes later).
 
+pub mod error_state;
 pub mod mechanization;

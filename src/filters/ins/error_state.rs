@@ -1,0 +1,289 @@
+//! The 15-state error model of the strapdown mechanization (seed 000 eq. 13-15).
+//!
+//! Error state `dx = [dp, dv, psi, dbg, dba]`:
+//! - `dp`: position correction in metres along local north, east, down;
+//! - `dv`: NED velocity correction, m/s;
+//! - `psi`: attitude correction, a small rotation of the NED frame, rad;
+//! - `dbg`, `dba`: gyro and accelerometer bias corrections, rad/s and m/s^2.
+//!
+//! Corrections are what to add to the nominal (mechanized) solution to get the truth:
+//! `truth = nominal (+) dx` ([`inject`]), with `C_b^n(true) = exp([psi x]) C_b^n(nominal)`,
+//! and true IMU = mechanization input minus the bias corrections.
+//!
+//! [`continuous_matrix`] is the exact first-order linearisation of the mechanization's ODE
+//! (`filters::ins::mechanization`) about the nominal state, including Earth-rate, transport
+//! rate, radius-of-curvature and gravity terms; a test checks it against finite differences
+//! of the mechanization itself:
+//!
+//! dp'  = F_pp dp + dv
+//! dv'  = F_vp dp + F_vv dv - [f^n x] psi - C dba
+//! psi' = F_ψp dp - B dv - [omega_in^n x] psi - C dbg
+//! dbg' = dba' = 0 (random walks through Q)
+
+use super::mechanization::NavState;
+use crate::geodesy;
+use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, UnitQuaternion, Vector3};
+
+/// Size of the error state.
+pub const N: usize = 15;
+/// Error state vector.
+pub type ErrorState = SVector<f64, N>;
+/// Error-state matrix.
+pub type ErrorMatrix = SMatrix<f64, N, N>;
+
+/// Index of the first element of each block.
+pub mod idx {
+    pub const POS: usize = 0;
+    pub const VEL: usize = 3;
+    pub const ATT: usize = 6;
+    pub const GYRO_BIAS: usize = 9;
+    pub const ACCEL_BIAS: usize = 12;
+}
+
+fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
+    v.cross_matrix()
+}
+
+/// Continuous-time error dynamics `F` at a nominal state, for the bias-corrected specific
+/// force `f_body` the mechanization is using.
+pub fn continuous_matrix(nav: &NavState, f_body: &Vector3<f64>) -> ErrorMatrix {
+    use idx::*;
+    let (lat, h) = (nav.lat_rad, nav.height_m);
+    let v = nav.vel_ned_m_s;
+    let (vn, ve, vd) = (v.x, v.y, v.z);
+    let (s, c) = lat.sin_cos();
+    let t = s / c;
+    let rho_n = geodesy::meridian_radius_m(lat) + h;
+    let rho_e = geodesy::prime_vertical_radius_m(lat) + h;
+    let dr_n = geodesy::meridian_radius_derivative(lat);
+    let dr_e = geodesy::prime_vertical_radius_derivative(lat);
+    let omega = geodesy::OMEGA_IE_RAD_S;
+    let w_ie = geodesy::earth_rate_ned(lat);
+    let w_en = geodesy::transport_rate_ned(lat, h, &v);
+    let ned_from_body = nav.ned_from_body.to_rotation_matrix().into_inner();
+    let f_ned = ned_from_body * f_body;
+    let (dg_dlat, dg_dh) = geodesy::normal_gravity_partials(lat, h);
+
+    // Partial derivatives of the transport rate.
+    let den_dlat = Vector3::new(
+        -ve * dr_e / (rho_e * rho_e),
+        vn * dr_n / (rho_n * rho_n),
+        -ve * (1.0 / (c * c * rho_e) - t * dr_e / (rho_e * rho_e)),
+    );
+    let den_dh = Vector3::new(
+        -ve / (rho_e * rho_e),
+        vn / (rho_n * rho_n),
+        ve * t / (rho_e * rho_e),
+    );
+    #[rustfmt::skip]
+    let b = Matrix3::new(
+        0.0, 1.0 / rho_e, 0.0,
+        -1.0 / rho_n, 0.0, 0.0,
+        0.0, -t / rho_e, 0.0,
+    );
+    let die_dlat = Vector3::new(-omega * s, 0.0, -omega * c);
+
+    let mut f = ErrorMatrix::zeros();
+    // Position (dlat = dN / rho_n, dh = -dD).
+    f[(POS, POS)] = -vd / rho_n;
+    f[(POS, POS + 2)] = vn / rho_n;
+    f[(POS + 1, POS)] = -ve * dr_e / (rho_e * rho_n) + ve * t / rho_n;
+    f[(POS + 1, POS + 1)] = vn * dr_e / (rho_e * rho_n) - vn * t / rho_n - vd / rho_e;
+    f[(POS + 1, POS + 2)] = ve / rho_e;
+    f.fixed_view_mut::<3, 3>(POS, VEL)
+        .copy_from(&Matrix3::identity());
+
+    // Velocity.
+    let v_cross = skew(&v);
+    let a_lat = 2.0 * die_dlat + den_dlat;
+    let col_n = v_cross * a_lat / rho_n + Vector3::new(0.0, 0.0, dg_dlat / rho_n);
+    let col_d = -v_cross * den_dh + Vector3::new(0.0, 0.0, -dg_dh);
+    f.fixed_view_mut::<3, 1>(VEL, POS).copy_from(&col_n);
+    f.fixed_view_mut::<3, 1>(VEL, POS + 2).copy_from(&col_d);
+    f.fixed_view_mut::<3, 3>(VEL, VEL)
+        .copy_from(&(-skew(&(2.0 * w_ie + w_en)) + v_cross * b));
+    f.fixed_view_mut::<3, 3>(VEL, ATT)
+        .copy_from(&(-skew(&f_ned)));
+    f.fixed_view_mut::<3, 3>(VEL, ACCEL_BIAS)
+        .copy_from(&(-ned_from_body));
+
+    // Attitude.
+    let att_n = -(die_dlat + den_dlat) / rho_n;
+    f.fixed_view_mut::<3, 1>(ATT, POS).copy_from(&att_n);
+    f.fixed_view_mut::<3, 1>(ATT, POS + 2).copy_from(&den_dh);
+    f.fixed_view_mut::<3, 3>(ATT, VEL).copy_from(&(-b));
+    f.fixed_view_mut::<3, 3>(ATT, ATT)
+        .copy_from(&(-skew(&(w_ie + w_en))));
+    f.fixed_view_mut::<3, 3>(ATT, GYRO_BIAS)
+        .copy_from(&(-ned_from_body));
+    f
+}
+
+/// `nominal (+) dx`: the navigation state corrected by the position, velocity and attitude
+/// parts of `dx` (the bias parts correct the IMU, not the state).
+pub fn inject(nominal: &NavState, dx: &ErrorState) -> NavState {
+    let (lat, h) = (nominal.lat_rad, nominal.height_m);
+    let rho_n = geodesy::meridian_radius_m(lat) + h;
+    let rho_e = geodesy::prime_vertical_radius_m(lat) + h;
+    let psi = Vector3::new(dx[idx::ATT], dx[idx::ATT + 1], dx[idx::ATT + 2]);
+    NavState {
+        lat_rad: lat + dx[idx::POS] / rho_n,
+        lon_rad: nominal.lon_rad + dx[idx::POS + 1] / (rho_e * lat.cos()),
+        height_m: h - dx[idx::POS + 2],
+        vel_ned_m_s: nominal.vel_ned_m_s
+            + Vector3::new(dx[idx::VEL], dx[idx::VEL + 1], dx[idx::VEL + 2]),
+        ned_from_body: UnitQuaternion::from_scaled_axis(psi) * nominal.ned_from_body,
+    }
+}
+
+/// `truth (-) nominal`: the position, velocity and attitude corrections that take `nominal`
+/// to `truth` (inverse of [`inject`]).
+pub fn difference(truth: &NavState, nominal: &NavState) -> SVector<f64, 9> {
+    let (lat, h) = (nominal.lat_rad, nominal.height_m);
+    let rho_n = geodesy::meridian_radius_m(lat) + h;
+    let rho_e = geodesy::prime_vertical_radius_m(lat) + h;
+    let dv = truth.vel_ned_m_s - nominal.vel_ned_m_s;
+    let psi = (truth.ned_from_body * nominal.ned_from_body.inverse()).scaled_axis();
+    SVector::<f64, 9>::from_column_slice(&[
+        (truth.lat_rad - lat) * rho_n,
+        (truth.lon_rad - nominal.lon_rad) * rho_e * lat.cos(),
+        -(truth.height_m - h),
+        dv.x,
+        dv.y,
+        dv.z,
+        psi.x,
+        psi.y,
+        psi.z,
+    ])
+}
+
+/// Discrete transition `Phi = exp(F dt)` (Taylor series to fourth order: F dt is small at IMU
+/// rate) for one interval.
+pub fn transition(f: &ErrorMatrix, dt_s: f64) -> ErrorMatrix {
+    let a = f * dt_s;
+    let mut term = ErrorMatrix::identity();
+    let mut phi = ErrorMatrix::identity();
+    for k in 1..=4 {
+        term = term * a / k as f64;
+        phi += term;
+    }
+    phi
+}
+
+/// Rotation of a small angle vector, for callers that apply corrections to attitudes.
+pub fn small_rotation(psi: &Vector3<f64>) -> Rotation3<f64> {
+    Rotation3::from_scaled_axis(*psi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::mechanization::{propagate, ImuSample};
+    use super::*;
+
+    fn nominal() -> (NavState, ImuSample) {
+        nominal_at(Vector3::new(2.5, -1.7, 0.4))
+    }
+
+    fn nominal_at(vel_ned_m_s: Vector3<f64>) -> (NavState, ImuSample) {
+        let att = UnitQuaternion::from_euler_angles(0.05, -0.08, 2.1);
+        let nav = NavState {
+            lat_rad: 35f64.to_radians(),
+            lon_rad: 0.1, // near zero: the longitude's last bit is then 1e-11 m
+            height_m: -150.0,
+            vel_ned_m_s,
+            ned_from_body: att,
+        };
+        let g = geodesy::gravity_ned_m_s2(nav.lat_rad, nav.height_m);
+        let f_body = att.inverse() * (Vector3::new(0.2, 0.1, -0.05) - g);
+        let imu = ImuSample {
+            omega_ib_body: Vector3::new(0.005, -0.004, 0.008),
+            specific_force_body: f_body,
+        };
+        (nav, imu)
+    }
+
+    /// Each column of Phi by a central difference of the mechanization itself: propagate a
+    /// corrected state and the nominal over dt and take their difference.
+    #[test]
+    fn matches_finite_differences_of_the_mechanization() {
+        // A vehicle's speed, and an aircraft's, whose large velocity makes the small
+        // transport-rate and Coriolis terms big enough to see.
+        check_against_finite_differences(Vector3::new(2.5, -1.7, 0.4));
+        check_against_finite_differences(Vector3::new(250.0, -170.0, 40.0));
+    }
+
+    fn check_against_finite_differences(vel_ned_m_s: Vector3<f64>) {
+        let (nav, imu) = nominal_at(vel_ned_m_s);
+        // dt and steps trade rounding (positions carry 1e-16 of the latitude) against the
+        // change of F over the step; F itself changes slowly at these rates.
+        let dt = 2e-3;
+        let nominal_end = propagate(&nav, &imu, &imu, dt, None);
+        // F along the step: the mean of its ends (second-order Magnus), as a filter uses it.
+        let f = (continuous_matrix(&nav, &imu.specific_force_body)
+            + continuous_matrix(&nominal_end, &imu.specific_force_body))
+            * 0.5;
+        let phi = transition(&f, dt);
+        let f2 = f * f;
+        let steps = [
+            1e4, 1e4, 1e4, 1.0, 1.0, 1.0, 1e-2, 1e-2, 1e-2, 1e-3, 1e-3, 1e-3, 0.1, 0.1, 0.1,
+        ];
+        for (i, &eps) in steps.iter().enumerate() {
+            let column = |sign: f64| {
+                let mut dx = ErrorState::zeros();
+                dx[i] = sign * eps;
+                let start = inject(&nav, &dx);
+                // True IMU = mechanization input minus the bias corrections.
+                let bg = Vector3::new(dx[9], dx[10], dx[11]);
+                let ba = Vector3::new(dx[12], dx[13], dx[14]);
+                let true_imu = ImuSample {
+                    omega_ib_body: imu.omega_ib_body - bg,
+                    specific_force_body: imu.specific_force_body - ba,
+                };
+                let end = propagate(&start, &true_imu, &true_imu, dt, None);
+                let mut out = ErrorState::zeros();
+                out.fixed_rows_mut::<9>(0)
+                    .copy_from(&difference(&end, &nominal_end));
+                out.fixed_rows_mut::<6>(9).copy_from(&dx.fixed_rows::<6>(9));
+                out
+            };
+            let numeric = (column(1.0) - column(-1.0)) / (2.0 * eps);
+            for r in 0..N {
+                let (want, got) = (phi[(r, i)], numeric[r]);
+                // Compare the rates (Phi - I) / dt: they span 1e-7 to 10.
+                let (want_rate, got_rate) = (
+                    (want - f64::from(u8::from(r == i))) / dt,
+                    (got - f64::from(u8::from(r == i))) / dt,
+                );
+                // Position rows seen from the other columns hold F_pv = I (checked to 1e-4)
+                // and second-order products such as F_pv F_vpsi dt / 2 (about 5e-4), whose
+                // F changes over dt by a few 1e-7 as the specific force turns with the body;
+                // positions also round to 1e-9 m (the latitude's last bit). The first-order
+                // position terms (F_pp, about 1e-7) are checked by the 10 km position columns
+                // with the tight floor.
+                // First-order content must match to 1e-4. The second-order part of a rate,
+                // (F^2)_ri dt / 2, carries third-order and F-varies-over-dt errors: 5 % of it.
+                // Positions round to about 1e-9 m (the latitude's last bit): seen through a
+                // step eps over dt, that is 1e-9 / eps / dt in a rate.
+                let second_order = f2[(r, i)].abs() * dt / 2.0;
+                let rounding = if r < 3 { 1e-9 / eps / dt } else { 0.0 };
+                let tol = 1e-4 * want_rate.abs() + 0.05 * second_order + rounding + 2e-9;
+                assert!(
+                    (want_rate - got_rate).abs() <= tol,
+                    "v {vel_ned_m_s}: F[{r}][{i}]: analytic {want_rate:e}, numeric {got_rate:e}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn inject_and_difference_are_inverse() {
+        let (nav, _) = nominal();
+        let dx = ErrorState::from_fn(|i, _| {
+            [
+                3.0, -2.0, 1.5, 0.1, -0.2, 0.05, 1e-3, -2e-3, 5e-3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+            ][i]
+        });
+        let back = difference(&inject(&nav, &dx), &nav);
+        assert!((back - dx.fixed_rows::<9>(0)).amax() < 1e-9, "{back}");
+    }
+}
