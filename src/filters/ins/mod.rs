@@ -1,4 +1,5 @@
 //! Inertial navigation: the strapdown mechanization (the error-state filter comes later).
 
 pub mod error_state;
+pub mod forward;
 pub mod mechanization;
