@@ -14,4 +14,5 @@ pub mod geodesy;
 pub mod ingest;
 pub mod output;
 pub mod sim;
+pub mod smooth;
 pub mod time;

@@ -14,6 +14,7 @@ use hindsight::geodesy;
 use hindsight::ingest::{read_log_from, IngestOptions};
 use hindsight::sim::scenario::Scenario;
 use hindsight::sim::writer::{to_bytes, WriterOptions};
+use hindsight::smooth::rts::{smooth, EpochRecord};
 use nalgebra::{SMatrix, UnitQuaternion, Vector3};
 
 fn sample(m: &Imu) -> ImuSample {
@@ -90,6 +91,15 @@ fn forward_filter_follows_the_survey() {
     };
 
     let gate = |m: usize| Some(chi_square_quantile(m, 0.999));
+    // Epoch records for the smoother: one per IMU tick with a measurement or a truth sample.
+    let mut records = vec![EpochRecord {
+        stamp_ns: imu[0].stamp_ns,
+        phi_from_previous: ErrorMatrix::identity(),
+        prior_cov: est.cov,
+        correction: nalgebra::SVector::zeros(),
+        posterior: est,
+    }];
+    let mut phi_acc = ErrorMatrix::identity();
     let (mut i_dvl, mut i_depth, mut i_gnss, mut i_truth) = (0, 0, 0, 0);
     let mut errors: Vec<(i64, f64, f64)> = Vec::new(); // (stamp, horizontal error, north sigma)
     let mut last_gnss_before_end = 0;
@@ -97,7 +107,11 @@ fn forward_filter_follows_the_survey() {
     for pair in imu.windows(2) {
         let (a, b) = (&pair[0], &pair[1]);
         let dt = (b.stamp_ns - a.stamp_ns) as f64 * 1e-9;
-        est = filter.predict(&est, &sample(a), &sample(b), dt, None).0;
+        let (predicted, phi) = filter.predict(&est, &sample(a), &sample(b), dt, None);
+        est = predicted;
+        phi_acc = phi * phi_acc;
+        let prior = est;
+        let epoch_before = (i_dvl, i_depth, i_gnss, i_truth);
         while i_dvl < dvl.len() && dvl[i_dvl].stamp_ns <= b.stamp_ns {
             let d = &dvl[i_dvl];
             if d.valid {
@@ -140,6 +154,16 @@ fn forward_filter_follows_the_survey() {
             }
             i_truth += 1;
         }
+        if (i_dvl, i_depth, i_gnss, i_truth) != epoch_before {
+            records.push(EpochRecord {
+                stamp_ns: b.stamp_ns,
+                phi_from_previous: phi_acc,
+                prior_cov: prior.cov,
+                correction: EpochRecord::correction_between(&prior, &est),
+                posterior: est,
+            });
+            phi_acc = ErrorMatrix::identity();
+        }
         assert!(
             est.cov.cholesky().is_some(),
             "covariance stays positive definite"
@@ -175,4 +199,39 @@ fn forward_filter_follows_the_survey() {
         "{before_end_fix} m of {distance} m"
     );
     assert!(errors.last().unwrap().1 < 5.0);
+
+    // Smoothed: scored at the same truth stamps.
+    let smoothed = smooth(&records).unwrap();
+    let mut smoothed_sq = Vec::new();
+    let mut ti = 0;
+    for (rec, s) in records.iter().zip(&smoothed).skip(1) {
+        while ti < truth.len() && truth[ti].stamp_ns < rec.stamp_ns {
+            ti += 1;
+        }
+        if ti < truth.len() && truth[ti].stamp_ns == rec.stamp_ns {
+            let t = &truth[ti];
+            let (n, e) = geodesy::local_north_east_m(
+                t.latitude_deg.to_radians(),
+                t.longitude_deg.to_radians(),
+                s.nav.lat_rad,
+                s.nav.lon_rad,
+            );
+            smoothed_sq.push(n * n + e * e);
+            assert!(
+                s.cov.cholesky().is_some(),
+                "smoothed covariance positive definite"
+            );
+        }
+    }
+    assert_eq!(smoothed_sq.len(), errors.len());
+    let smoothed_rms = (smoothed_sq.iter().sum::<f64>() / smoothed_sq.len() as f64).sqrt();
+    println!(
+        "survey smoothed: horizontal error RMS {smoothed_rms:.2} m (forward {rms:.2} m), {} epochs",
+        records.len()
+    );
+    assert!(
+        smoothed_rms <= 0.5 * rms,
+        "smoothed {smoothed_rms} m vs forward {rms} m"
+    );
+    assert!(smoothed_rms < 2.0, "{smoothed_rms} m");
 }

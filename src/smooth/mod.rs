@@ -1,0 +1,5 @@
+//! Smoothers: pure functions of what the forward pass recorded; they never re-run the models.
+//!
+//! May import: `filters` (types), `nalgebra`.
+
+pub mod rts;

@@ -1,0 +1,94 @@
+//! Fixed-interval Rauch-Tung-Striebel smoother for the error-state filter with resets.
+//!
+//! Derivation. The forward filter keeps a nominal state `x` and an error state `dx` whose mean
+//! is reset to zero after every update (the correction is injected into `x`). Between two
+//! recorded epochs k and k+1 there are no updates, only prediction:
+//! `dx_{k+1|k} = Phi_k dx_{k|k} = 0` and `P_{k+1|k} = Phi_k P_{k|k} Phi_k^T + Q_k`.
+//! At epoch k+1 the updates move the nominal from its prior `x-_{k+1}` to its posterior
+//! `x+_{k+1} = x-_{k+1} (+) D_{k+1}`, and the smoothed error relative to the posterior is
+//! `dx_{k+1|N}`. Relative to the prior nominal (the one `Phi_k` propagated to) it is, to first
+//! order, `dx_{k+1|N} + D_{k+1}`. The RTS recursion on the error state then reads
+//!
+//!   C_k       = P_{k|k} Phi_k^T P_{k+1|k}^-1
+//!   dx_{k|N}  = C_k (dx_{k+1|N} + D_{k+1} - dx_{k+1|k}),   dx_{k+1|k} = 0
+//!   P_{k|N}   = P_{k|k} + C_k (P_{k+1|N} - P_{k+1|k}) C_k^T
+//!
+//! starting from `dx_{N|N} = 0`, `P_{N|N}` at the last epoch, and the smoothed state is
+//! `x+_k (+) dx_{k|N}`. The reset Jacobian is taken as the identity, as in the forward filter.
+//! Memory: one record per filter epoch (measurement or output time), never per IMU sample.
+
+use crate::filters::ins::error_state::{self, idx, ErrorMatrix, ErrorState};
+use crate::filters::ins::forward::Estimate;
+
+/// What the forward pass keeps at one epoch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EpochRecord {
+    pub stamp_ns: i64,
+    /// Transition from the previous epoch to this one (identity at the first epoch).
+    pub phi_from_previous: ErrorMatrix,
+    /// Covariance predicted to this epoch, before its updates.
+    pub prior_cov: ErrorMatrix,
+    /// Correction the updates at this epoch applied, prior to posterior (position, velocity,
+    /// attitude as in the error state, then the two bias changes).
+    pub correction: ErrorState,
+    /// Estimate after this epoch's updates.
+    pub posterior: Estimate,
+}
+
+impl EpochRecord {
+    /// The correction that takes `prior` to `posterior` (both at one epoch).
+    pub fn correction_between(prior: &Estimate, posterior: &Estimate) -> ErrorState {
+        let mut d = ErrorState::zeros();
+        d.fixed_rows_mut::<9>(0)
+            .copy_from(&error_state::difference(&posterior.nav, &prior.nav));
+        d.fixed_rows_mut::<3>(idx::GYRO_BIAS)
+            .copy_from(&(posterior.gyro_bias - prior.gyro_bias));
+        d.fixed_rows_mut::<3>(idx::ACCEL_BIAS)
+            .copy_from(&(posterior.accel_bias - prior.accel_bias));
+        d
+    }
+}
+
+/// Why smoothing failed.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum SmoothError {
+    #[error("predicted covariance at epoch {epoch} is not invertible")]
+    SingularPrior { epoch: usize },
+}
+
+/// Smoothed estimates, one per record.
+pub fn smooth(records: &[EpochRecord]) -> Result<Vec<Estimate>, SmoothError> {
+    let n = records.len();
+    let mut out = Vec::with_capacity(n);
+    if n == 0 {
+        return Ok(out);
+    }
+    let mut dx_next = ErrorState::zeros();
+    let mut p_next = records[n - 1].posterior.cov;
+    out.push(records[n - 1].posterior);
+    for k in (0..n - 1).rev() {
+        let rec = &records[k];
+        let next = &records[k + 1];
+        let p = rec.posterior.cov;
+        let prior_chol = next
+            .prior_cov
+            .cholesky()
+            .ok_or(SmoothError::SingularPrior { epoch: k + 1 })?;
+        // C = P Phi^T Pp^-1  =>  C^T = Pp^-1 Phi P.
+        let gain = prior_chol.solve(&(next.phi_from_previous * p)).transpose();
+        let dx = gain * (dx_next + next.correction);
+        let p_smooth = p + gain * (p_next - next.prior_cov) * gain.transpose();
+        let p_smooth = (p_smooth + p_smooth.transpose()) * 0.5;
+        let post = &rec.posterior;
+        out.push(Estimate {
+            nav: error_state::inject(&post.nav, &dx),
+            gyro_bias: post.gyro_bias + dx.fixed_rows::<3>(idx::GYRO_BIAS),
+            accel_bias: post.accel_bias + dx.fixed_rows::<3>(idx::ACCEL_BIAS),
+            cov: p_smooth,
+        });
+        dx_next = dx;
+        p_next = p_smooth;
+    }
+    out.reverse();
+    Ok(out)
+}
