@@ -1,31 +1,34 @@
-//! The forward error-state filter on the simulated `survey` (DVL throughout, depth, GNSS at
-//! the surface at both ends), scored against `/truth`.
+//! The forward error-state filter and the RTS smoother on the simulated `survey` (DVL
+//! throughout, depth, GNSS at the surface at both ends), scored against `/truth`.
 //!
-//! The initial state is the truth's first sample with set errors (3 m, 0.2 deg roll and
-//! pitch, 2 deg heading): initialisation from the log itself is a later step of issue #4, and
-//! this test only exercises the filter's propagation and updates.
+//! The initial state is the truth's first sample with set errors (3 m north, 0.2 deg roll and
+//! pitch, 2 deg heading): initialisation from the log itself is a later step of issue #4;
+//! this test exercises propagation, updates and smoothing.
 
 use hindsight::contract::{Depth, Dvl, GnssFix, Imu, Truth};
+use hindsight::filters::ins::driver::{run_forward, Aiding, Inputs, Sensor};
 use hindsight::filters::ins::error_state::ErrorMatrix;
-use hindsight::filters::ins::forward::{measure, Estimate, Filter, ImuNoise};
-use hindsight::filters::ins::mechanization::{ImuSample, NavState};
-use hindsight::filters::kalman::chi_square_quantile;
+use hindsight::filters::ins::forward::{Estimate, Filter, ImuNoise};
+use hindsight::filters::ins::mechanization::NavState;
 use hindsight::geodesy;
 use hindsight::ingest::{read_log_from, IngestOptions};
 use hindsight::sim::scenario::Scenario;
 use hindsight::sim::writer::{to_bytes, WriterOptions};
-use hindsight::smooth::rts::{smooth, EpochRecord};
-use nalgebra::{SMatrix, UnitQuaternion, Vector3};
+use hindsight::smooth::rts::smooth;
+use nalgebra::{SVector, UnitQuaternion, Vector3};
 
-fn sample(m: &Imu) -> ImuSample {
-    ImuSample {
-        omega_ib_body: m.angular_velocity.into(),
-        specific_force_body: m.specific_force.into(),
-    }
+fn horizontal_error(t: &Truth, e: &Estimate) -> f64 {
+    let (n, east) = geodesy::local_north_east_m(
+        t.latitude_deg.to_radians(),
+        t.longitude_deg.to_radians(),
+        e.nav.lat_rad,
+        e.nav.lon_rad,
+    );
+    n.hypot(east)
 }
 
 #[test]
-fn forward_filter_follows_the_survey() {
+fn forward_filter_and_smoother_follow_the_survey() {
     let scenario = Scenario::built_in("survey").unwrap();
     let mut result = Ok(());
     let bytes = to_bytes(WriterOptions::default(), |w| {
@@ -35,31 +38,40 @@ fn forward_filter_follows_the_survey() {
     .unwrap();
     result.unwrap();
     let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
-    let imu = log.messages::<Imu>("/imu").unwrap();
-    let dvl = log.messages::<Dvl>("/dvl").unwrap();
-    let depth = log.messages::<Depth>("/depth").unwrap();
-    let gnss = log.messages::<GnssFix>("/gnss").unwrap();
     let truth = log.messages::<Truth>("/truth").unwrap();
+    let output_stamps: Vec<i64> = truth.iter().map(|t| t.stamp_ns).collect();
+    let inputs = Inputs {
+        imu: log.messages::<Imu>("/imu").unwrap(),
+        dvl: log.messages::<Dvl>("/dvl").unwrap(),
+        depth: log.messages::<Depth>("/depth").unwrap(),
+        gnss: log.messages::<GnssFix>("/gnss").unwrap(),
+        output_stamps_ns: &output_stamps,
+    };
 
-    // Noise densities from the scenario's IMU grade (survey.toml).
-    let grade_g = scenario.imu.gyro.triad();
-    let grade_a = scenario.imu.accel.triad();
+    // Noise densities from the scenario's IMU grade (scenarios/survey.toml).
+    let (g, a) = (scenario.imu.gyro.triad(), scenario.imu.accel.triad());
     let filter = Filter {
         noise: ImuNoise {
-            gyro_noise_density: grade_g.noise_density,
-            accel_noise_density: grade_a.noise_density,
-            gyro_bias_walk: grade_g.bias_instability * (2.0 / grade_g.bias_correlation_s).sqrt(),
-            accel_bias_walk: grade_a.bias_instability * (2.0 / grade_a.bias_correlation_s).sqrt(),
+            gyro_noise_density: g.noise_density,
+            accel_noise_density: a.noise_density,
+            gyro_bias_walk: g.bias_instability * (2.0 / g.bias_correlation_s).sqrt(),
+            accel_bias_walk: a.bias_instability * (2.0 / a.bias_correlation_s).sqrt(),
         },
         height_damping: None,
     };
+    let aiding = Aiding {
+        dvl_sigma_m_s: 0.015,
+        dvl_max_altitude_m: 100.0,
+        depth_sigma_m: 0.1,
+        gate_probability: Some(0.999),
+    };
 
     let t0 = &truth[0];
-    let north_error_m = 3.0;
     let rho_n = geodesy::meridian_radius_m(t0.latitude_deg.to_radians());
-    let mut est = Estimate {
+    let deg2 = |d: f64| d.to_radians().powi(2);
+    let initial = Estimate {
         nav: NavState {
-            lat_rad: t0.latitude_deg.to_radians() + north_error_m / rho_n,
+            lat_rad: t0.latitude_deg.to_radians() + 3.0 / rho_n,
             lon_rad: t0.longitude_deg.to_radians(),
             height_m: -t0.down_m,
             vel_ned_m_s: t0.velocity_ned.into(),
@@ -71,167 +83,78 @@ fn forward_filter_follows_the_survey() {
         },
         gyro_bias: Vector3::zeros(),
         accel_bias: Vector3::zeros(),
-        cov: ErrorMatrix::from_diagonal(&nalgebra::SVector::<f64, 15>::from_column_slice(&[
+        cov: ErrorMatrix::from_diagonal(&SVector::<f64, 15>::from_column_slice(&[
             25.0,
             25.0,
             1.0,
             0.01,
             0.01,
             0.01,
-            0.5f64.to_radians().powi(2),
-            0.5f64.to_radians().powi(2),
-            3f64.to_radians().powi(2),
-            (1.5 * grade_g.bias).powi(2),
-            (1.5 * grade_g.bias).powi(2),
-            (1.5 * grade_g.bias).powi(2),
-            (1.5 * grade_a.bias).powi(2),
-            (1.5 * grade_a.bias).powi(2),
-            (1.5 * grade_a.bias).powi(2),
+            deg2(0.5),
+            deg2(0.5),
+            deg2(3.0),
+            (1.5 * g.bias).powi(2),
+            (1.5 * g.bias).powi(2),
+            (1.5 * g.bias).powi(2),
+            (1.5 * a.bias).powi(2),
+            (1.5 * a.bias).powi(2),
+            (1.5 * a.bias).powi(2),
         ])),
     };
+    let run = run_forward(&filter, &aiding, &inputs, initial).unwrap();
+    let smoothed = smooth(&run.records).unwrap();
+    assert_eq!(smoothed.len(), run.records.len());
 
-    let gate = |m: usize| Some(chi_square_quantile(m, 0.999));
-    // Epoch records for the smoother: one per IMU tick with a measurement or a truth sample.
-    let mut records = vec![EpochRecord {
-        stamp_ns: imu[0].stamp_ns,
-        phi_from_previous: ErrorMatrix::identity(),
-        prior_cov: est.cov,
-        correction: nalgebra::SVector::zeros(),
-        posterior: est,
-    }];
-    let mut phi_acc = ErrorMatrix::identity();
-    let (mut i_dvl, mut i_depth, mut i_gnss, mut i_truth) = (0, 0, 0, 0);
-    let mut errors: Vec<(i64, f64, f64)> = Vec::new(); // (stamp, horizontal error, north sigma)
-    let mut last_gnss_before_end = 0;
-    let mut rejected = 0;
-    for pair in imu.windows(2) {
-        let (a, b) = (&pair[0], &pair[1]);
-        let dt = (b.stamp_ns - a.stamp_ns) as f64 * 1e-9;
-        let (predicted, phi) = filter.predict(&est, &sample(a), &sample(b), dt, None);
-        est = predicted;
-        phi_acc = phi * phi_acc;
-        let prior = est;
-        let epoch_before = (i_dvl, i_depth, i_gnss, i_truth);
-        while i_dvl < dvl.len() && dvl[i_dvl].stamp_ns <= b.stamp_ns {
-            let d = &dvl[i_dvl];
-            if d.valid {
-                let (y, h) = measure::body_velocity(&est, &Vector3::from(d.velocity));
-                let r = SMatrix::<f64, 3, 3>::identity() * 0.015f64.powi(2);
-                let (next, rec) = filter.update(&est, &y, &h, &r, gate(3)).unwrap();
-                rejected += usize::from(!rec.accepted);
-                est = next;
-            }
-            i_dvl += 1;
+    // Score both solutions at every truth stamp (each has its epoch).
+    let (mut fwd, mut smo) = (Vec::new(), Vec::new());
+    let mut k = 0;
+    for t in truth {
+        while run.records[k].stamp_ns < t.stamp_ns {
+            k += 1;
         }
-        while i_depth < depth.len() && depth[i_depth].stamp_ns <= b.stamp_ns {
-            let (y, h) = measure::depth(&est, depth[i_depth].depth);
-            let r = SMatrix::<f64, 1, 1>::new(0.1f64.powi(2));
-            est = filter.update(&est, &y, &h, &r, gate(1)).unwrap().0;
-            i_depth += 1;
-        }
-        while i_gnss < gnss.len() && gnss[i_gnss].stamp_ns <= b.stamp_ns {
-            let g = &gnss[i_gnss];
-            let (y, h) = measure::horizontal_position(
-                &est,
-                g.latitude_deg.to_radians(),
-                g.longitude_deg.to_radians(),
-            );
-            let r = SMatrix::<f64, 2, 2>::identity() * g.horizontal_sigma_m.powi(2);
-            est = filter.update(&est, &y, &h, &r, gate(2)).unwrap().0;
-            i_gnss += 1;
-            last_gnss_before_end = errors.len();
-        }
-        while i_truth < truth.len() && truth[i_truth].stamp_ns <= b.stamp_ns {
-            let t = &truth[i_truth];
-            if t.stamp_ns == b.stamp_ns {
-                let (n, e) = geodesy::local_north_east_m(
-                    t.latitude_deg.to_radians(),
-                    t.longitude_deg.to_radians(),
-                    est.nav.lat_rad,
-                    est.nav.lon_rad,
-                );
-                errors.push((t.stamp_ns, n.hypot(e), est.sigma()[0]));
-            }
-            i_truth += 1;
-        }
-        if (i_dvl, i_depth, i_gnss, i_truth) != epoch_before {
-            records.push(EpochRecord {
-                stamp_ns: b.stamp_ns,
-                phi_from_previous: phi_acc,
-                prior_cov: prior.cov,
-                correction: EpochRecord::correction_between(&prior, &est),
-                posterior: est,
-            });
-            phi_acc = ErrorMatrix::identity();
-        }
-        assert!(
-            est.cov.cholesky().is_some(),
-            "covariance stays positive definite"
-        );
+        assert_eq!(run.records[k].stamp_ns, t.stamp_ns);
+        fwd.push((t.stamp_ns, horizontal_error(t, &run.records[k].posterior)));
+        smo.push(horizontal_error(t, &smoothed[k]));
+        assert!(run.records[k].posterior.cov.cholesky().is_some());
+        assert!(smoothed[k].cov.cholesky().is_some());
     }
-    // Distance travelled, and the error just before the GNSS fixes resume at the end.
+    let rms = |v: &mut dyn Iterator<Item = f64>| {
+        let (s, n) = v.fold((0.0, 0usize), |(s, n), e| (s + e * e, n + 1));
+        (s / n as f64).sqrt()
+    };
+    let fwd_rms = rms(&mut fwd.iter().map(|e| e.1));
+    let smo_rms = rms(&mut smo.iter().copied());
     let distance: f64 = truth
         .windows(2)
         .map(|w| (w[1].north_m - w[0].north_m).hypot(w[1].east_m - w[0].east_m))
         .sum();
-    let first_end_fix = gnss
+    // The forward error just before the GNSS fixes of the final surfacing.
+    let gnss = inputs.gnss;
+    let mid = truth[truth.len() / 2].stamp_ns;
+    let end_fix = gnss.iter().find(|g| g.stamp_ns > mid).unwrap().stamp_ns;
+    let before_end_fix = fwd.iter().rev().find(|e| e.0 < end_fix).unwrap().1;
+    let dvl_nis: Vec<f64> = run
+        .residuals
         .iter()
-        .position(|g| g.stamp_ns > truth[truth.len() / 2].stamp_ns)
-        .unwrap();
-    let before_end_fix = errors
-        .iter()
-        .rev()
-        .find(|e| e.0 < gnss[first_end_fix].stamp_ns)
-        .unwrap()
-        .1;
-    let rms = (errors.iter().map(|e| e.1 * e.1).sum::<f64>() / errors.len() as f64).sqrt();
-    let worst = errors.iter().map(|e| e.1).fold(0.0, f64::max);
+        .filter(|r| r.sensor == Sensor::Dvl)
+        .map(|r| r.nis)
+        .collect();
+    let rejected = run.residuals.iter().filter(|r| !r.accepted).count();
     println!(
-        "survey forward: {:.0} m travelled; horizontal error RMS {rms:.2} m, worst {worst:.2} m, \
-         before the end GNSS {before_end_fix:.2} m ({:.3} % of distance), final {:.2} m; DVL rejected {rejected}",
-        distance,
+        "survey: {distance:.0} m travelled; forward RMS {fwd_rms:.2} m, before the end GNSS {before_end_fix:.2} m \
+         ({:.3} % of distance); smoothed RMS {smo_rms:.2} m; {} epochs; DVL mean NIS {:.2} (3 expected); {rejected} rejected",
         100.0 * before_end_fix / distance,
-        errors.last().unwrap().1
+        run.records.len(),
+        dvl_nis.iter().sum::<f64>() / dvl_nis.len() as f64
     );
-    let _ = last_gnss_before_end;
+    // Issue #4's survey criteria.
     assert!(
         before_end_fix < 0.003 * distance,
         "{before_end_fix} m of {distance} m"
     );
-    assert!(errors.last().unwrap().1 < 5.0);
-
-    // Smoothed: scored at the same truth stamps.
-    let smoothed = smooth(&records).unwrap();
-    let mut smoothed_sq = Vec::new();
-    let mut ti = 0;
-    for (rec, s) in records.iter().zip(&smoothed).skip(1) {
-        while ti < truth.len() && truth[ti].stamp_ns < rec.stamp_ns {
-            ti += 1;
-        }
-        if ti < truth.len() && truth[ti].stamp_ns == rec.stamp_ns {
-            let t = &truth[ti];
-            let (n, e) = geodesy::local_north_east_m(
-                t.latitude_deg.to_radians(),
-                t.longitude_deg.to_radians(),
-                s.nav.lat_rad,
-                s.nav.lon_rad,
-            );
-            smoothed_sq.push(n * n + e * e);
-            assert!(
-                s.cov.cholesky().is_some(),
-                "smoothed covariance positive definite"
-            );
-        }
-    }
-    assert_eq!(smoothed_sq.len(), errors.len());
-    let smoothed_rms = (smoothed_sq.iter().sum::<f64>() / smoothed_sq.len() as f64).sqrt();
-    println!(
-        "survey smoothed: horizontal error RMS {smoothed_rms:.2} m (forward {rms:.2} m), {} epochs",
-        records.len()
-    );
     assert!(
-        smoothed_rms <= 0.5 * rms,
-        "smoothed {smoothed_rms} m vs forward {rms} m"
+        smo_rms <= 0.5 * fwd_rms,
+        "smoothed {smo_rms} m vs forward {fwd_rms} m"
     );
-    assert!(smoothed_rms < 2.0, "{smoothed_rms} m");
+    assert!(smo_rms < 2.0, "{smo_rms} m");
 }
