@@ -17,37 +17,8 @@
 //! `x+_k (+) dx_{k|N}`. The reset Jacobian is taken as the identity, as in the forward filter.
 //! Memory: one record per filter epoch (measurement or output time), never per IMU sample.
 
-use crate::filters::ins::error_state::{self, idx, ErrorMatrix, ErrorState};
-use crate::filters::ins::forward::Estimate;
-
-/// What the forward pass keeps at one epoch.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EpochRecord {
-    pub stamp_ns: i64,
-    /// Transition from the previous epoch to this one (identity at the first epoch).
-    pub phi_from_previous: ErrorMatrix,
-    /// Covariance predicted to this epoch, before its updates.
-    pub prior_cov: ErrorMatrix,
-    /// Correction the updates at this epoch applied, prior to posterior (position, velocity,
-    /// attitude as in the error state, then the two bias changes).
-    pub correction: ErrorState,
-    /// Estimate after this epoch's updates.
-    pub posterior: Estimate,
-}
-
-impl EpochRecord {
-    /// The correction that takes `prior` to `posterior` (both at one epoch).
-    pub fn correction_between(prior: &Estimate, posterior: &Estimate) -> ErrorState {
-        let mut d = ErrorState::zeros();
-        d.fixed_rows_mut::<9>(0)
-            .copy_from(&error_state::difference(&posterior.nav, &prior.nav));
-        d.fixed_rows_mut::<3>(idx::GYRO_BIAS)
-            .copy_from(&(posterior.gyro_bias - prior.gyro_bias));
-        d.fixed_rows_mut::<3>(idx::ACCEL_BIAS)
-            .copy_from(&(posterior.accel_bias - prior.accel_bias));
-        d
-    }
-}
+use crate::filters::ins::error_state::{self, idx, ErrorState};
+use crate::filters::ins::forward::{EpochRecord, Estimate};
 
 /// Why smoothing failed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]

@@ -6,11 +6,10 @@
 //! over), so it imports no I/O.
 
 use super::error_state::ErrorMatrix;
-use super::forward::{measure, Estimate, Filter};
+use super::forward::{measure, EpochRecord, Estimate, Filter};
 use super::mechanization::ImuSample;
 use crate::contract::{Depth, Dvl, GnssFix, Imu};
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
-use crate::smooth::rts::EpochRecord;
 use nalgebra::{SMatrix, SVector, Vector3};
 
 /// Measurement noise and gating of the aiding sensors.

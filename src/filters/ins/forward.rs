@@ -148,6 +148,35 @@ impl Filter {
     }
 }
 
+/// What the forward pass keeps at one epoch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EpochRecord {
+    pub stamp_ns: i64,
+    /// Transition from the previous epoch to this one (identity at the first epoch).
+    pub phi_from_previous: ErrorMatrix,
+    /// Covariance predicted to this epoch, before its updates.
+    pub prior_cov: ErrorMatrix,
+    /// Correction the updates at this epoch applied, prior to posterior (position, velocity,
+    /// attitude as in the error state, then the two bias changes).
+    pub correction: ErrorState,
+    /// Estimate after this epoch's updates.
+    pub posterior: Estimate,
+}
+
+impl EpochRecord {
+    /// The correction that takes `prior` to `posterior` (both at one epoch).
+    pub fn correction_between(prior: &Estimate, posterior: &Estimate) -> ErrorState {
+        let mut d = ErrorState::zeros();
+        d.fixed_rows_mut::<9>(0)
+            .copy_from(&error_state::difference(&posterior.nav, &prior.nav));
+        d.fixed_rows_mut::<3>(idx::GYRO_BIAS)
+            .copy_from(&(posterior.gyro_bias - prior.gyro_bias));
+        d.fixed_rows_mut::<3>(idx::ACCEL_BIAS)
+            .copy_from(&(posterior.accel_bias - prior.accel_bias));
+        d
+    }
+}
+
 /// Measurement models: innovation and error-state matrix for each aiding sensor.
 pub mod measure {
     use super::*;
