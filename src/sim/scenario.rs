@@ -406,14 +406,64 @@ impl Scenario {
     }
 }
 
+impl Segment {
+    /// Every number of the segment.
+    fn numbers(&self) -> Vec<f64> {
+        match *self {
+            Segment::Cruise { duration_s } => vec![duration_s],
+            Segment::Speed { to_m_s, ramp_s } => vec![to_m_s, ramp_s],
+            Segment::Turn {
+                angle_deg,
+                rate_deg_s,
+                ramp_s,
+            } => vec![angle_deg, rate_deg_s, ramp_s],
+            Segment::Depth {
+                to_m,
+                pitch_deg,
+                ramp_s,
+            } => vec![to_m, pitch_deg, ramp_s],
+            Segment::Surface { pitch_deg, ramp_s } => vec![pitch_deg, ramp_s],
+            Segment::Spiral {
+                angle_deg,
+                rate_deg_s,
+                to_m,
+                pitch_deg,
+                ramp_s,
+            } => {
+                vec![angle_deg, rate_deg_s, to_m, pitch_deg, ramp_s]
+            }
+            Segment::Zigzag {
+                angle_deg,
+                leg_s,
+                rate_deg_s,
+                ramp_s,
+                ..
+            } => vec![angle_deg, leg_s, rate_deg_s, ramp_s],
+            Segment::Lawnmower {
+                lane_s,
+                rate_deg_s,
+                ramp_s,
+                ..
+            } => vec![lane_s, rate_deg_s, ramp_s],
+            Segment::Hold { duration_s, ramp_s } => vec![duration_s, ramp_s],
+        }
+    }
+}
+
 fn apply(b: &mut TrajectoryBuilder, seg: &Segment) -> Result<(), SegmentError> {
+    if seg.numbers().iter().any(|v| !v.is_finite()) {
+        return Err(SegmentError::Impossible {
+            t_s: b.time_s(),
+            reason: format!("{seg:?} has a value that is not a finite number"),
+        });
+    }
     let r = f64::to_radians;
     match *seg {
         Segment::Cruise { duration_s } => {
             b.cruise(duration_s);
         }
         Segment::Speed { to_m_s, ramp_s } => {
-            b.speed_to(to_m_s, ramp_s);
+            b.speed_to(to_m_s, ramp_s)?;
         }
         Segment::Turn {
             angle_deg,
@@ -483,9 +533,9 @@ fn apply(b: &mut TrajectoryBuilder, seg: &Segment) -> Result<(), SegmentError> {
         }
         Segment::Hold { duration_s, ramp_s } => {
             let speed = b.speed_m_s();
-            b.speed_to(0.0, ramp_s);
+            b.speed_to(0.0, ramp_s)?;
             b.cruise(duration_s);
-            b.speed_to(speed, ramp_s);
+            b.speed_to(speed, ramp_s)?;
         }
     }
     Ok(())
@@ -518,6 +568,38 @@ mod tests {
         assert!((s.depth_m(0.0, 50.0) - 100.0).abs() < 1e-9);
         assert_eq!(s.depth_m(0.0, -10.0), 50.0);
         assert_eq!(s.depth_m(0.0, 500.0), 150.0);
+    }
+
+    #[test]
+    fn bad_segments_are_errors_not_panics() {
+        let base = BUILT_IN
+            .iter()
+            .find(|(n, _)| *n == "survey-short")
+            .unwrap()
+            .1;
+        for (from, to) in [
+            ("to_m_s = 1.5\nramp_s = 20.0", "to_m_s = 1.5\nramp_s = 0.0"),
+            (
+                "to_m_s = 1.5\nramp_s = 20.0",
+                "to_m_s = -1.0\nramp_s = 20.0",
+            ),
+            (
+                "rate_deg_s = 3.0\nramp_s = 10.0",
+                "rate_deg_s = 0.0\nramp_s = 10.0",
+            ),
+            (
+                "pitch_deg = 10.0\nramp_s = 8.0",
+                "pitch_deg = 0.0\nramp_s = 8.0",
+            ),
+            ("lane_s = 60.0", "lane_s = nan"),
+        ] {
+            assert!(base.contains(from), "{from}");
+            let s = Scenario::from_toml(&base.replacen(from, to, 1)).unwrap();
+            assert!(
+                matches!(s.trajectory(), Err(ScenarioError::Segment { .. })),
+                "{to}"
+            );
+        }
     }
 
     #[test]

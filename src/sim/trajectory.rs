@@ -212,15 +212,22 @@ impl TrajectoryBuilder {
 
     /// Straight and level for `duration_s`.
     pub fn cruise(&mut self, duration_s: f64) -> &mut Self {
-        self.t_s += duration_s.max(0.0);
+        if duration_s.is_finite() {
+            self.t_s += duration_s.max(0.0);
+        }
         self
     }
 
     /// Changes speed over `ramp_s`.
-    pub fn speed_to(&mut self, speed_m_s: f64, ramp_s: f64) -> &mut Self {
+    pub fn speed_to(&mut self, speed_m_s: f64, ramp_s: f64) -> Result<&mut Self, SegmentError> {
+        if !(ramp_s > 0.0 && ramp_s.is_finite() && speed_m_s.is_finite() && speed_m_s >= 0.0) {
+            return Err(self.fail(format!(
+                "a speed change needs a positive ramp time and a speed of 0 or more (got {speed_m_s} m/s over {ramp_s} s)"
+            )));
+        }
         self.speed.ramp(self.t_s, ramp_s, speed_m_s);
         self.t_s += ramp_s;
-        self
+        Ok(self)
     }
 
     /// Speed at the end of the segments so far.
@@ -374,12 +381,12 @@ mod tests {
 
     fn trajectory() -> Trajectory {
         let mut b = TrajectoryBuilder::new(35.0, 129.0, 5.0, 0.2, 0.0);
-        b.speed_to(2.0, 15.0);
+        b.speed_to(2.0, 15.0).unwrap();
         b.depth_to(40.0, 12f64.to_radians(), 6.0).unwrap();
         b.turn(PI / 2.0, 4f64.to_radians(), 5.0).unwrap();
         b.depth_to(38.0, 12f64.to_radians(), 6.0).unwrap();
         b.turn(-PI, 6f64.to_radians(), 4.0).unwrap();
-        b.speed_to(0.5, 10.0);
+        b.speed_to(0.5, 10.0).unwrap();
         b.build(30.0)
     }
 

@@ -22,7 +22,7 @@
 
 use super::mechanization::NavState;
 use crate::geodesy;
-use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Size of the error state.
 pub const N: usize = 15;
@@ -168,11 +168,6 @@ pub fn transition(f: &ErrorMatrix, dt_s: f64) -> ErrorMatrix {
         phi += term;
     }
     phi
-}
-
-/// Rotation of a small angle vector, for callers that apply corrections to attitudes.
-pub fn small_rotation(psi: &Vector3<f64>) -> Rotation3<f64> {
-    Rotation3::from_scaled_axis(*psi)
 }
 
 #[cfg(test)]
