@@ -371,6 +371,11 @@ impl Scenario {
                 }
             }
         }
+        if let Some(v) = self.sensor_numbers().into_iter().find(|v| !v.is_finite()) {
+            return Err(bad(format!(
+                "a parameter is {v}: every number of the mission, start and sensors must be finite"
+            )));
+        }
         if self.seabed.profile.is_empty()
             || self.seabed.profile.windows(2).any(|w| w[1][0] <= w[0][0])
         {
@@ -379,6 +384,75 @@ impl Scenario {
             ));
         }
         Ok(())
+    }
+
+    /// Every number of the mission, start and sensor sections (segments check their own).
+    fn sensor_numbers(&self) -> Vec<f64> {
+        let g = &self.imu.gyro;
+        let a = &self.imu.accel;
+        let mut v = vec![
+            self.tail_s,
+            self.truth_rate_hz,
+            self.mission.origin_latitude_deg,
+            self.mission.origin_longitude_deg,
+            self.start.north_m,
+            self.start.east_m,
+            self.start.depth_m,
+            self.start.yaw_deg,
+            self.start.speed_m_s,
+            self.start.turn_rate_deg_s,
+            self.imu.latency_s,
+            g.bias_deg_h,
+            g.bias_instability_deg_h,
+            g.bias_correlation_s,
+            g.scale_ppm,
+            g.misalignment_mrad,
+            g.arw_deg_rt_h,
+            a.bias_ug,
+            a.bias_instability_ug,
+            a.bias_correlation_s,
+            a.scale_ppm,
+            a.misalignment_mrad,
+            a.vrw_ug_rt_hz,
+            self.seabed.bearing_deg,
+        ];
+        if let Some(m) = &self.mag {
+            v.extend(
+                m.field_ned_nt
+                    .iter()
+                    .chain(&m.hard_iron_nt)
+                    .chain(m.soft_iron.iter().flatten()),
+            );
+            v.push(m.noise_nt);
+        }
+        if let Some(d) = &self.dvl {
+            v.extend([
+                d.scale,
+                d.bias_m_s,
+                d.noise_m_s,
+                d.max_altitude_m,
+                d.out_of_range_noise_m_s,
+                d.latency_s,
+            ]);
+            v.extend(d.until_s);
+        }
+        for s in [&self.eml, &self.depth, &self.altimeter]
+            .into_iter()
+            .flatten()
+        {
+            v.extend([s.latency_s, s.errors.scale, s.errors.bias, s.errors.noise]);
+        }
+        if let Some(r) = &self.rpm {
+            v.extend([r.model.k_m_s_per_rpm, r.model.k_error, r.model.noise_m_s]);
+        }
+        if let Some(g) = &self.gnss {
+            v.extend([g.sigma_m, g.surface_depth_m]);
+        }
+        if let Some(f) = &self.fixes {
+            v.extend([f.mark_sigma_m, f.usbl_every_s, f.usbl_sigma_m]);
+        }
+        v.extend(self.seabed.profile.iter().flatten());
+        v
     }
 
     /// The truth trajectory of the segments.
@@ -608,6 +682,11 @@ mod tests {
         let bad = text.replacen("rate_hz = 100", "rate_hz = 0", 1);
         assert!(matches!(
             Scenario::from_toml(&bad),
+            Err(ScenarioError::Invalid { .. })
+        ));
+        let nan = text.replacen("noise_nt = 100.0", "noise_nt = nan", 1);
+        assert!(matches!(
+            Scenario::from_toml(&nan),
             Err(ScenarioError::Invalid { .. })
         ));
         let unknown = format!("{text}\nbogus = 1\n");
