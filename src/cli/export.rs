@@ -54,11 +54,8 @@ pub fn run(args: ExportArgs) -> Result<()> {
         &args.log.offsets,
     )?;
     if log.message_count() == 0 {
-        return Err(hindsight::ingest::IngestError::Corrupt {
-            offset: 0,
-            detail: "the log holds no decodable message".into(),
-        })
-        .with_context(|| format!("reading {}", args.log.log.display()));
+        return Err(hindsight::ingest::IngestError::NoMessages)
+            .with_context(|| format!("reading {}", args.log.log.display()));
     }
     let clock = clock(&log, period_ns)?;
     std::fs::create_dir_all(&args.out).with_context(|| OutputFailed {

@@ -40,6 +40,9 @@ pub enum IngestError {
     #[error("not an MCAP file: it starts with {found} where the MCAP magic 89 4D 43 41 50 30 0D 0A belongs")]
     NotMcap { found: String },
 
+    #[error("the log holds no decodable message")]
+    NoMessages,
+
     #[error("corrupt MCAP record at byte {offset}: {detail}")]
     Corrupt { offset: u64, detail: String },
 
