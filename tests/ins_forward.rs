@@ -5,7 +5,7 @@
 //! pitch, 2 deg heading): initialisation from the log itself is a later step of issue #4;
 //! this test exercises propagation, updates and smoothing.
 
-use hindsight::contract::{Depth, Dvl, GnssFix, Imu, Truth};
+use hindsight::contract::{Depth, Dvl, GnssFix, Imu, SpeedLog, Truth};
 use hindsight::filters::ins::driver::{run_forward, Aiding, Inputs, Sensor};
 use hindsight::filters::ins::error_state::ErrorMatrix;
 use hindsight::filters::ins::forward::{Estimate, Filter, ImuNoise};
@@ -45,6 +45,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
         dvl: log.messages::<Dvl>("/dvl").unwrap(),
         depth: log.messages::<Depth>("/depth").unwrap(),
         gnss: log.messages::<GnssFix>("/gnss").unwrap(),
+        eml: log.messages::<SpeedLog>("/eml").unwrap(),
         output_stamps_ns: &output_stamps,
     };
 
@@ -63,6 +64,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
         dvl_sigma_m_s: 0.015,
         dvl_max_altitude_m: 100.0,
         depth_sigma_m: 0.1,
+        eml_sigma_m_s: Some(0.05),
         gate_probability: Some(0.999),
     };
 
@@ -147,6 +149,12 @@ fn forward_filter_and_smoother_follow_the_survey() {
         run.records.len(),
         dvl_nis.iter().sum::<f64>() / dvl_nis.len() as f64
     );
+    let eml_used = run
+        .residuals
+        .iter()
+        .filter(|r| r.sensor == Sensor::SpeedLog)
+        .count();
+    assert!(eml_used > 5000, "EM-log updates: {eml_used}");
     // Issue #4's survey criteria.
     assert!(
         before_end_fix < 0.003 * distance,

@@ -8,7 +8,7 @@
 use super::error_state::ErrorMatrix;
 use super::forward::{measure, EpochRecord, Estimate, Filter};
 use super::mechanization::ImuSample;
-use crate::contract::{Depth, Dvl, GnssFix, Imu};
+use crate::contract::{Depth, Dvl, GnssFix, Imu, SpeedLog};
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
 use nalgebra::{SMatrix, SVector, Vector3};
 
@@ -21,6 +21,8 @@ pub struct Aiding {
     pub dvl_max_altitude_m: f64,
     /// Depth 1-sigma, m.
     pub depth_sigma_m: f64,
+    /// EM-log speed 1-sigma, m/s (`None`: the EM log is not used).
+    pub eml_sigma_m_s: Option<f64>,
     /// Probability of the chi-square gate (a consistent measurement passes it with this
     /// probability); `None` disables gating.
     pub gate_probability: Option<f64>,
@@ -32,6 +34,7 @@ pub struct Inputs<'a> {
     pub imu: &'a [Imu],
     pub dvl: &'a [Dvl],
     pub depth: &'a [Depth],
+    pub eml: &'a [SpeedLog],
     pub gnss: &'a [GnssFix],
     /// Times at which the solution is wanted (an epoch is recorded at the first IMU sample at
     /// or after each).
@@ -44,6 +47,7 @@ pub enum Sensor {
     Dvl,
     Depth,
     Gnss,
+    SpeedLog,
 }
 
 /// One aiding measurement as the filter saw it.
@@ -122,6 +126,7 @@ pub fn run_forward(
     let mut i_dvl = inputs.dvl.partition_point(|m| m.stamp_ns <= t0);
     let mut i_depth = inputs.depth.partition_point(|m| m.stamp_ns <= t0);
     let mut i_gnss = inputs.gnss.partition_point(|m| m.stamp_ns <= t0);
+    let mut i_eml = inputs.eml.partition_point(|m| m.stamp_ns <= t0);
     let mut i_out = inputs.output_stamps_ns.partition_point(|&s| s <= t0);
 
     for pair in inputs.imu.windows(2) {
@@ -175,6 +180,21 @@ pub fn run_forward(
             run.residuals
                 .push(Residual::from_record(g.stamp_ns, Sensor::Gnss, &rec));
             est = next;
+        }
+        while i_eml < inputs.eml.len() && inputs.eml[i_eml].stamp_ns <= t {
+            let e = &inputs.eml[i_eml];
+            i_eml += 1;
+            let Some(sigma) = aiding.eml_sigma_m_s else {
+                continue;
+            };
+            epoch = true;
+            if let Some((y, h)) = measure::speed(&est, e.speed) {
+                let r = SMatrix::<f64, 1, 1>::new(sigma * sigma);
+                let (next, rec) = filter.update(&est, &y, &h, &r, gate(1))?;
+                run.residuals
+                    .push(Residual::from_record(e.stamp_ns, Sensor::SpeedLog, &rec));
+                est = next;
+            }
         }
         while i_out < inputs.output_stamps_ns.len() && inputs.output_stamps_ns[i_out] <= t {
             i_out += 1;

@@ -210,6 +210,21 @@ pub mod measure {
         (y, h)
     }
 
+    /// Speed through water from an EM log, taken as the speed over ground (no current):
+    /// `z = |C^T v| = |v|`, so `H_v = v^T / |v|`. `None` below 0.1 m/s, where the direction
+    /// of the velocity is not defined well enough to linearise.
+    pub fn speed(est: &Estimate, speed_m_s: f64) -> Option<(SVector<f64, 1>, SMatrix<f64, 1, N>)> {
+        let v = est.nav.vel_ned_m_s;
+        let norm = v.norm();
+        if norm < 0.1 {
+            return None;
+        }
+        let mut h = SMatrix::<f64, 1, N>::zeros();
+        h.fixed_view_mut::<1, 3>(0, idx::VEL)
+            .copy_from(&(v.transpose() / norm));
+        Some((SVector::<f64, 1>::new(speed_m_s - norm), h))
+    }
+
     /// Horizontal position (latitude, longitude in radians), e.g. a GNSS fix.
     pub fn horizontal_position(
         est: &Estimate,
@@ -274,6 +289,28 @@ mod tests {
                 h.column(i)
             );
         }
+        let (s0, hs) = measure::speed(&est, 1.5).unwrap();
+        for i in 0..N {
+            let mut dx = ErrorState::zeros();
+            dx[i] = 1e-6;
+            let moved = Estimate {
+                nav: error_state::inject(&est.nav, &dx),
+                ..est
+            };
+            let (s1, _) = measure::speed(&moved, 1.5).unwrap();
+            assert!(
+                ((s0 - s1)[0] / 1e-6 - hs[(0, i)]).abs() < 1e-6,
+                "speed column {i}"
+            );
+        }
+        let slow = Estimate {
+            nav: NavState {
+                vel_ned_m_s: Vector3::new(0.05, 0.0, 0.0),
+                ..est.nav
+            },
+            ..est
+        };
+        assert!(measure::speed(&slow, 0.0).is_none());
         let (d0, hd) = measure::depth(&est, 21.0);
         let mut dx = ErrorState::zeros();
         dx[idx::POS + 2] = 0.5;
