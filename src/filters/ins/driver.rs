@@ -8,8 +8,9 @@
 use super::error_state::ErrorMatrix;
 use super::forward::{measure, EpochRecord, Estimate, Filter};
 use super::mechanization::ImuSample;
-use crate::contract::{Depth, Dvl, GnssFix, Imu, SpeedLog};
+use crate::contract::{Depth, Dvl, GnssFix, Imu, PositionFix, SpeedLog};
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
+use crate::geodesy;
 use nalgebra::{SMatrix, SVector, Vector3};
 
 /// Measurement noise and gating of the aiding sensors.
@@ -36,6 +37,10 @@ pub struct Inputs<'a> {
     pub depth: &'a [Depth],
     pub eml: &'a [SpeedLog],
     pub gnss: &'a [GnssFix],
+    /// Known positions in the mission frame (USBL fixes, surveyed marks).
+    pub fixes: &'a [PositionFix],
+    /// Mission origin (latitude, longitude, rad): the frame of `fixes`.
+    pub origin_rad: (f64, f64),
     /// Times at which the solution is wanted (an epoch is recorded at the first IMU sample at
     /// or after each).
     pub output_stamps_ns: &'a [i64],
@@ -48,6 +53,7 @@ pub enum Sensor {
     Depth,
     Gnss,
     SpeedLog,
+    PositionFix,
 }
 
 /// One aiding measurement as the filter saw it.
@@ -127,6 +133,10 @@ pub fn run_forward(
     let mut i_depth = inputs.depth.partition_point(|m| m.stamp_ns <= t0);
     let mut i_gnss = inputs.gnss.partition_point(|m| m.stamp_ns <= t0);
     let mut i_eml = inputs.eml.partition_point(|m| m.stamp_ns <= t0);
+    let mut i_fix = inputs.fixes.partition_point(|m| m.stamp_ns <= t0);
+    let (origin_lat, origin_lon) = inputs.origin_rad;
+    let origin_rn = geodesy::meridian_radius_m(origin_lat);
+    let origin_re = geodesy::prime_vertical_radius_m(origin_lat) * origin_lat.cos();
     let mut i_out = inputs.output_stamps_ns.partition_point(|&s| s <= t0);
 
     for pair in inputs.imu.windows(2) {
@@ -179,6 +189,23 @@ pub fn run_forward(
             let (next, rec) = filter.update(&est, &y, &h, &r, gate(2))?;
             run.residuals
                 .push(Residual::from_record(g.stamp_ns, Sensor::Gnss, &rec));
+            est = next;
+        }
+        while i_fix < inputs.fixes.len() && inputs.fixes[i_fix].stamp_ns <= t {
+            let f = &inputs.fixes[i_fix];
+            i_fix += 1;
+            epoch = true;
+            // The mission frame's north/east back to latitude/longitude (the inverse of
+            // `geodesy::local_north_east_m`).
+            let (lat, lon) = (
+                origin_lat + f.north_m / origin_rn,
+                origin_lon + f.east_m / origin_re,
+            );
+            let (y, h) = measure::horizontal_position(&est, lat, lon);
+            let r = SMatrix::<f64, 2, 2>::identity() * f.sigma_m.powi(2);
+            let (next, rec) = filter.update(&est, &y, &h, &r, gate(2))?;
+            run.residuals
+                .push(Residual::from_record(f.stamp_ns, Sensor::PositionFix, &rec));
             est = next;
         }
         while i_eml < inputs.eml.len() && inputs.eml[i_eml].stamp_ns <= t {
