@@ -11,7 +11,7 @@ use hindsight::filters::ins::error_state::ErrorMatrix;
 use hindsight::filters::ins::forward::{Estimate, Filter, ImuNoise};
 use hindsight::filters::ins::mechanization::NavState;
 use hindsight::geodesy;
-use hindsight::ingest::{read_log_from, IngestOptions};
+use hindsight::ingest::{read_log_from, IngestOptions, Log};
 use hindsight::sim::scenario::Scenario;
 use hindsight::sim::writer::{to_bytes, WriterOptions};
 use hindsight::smooth::rts::smooth;
@@ -27,17 +27,84 @@ fn horizontal_error(t: &Truth, e: &Estimate) -> f64 {
     n.hypot(east)
 }
 
-#[test]
-fn forward_filter_and_smoother_follow_the_survey() {
-    let scenario = Scenario::built_in("survey").unwrap();
+fn simulate(scenario: &Scenario, seed: u64) -> Log {
     let mut result = Ok(());
     let bytes = to_bytes(WriterOptions::default(), |w| {
-        result = hindsight::sim::run::run(&scenario, 1, w).map(|_| ());
+        result = hindsight::sim::run::run(scenario, seed, w).map(|_| ());
         Ok(())
     })
     .unwrap();
     result.unwrap();
-    let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
+    read_log_from(&bytes[..], &IngestOptions::default()).unwrap()
+}
+
+/// The filter with the noise densities of the scenario's IMU grade.
+fn filter_for(scenario: &Scenario) -> Filter {
+    let (g, a) = (scenario.imu.gyro.triad(), scenario.imu.accel.triad());
+    Filter {
+        noise: ImuNoise {
+            gyro_noise_density: g.noise_density,
+            accel_noise_density: a.noise_density,
+            gyro_bias_walk: g.bias_instability * (2.0 / g.bias_correlation_s).sqrt(),
+            accel_bias_walk: a.bias_instability * (2.0 / a.bias_correlation_s).sqrt(),
+        },
+        height_damping: None,
+    }
+}
+
+/// The truth's first sample with set errors: `north_m` of position, `tilt_deg` added to roll
+/// and taken from pitch, `heading_deg` added to yaw; horizontal position variance
+/// `horizontal_var_m2`, bias sigmas 1.5 times the scenario's.
+fn initial_from_truth(
+    t0: &Truth,
+    scenario: &Scenario,
+    north_m: f64,
+    tilt_deg: f64,
+    heading_deg: f64,
+    horizontal_var_m2: f64,
+) -> Estimate {
+    let (g, a) = (scenario.imu.gyro.triad(), scenario.imu.accel.triad());
+    let rho_n = geodesy::meridian_radius_m(t0.latitude_deg.to_radians());
+    let deg2 = |d: f64| d.to_radians().powi(2);
+    let (gb, ab) = ((1.5 * g.bias).powi(2), (1.5 * a.bias).powi(2));
+    Estimate {
+        nav: NavState {
+            lat_rad: t0.latitude_deg.to_radians() + north_m / rho_n,
+            lon_rad: t0.longitude_deg.to_radians(),
+            height_m: -t0.down_m,
+            vel_ned_m_s: t0.velocity_ned.into(),
+            ned_from_body: UnitQuaternion::from_euler_angles(
+                t0.attitude[0] + tilt_deg.to_radians(),
+                t0.attitude[1] - tilt_deg.to_radians(),
+                t0.attitude[2] + heading_deg.to_radians(),
+            ),
+        },
+        gyro_bias: Vector3::zeros(),
+        accel_bias: Vector3::zeros(),
+        cov: ErrorMatrix::from_diagonal(&SVector::<f64, 15>::from_column_slice(&[
+            horizontal_var_m2,
+            horizontal_var_m2,
+            1.0,
+            0.01,
+            0.01,
+            0.01,
+            deg2(0.5),
+            deg2(0.5),
+            deg2(3.0),
+            gb,
+            gb,
+            gb,
+            ab,
+            ab,
+            ab,
+        ])),
+    }
+}
+
+#[test]
+fn forward_filter_and_smoother_follow_the_survey() {
+    let scenario = Scenario::built_in("survey").unwrap();
+    let log = simulate(&scenario, 1);
     let truth = log.messages::<Truth>("/truth").unwrap();
     let output_stamps: Vec<i64> = truth.iter().map(|t| t.stamp_ns).collect();
     let inputs = Inputs {
@@ -54,17 +121,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
         output_stamps_ns: &output_stamps,
     };
 
-    // Noise densities from the scenario's IMU grade (scenarios/survey.toml).
-    let (g, a) = (scenario.imu.gyro.triad(), scenario.imu.accel.triad());
-    let filter = Filter {
-        noise: ImuNoise {
-            gyro_noise_density: g.noise_density,
-            accel_noise_density: a.noise_density,
-            gyro_bias_walk: g.bias_instability * (2.0 / g.bias_correlation_s).sqrt(),
-            accel_bias_walk: a.bias_instability * (2.0 / a.bias_correlation_s).sqrt(),
-        },
-        height_damping: None,
-    };
+    let filter = filter_for(&scenario);
     let aiding = Aiding {
         dvl_sigma_m_s: 0.015,
         dvl_max_altitude_m: 100.0,
@@ -73,41 +130,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
         gate_probability: Some(0.999),
     };
 
-    let t0 = &truth[0];
-    let rho_n = geodesy::meridian_radius_m(t0.latitude_deg.to_radians());
-    let deg2 = |d: f64| d.to_radians().powi(2);
-    let initial = Estimate {
-        nav: NavState {
-            lat_rad: t0.latitude_deg.to_radians() + 3.0 / rho_n,
-            lon_rad: t0.longitude_deg.to_radians(),
-            height_m: -t0.down_m,
-            vel_ned_m_s: t0.velocity_ned.into(),
-            ned_from_body: UnitQuaternion::from_euler_angles(
-                t0.attitude[0] + 0.2f64.to_radians(),
-                t0.attitude[1] - 0.2f64.to_radians(),
-                t0.attitude[2] + 2f64.to_radians(),
-            ),
-        },
-        gyro_bias: Vector3::zeros(),
-        accel_bias: Vector3::zeros(),
-        cov: ErrorMatrix::from_diagonal(&SVector::<f64, 15>::from_column_slice(&[
-            25.0,
-            25.0,
-            1.0,
-            0.01,
-            0.01,
-            0.01,
-            deg2(0.5),
-            deg2(0.5),
-            deg2(3.0),
-            (1.5 * g.bias).powi(2),
-            (1.5 * g.bias).powi(2),
-            (1.5 * g.bias).powi(2),
-            (1.5 * a.bias).powi(2),
-            (1.5 * a.bias).powi(2),
-            (1.5 * a.bias).powi(2),
-        ])),
-    };
+    let initial = initial_from_truth(&truth[0], &scenario, 3.0, 0.2, 2.0, 25.0);
     let run = run_forward(&filter, &aiding, &inputs, initial).unwrap();
     let smoothed = smooth(&run.records).unwrap();
     assert_eq!(smoothed.len(), run.records.len());
@@ -185,29 +208,13 @@ fn position_fixes_bound_the_error_without_dvl() {
         "{text}\n[fixes]\nusbl_every_s = 10.0\nusbl_sigma_m = 2.0\n"
     ))
     .unwrap();
-    let mut result = Ok(());
-    let bytes = to_bytes(WriterOptions::default(), |w| {
-        result = hindsight::sim::run::run(&scenario, 4, w).map(|_| ());
-        Ok(())
-    })
-    .unwrap();
-    result.unwrap();
-    let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
+    let log = simulate(&scenario, 4);
     let truth = log.messages::<Truth>("/truth").unwrap();
     let fixes = log
         .messages::<hindsight::contract::PositionFix>("/position_fix")
         .unwrap();
     assert!(fixes.len() > 30);
-    let (g, a) = (scenario.imu.gyro.triad(), scenario.imu.accel.triad());
-    let filter = Filter {
-        noise: ImuNoise {
-            gyro_noise_density: g.noise_density,
-            accel_noise_density: a.noise_density,
-            gyro_bias_walk: g.bias_instability * (2.0 / g.bias_correlation_s).sqrt(),
-            accel_bias_walk: a.bias_instability * (2.0 / a.bias_correlation_s).sqrt(),
-        },
-        height_damping: None,
-    };
+    let filter = filter_for(&scenario);
     let aiding = Aiding {
         dvl_sigma_m_s: 0.015,
         dvl_max_altitude_m: 100.0,
@@ -215,40 +222,7 @@ fn position_fixes_bound_the_error_without_dvl() {
         eml_sigma_m_s: None,
         gate_probability: Some(0.999),
     };
-    let t0 = &truth[0];
-    let deg2 = |d: f64| d.to_radians().powi(2);
-    let initial = Estimate {
-        nav: NavState {
-            lat_rad: t0.latitude_deg.to_radians(),
-            lon_rad: t0.longitude_deg.to_radians(),
-            height_m: -t0.down_m,
-            vel_ned_m_s: t0.velocity_ned.into(),
-            ned_from_body: UnitQuaternion::from_euler_angles(
-                t0.attitude[0],
-                t0.attitude[1],
-                t0.attitude[2] + 2f64.to_radians(),
-            ),
-        },
-        gyro_bias: Vector3::zeros(),
-        accel_bias: Vector3::zeros(),
-        cov: ErrorMatrix::from_diagonal(&SVector::<f64, 15>::from_column_slice(&[
-            4.0,
-            4.0,
-            1.0,
-            0.01,
-            0.01,
-            0.01,
-            deg2(0.5),
-            deg2(0.5),
-            deg2(3.0),
-            (1.5 * g.bias).powi(2),
-            (1.5 * g.bias).powi(2),
-            (1.5 * g.bias).powi(2),
-            (1.5 * a.bias).powi(2),
-            (1.5 * a.bias).powi(2),
-            (1.5 * a.bias).powi(2),
-        ])),
-    };
+    let initial = initial_from_truth(&truth[0], &scenario, 0.0, 0.0, 2.0, 4.0);
     let stamps: Vec<i64> = truth.iter().map(|t| t.stamp_ns).collect();
     let origin_rad = (
         scenario.mission.origin_latitude_deg.to_radians(),
