@@ -6,10 +6,11 @@
 //! this test exercises propagation, updates and smoothing.
 
 use hindsight::contract::{Depth, Dvl, GnssFix, Imu, SpeedLog, Truth};
-use hindsight::filters::ins::driver::{run_forward, Aiding, Inputs, Sensor};
+use hindsight::filters::ins::driver::{run_forward, Aiding, Inputs, Propagation, Sensor, Settings};
 use hindsight::filters::ins::error_state::ErrorMatrix;
-use hindsight::filters::ins::forward::{Estimate, Filter, ImuNoise};
+use hindsight::filters::ins::forward::{DvlMounting, Estimate, Filter, ImuNoise};
 use hindsight::filters::ins::mechanization::NavState;
+use hindsight::filters::ins::record::NavPoint;
 use hindsight::geodesy;
 use hindsight::ingest::{read_log_from, IngestOptions, Log};
 use hindsight::sim::scenario::Scenario;
@@ -17,7 +18,7 @@ use hindsight::sim::writer::{to_bytes, WriterOptions};
 use hindsight::smooth::rts::smooth;
 use nalgebra::{SVector, UnitQuaternion, Vector3};
 
-fn horizontal_error(t: &Truth, e: &Estimate) -> f64 {
+fn horizontal_error(t: &Truth, e: &NavPoint) -> f64 {
     let (n, east) = geodesy::local_north_east_m(
         t.latitude_deg.to_radians(),
         t.longitude_deg.to_radians(),
@@ -38,10 +39,10 @@ fn simulate(scenario: &Scenario, seed: u64) -> Log {
     read_log_from(&bytes[..], &IngestOptions::default()).unwrap()
 }
 
-/// The filter with the noise densities of the scenario's IMU grade.
-fn filter_for(scenario: &Scenario) -> Filter {
+/// The filter with the noise densities of the scenario's IMU grade, and `aiding`.
+fn settings_for(scenario: &Scenario, aiding: Aiding) -> Settings {
     let (g, a) = (scenario.imu.gyro.triad(), scenario.imu.accel.triad());
-    Filter {
+    let filter = Filter {
         noise: ImuNoise {
             gyro_noise_density: g.noise_density,
             accel_noise_density: a.noise_density,
@@ -49,6 +50,20 @@ fn filter_for(scenario: &Scenario) -> Filter {
             accel_bias_walk: a.bias_instability * (2.0 / a.bias_correlation_s).sqrt(),
         },
         height_damping: None,
+    };
+    Settings {
+        filter,
+        propagation: Propagation {
+            covariance_interval_s: 0.1,
+            imu_gap_s: 0.1,
+            gap_noise: ImuNoise {
+                gyro_noise_density: 0.0,
+                accel_noise_density: 0.0,
+                gyro_bias_walk: 0.0,
+                accel_bias_walk: 0.0,
+            },
+        },
+        aiding,
     }
 }
 
@@ -121,17 +136,21 @@ fn forward_filter_and_smoother_follow_the_survey() {
         output_stamps_ns: &output_stamps,
     };
 
-    let filter = filter_for(&scenario);
-    let aiding = Aiding {
-        dvl_sigma_m_s: 0.015,
-        dvl_max_altitude_m: 100.0,
-        depth_sigma_m: 0.1,
-        eml_sigma_m_s: Some(0.05),
-        gate_probability: Some(0.999),
-    };
+    let settings = settings_for(
+        &scenario,
+        Aiding {
+            dvl_sigma_m_s: 0.015,
+            dvl_max_altitude_m: 100.0,
+            dvl_mounting: DvlMounting::default(),
+            depth_sigma_m: 0.1,
+            depth_min_interval_s: 0.0,
+            eml_sigma_m_s: Some(0.05),
+            gate_probability: Some(0.999),
+        },
+    );
 
     let initial = initial_from_truth(&truth[0], &scenario, 3.0, 0.2, 2.0, 25.0);
-    let run = run_forward(&filter, &aiding, &inputs, initial).unwrap();
+    let run = run_forward(&settings, &inputs, initial).unwrap();
     let smoothed = smooth(&run.records).unwrap();
     assert_eq!(smoothed.len(), run.records.len());
 
@@ -144,9 +163,9 @@ fn forward_filter_and_smoother_follow_the_survey() {
         }
         assert_eq!(run.records[k].stamp_ns, t.stamp_ns);
         fwd.push((t.stamp_ns, horizontal_error(t, &run.records[k].posterior)));
-        smo.push(horizontal_error(t, &smoothed[k]));
-        assert!(run.records[k].posterior.cov.cholesky().is_some());
-        assert!(smoothed[k].cov.cholesky().is_some());
+        smo.push(horizontal_error(t, &smoothed[k].point));
+        assert!(run.records[k].posterior_cov.unpack().cholesky().is_some());
+        assert!(smoothed[k].sigma.iter().all(|s| s.is_finite() && *s > 0.0));
     }
     let rms = |v: &mut dyn Iterator<Item = f64>| {
         let (s, n) = v.fold((0.0, 0usize), |(s, n), e| (s + e * e, n + 1));
@@ -214,14 +233,18 @@ fn position_fixes_bound_the_error_without_dvl() {
         .messages::<hindsight::contract::PositionFix>("/position_fix")
         .unwrap();
     assert!(fixes.len() > 30);
-    let filter = filter_for(&scenario);
-    let aiding = Aiding {
-        dvl_sigma_m_s: 0.015,
-        dvl_max_altitude_m: 100.0,
-        depth_sigma_m: 0.1,
-        eml_sigma_m_s: None,
-        gate_probability: Some(0.999),
-    };
+    let settings = settings_for(
+        &scenario,
+        Aiding {
+            dvl_sigma_m_s: 0.015,
+            dvl_max_altitude_m: 100.0,
+            dvl_mounting: DvlMounting::default(),
+            depth_sigma_m: 0.1,
+            depth_min_interval_s: 0.0,
+            eml_sigma_m_s: None,
+            gate_probability: Some(0.999),
+        },
+    );
     let initial = initial_from_truth(&truth[0], &scenario, 0.0, 0.0, 2.0, 4.0);
     let stamps: Vec<i64> = truth.iter().map(|t| t.stamp_ns).collect();
     let origin_rad = (
@@ -239,7 +262,7 @@ fn position_fixes_bound_the_error_without_dvl() {
             origin_rad,
             output_stamps_ns: &stamps,
         };
-        let run = run_forward(&filter, &aiding, &inputs, initial).unwrap();
+        let run = run_forward(&settings, &inputs, initial).unwrap();
         let mut k = 0;
         let mut sq = 0.0;
         for t in truth {

@@ -3,7 +3,9 @@
 //! Derivation. The forward filter keeps a nominal state `x` and an error state `dx` whose mean
 //! is reset to zero after every update (the correction is injected into `x`). Between two
 //! recorded epochs k and k+1 there are no updates, only prediction:
-//! `dx_{k+1|k} = Phi_k dx_{k|k} = 0` and `P_{k+1|k} = Phi_k P_{k|k} Phi_k^T + Q_k`.
+//! `dx_{k+1|k} = Phi_k dx_{k|k} = 0` and `P_{k+1|k} = Phi_k P_{k|k} Phi_k^T + Q_k`
+//! (`Phi_k` is the product of the transitions the forward pass used between the two epochs,
+//! `Q_k` what they added).
 //! At epoch k+1 the updates move the nominal from its prior `x-_{k+1}` to its posterior
 //! `x+_{k+1} = x-_{k+1} (+) D_{k+1}`, and the smoothed error relative to the posterior is
 //! `dx_{k+1|N}`. Relative to the prior nominal (the one `Phi_k` propagated to) it is, to first
@@ -15,10 +17,13 @@
 //!
 //! starting from `dx_{N|N} = 0`, `P_{N|N}` at the last epoch, and the smoothed state is
 //! `x+_k (+) dx_{k|N}`. The reset Jacobian is taken as the identity, as in the forward filter.
-//! Memory: one record per filter epoch (measurement or output time), never per IMU sample.
+//!
+//! Memory: the forward pass keeps one compact record per filter epoch (measurement or output
+//! time), never per IMU sample (`filters::ins::record`); the backward pass holds one full
+//! covariance at a time and returns compact solutions.
 
 use crate::filters::ins::error_state::{self, idx, ErrorState};
-use crate::filters::ins::forward::{EpochRecord, Estimate};
+use crate::filters::ins::record::{EpochRecord, NavPoint, PackedCov, Solution};
 
 /// Why smoothing failed.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -27,36 +32,42 @@ pub enum SmoothError {
     SingularPrior { epoch: usize },
 }
 
-/// Smoothed estimates, one per record.
-pub fn smooth(records: &[EpochRecord]) -> Result<Vec<Estimate>, SmoothError> {
+/// Smoothed solutions, one per record.
+pub fn smooth(records: &[EpochRecord]) -> Result<Vec<Solution>, SmoothError> {
     let n = records.len();
     let mut out = Vec::with_capacity(n);
-    if n == 0 {
+    let Some(last) = records.last() else {
         return Ok(out);
-    }
+    };
     let mut dx_next = ErrorState::zeros();
-    let mut p_next = records[n - 1].posterior.cov;
-    out.push(records[n - 1].posterior);
+    let mut p_next = last.posterior_cov.unpack();
+    out.push(Solution::forward(last));
     for k in (0..n - 1).rev() {
         let rec = &records[k];
         let next = &records[k + 1];
-        let p = rec.posterior.cov;
-        let prior_chol = next
-            .prior_cov
+        let p = rec.posterior_cov.unpack();
+        let prior_cov = next.prior_cov.unpack();
+        let prior_chol = prior_cov
             .cholesky()
             .ok_or(SmoothError::SingularPrior { epoch: k + 1 })?;
         // C = P Phi^T Pp^-1  =>  C^T = Pp^-1 Phi P.
-        let gain = prior_chol.solve(&(next.phi_from_previous * p)).transpose();
+        let gain = prior_chol
+            .solve(&(next.phi_from_previous.unpack() * p))
+            .transpose();
         let dx = gain * (dx_next + next.correction);
-        let p_smooth = p + gain * (p_next - next.prior_cov) * gain.transpose();
+        let p_smooth = p + gain * (p_next - prior_cov) * gain.transpose();
         let p_smooth = (p_smooth + p_smooth.transpose()) * 0.5;
         let post = &rec.posterior;
-        out.push(Estimate {
+        let point = NavPoint {
             nav: error_state::inject(&post.nav, &dx),
             gyro_bias: post.gyro_bias + dx.fixed_rows::<3>(idx::GYRO_BIAS),
             accel_bias: post.accel_bias + dx.fixed_rows::<3>(idx::ACCEL_BIAS),
-            cov: p_smooth,
-        });
+        };
+        out.push(Solution::new(
+            rec.stamp_ns,
+            point,
+            &PackedCov::pack(&p_smooth),
+        ));
         dx_next = dx;
         p_next = p_smooth;
     }

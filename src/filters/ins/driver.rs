@@ -1,32 +1,67 @@
-//! The forward pass over a whole mission: IMU-rate prediction, the aiding measurements at
-//! their times, and the epoch records the smoother needs (one per IMU tick that carries a
-//! measurement or an output time, never one per IMU sample).
+//! The forward pass over a whole mission: the nominal state at IMU rate, the covariance at
+//! the filter's epochs, the aiding measurements at their times, and the epoch records the
+//! smoother needs.
+//!
+//! - An *epoch* is an IMU tick that carries a measurement or an output time. The covariance
+//!   is propagated at epochs and at least every `covariance_interval_s` (one `Phi` per
+//!   interval, from `F` at both ends), never per IMU sample: the cost and the memory follow
+//!   the epochs, not the IMU rate.
+//! - A measurement is applied at the first IMU tick at or after its stamp (at 100 Hz, at
+//!   most 10 ms late).
+//! - An IMU interval longer than the gap threshold is bridged: the nominal state is carried
+//!   through at the IMU's usual step with the samples on either side interpolated, and the
+//!   covariance grows with extra noise for the motion nobody measured; measurements inside
+//!   the gap are applied at their times.
 //!
 //! Takes the contract's typed messages as time-sorted slices (what ingest and align hand
 //! over), so it imports no I/O.
 
-use super::error_state::ErrorMatrix;
-use super::forward::{measure, EpochRecord, Estimate, Filter};
-use super::mechanization::ImuSample;
+use super::error_state::{ErrorMatrix, N};
+use super::forward::{measure, DvlMounting, Estimate, Filter, ImuNoise};
+use super::mechanization::{ImuSample, NavState};
+use super::record::EpochRecord;
 use crate::contract::{Depth, Dvl, GnssFix, Imu, PositionFix, SpeedLog};
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
 use crate::geodesy;
 use nalgebra::{SMatrix, SVector, Vector3};
 
-/// Measurement noise and gating of the aiding sensors.
+/// Measurement noise, validity and gating of the aiding sensors.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Aiding {
     /// DVL velocity 1-sigma per axis, m/s.
     pub dvl_sigma_m_s: f64,
     /// DVL readings above this altitude are not used (out of range), m.
     pub dvl_max_altitude_m: f64,
+    pub dvl_mounting: DvlMounting,
     /// Depth 1-sigma, m.
     pub depth_sigma_m: f64,
+    /// Depth readings closer than this to the last one used are skipped (a 100 Hz depth
+    /// sensor adds nothing over 10 Hz but epochs), s.
+    pub depth_min_interval_s: f64,
     /// EM-log speed 1-sigma, m/s (`None`: the EM log is not used).
     pub eml_sigma_m_s: Option<f64>,
     /// Probability of the chi-square gate (a consistent measurement passes it with this
     /// probability); `None` disables gating.
     pub gate_probability: Option<f64>,
+}
+
+/// How the covariance is carried between epochs and across IMU gaps.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Propagation {
+    /// Longest interval over which the covariance is propagated in one step, s.
+    pub covariance_interval_s: f64,
+    /// An IMU interval longer than this (and longer than three usual intervals) is a gap, s.
+    pub imu_gap_s: f64,
+    /// Noise added while bridging a gap (on top of the IMU's), same units as [`ImuNoise`].
+    pub gap_noise: ImuNoise,
+}
+
+/// The settings of one forward run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    pub filter: Filter,
+    pub propagation: Propagation,
+    pub aiding: Aiding,
 }
 
 /// Time-sorted inputs of one mission.
@@ -47,13 +82,43 @@ pub struct Inputs<'a> {
 }
 
 /// Which sensor a residual belongs to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Sensor {
     Dvl,
     Depth,
     Gnss,
     SpeedLog,
     PositionFix,
+}
+
+impl Sensor {
+    pub const ALL: [Sensor; 5] = [
+        Sensor::Dvl,
+        Sensor::Depth,
+        Sensor::Gnss,
+        Sensor::SpeedLog,
+        Sensor::PositionFix,
+    ];
+
+    /// Name used in tables and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sensor::Dvl => "dvl",
+            Sensor::Depth => "depth",
+            Sensor::Gnss => "gnss",
+            Sensor::SpeedLog => "eml",
+            Sensor::PositionFix => "position_fix",
+        }
+    }
+
+    /// Number of components of its innovation.
+    pub fn dims(self) -> usize {
+        match self {
+            Sensor::Dvl => 3,
+            Sensor::Depth | Sensor::SpeedLog => 1,
+            Sensor::Gnss | Sensor::PositionFix => 2,
+        }
+    }
 }
 
 /// One aiding measurement as the filter saw it.
@@ -90,6 +155,13 @@ impl Residual {
     }
 }
 
+/// An interval without IMU data that the filter bridged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ImuGap {
+    pub from_ns: i64,
+    pub to_ns: i64,
+}
+
 /// What the forward pass produced.
 #[derive(Debug, Clone, Default)]
 pub struct ForwardRun {
@@ -97,6 +169,20 @@ pub struct ForwardRun {
     pub residuals: Vec<Residual>,
     /// DVL readings not used: no bottom lock, or above the maximum altitude.
     pub dvl_out_of_range: usize,
+    /// Depth readings skipped by the minimum interval.
+    pub depth_skipped: usize,
+    /// EM-log readings not used (speed below 0.1 m/s, where its direction is undefined).
+    pub eml_too_slow: usize,
+    pub imu_gaps: Vec<ImuGap>,
+}
+
+/// Why the forward pass stopped.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("{} update at {stamp_ns} ns: {source}", sensor.name())]
+pub struct ForwardError {
+    pub stamp_ns: i64,
+    pub sensor: Sensor,
+    pub source: KalmanError,
 }
 
 fn imu_sample(m: &Imu) -> ImuSample {
@@ -106,137 +192,321 @@ fn imu_sample(m: &Imu) -> ImuSample {
     }
 }
 
+/// The usual IMU interval: the median of the first thousand intervals, s.
+pub fn usual_imu_interval_s(imu: &[Imu]) -> Option<f64> {
+    let mut dts: Vec<f64> = imu
+        .windows(2)
+        .take(1000)
+        .map(|w| (w[1].stamp_ns - w[0].stamp_ns) as f64 * 1e-9)
+        .collect();
+    if dts.is_empty() {
+        return None;
+    }
+    dts.sort_by(f64::total_cmp);
+    Some(dts[dts.len() / 2])
+}
+
+/// Next index of each input, and when the last depth reading was used.
+#[derive(Debug, Clone, Copy)]
+struct Cursor {
+    dvl: usize,
+    depth: usize,
+    gnss: usize,
+    eml: usize,
+    fix: usize,
+    out: usize,
+    last_depth_ns: Option<i64>,
+}
+
+struct Pass<'a> {
+    settings: &'a Settings,
+    inputs: &'a Inputs<'a>,
+    gate: [Option<f64>; 4],
+    est: Estimate,
+    /// Nominal state when the covariance was last propagated, and what has accumulated
+    /// since: the sum of bias-corrected specific force times dt, and the time.
+    cov_nav: NavState,
+    f_dt_sum: Vector3<f64>,
+    cov_dt_s: f64,
+    gap_since_cov: bool,
+    phi_acc: ErrorMatrix,
+    /// Bias-corrected body rate relative to NED at the current tick.
+    omega_nb_body: Vector3<f64>,
+    at: Cursor,
+    run: ForwardRun,
+    origin_rn: f64,
+    origin_re: f64,
+}
+
 /// Runs the forward filter from `initial` (the estimate at the first IMU sample).
 pub fn run_forward(
-    filter: &Filter,
-    aiding: &Aiding,
+    settings: &Settings,
     inputs: &Inputs<'_>,
     initial: Estimate,
-) -> Result<ForwardRun, KalmanError> {
-    let gate = |m: usize| aiding.gate_probability.map(|p| chi_square_quantile(m, p));
-    let mut run = ForwardRun::default();
+) -> Result<ForwardRun, ForwardError> {
     let Some(first) = inputs.imu.first() else {
-        return Ok(run);
+        return Ok(ForwardRun::default());
     };
-    let mut est = initial;
-    run.records.push(EpochRecord {
-        stamp_ns: first.stamp_ns,
-        phi_from_previous: ErrorMatrix::identity(),
-        prior_cov: est.cov,
-        correction: SVector::zeros(),
-        posterior: est,
-    });
-    let mut phi_acc = ErrorMatrix::identity();
-    // Measurements at or before the first IMU sample predate the initial estimate.
     let t0 = first.stamp_ns;
-    let mut i_dvl = inputs.dvl.partition_point(|m| m.stamp_ns <= t0);
-    let mut i_depth = inputs.depth.partition_point(|m| m.stamp_ns <= t0);
-    let mut i_gnss = inputs.gnss.partition_point(|m| m.stamp_ns <= t0);
-    let mut i_eml = inputs.eml.partition_point(|m| m.stamp_ns <= t0);
-    let mut i_fix = inputs.fixes.partition_point(|m| m.stamp_ns <= t0);
-    let (origin_lat, origin_lon) = inputs.origin_rad;
-    let origin_rn = geodesy::meridian_radius_m(origin_lat);
-    let origin_re = geodesy::prime_vertical_radius_m(origin_lat) * origin_lat.cos();
-    let mut i_out = inputs.output_stamps_ns.partition_point(|&s| s <= t0);
+    let aiding = &settings.aiding;
+    let gate = |m: usize| aiding.gate_probability.map(|p| chi_square_quantile(m, p));
+    let origin_lat = inputs.origin_rad.0;
+    // Measurements at or before the first IMU sample predate the initial estimate.
+    let at = Cursor {
+        dvl: inputs.dvl.partition_point(|m| m.stamp_ns <= t0),
+        depth: inputs.depth.partition_point(|m| m.stamp_ns <= t0),
+        gnss: inputs.gnss.partition_point(|m| m.stamp_ns <= t0),
+        eml: inputs.eml.partition_point(|m| m.stamp_ns <= t0),
+        fix: inputs.fixes.partition_point(|m| m.stamp_ns <= t0),
+        out: inputs.output_stamps_ns.partition_point(|&s| s <= t0),
+        last_depth_ns: None,
+    };
+    let mut pass = Pass {
+        settings,
+        inputs,
+        gate: [None, gate(1), gate(2), gate(3)],
+        est: initial,
+        cov_nav: initial.nav,
+        f_dt_sum: Vector3::zeros(),
+        cov_dt_s: 0.0,
+        gap_since_cov: false,
+        phi_acc: ErrorMatrix::identity(),
+        omega_nb_body: Vector3::zeros(),
+        at,
+        run: ForwardRun::default(),
+        origin_rn: geodesy::meridian_radius_m(origin_lat),
+        origin_re: geodesy::prime_vertical_radius_m(origin_lat) * origin_lat.cos(),
+    };
+    pass.run.records.push(EpochRecord::new(
+        t0,
+        &ErrorMatrix::identity(),
+        &initial,
+        &initial,
+    ));
 
+    let usual_dt = usual_imu_interval_s(inputs.imu).unwrap_or(0.01);
+    let gap_s = settings.propagation.imu_gap_s.max(3.0 * usual_dt);
     for pair in inputs.imu.windows(2) {
         let (a, b) = (&pair[0], &pair[1]);
-        let t = b.stamp_ns;
-        let dt = (t - a.stamp_ns) as f64 * 1e-9;
-        let (predicted, phi) = filter.predict(&est, &imu_sample(a), &imu_sample(b), dt, None);
-        est = predicted;
-        phi_acc = phi * phi_acc;
-        let prior = est;
-        let mut epoch = false;
+        let dt = (b.stamp_ns - a.stamp_ns) as f64 * 1e-9;
+        if dt <= 0.0 {
+            continue; // ingest sorts and removes duplicates; nothing to integrate
+        }
+        let (sa, sb) = (imu_sample(a), imu_sample(b));
+        if dt <= gap_s {
+            pass.advance(&sa, &sb, dt, b.stamp_ns, false)?;
+            continue;
+        }
+        pass.run.imu_gaps.push(ImuGap {
+            from_ns: a.stamp_ns,
+            to_ns: b.stamp_ns,
+        });
+        let steps = (dt / usual_dt).ceil().max(1.0) as i64;
+        let span_ns = b.stamp_ns - a.stamp_ns;
+        let mut prev = sa;
+        for k in 1..=steps {
+            let s = k as f64 / steps as f64;
+            let t = a.stamp_ns + span_ns * k / steps;
+            let next = ImuSample::lerp(&sa, &sb, s);
+            pass.advance(&prev, &next, dt / steps as f64, t, true)?;
+            prev = next;
+        }
+    }
+    Ok(pass.run)
+}
 
-        while i_dvl < inputs.dvl.len() && inputs.dvl[i_dvl].stamp_ns <= t {
-            let d = &inputs.dvl[i_dvl];
-            i_dvl += 1;
-            epoch = true;
+impl Pass<'_> {
+    /// One step of the nominal state to tick `t` (IMU `a` to `b` over `dt`), then the
+    /// measurements and outputs due at `t`.
+    fn advance(
+        &mut self,
+        a: &ImuSample,
+        b: &ImuSample,
+        dt: f64,
+        t: i64,
+        in_gap: bool,
+    ) -> Result<(), ForwardError> {
+        let filter = &self.settings.filter;
+        self.est.nav = filter.propagate_nominal(&self.est, a, b, dt, None);
+        let corrected_f =
+            (a.specific_force_body + b.specific_force_body) * 0.5 - self.est.accel_bias;
+        self.f_dt_sum += corrected_f * dt;
+        self.cov_dt_s += dt;
+        self.gap_since_cov |= in_gap;
+        self.omega_nb_body = self.omega_nb(b);
+
+        let epoch = self.due(t);
+        if epoch || self.cov_dt_s >= self.settings.propagation.covariance_interval_s {
+            self.propagate_covariance();
+        }
+        if epoch {
+            let prior = self.est;
+            self.apply_measurements(t)?;
+            self.run
+                .records
+                .push(EpochRecord::new(t, &self.phi_acc, &prior, &self.est));
+            self.phi_acc = ErrorMatrix::identity();
+            self.cov_nav = self.est.nav;
+        }
+        Ok(())
+    }
+
+    /// The corrected body rate relative to NED, `omega_ib - b_g - C^T (omega_ie + omega_en)`.
+    fn omega_nb(&self, imu: &ImuSample) -> Vector3<f64> {
+        let nav = &self.est.nav;
+        let w_in = geodesy::earth_rate_ned(nav.lat_rad)
+            + geodesy::transport_rate_ned(nav.lat_rad, nav.height_m, &nav.vel_ned_m_s);
+        imu.omega_ib_body - self.est.gyro_bias - nav.ned_from_body.inverse() * w_in
+    }
+
+    /// Whether any measurement or output is due at or before `t`.
+    fn due(&self, t: i64) -> bool {
+        let (i, at) = (self.inputs, &self.at);
+        let next = |stamp: Option<i64>| stamp.is_some_and(|s| s <= t);
+        next(i.dvl.get(at.dvl).map(|m| m.stamp_ns))
+            || next(i.depth.get(at.depth).map(|m| m.stamp_ns))
+            || next(i.gnss.get(at.gnss).map(|m| m.stamp_ns))
+            || next(i.eml.get(at.eml).map(|m| m.stamp_ns))
+            || next(i.fixes.get(at.fix).map(|m| m.stamp_ns))
+            || next(i.output_stamps_ns.get(at.out).copied())
+    }
+
+    fn propagate_covariance(&mut self) {
+        if self.cov_dt_s <= 0.0 {
+            return;
+        }
+        let filter = &self.settings.filter;
+        let f_mean = self.f_dt_sum / self.cov_dt_s;
+        let noise = if self.gap_since_cov {
+            let (n, g) = (filter.noise, self.settings.propagation.gap_noise);
+            ImuNoise {
+                gyro_noise_density: n.gyro_noise_density.hypot(g.gyro_noise_density),
+                accel_noise_density: n.accel_noise_density.hypot(g.accel_noise_density),
+                gyro_bias_walk: n.gyro_bias_walk.hypot(g.gyro_bias_walk),
+                accel_bias_walk: n.accel_bias_walk.hypot(g.accel_bias_walk),
+            }
+        } else {
+            filter.noise
+        };
+        let (cov, phi) = filter.propagate_covariance_with(
+            &self.est.cov,
+            &self.cov_nav,
+            &self.est.nav,
+            &f_mean,
+            self.cov_dt_s,
+            &noise,
+        );
+        self.est.cov = cov;
+        self.phi_acc = phi * self.phi_acc;
+        self.cov_nav = self.est.nav;
+        self.f_dt_sum = Vector3::zeros();
+        self.cov_dt_s = 0.0;
+        self.gap_since_cov = false;
+    }
+
+    /// Applies an update and records its residual.
+    fn apply<const M: usize>(
+        &mut self,
+        stamp_ns: i64,
+        sensor: Sensor,
+        y: &SVector<f64, M>,
+        h: &SMatrix<f64, M, N>,
+        r: &SMatrix<f64, M, M>,
+    ) -> Result<(), ForwardError> {
+        let (next, rec) = self
+            .settings
+            .filter
+            .update(&self.est, y, h, r, self.gate[M])
+            .map_err(|source| ForwardError {
+                stamp_ns,
+                sensor,
+                source,
+            })?;
+        self.run
+            .residuals
+            .push(Residual::from_record(stamp_ns, sensor, &rec));
+        self.est = next;
+        Ok(())
+    }
+
+    fn apply_measurements(&mut self, t: i64) -> Result<(), ForwardError> {
+        let (inputs, aiding) = (self.inputs, self.settings.aiding);
+        while let Some(d) = inputs.dvl.get(self.at.dvl).filter(|m| m.stamp_ns <= t) {
+            self.at.dvl += 1;
             let in_range = d.valid && d.altitude.is_none_or(|h| h <= aiding.dvl_max_altitude_m);
             if !in_range {
-                run.dvl_out_of_range += 1;
+                self.run.dvl_out_of_range += 1;
                 continue;
             }
-            let (y, h) = measure::body_velocity(&est, &Vector3::from(d.velocity));
+            let (y, h) = measure::dvl_velocity(
+                &self.est,
+                &Vector3::from(d.velocity),
+                &aiding.dvl_mounting,
+                &self.omega_nb_body,
+            );
             let r = SMatrix::<f64, 3, 3>::identity() * aiding.dvl_sigma_m_s.powi(2);
-            let (next, rec) = filter.update(&est, &y, &h, &r, gate(3))?;
-            run.residuals
-                .push(Residual::from_record(d.stamp_ns, Sensor::Dvl, &rec));
-            est = next;
+            self.apply(d.stamp_ns, Sensor::Dvl, &y, &h, &r)?;
         }
-        while i_depth < inputs.depth.len() && inputs.depth[i_depth].stamp_ns <= t {
-            let d = &inputs.depth[i_depth];
-            i_depth += 1;
-            epoch = true;
-            let (y, h) = measure::depth(&est, d.depth);
+        while let Some(d) = inputs.depth.get(self.at.depth).filter(|m| m.stamp_ns <= t) {
+            self.at.depth += 1;
+            let min_ns = (aiding.depth_min_interval_s * 1e9) as i64;
+            if self
+                .at
+                .last_depth_ns
+                .is_some_and(|last| d.stamp_ns - last < min_ns)
+            {
+                self.run.depth_skipped += 1;
+                continue;
+            }
+            self.at.last_depth_ns = Some(d.stamp_ns);
+            let (y, h) = measure::depth(&self.est, d.depth);
             let r = SMatrix::<f64, 1, 1>::new(aiding.depth_sigma_m.powi(2));
-            let (next, rec) = filter.update(&est, &y, &h, &r, gate(1))?;
-            run.residuals
-                .push(Residual::from_record(d.stamp_ns, Sensor::Depth, &rec));
-            est = next;
+            self.apply(d.stamp_ns, Sensor::Depth, &y, &h, &r)?;
         }
-        while i_gnss < inputs.gnss.len() && inputs.gnss[i_gnss].stamp_ns <= t {
-            let g = &inputs.gnss[i_gnss];
-            i_gnss += 1;
-            epoch = true;
+        while let Some(g) = inputs.gnss.get(self.at.gnss).filter(|m| m.stamp_ns <= t) {
+            self.at.gnss += 1;
             let (y, h) = measure::horizontal_position(
-                &est,
+                &self.est,
                 g.latitude_deg.to_radians(),
                 g.longitude_deg.to_radians(),
             );
             let r = SMatrix::<f64, 2, 2>::identity() * g.horizontal_sigma_m.powi(2);
-            let (next, rec) = filter.update(&est, &y, &h, &r, gate(2))?;
-            run.residuals
-                .push(Residual::from_record(g.stamp_ns, Sensor::Gnss, &rec));
-            est = next;
+            self.apply(g.stamp_ns, Sensor::Gnss, &y, &h, &r)?;
         }
-        while i_fix < inputs.fixes.len() && inputs.fixes[i_fix].stamp_ns <= t {
-            let f = &inputs.fixes[i_fix];
-            i_fix += 1;
-            epoch = true;
+        while let Some(f) = inputs.fixes.get(self.at.fix).filter(|m| m.stamp_ns <= t) {
+            self.at.fix += 1;
             // The mission frame's north/east back to latitude/longitude (the inverse of
             // `geodesy::local_north_east_m`).
+            let (lat0, lon0) = inputs.origin_rad;
             let (lat, lon) = (
-                origin_lat + f.north_m / origin_rn,
-                origin_lon + f.east_m / origin_re,
+                lat0 + f.north_m / self.origin_rn,
+                lon0 + f.east_m / self.origin_re,
             );
-            let (y, h) = measure::horizontal_position(&est, lat, lon);
+            let (y, h) = measure::horizontal_position(&self.est, lat, lon);
             let r = SMatrix::<f64, 2, 2>::identity() * f.sigma_m.powi(2);
-            let (next, rec) = filter.update(&est, &y, &h, &r, gate(2))?;
-            run.residuals
-                .push(Residual::from_record(f.stamp_ns, Sensor::PositionFix, &rec));
-            est = next;
+            self.apply(f.stamp_ns, Sensor::PositionFix, &y, &h, &r)?;
         }
-        while i_eml < inputs.eml.len() && inputs.eml[i_eml].stamp_ns <= t {
-            let e = &inputs.eml[i_eml];
-            i_eml += 1;
+        while let Some(e) = inputs.eml.get(self.at.eml).filter(|m| m.stamp_ns <= t) {
+            self.at.eml += 1;
             let Some(sigma) = aiding.eml_sigma_m_s else {
                 continue;
             };
-            epoch = true;
-            if let Some((y, h)) = measure::speed(&est, e.speed) {
-                let r = SMatrix::<f64, 1, 1>::new(sigma * sigma);
-                let (next, rec) = filter.update(&est, &y, &h, &r, gate(1))?;
-                run.residuals
-                    .push(Residual::from_record(e.stamp_ns, Sensor::SpeedLog, &rec));
-                est = next;
+            match measure::speed(&self.est, e.speed) {
+                Some((y, h)) => {
+                    let r = SMatrix::<f64, 1, 1>::new(sigma * sigma);
+                    self.apply(e.stamp_ns, Sensor::SpeedLog, &y, &h, &r)?;
+                }
+                None => self.run.eml_too_slow += 1,
             }
         }
-        while i_out < inputs.output_stamps_ns.len() && inputs.output_stamps_ns[i_out] <= t {
-            i_out += 1;
-            epoch = true;
+        while self
+            .inputs
+            .output_stamps_ns
+            .get(self.at.out)
+            .is_some_and(|&s| s <= t)
+        {
+            self.at.out += 1;
         }
-        if epoch {
-            run.records.push(EpochRecord {
-                stamp_ns: t,
-                phi_from_previous: phi_acc,
-                prior_cov: prior.cov,
-                correction: EpochRecord::correction_between(&prior, &est),
-                posterior: est,
-            });
-            phi_acc = ErrorMatrix::identity();
-        }
+        Ok(())
     }
-    Ok(run)
 }

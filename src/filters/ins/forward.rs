@@ -12,7 +12,7 @@ use super::error_state::{self, idx, ErrorMatrix, ErrorState, N};
 use super::mechanization::{propagate, HeightDamping, ImuSample, NavState};
 use crate::filters::kalman::{self, Gaussian, KalmanError, UpdateRecord};
 use crate::geodesy;
-use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector3};
 
 /// Noise densities of the IMU (continuous-time, one sigma).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,6 +39,24 @@ pub struct Estimate {
     pub cov: ErrorMatrix,
 }
 
+/// Where the DVL sits and how it is turned relative to the body frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DvlMounting {
+    /// Rotation from body axes to the DVL's axes (the DVL reports in its own axes).
+    pub dvl_from_body: Rotation3<f64>,
+    /// Position of the DVL relative to the reference point, body frame, m.
+    pub lever_arm_body_m: Vector3<f64>,
+}
+
+impl Default for DvlMounting {
+    fn default() -> Self {
+        DvlMounting {
+            dvl_from_body: Rotation3::identity(),
+            lever_arm_body_m: Vector3::zeros(),
+        }
+    }
+}
+
 /// The filter's models.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Filter {
@@ -62,9 +80,9 @@ impl Estimate {
 }
 
 impl Filter {
-    /// Propagates over one IMU interval from raw sample `imu0` to `imu1`; returns the new
-    /// estimate and the transition matrix used. `height_ref_m` (ellipsoidal height of a depth
-    /// reading) damps the vertical channel.
+    /// Propagates over one IMU interval from raw sample `imu0` to `imu1`: the nominal state
+    /// and the covariance together; returns the new estimate and the transition matrix used.
+    /// `height_ref_m` (ellipsoidal height of a depth reading) damps the vertical channel.
     pub fn predict(
         &self,
         est: &Estimate,
@@ -73,52 +91,71 @@ impl Filter {
         dt_s: f64,
         height_ref_m: Option<f64>,
     ) -> (Estimate, ErrorMatrix) {
-        let (i0, i1) = (est.corrected(imu0), est.corrected(imu1));
-        let damping = self.height_damping.zip(height_ref_m);
-        let nav = propagate(&est.nav, &i0, &i1, dt_s, damping);
-        let f_mid = (i0.specific_force_body + i1.specific_force_body) * 0.5;
-        let f = (error_state::continuous_matrix(&est.nav, &f_mid)
-            + error_state::continuous_matrix(&nav, &f_mid))
-            * 0.5;
-        let phi = error_state::transition(&f, dt_s);
-        let q = self.process_noise(&est.nav, dt_s);
-        let prior = Gaussian {
-            mean: ErrorState::zeros(),
-            cov: est.cov,
-        };
-        let cov = kalman::predict(&prior, &phi, &q).cov;
+        let nav = self.propagate_nominal(est, imu0, imu1, dt_s, height_ref_m);
+        let f_mid = est
+            .corrected(&ImuSample::mean(imu0, imu1))
+            .specific_force_body;
+        let (cov, phi) = self.propagate_covariance(&est.cov, &est.nav, &nav, &f_mid, dt_s);
         (Estimate { nav, cov, ..*est }, phi)
     }
 
-    /// Discrete process noise over `dt_s` (white noise integrated over the step).
-    fn process_noise(&self, nav: &NavState, dt_s: f64) -> ErrorMatrix {
-        let n = &self.noise;
-        let c = nav.ned_from_body.to_rotation_matrix().into_inner();
-        let mut q = ErrorMatrix::zeros();
-        let block = |m: &mut ErrorMatrix, at: usize, value: Matrix3<f64>| {
-            m.fixed_view_mut::<3, 3>(at, at).copy_from(&value)
+    /// The nominal state over one IMU interval (the mechanization with the bias estimates
+    /// removed from the IMU); the covariance is left for [`Filter::propagate_covariance`].
+    pub fn propagate_nominal(
+        &self,
+        est: &Estimate,
+        imu0: &ImuSample,
+        imu1: &ImuSample,
+        dt_s: f64,
+        height_ref_m: Option<f64>,
+    ) -> NavState {
+        let damping = self.height_damping.zip(height_ref_m);
+        propagate(
+            &est.nav,
+            &est.corrected(imu0),
+            &est.corrected(imu1),
+            dt_s,
+            damping,
+        )
+    }
+
+    /// The error covariance over an interval of `dt_s` in which the nominal state went from
+    /// `nav_from` to `nav_to` under the mean bias-corrected specific force `f_mean_body`:
+    /// `F` averaged over the two ends (trapezoid), `Phi = exp(F dt)`, white process noise.
+    /// The interval may span many IMU samples (the driver propagates the covariance at its
+    /// epochs, at most `covariance_interval_s` apart); returns the covariance and `Phi`.
+    pub fn propagate_covariance(
+        &self,
+        cov: &ErrorMatrix,
+        nav_from: &NavState,
+        nav_to: &NavState,
+        f_mean_body: &Vector3<f64>,
+        dt_s: f64,
+    ) -> (ErrorMatrix, ErrorMatrix) {
+        self.propagate_covariance_with(cov, nav_from, nav_to, f_mean_body, dt_s, &self.noise)
+    }
+
+    /// [`Filter::propagate_covariance`] with other noise densities (an IMU gap adds the
+    /// uncertainty of the motion nobody measured).
+    pub fn propagate_covariance_with(
+        &self,
+        cov: &ErrorMatrix,
+        nav_from: &NavState,
+        nav_to: &NavState,
+        f_mean_body: &Vector3<f64>,
+        dt_s: f64,
+        noise: &ImuNoise,
+    ) -> (ErrorMatrix, ErrorMatrix) {
+        let f = (error_state::continuous_matrix(nav_from, f_mean_body)
+            + error_state::continuous_matrix(nav_to, f_mean_body))
+            * 0.5;
+        let phi = error_state::transition(&f, dt_s);
+        let q = process_noise(noise, dt_s);
+        let prior = Gaussian {
+            mean: ErrorState::zeros(),
+            cov: *cov,
         };
-        block(
-            &mut q,
-            idx::VEL,
-            c * c.transpose() * n.accel_noise_density.powi(2) * dt_s,
-        );
-        block(
-            &mut q,
-            idx::ATT,
-            c * c.transpose() * n.gyro_noise_density.powi(2) * dt_s,
-        );
-        block(
-            &mut q,
-            idx::GYRO_BIAS,
-            Matrix3::identity() * n.gyro_bias_walk.powi(2) * dt_s,
-        );
-        block(
-            &mut q,
-            idx::ACCEL_BIAS,
-            Matrix3::identity() * n.accel_bias_walk.powi(2) * dt_s,
-        );
-        q
+        (kalman::predict(&prior, &phi, &q).cov, phi)
     }
 
     /// Applies a measurement with innovation `y` and matrix `h` (in the error state), then
@@ -148,44 +185,35 @@ impl Filter {
     }
 }
 
-/// What the forward pass keeps at one epoch.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EpochRecord {
-    pub stamp_ns: i64,
-    /// Transition from the previous epoch to this one (identity at the first epoch).
-    pub phi_from_previous: ErrorMatrix,
-    /// Covariance predicted to this epoch, before its updates.
-    pub prior_cov: ErrorMatrix,
-    /// Correction the updates at this epoch applied, prior to posterior (position, velocity,
-    /// attitude as in the error state, then the two bias changes).
-    pub correction: ErrorState,
-    /// Estimate after this epoch's updates.
-    pub posterior: Estimate,
-}
-
-impl EpochRecord {
-    /// The correction that takes `prior` to `posterior` (both at one epoch).
-    pub fn correction_between(prior: &Estimate, posterior: &Estimate) -> ErrorState {
-        let mut d = ErrorState::zeros();
-        d.fixed_rows_mut::<9>(0)
-            .copy_from(&error_state::difference(&posterior.nav, &prior.nav));
-        d.fixed_rows_mut::<3>(idx::GYRO_BIAS)
-            .copy_from(&(posterior.gyro_bias - prior.gyro_bias));
-        d.fixed_rows_mut::<3>(idx::ACCEL_BIAS)
-            .copy_from(&(posterior.accel_bias - prior.accel_bias));
-        d
-    }
+/// Discrete process noise over `dt_s` (white noise integrated over the step). The noise
+/// enters along body axes, but `C C^T = I`, so in the NED frame it is isotropic.
+fn process_noise(n: &ImuNoise, dt_s: f64) -> ErrorMatrix {
+    let mut q = ErrorMatrix::zeros();
+    let mut block = |at: usize, density: f64| {
+        q.fixed_view_mut::<3, 3>(at, at)
+            .copy_from(&(Matrix3::identity() * density.powi(2) * dt_s))
+    };
+    block(idx::VEL, n.accel_noise_density);
+    block(idx::ATT, n.gyro_noise_density);
+    block(idx::GYRO_BIAS, n.gyro_bias_walk);
+    block(idx::ACCEL_BIAS, n.accel_bias_walk);
+    q
 }
 
 /// Measurement models: innovation and error-state matrix for each aiding sensor.
 pub mod measure {
     use super::*;
 
-    /// DVL velocity over ground in the body frame (DVL at the reference point, aligned with
-    /// the body axes). `z = C^T v`: `H_v = C^T`, `H_psi = C^T [v x]`.
-    pub fn body_velocity(
+    /// DVL velocity over ground, measured in the DVL's axes at the DVL's position:
+    /// `z = R (C^T v + omega_nb x l)` with `R` the DVL-from-body rotation, `l` the lever arm
+    /// (body frame) and `omega_nb` the bias-corrected body rate relative to NED. Then
+    /// `H_v = R C^T`, `H_psi = R C^T [v x]`, and, as the true rate is the corrected rate
+    /// minus the gyro bias correction, `H_bg = R [l x]`.
+    pub fn dvl_velocity(
         est: &Estimate,
-        v_body: &Vector3<f64>,
+        v_measured: &Vector3<f64>,
+        mounting: &DvlMounting,
+        omega_nb_body: &Vector3<f64>,
     ) -> (SVector<f64, 3>, SMatrix<f64, 3, N>) {
         let c_t = est
             .nav
@@ -193,13 +221,27 @@ pub mod measure {
             .inverse()
             .to_rotation_matrix()
             .into_inner();
+        let r = mounting.dvl_from_body.matrix();
+        let l = mounting.lever_arm_body_m;
         let v = est.nav.vel_ned_m_s;
-        let y = v_body - c_t * v;
+        let predicted = r * (c_t * v + omega_nb_body.cross(&l));
+        let y = v_measured - predicted;
         let mut h = SMatrix::<f64, 3, N>::zeros();
-        h.fixed_view_mut::<3, 3>(0, idx::VEL).copy_from(&c_t);
+        h.fixed_view_mut::<3, 3>(0, idx::VEL).copy_from(&(r * c_t));
         h.fixed_view_mut::<3, 3>(0, idx::ATT)
-            .copy_from(&(c_t * v.cross_matrix()));
+            .copy_from(&(r * c_t * v.cross_matrix()));
+        h.fixed_view_mut::<3, 3>(0, idx::GYRO_BIAS)
+            .copy_from(&(r * l.cross_matrix()));
         (y, h)
+    }
+
+    /// DVL at the reference point with its axes along the body's (no lever arm, no
+    /// rotation).
+    pub fn body_velocity(
+        est: &Estimate,
+        v_body: &Vector3<f64>,
+    ) -> (SVector<f64, 3>, SMatrix<f64, 3, N>) {
+        dvl_velocity(est, v_body, &DvlMounting::default(), &Vector3::zeros())
     }
 
     /// Depth (positive down): `z = -h`, so `H_D = 1`.
@@ -286,6 +328,33 @@ mod tests {
             assert!(
                 (numeric - h.column(i)).amax() < 1e-6,
                 "DVL column {i}: {numeric} vs {}",
+                h.column(i)
+            );
+        }
+        let mounting = DvlMounting {
+            dvl_from_body: Rotation3::from_euler_angles(0.01, -0.02, 0.785),
+            lever_arm_body_m: Vector3::new(0.8, -0.1, 0.3),
+        };
+        let w_nb = Vector3::new(0.02, -0.01, 0.05);
+        let (y0, h) = measure::dvl_velocity(&est, &v_body, &mounting, &w_nb);
+        for i in 0..N {
+            let eps = 1e-6;
+            let mut dx = ErrorState::zeros();
+            dx[i] = eps;
+            let moved = Estimate {
+                nav: error_state::inject(&est.nav, &dx),
+                ..est
+            };
+            // A gyro-bias correction changes the true body rate by -dbg.
+            let mut w_moved = w_nb;
+            if (idx::GYRO_BIAS..idx::GYRO_BIAS + 3).contains(&i) {
+                w_moved[i - idx::GYRO_BIAS] -= eps;
+            }
+            let (y1, _) = measure::dvl_velocity(&moved, &v_body, &mounting, &w_moved);
+            let numeric = (y0 - y1) / eps;
+            assert!(
+                (numeric - h.column(i)).amax() < 1e-6,
+                "mounted DVL column {i}: {numeric} vs {}",
                 h.column(i)
             );
         }

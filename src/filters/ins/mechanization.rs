@@ -36,6 +36,21 @@ pub struct ImuSample {
     pub specific_force_body: Vector3<f64>,
 }
 
+impl ImuSample {
+    /// The sample a fraction `s` of the way from `a` to `b` (linear interpolation).
+    pub fn lerp(a: &ImuSample, b: &ImuSample, s: f64) -> ImuSample {
+        ImuSample {
+            omega_ib_body: a.omega_ib_body.lerp(&b.omega_ib_body, s),
+            specific_force_body: a.specific_force_body.lerp(&b.specific_force_body, s),
+        }
+    }
+
+    /// The mean of two samples.
+    pub fn mean(a: &ImuSample, b: &ImuSample) -> ImuSample {
+        Self::lerp(a, b, 0.5)
+    }
+}
+
 /// Second-order damping of the vertical channel on a height reference:
 /// h' = -v_D - k1 (h - h_ref), v_D' = ... + k2 (h - h_ref).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -110,10 +125,7 @@ pub fn propagate(
     dt_s: f64,
     height_ref: Option<(HeightDamping, f64)>,
 ) -> NavState {
-    let mid = ImuSample {
-        omega_ib_body: (imu0.omega_ib_body + imu1.omega_ib_body) * 0.5,
-        specific_force_body: (imu0.specific_force_body + imu1.specific_force_body) * 0.5,
-    };
+    let mid = ImuSample::mean(imu0, imu1);
     let y = pack(state);
     let k1 = derivative(&y, imu0, height_ref);
     let k2 = derivative(&(y + k1 * (dt_s / 2.0)), &mid, height_ref);

@@ -1,7 +1,9 @@
-//! Inertial navigation: the strapdown mechanization (the error-state filter comes later).
+//! Inertial navigation: strapdown mechanization, the 15-state error model, the forward
+//! filter and its driver over a mission, coarse alignment, and the records the smoother reads.
 
 pub mod alignment;
 pub mod driver;
 pub mod error_state;
 pub mod forward;
 pub mod mechanization;
+pub mod record;

@@ -1,0 +1,228 @@
+//! What the forward pass keeps per filter epoch for the smoother, stored compactly: a
+//! 5.5-hour mission at 10 Hz has about 200 000 epochs, and three full 15x15 matrices per
+//! epoch would need 1.1 GB.
+//!
+//! - Covariances are symmetric: only the upper triangle is kept (120 of 225 numbers).
+//! - The transition matrix's bias rows are always `[0 I]` (the biases are random walks, so
+//!   the rows of `F` for them are zero and every power of `F` keeps them so): only the top
+//!   nine rows are kept (135 of 225).
+
+use super::error_state::{idx, ErrorMatrix, ErrorState, N};
+use super::forward::Estimate;
+use super::mechanization::NavState;
+use nalgebra::{Matrix3, SMatrix, Vector3};
+
+/// Number of numbers in the upper triangle of a 15x15 matrix.
+const PACKED: usize = N * (N + 1) / 2;
+/// Rows of the transition that are not `[0 I]`.
+const NAV_ROWS: usize = idx::GYRO_BIAS;
+
+/// A symmetric 15x15 matrix, upper triangle row by row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PackedCov([f64; PACKED]);
+
+impl PackedCov {
+    pub fn pack(m: &ErrorMatrix) -> Self {
+        let mut out = [0.0; PACKED];
+        let mut k = 0;
+        for i in 0..N {
+            for j in i..N {
+                out[k] = 0.5 * (m[(i, j)] + m[(j, i)]);
+                k += 1;
+            }
+        }
+        PackedCov(out)
+    }
+
+    pub fn unpack(&self) -> ErrorMatrix {
+        let mut m = ErrorMatrix::zeros();
+        let mut k = 0;
+        for i in 0..N {
+            for j in i..N {
+                m[(i, j)] = self.0[k];
+                m[(j, i)] = self.0[k];
+                k += 1;
+            }
+        }
+        m
+    }
+
+    fn index(i: usize, j: usize) -> usize {
+        let (i, j) = if i <= j { (i, j) } else { (j, i) };
+        i * N - i * (i + 1) / 2 + j
+    }
+
+    /// One element.
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        self.0[Self::index(i, j)]
+    }
+
+    /// One-sigma of every error-state element.
+    pub fn sigma(&self) -> ErrorState {
+        ErrorState::from_fn(|i, _| self.get(i, i).max(0.0).sqrt())
+    }
+
+    /// The 3x3 block starting at `at` on the diagonal.
+    pub fn block3(&self, at: usize) -> Matrix3<f64> {
+        Matrix3::from_fn(|i, j| self.get(at + i, at + j))
+    }
+}
+
+/// A transition matrix whose bias rows are `[0 I]`, stored as its top nine rows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PackedTransition(SMatrix<f64, NAV_ROWS, N>);
+
+impl PackedTransition {
+    /// Packs `phi`; its bias rows must be `[0 I]` (true of every transition of the model).
+    pub fn pack(phi: &ErrorMatrix) -> Self {
+        debug_assert!(
+            (phi.fixed_view::<6, N>(NAV_ROWS, 0)
+                - ErrorMatrix::identity().fixed_view::<6, N>(NAV_ROWS, 0))
+            .amax()
+                == 0.0,
+            "transition's bias rows are not [0 I]"
+        );
+        PackedTransition(phi.fixed_view::<NAV_ROWS, N>(0, 0).into_owned())
+    }
+
+    pub fn identity() -> Self {
+        Self::pack(&ErrorMatrix::identity())
+    }
+
+    pub fn unpack(&self) -> ErrorMatrix {
+        let mut m = ErrorMatrix::identity();
+        m.fixed_view_mut::<NAV_ROWS, N>(0, 0).copy_from(&self.0);
+        m
+    }
+}
+
+/// The navigation state and bias estimates without their covariance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NavPoint {
+    pub nav: NavState,
+    pub gyro_bias: Vector3<f64>,
+    pub accel_bias: Vector3<f64>,
+}
+
+/// What the forward pass keeps at one epoch (an IMU tick with a measurement or an output
+/// time).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EpochRecord {
+    pub stamp_ns: i64,
+    /// Transition from the previous epoch to this one (identity at the first epoch).
+    pub phi_from_previous: PackedTransition,
+    /// Covariance predicted to this epoch, before its updates.
+    pub prior_cov: PackedCov,
+    /// Correction the updates at this epoch applied, prior to posterior (position, velocity,
+    /// attitude as in the error state, then the two bias changes).
+    pub correction: ErrorState,
+    /// Estimate after this epoch's updates.
+    pub posterior: NavPoint,
+    pub posterior_cov: PackedCov,
+}
+
+impl EpochRecord {
+    /// The record of an epoch whose prior estimate was `prior` and whose updates gave
+    /// `posterior`.
+    pub fn new(
+        stamp_ns: i64,
+        phi_from_previous: &ErrorMatrix,
+        prior: &Estimate,
+        posterior: &Estimate,
+    ) -> Self {
+        EpochRecord {
+            stamp_ns,
+            phi_from_previous: PackedTransition::pack(phi_from_previous),
+            prior_cov: PackedCov::pack(&prior.cov),
+            correction: correction_between(prior, posterior),
+            posterior: NavPoint::from(posterior),
+            posterior_cov: PackedCov::pack(&posterior.cov),
+        }
+    }
+
+    /// The full posterior estimate.
+    pub fn posterior_estimate(&self) -> Estimate {
+        self.posterior.with_cov(self.posterior_cov.unpack())
+    }
+}
+
+impl From<&Estimate> for NavPoint {
+    fn from(e: &Estimate) -> Self {
+        NavPoint {
+            nav: e.nav,
+            gyro_bias: e.gyro_bias,
+            accel_bias: e.accel_bias,
+        }
+    }
+}
+
+impl NavPoint {
+    pub fn with_cov(&self, cov: ErrorMatrix) -> Estimate {
+        Estimate {
+            nav: self.nav,
+            gyro_bias: self.gyro_bias,
+            accel_bias: self.accel_bias,
+            cov,
+        }
+    }
+}
+
+/// A solution at one epoch as the outputs need it: the state, the one-sigma of every
+/// error-state element and the full position covariance (for the NEES), without the rest of
+/// the covariance (a 5.5-hour mission has 200 000 of these, twice).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Solution {
+    pub stamp_ns: i64,
+    pub point: NavPoint,
+    pub sigma: ErrorState,
+    /// Covariance of the north/east/down position error, m^2.
+    pub position_cov: Matrix3<f64>,
+}
+
+impl Solution {
+    pub fn new(stamp_ns: i64, point: NavPoint, cov: &PackedCov) -> Self {
+        Solution {
+            stamp_ns,
+            point,
+            sigma: cov.sigma(),
+            position_cov: cov.block3(idx::POS),
+        }
+    }
+
+    /// The forward solution of an epoch.
+    pub fn forward(record: &EpochRecord) -> Self {
+        Self::new(record.stamp_ns, record.posterior, &record.posterior_cov)
+    }
+}
+
+/// The correction that takes `prior` to `posterior` (both at one epoch).
+pub fn correction_between(prior: &Estimate, posterior: &Estimate) -> ErrorState {
+    let mut d = ErrorState::zeros();
+    d.fixed_rows_mut::<9>(0)
+        .copy_from(&super::error_state::difference(&posterior.nav, &prior.nav));
+    d.fixed_rows_mut::<3>(idx::GYRO_BIAS)
+        .copy_from(&(posterior.gyro_bias - prior.gyro_bias));
+    d.fixed_rows_mut::<3>(idx::ACCEL_BIAS)
+        .copy_from(&(posterior.accel_bias - prior.accel_bias));
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn packing_round_trips() {
+        let a = ErrorMatrix::from_fn(|i, j| (i * 31 + j * 7) as f64 * 0.01 - 1.0);
+        let sym = a * a.transpose();
+        let packed = PackedCov::pack(&sym);
+        assert_eq!(packed.unpack(), sym);
+        assert_eq!(packed.get(3, 11), sym[(3, 11)]);
+        assert_eq!(packed.get(11, 3), sym[(11, 3)]);
+        assert_eq!(packed.block3(6), sym.fixed_view::<3, 3>(6, 6).into_owned());
+        let mut phi = ErrorMatrix::identity();
+        phi.fixed_view_mut::<NAV_ROWS, N>(0, 0)
+            .copy_from(&a.fixed_view::<NAV_ROWS, N>(0, 0));
+        assert_eq!(PackedTransition::pack(&phi).unpack(), phi);
+    }
+}
