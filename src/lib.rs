@@ -13,6 +13,7 @@ pub mod filters;
 pub mod geodesy;
 pub mod ingest;
 pub mod output;
+pub mod recon;
 pub mod sim;
 pub mod smooth;
 pub mod time;

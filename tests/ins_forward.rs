@@ -141,6 +141,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
         Aiding {
             dvl_sigma_m_s: 0.015,
             dvl_max_altitude_m: 100.0,
+            dvl_check_range: true,
             dvl_mounting: DvlMounting::default(),
             depth_sigma_m: 0.1,
             depth_min_interval_s: 0.0,
@@ -238,6 +239,7 @@ fn position_fixes_bound_the_error_without_dvl() {
         Aiding {
             dvl_sigma_m_s: 0.015,
             dvl_max_altitude_m: 100.0,
+            dvl_check_range: true,
             dvl_mounting: DvlMounting::default(),
             depth_sigma_m: 0.1,
             depth_min_interval_s: 0.0,

@@ -6,14 +6,19 @@
 mod bench;
 mod export;
 mod info;
+mod reconstruct;
 mod simulate;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use hindsight::align::{AlignError, ClockOffset};
 use hindsight::ingest::{IngestError, IngestOptions, Log, MissionError};
+use hindsight::recon::config::ConfigError;
+use hindsight::recon::ReconError;
 use std::path::{Path, PathBuf};
 
+/// Exit status: a bad command line or configuration file.
+pub const EXIT_USAGE: u8 = 2;
 /// Exit status: an unexpected failure.
 pub const EXIT_FAILURE: u8 = 1;
 /// Exit status: the input log cannot be read or breaks the log contract.
@@ -22,7 +27,7 @@ pub const EXIT_BAD_INPUT: u8 = 3;
 pub const EXIT_OUTPUT: u8 = 4;
 
 const AFTER_HELP: &str = "\
-Exit status: 0 success; 2 bad command line; 3 the input log cannot be read or breaks the log
+Exit status: 0 success; 2 bad command line or configuration file; 3 the input log cannot be read or breaks the log
 contract (the message names topic, log time and field); 4 an output could not be written;
 1 anything else.
 
@@ -38,6 +43,9 @@ pub struct Args {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    Reconstruct(reconstruct::ReconstructArgs),
+    /// Print the default `reconstruct` configuration (TOML, every key explained).
+    Config(reconstruct::ConfigArgs),
     Info(info::InfoArgs),
     Export(export::ExportArgs),
     Simulate(simulate::SimulateArgs),
@@ -54,6 +62,8 @@ pub struct OutputFailed {
 /// Runs a command.
 pub fn run(args: Args) -> Result<()> {
     match args.command {
+        Command::Reconstruct(a) => reconstruct::run(a),
+        Command::Config(a) => reconstruct::print_config(a),
         Command::Info(a) => info::run(a),
         Command::Export(a) => export::run(a),
         Command::Simulate(a) => simulate::run(a),
@@ -69,8 +79,11 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
     } else if err.downcast_ref::<IngestError>().is_some()
         || err.downcast_ref::<AlignError>().is_some()
         || err.downcast_ref::<MissionError>().is_some()
+        || err.downcast_ref::<ReconError>().is_some()
     {
         EXIT_BAD_INPUT
+    } else if err.downcast_ref::<ConfigError>().is_some() {
+        EXIT_USAGE
     } else {
         EXIT_FAILURE
     }

@@ -14,6 +14,9 @@ pub struct Mission {
     pub description: String,
     /// Rough heading handed over by a launcher, rad.
     pub initial_yaw_rad: Option<f64>,
+    /// Magnetic declination at the site, degrees, east positive (hindsight's addition to
+    /// the contract: optional key `magnetic_declination_deg`).
+    pub magnetic_declination_deg: Option<f64>,
 }
 
 /// Why the `mission` metadata is unusable.
@@ -56,12 +59,17 @@ impl Mission {
                 std::f64::consts::TAU,
             )?),
         };
+        let magnetic_declination_deg = match map.get("magnetic_declination_deg") {
+            None => None,
+            Some(_) => Some(number("magnetic_declination_deg", -180.0, 180.0)?),
+        };
         Ok(Mission {
             origin_latitude_deg: number("origin_latitude_deg", -90.0, 90.0)?,
             origin_longitude_deg: number("origin_longitude_deg", -180.0, 360.0)?,
             vehicle: text("vehicle")?.clone(),
             description: map.get("description").cloned().unwrap_or_default(),
             initial_yaw_rad,
+            magnetic_declination_deg,
         })
     }
 
@@ -81,6 +89,9 @@ impl Mission {
         if let Some(y) = self.initial_yaw_rad {
             m.insert("initial_yaw_rad".into(), format!("{y}"));
         }
+        if let Some(d) = self.magnetic_declination_deg {
+            m.insert("magnetic_declination_deg".into(), format!("{d}"));
+        }
         m
     }
 }
@@ -96,6 +107,7 @@ mod tests {
             vehicle: "nps-auv-ii".into(),
             description: "test".into(),
             initial_yaw_rad: Some(0.5),
+            magnetic_declination_deg: Some(-7.8),
         }
     }
 

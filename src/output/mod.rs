@@ -5,4 +5,5 @@
 
 pub mod atomic;
 pub mod parquet;
+pub mod recon_tables;
 pub mod tables;

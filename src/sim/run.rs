@@ -89,6 +89,10 @@ pub fn run_with_progress<W: Write + Seek>(
             scenario.name, scenario.description
         ),
         initial_yaw_rad: None,
+        // What a field model (e.g. WMM) gives for the site: the declination of its field.
+        magnetic_declination_deg: scenario
+            .mag
+            .map(|m| m.field_ned_nt[1].atan2(m.field_ned_nt[0]).to_degrees()),
     })?;
 
     let mut gyro = Triad::new(scenario.imu.gyro.triad(), rng_for(seed, stream::GYRO));

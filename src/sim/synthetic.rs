@@ -101,6 +101,7 @@ pub fn write_survey<W: Write + Seek>(
             spec.duration_s, spec.seed
         ),
         initial_yaw_rad: None,
+        magnetic_declination_deg: None,
     };
     w.write_mission(&mission)?;
 

@@ -32,6 +32,9 @@ pub struct Aiding {
     pub dvl_sigma_m_s: f64,
     /// DVL readings above this altitude are not used (out of range), m.
     pub dvl_max_altitude_m: f64,
+    /// False: every DVL reading is used, even without bottom lock or out of range (only to
+    /// show what trusting a bad DVL costs).
+    pub dvl_check_range: bool,
     pub dvl_mounting: DvlMounting,
     /// Depth 1-sigma, m.
     pub depth_sigma_m: f64,
@@ -279,6 +282,7 @@ pub fn run_forward(
     };
     pass.run.records.push(EpochRecord::new(
         t0,
+        true,
         &ErrorMatrix::identity(),
         &initial,
         &initial,
@@ -341,10 +345,19 @@ impl Pass<'_> {
         }
         if epoch {
             let prior = self.est;
+            let output = self
+                .inputs
+                .output_stamps_ns
+                .get(self.at.out)
+                .is_some_and(|&s| s <= t);
             self.apply_measurements(t)?;
-            self.run
-                .records
-                .push(EpochRecord::new(t, &self.phi_acc, &prior, &self.est));
+            self.run.records.push(EpochRecord::new(
+                t,
+                output,
+                &self.phi_acc,
+                &prior,
+                &self.est,
+            ));
             self.phi_acc = ErrorMatrix::identity();
             self.cov_nav = self.est.nav;
         }
@@ -433,7 +446,8 @@ impl Pass<'_> {
         let (inputs, aiding) = (self.inputs, self.settings.aiding);
         while let Some(d) = inputs.dvl.get(self.at.dvl).filter(|m| m.stamp_ns <= t) {
             self.at.dvl += 1;
-            let in_range = d.valid && d.altitude.is_none_or(|h| h <= aiding.dvl_max_altitude_m);
+            let in_range = !aiding.dvl_check_range
+                || (d.valid && d.altitude.is_none_or(|h| h <= aiding.dvl_max_altitude_m));
             if !in_range {
                 self.run.dvl_out_of_range += 1;
                 continue;

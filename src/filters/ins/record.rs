@@ -10,7 +10,7 @@
 use super::error_state::{idx, ErrorMatrix, ErrorState, N};
 use super::forward::Estimate;
 use super::mechanization::NavState;
-use nalgebra::{Matrix3, SMatrix, Vector3};
+use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3};
 
 /// Number of numbers in the upper triangle of a 15x15 matrix.
 const PACKED: usize = N * (N + 1) / 2;
@@ -109,6 +109,8 @@ pub struct NavPoint {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EpochRecord {
     pub stamp_ns: i64,
+    /// An output time fell on this epoch (else only measurements did).
+    pub output: bool,
     /// Transition from the previous epoch to this one (identity at the first epoch).
     pub phi_from_previous: PackedTransition,
     /// Covariance predicted to this epoch, before its updates.
@@ -126,12 +128,14 @@ impl EpochRecord {
     /// `posterior`.
     pub fn new(
         stamp_ns: i64,
+        output: bool,
         phi_from_previous: &ErrorMatrix,
         prior: &Estimate,
         posterior: &Estimate,
     ) -> Self {
         EpochRecord {
             stamp_ns,
+            output,
             phi_from_previous: PackedTransition::pack(phi_from_previous),
             prior_cov: PackedCov::pack(&prior.cov),
             correction: correction_between(prior, posterior),
@@ -177,6 +181,8 @@ pub struct Solution {
     pub sigma: ErrorState,
     /// Covariance of the north/east/down position error, m^2.
     pub position_cov: Matrix3<f64>,
+    /// Covariance of the attitude error (small rotation of the NED frame), rad^2.
+    pub attitude_cov: Matrix3<f64>,
 }
 
 impl Solution {
@@ -186,7 +192,36 @@ impl Solution {
             point,
             sigma: cov.sigma(),
             position_cov: cov.block3(idx::POS),
+            attitude_cov: cov.block3(idx::ATT),
         }
+    }
+
+    /// Roll, pitch and yaw, rad (Z-Y-X).
+    pub fn euler_rad(&self) -> [f64; 3] {
+        let (r, p, y) = self.point.nav.ned_from_body.euler_angles();
+        [r, p, y]
+    }
+
+    /// One-sigma of roll, pitch and yaw, rad: the attitude-error covariance (a rotation of
+    /// the NED frame) mapped through the Jacobian of the Euler angles (central differences).
+    pub fn euler_sigma_rad(&self) -> [f64; 3] {
+        let q = self.point.nav.ned_from_body;
+        let eps = 1e-6;
+        let mut jac = Matrix3::zeros();
+        for k in 0..3 {
+            let mut d = Vector3::zeros();
+            d[k] = eps;
+            let (r1, p1, y1) = (UnitQuaternion::from_scaled_axis(d) * q).euler_angles();
+            let (r0, p0, y0) = (UnitQuaternion::from_scaled_axis(-d) * q).euler_angles();
+            let col = Vector3::new(
+                crate::angle::wrap_pi(r1 - r0),
+                p1 - p0,
+                crate::angle::wrap_pi(y1 - y0),
+            ) / (2.0 * eps);
+            jac.set_column(k, &col);
+        }
+        let cov = jac * self.attitude_cov * jac.transpose();
+        [0, 1, 2].map(|i| cov[(i, i)].max(0.0).sqrt())
     }
 
     /// The forward solution of an epoch.

@@ -1,0 +1,551 @@
+//! `hindsight reconstruct LOG --out DIR`: the best trajectory the log supports.
+
+use super::{LogArgs, OutputFailed, PolicyArgs};
+use anyhow::{Context, Result};
+use hindsight::filters::ins::record::Solution;
+use hindsight::output::atomic::Staging;
+use hindsight::output::parquet::{write_batches, ROWS_PER_BATCH};
+use hindsight::output::recon_tables;
+use hindsight::recon::config::{Config, HeadingChoice, ImuGrade};
+use hindsight::recon::score::{self, EpochError, Scores};
+use hindsight::recon::stats::{self, SensorStats};
+use hindsight::recon::{self, Reconstruction, Streams};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Reconstruct the trajectory: strapdown INS, 15-state error-state filter, RTS smoother.
+///
+/// Reads the log, initialises from it (position from GNSS, a `start` fix or the mission
+/// origin; levelling; heading by gyrocompass, magnetometer, the mission's initial_yaw_rad or
+/// --initial-yaw; the sources are printed), runs the forward filter at the IMU rate with DVL
+/// (bottom lock and altitude checked), depth, EM-log, GNSS and position-fix updates behind a
+/// chi-square gate, then smooths the whole mission. Writes to DIR, atomically:
+///
+///   trajectory.parquet  forward and smoothed solutions at --output-rate: position (lat/lon
+///                       and north/east/down in the mission frame), NED velocity,
+///                       roll/pitch/yaw, their 1-sigma, gyro and accelerometer biases
+///   residuals.parquet   every aiding measurement: innovation, predicted sigma, NIS, accepted
+///   summary.json        inputs, initialisation, counts, rejections, NIS per sensor,
+///                       distance, final 1-sigma, run time, and truth scores when /truth exists
+///   errors.parquet      (logs with /truth) both solutions minus the truth, with 1-sigma, NEES
+///
+/// Noise and every other setting: a TOML file (--config; `hindsight config` prints the
+/// defaults with each key explained); the options below override it.
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct ReconstructArgs {
+    #[command(flatten)]
+    pub log: LogArgs,
+
+    #[command(flatten)]
+    pub policy: PolicyArgs,
+
+    /// Output folder (created if missing; files of the same names are replaced).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+
+    /// Settings file (TOML); see `hindsight config` for every key and its default.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+
+    /// IMU grade, for its noise and bias figures [default: the config's, else tactical].
+    #[arg(long, value_enum, value_name = "GRADE")]
+    pub imu_grade: Option<ImuGrade>,
+
+    /// Where the initial heading comes from [default: auto: gyrocompass if the IMU is good
+    /// enough, then magnetometer, then the mission's initial_yaw_rad, then --initial-yaw].
+    #[arg(long, value_enum, value_name = "SOURCE")]
+    pub heading: Option<HeadingChoice>,
+
+    /// Initial heading, degrees from north (used when no better source is available, or
+    /// always with --heading given).
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    pub initial_yaw: Option<f64>,
+
+    /// Magnetic declination at the site, degrees, east positive [default: the mission's
+    /// magnetic_declination_deg, else 0 with a warning].
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    pub declination: Option<f64>,
+
+    /// Trajectory rows per second, per solution [default: 10].
+    #[arg(long, value_name = "HZ")]
+    pub output_rate: Option<f64>,
+
+    /// Also write a trajectory row at every aiding measurement's epoch.
+    #[arg(long)]
+    pub aiding_epochs: bool,
+}
+
+/// Print the default `reconstruct` configuration (TOML, every key explained).
+#[derive(Debug, clap::Args)]
+pub struct ConfigArgs {}
+
+pub fn print_config(_: ConfigArgs) -> Result<()> {
+    print!("{}", hindsight::recon::config::DEFAULT_TOML);
+    Ok(())
+}
+
+impl ReconstructArgs {
+    fn config(&self) -> Result<Config> {
+        let mut config = match &self.config {
+            Some(path) => {
+                let text = std::fs::read_to_string(path)
+                    .with_context(|| format!("reading the configuration {}", path.display()))?;
+                Config::from_toml(&text)
+                    .with_context(|| format!("configuration {}", path.display()))?
+            }
+            None => Config::default(),
+        };
+        if let Some(g) = self.imu_grade {
+            config.imu.grade = g;
+        }
+        if let Some(h) = self.heading {
+            config.initial.heading = h;
+        }
+        if let Some(y) = self.initial_yaw {
+            config.initial.yaw_deg = Some(y);
+        }
+        if let Some(d) = self.declination {
+            config.initial.declination_deg = Some(d);
+        }
+        if let Some(r) = self.output_rate {
+            config.output.rate_hz = r;
+        }
+        config.output.aiding_epochs |= self.aiding_epochs;
+        config.check().context("command-line options")?;
+        Ok(config)
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct Summary {
+    hindsight_version: &'static str,
+    log: String,
+    inputs: Vec<InputCount>,
+    initialisation: InitSummary,
+    epochs: usize,
+    trajectory_rows_per_solution: usize,
+    residuals: usize,
+    rejected: usize,
+    dvl_out_of_range: usize,
+    depth_skipped_by_interval: usize,
+    eml_too_slow: usize,
+    imu_gaps: Vec<GapSummary>,
+    sensors: Vec<SensorStats>,
+    duration_s: f64,
+    distance_travelled_m: f64,
+    final_sigma: FinalSigma,
+    truth: Option<TruthSummary>,
+    warnings: Vec<String>,
+    run_time_s: RunTime,
+    config: Config,
+}
+
+#[derive(Debug, Serialize)]
+struct InputCount {
+    topic: &'static str,
+    messages: usize,
+    used: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct InitSummary {
+    position_source: &'static str,
+    position_sigma_m: f64,
+    velocity_source: &'static str,
+    velocity_sigma_m_s: f64,
+    heading_source: &'static str,
+    heading_sigma_deg: f64,
+    tilt_sigma_deg: f64,
+    latitude_deg: f64,
+    longitude_deg: f64,
+    depth_m: f64,
+    roll_deg: f64,
+    pitch_deg: f64,
+    yaw_deg: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct GapSummary {
+    from_ns: i64,
+    to_ns: i64,
+    seconds: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct Sigma {
+    horizontal_m: f64,
+    down_m: f64,
+    yaw_deg: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct FinalSigma {
+    forward: Option<Sigma>,
+    smoothed: Option<Sigma>,
+}
+
+#[derive(Debug, Serialize)]
+struct TruthSummary {
+    forward: Option<Scores>,
+    smoothed: Option<Scores>,
+    nees_horizontal_bounds_95: (f64, f64),
+    nees_position_bounds_95: (f64, f64),
+}
+
+#[derive(Debug, Serialize)]
+struct RunTime {
+    ingest: f64,
+    forward: f64,
+    smoother: f64,
+    outputs: f64,
+    total: f64,
+}
+
+fn final_sigma(s: Option<&Solution>) -> Option<Sigma> {
+    s.map(|s| Sigma {
+        horizontal_m: s.sigma[0].hypot(s.sigma[1]),
+        down_m: s.sigma[2],
+        yaw_deg: s.euler_sigma_rad()[2].to_degrees(),
+    })
+}
+
+/// Warnings a navigation engineer should read: sensors whose innovations disagree with
+/// their noise settings, IMU gaps, an unknown declination.
+fn warnings(r: &Reconstruction, sensors: &[SensorStats]) -> Vec<String> {
+    let mut out = Vec::new();
+    for s in sensors {
+        let rejected = s.rejected as f64 / s.count as f64;
+        if s.count >= 20 && (s.mean_nis > 2.0 * s.dims as f64 || rejected > 0.05) {
+            out.push(format!(
+                "{}: mean NIS {:.1} for {} expected, {:.1} % rejected: its noise setting may be too \
+                 small, its clock offset (--offset /{}=SECONDS), or its mounting wrong",
+                s.sensor,
+                s.mean_nis,
+                s.dims,
+                100.0 * rejected,
+                if s.sensor == "position_fix" { "position_fix" } else { s.sensor }
+            ));
+        } else if s.rejected > 0 {
+            out.push(format!(
+                "{}: {} of {} measurements rejected by the gate (see residuals.parquet)",
+                s.sensor, s.rejected, s.count
+            ));
+        }
+    }
+    for g in &r.run.imu_gaps {
+        out.push(format!(
+            "IMU gap of {:.2} s at {}: bridged with grown covariance",
+            (g.to_ns - g.from_ns) as f64 * 1e-9,
+            hindsight::time::format_utc(g.from_ns)
+        ));
+    }
+    if let recon::init::HeadingSource::Magnetometer {
+        declination: recon::init::DeclinationSource::Unknown,
+        ..
+    } = r.init.heading
+    {
+        out.push("magnetic declination unknown, taken as 0: pass --declination DEG".into());
+    }
+    out
+}
+
+pub fn run(args: ReconstructArgs) -> Result<()> {
+    let started = Instant::now();
+    let config = args.config()?;
+    let log = super::load(
+        &args.log.log,
+        &args.policy.ingest_options(),
+        &args.log.offsets,
+    )?;
+    let mission = log
+        .mission()
+        .with_context(|| format!("reading {}", args.log.log.display()))?;
+    let ingest_s = started.elapsed().as_secs_f64();
+    let streams = Streams::of(&log);
+    eprintln!(
+        "read {} messages in {ingest_s:.1} s; {} IMU samples over {:.0} s",
+        log.message_count(),
+        streams.imu.len(),
+        match (streams.imu.first(), streams.imu.last()) {
+            (Some(a), Some(b)) => (b.stamp_ns - a.stamp_ns) as f64 * 1e-9,
+            _ => 0.0,
+        }
+    );
+    let r = recon::reconstruct(&streams, &mission, &config)
+        .with_context(|| format!("reconstructing {}", args.log.log.display()))?;
+    eprintln!("initial state:\n{}", indent(&r.init.to_string()));
+    eprintln!(
+        "forward filter {:.1} s ({} epochs, {} measurements), smoother {:.1} s",
+        r.timing.forward.as_secs_f64(),
+        r.forward.len(),
+        r.run.residuals.len(),
+        r.timing.smoother.as_secs_f64()
+    );
+
+    let outputs_started = Instant::now();
+    let keep: Vec<usize> = (0..r.forward.len())
+        .filter(|&k| r.output[k] || config.output.aiding_epochs)
+        .collect();
+    let truth_errors = (!streams.truth.is_empty()).then(|| {
+        let errs = |sol: &[Solution]| -> Vec<EpochError> {
+            keep.iter()
+                .filter_map(|&k| score::epoch_error(streams.truth, &sol[k]))
+                .collect()
+        };
+        (errs(&r.forward), errs(&r.smoothed))
+    });
+    let origin = (
+        mission.origin_latitude_deg.to_radians(),
+        mission.origin_longitude_deg.to_radians(),
+    );
+    std::fs::create_dir_all(&args.out).with_context(|| OutputFailed {
+        path: args.out.clone(),
+    })?;
+    let mut staging = Staging::new();
+    let path = args.out.join("trajectory.parquet");
+    let file = staging
+        .create(&path)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    write_trajectory(file, &r, &keep, origin)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    let mut written = vec![path];
+
+    let path = args.out.join("residuals.parquet");
+    let file = staging
+        .create(&path)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    write_chunks(file, &r.run.residuals, recon_tables::residuals_batch)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    written.push(path);
+
+    if let Some((fwd, smo)) = &truth_errors {
+        let path = args.out.join("errors.parquet");
+        let file = staging
+            .create(&path)
+            .with_context(|| OutputFailed { path: path.clone() })?;
+        write_errors(file, fwd, smo).with_context(|| OutputFailed { path: path.clone() })?;
+        written.push(path);
+    }
+
+    let sensors = stats::sensor_stats(&r.run.residuals);
+    let truth = truth_errors.as_ref().map(|(fwd, smo)| TruthSummary {
+        forward: score::scores(fwd),
+        smoothed: score::scores(smo),
+        nees_horizontal_bounds_95: score::bounds_95(2),
+        nees_position_bounds_95: score::bounds_95(3),
+    });
+    let warnings = warnings(&r, &sensors);
+    let nav = r.init.estimate.nav;
+    let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
+    let used = |topic: &str| match topic {
+        "/dvl" => config.dvl.enabled,
+        "/depth" => config.depth.enabled,
+        "/eml" => config.eml.enabled,
+        "/gnss" => config.gnss.enabled,
+        "/position_fix" => config.position_fix.enabled,
+        "/truth" => false,
+        _ => true,
+    };
+    let counts = [
+        ("/imu", streams.imu.len()),
+        ("/dvl", streams.dvl.len()),
+        ("/depth", streams.depth.len()),
+        ("/eml", streams.eml.len()),
+        ("/gnss", streams.gnss.len()),
+        ("/position_fix", streams.fixes.len()),
+        ("/mag", streams.mag.len()),
+        ("/truth", streams.truth.len()),
+    ];
+    let outputs_s = outputs_started.elapsed().as_secs_f64();
+    let summary = Summary {
+        hindsight_version: env!("CARGO_PKG_VERSION"),
+        log: args.log.log.display().to_string(),
+        inputs: counts
+            .iter()
+            .map(|&(topic, messages)| InputCount {
+                topic,
+                messages,
+                used: messages > 0 && used(topic),
+            })
+            .collect(),
+        initialisation: InitSummary {
+            position_source: r.init.position.name(),
+            position_sigma_m: r.init.position_sigma_m,
+            velocity_source: r.init.velocity.name(),
+            velocity_sigma_m_s: r.init.velocity_sigma_m_s,
+            heading_source: r.init.heading.name(),
+            heading_sigma_deg: r.init.heading_sigma_deg,
+            tilt_sigma_deg: r.init.tilt_sigma_deg,
+            latitude_deg: nav.lat_rad.to_degrees(),
+            longitude_deg: nav.lon_rad.to_degrees(),
+            depth_m: -nav.height_m,
+            roll_deg: roll.to_degrees(),
+            pitch_deg: pitch.to_degrees(),
+            yaw_deg: yaw.to_degrees(),
+        },
+        epochs: r.forward.len(),
+        trajectory_rows_per_solution: keep.len(),
+        residuals: r.run.residuals.len(),
+        rejected: r.run.residuals.iter().filter(|x| !x.accepted).count(),
+        dvl_out_of_range: r.run.dvl_out_of_range,
+        depth_skipped_by_interval: r.run.depth_skipped,
+        eml_too_slow: r.run.eml_too_slow,
+        imu_gaps: r
+            .run
+            .imu_gaps
+            .iter()
+            .map(|g| GapSummary {
+                from_ns: g.from_ns,
+                to_ns: g.to_ns,
+                seconds: (g.to_ns - g.from_ns) as f64 * 1e-9,
+            })
+            .collect(),
+        sensors,
+        duration_s: match (r.forward.first(), r.forward.last()) {
+            (Some(a), Some(b)) => (b.stamp_ns - a.stamp_ns) as f64 * 1e-9,
+            _ => 0.0,
+        },
+        distance_travelled_m: stats::distance_travelled_m(&r.smoothed),
+        final_sigma: FinalSigma {
+            forward: final_sigma(r.forward.last()),
+            smoothed: final_sigma(r.smoothed.last()),
+        },
+        truth,
+        warnings,
+        run_time_s: RunTime {
+            ingest: ingest_s,
+            forward: r.timing.forward.as_secs_f64(),
+            smoother: r.timing.smoother.as_secs_f64(),
+            outputs: outputs_s,
+            total: started.elapsed().as_secs_f64(),
+        },
+        config,
+    };
+    let path = args.out.join("summary.json");
+    let mut file = staging
+        .create(&path)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    serde_json::to_writer_pretty(&mut file, &summary)
+        .map_err(std::io::Error::from)
+        .and_then(|_| std::io::Write::write_all(&mut file, b"\n"))
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    written.push(path);
+    staging.commit().with_context(|| OutputFailed {
+        path: args.out.clone(),
+    })?;
+
+    print_report(&summary);
+    for p in written {
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+fn indent(text: &str) -> String {
+    text.lines()
+        .map(|l| format!("  {l}\n"))
+        .collect::<String>()
+        .trim_end()
+        .to_string()
+}
+
+fn print_report(s: &Summary) {
+    println!(
+        "{:.0} s, {:.0} m travelled (smoothed); {} epochs, {} measurements, {} rejected",
+        s.duration_s, s.distance_travelled_m, s.epochs, s.residuals, s.rejected
+    );
+    println!(
+        "{:<13} {:>8} {:>9} {:>9} {:>10} {:>10}",
+        "sensor", "used", "rejected", "mean NIS", "norm mean", "norm var"
+    );
+    for x in &s.sensors {
+        println!(
+            "{:<13} {:>8} {:>9} {:>6.2}/{} {:>10.3} {:>10.3}",
+            x.sensor,
+            x.count - x.rejected,
+            x.rejected,
+            x.mean_nis,
+            x.dims,
+            x.normalised_mean,
+            x.normalised_variance
+        );
+    }
+    if s.dvl_out_of_range > 0 {
+        println!(
+            "DVL readings out of range (no bottom lock or too high): {}",
+            s.dvl_out_of_range
+        );
+    }
+    for (name, sigma) in [
+        ("forward", &s.final_sigma.forward),
+        ("smoothed", &s.final_sigma.smoothed),
+    ] {
+        if let Some(x) = sigma {
+            println!(
+                "final 1-sigma ({name}): horizontal {:.2} m, depth {:.2} m, yaw {:.3} deg",
+                x.horizontal_m, x.down_m, x.yaw_deg
+            );
+        }
+    }
+    if let Some(t) = &s.truth {
+        for (name, sc) in [("forward", &t.forward), ("smoothed", &t.smoothed)] {
+            if let Some(x) = sc {
+                println!(
+                    "against /truth ({name}): horizontal RMS {:.2} m, max {:.2} m, final {:.2} m; \
+                     yaw RMS {:.3} deg; NEES inside 95 % bounds: horizontal {:.1} %, 3-D {:.1} %",
+                    x.horizontal_rms_m,
+                    x.horizontal_max_m,
+                    x.horizontal_final_m,
+                    x.yaw_rms_deg,
+                    100.0 * x.nees_horizontal_inside_95,
+                    100.0 * x.nees_position_inside_95
+                );
+            }
+        }
+    }
+    for w in &s.warnings {
+        eprintln!("warning: {w}");
+    }
+}
+
+fn write_trajectory(
+    file: std::fs::File,
+    r: &Reconstruction,
+    keep: &[usize],
+    origin: (f64, f64),
+) -> Result<()> {
+    let mut chunks = [("forward", &r.forward), ("smoothed", &r.smoothed)]
+        .into_iter()
+        .flat_map(|(name, sol)| {
+            keep.chunks(ROWS_PER_BATCH)
+                .map(move |c| (name, c.iter().map(|&k| sol[k]).collect::<Vec<_>>()))
+        });
+    let batch =
+        |(name, rows): (&str, Vec<Solution>)| recon_tables::trajectory_batch(name, &rows, origin);
+    let first = batch(chunks.next().unwrap_or(("forward", Vec::new())))?;
+    write_batches(file, first, || chunks.next().map(batch))?;
+    Ok(())
+}
+
+fn write_chunks<T>(
+    file: std::fs::File,
+    rows: &[T],
+    batch: impl Fn(&[T]) -> Result<arrow_array::RecordBatch, arrow_schema::ArrowError>,
+) -> Result<()> {
+    let mut chunks = rows.chunks(ROWS_PER_BATCH);
+    let first = batch(chunks.next().unwrap_or(&[]))?;
+    write_batches(file, first, || chunks.next().map(&batch))?;
+    Ok(())
+}
+
+fn write_errors(file: std::fs::File, fwd: &[EpochError], smo: &[EpochError]) -> Result<()> {
+    let mut chunks = [("forward", fwd), ("smoothed", smo)]
+        .into_iter()
+        .flat_map(|(name, rows)| rows.chunks(ROWS_PER_BATCH).map(move |c| (name, c)));
+    let batch = |(name, rows): (&str, &[EpochError])| recon_tables::errors_batch(name, rows);
+    let first = batch(chunks.next().unwrap_or(("forward", &[])))?;
+    write_batches(file, first, || chunks.next().map(batch))?;
+    Ok(())
+}

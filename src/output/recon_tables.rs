@@ -1,0 +1,240 @@
+//! Arrow tables of a reconstruction: `trajectory`, `residuals` and `errors`. Column names
+//! carry frame and unit (`north_m`, `yaw_rad`, `gyro_bias_x_rad_s`); units are also in each
+//! field's metadata under `unit`, as in the export tables.
+
+use super::tables::timestamp_type;
+use crate::filters::ins::driver::Residual;
+use crate::filters::ins::record::Solution;
+use crate::geodesy;
+use crate::recon::score::EpochError;
+use arrow_array::{
+    ArrayRef, BooleanArray, Float64Array, RecordBatch, StringArray, TimestampNanosecondArray,
+    UInt8Array,
+};
+use arrow_schema::{ArrowError, DataType, Field, Schema};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// Columns being assembled into one batch.
+#[derive(Default)]
+struct Columns {
+    fields: Vec<Field>,
+    arrays: Vec<ArrayRef>,
+}
+
+impl Columns {
+    fn push(&mut self, field: Field, array: ArrayRef) {
+        self.fields.push(field);
+        self.arrays.push(array);
+    }
+
+    fn stamps(&mut self, values: Vec<i64>) {
+        self.push(
+            Field::new("stamp_ns", timestamp_type(), false),
+            Arc::new(TimestampNanosecondArray::from(values).with_timezone("UTC")),
+        );
+    }
+
+    fn text(&mut self, name: &str, values: Vec<&str>) {
+        self.push(
+            Field::new(name, DataType::Utf8, false),
+            Arc::new(StringArray::from(values)),
+        );
+    }
+
+    fn number(&mut self, name: &str, unit: &str, values: Vec<f64>) {
+        let field = Field::new(name, DataType::Float64, false)
+            .with_metadata(HashMap::from([("unit".to_string(), unit.to_string())]));
+        self.push(field, Arc::new(Float64Array::from(values)));
+    }
+
+    fn optional(&mut self, name: &str, unit: &str, values: Vec<Option<f64>>) {
+        let field = Field::new(name, DataType::Float64, true)
+            .with_metadata(HashMap::from([("unit".to_string(), unit.to_string())]));
+        self.push(field, Arc::new(Float64Array::from(values)));
+    }
+
+    fn finish(self) -> Result<RecordBatch, ArrowError> {
+        RecordBatch::try_new(Arc::new(Schema::new(self.fields)), self.arrays)
+    }
+}
+
+/// One column per element of `f`'s output over `rows`.
+fn column<T>(rows: &[T], f: impl Fn(&T) -> f64) -> Vec<f64> {
+    rows.iter().map(f).collect()
+}
+
+/// Rows of `trajectory.parquet` for one solution (`forward` or `smoothed`): position
+/// (geodetic and in the mission frame), NED velocity, Euler angles, their 1-sigma, and the
+/// bias estimates.
+pub fn trajectory_batch(
+    solution: &str,
+    rows: &[Solution],
+    origin_rad: (f64, f64),
+) -> Result<RecordBatch, ArrowError> {
+    let mut c = Columns::default();
+    c.stamps(rows.iter().map(|s| s.stamp_ns).collect());
+    c.text("solution", vec![solution; rows.len()]);
+    let nav = |s: &Solution| s.point.nav;
+    c.number(
+        "latitude_deg",
+        "deg",
+        column(rows, |s| nav(s).lat_rad.to_degrees()),
+    );
+    c.number(
+        "longitude_deg",
+        "deg",
+        column(rows, |s| nav(s).lon_rad.to_degrees()),
+    );
+    let local = |s: &Solution| {
+        let n = nav(s);
+        geodesy::local_north_east_m(origin_rad.0, origin_rad.1, n.lat_rad, n.lon_rad)
+    };
+    c.number("north_m", "m", column(rows, |s| local(s).0));
+    c.number("east_m", "m", column(rows, |s| local(s).1));
+    c.number("down_m", "m", column(rows, |s| -nav(s).height_m));
+    for (i, axis) in ["north", "east", "down"].iter().enumerate() {
+        c.number(
+            &format!("vel_{axis}_m_s"),
+            "m/s",
+            column(rows, |s| nav(s).vel_ned_m_s[i]),
+        );
+    }
+    let euler: Vec<[f64; 3]> = rows.iter().map(Solution::euler_rad).collect();
+    let euler_sigma: Vec<[f64; 3]> = rows.iter().map(Solution::euler_sigma_rad).collect();
+    for (i, angle) in ["roll", "pitch", "yaw"].iter().enumerate() {
+        c.number(
+            &format!("{angle}_rad"),
+            "rad",
+            euler.iter().map(|e| e[i]).collect(),
+        );
+    }
+    for (i, axis) in ["north", "east", "down"].iter().enumerate() {
+        c.number(
+            &format!("{axis}_sigma_m"),
+            "m",
+            column(rows, |s| s.sigma[i]),
+        );
+    }
+    for (i, axis) in ["north", "east", "down"].iter().enumerate() {
+        c.number(
+            &format!("vel_{axis}_sigma_m_s"),
+            "m/s",
+            column(rows, |s| s.sigma[3 + i]),
+        );
+    }
+    for (i, angle) in ["roll", "pitch", "yaw"].iter().enumerate() {
+        c.number(
+            &format!("{angle}_sigma_rad"),
+            "rad",
+            euler_sigma.iter().map(|e| e[i]).collect(),
+        );
+    }
+    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+        c.number(
+            &format!("gyro_bias_{axis}_rad_s"),
+            "rad/s",
+            column(rows, |s| s.point.gyro_bias[i]),
+        );
+    }
+    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+        c.number(
+            &format!("accel_bias_{axis}_m_s2"),
+            "m/s^2",
+            column(rows, |s| s.point.accel_bias[i]),
+        );
+    }
+    c.finish()
+}
+
+/// Rows of `residuals.parquet`: one per aiding measurement the filter saw. Innovation
+/// components are measured minus predicted, in the measurement's own axes (DVL: its x/y/z;
+/// position: north/east; depth, speed: the one value); unused components are null.
+pub fn residuals_batch(rows: &[Residual]) -> Result<RecordBatch, ArrowError> {
+    let mut c = Columns::default();
+    c.stamps(rows.iter().map(|r| r.stamp_ns).collect());
+    c.text("sensor", rows.iter().map(|r| r.sensor.name()).collect());
+    for i in 0..3 {
+        c.optional(
+            &format!("innovation_{i}"),
+            "sensor unit",
+            rows.iter()
+                .map(|r| (i < r.dims).then_some(r.innovation[i]))
+                .collect(),
+        );
+    }
+    for i in 0..3 {
+        c.optional(
+            &format!("sigma_{i}"),
+            "sensor unit",
+            rows.iter()
+                .map(|r| (i < r.dims).then_some(r.sigma[i]))
+                .collect(),
+        );
+    }
+    c.push(
+        Field::new("dims", DataType::UInt8, false),
+        Arc::new(UInt8Array::from(
+            rows.iter().map(|r| r.dims as u8).collect::<Vec<_>>(),
+        )),
+    );
+    c.number("nis", "", rows.iter().map(|r| r.nis).collect());
+    c.push(
+        Field::new("accepted", DataType::Boolean, false),
+        Arc::new(BooleanArray::from(
+            rows.iter().map(|r| r.accepted).collect::<Vec<_>>(),
+        )),
+    );
+    c.finish()
+}
+
+/// Rows of `errors.parquet` for one solution: estimate minus truth, with the 1-sigma the
+/// solution claims and the NEES.
+pub fn errors_batch(solution: &str, rows: &[EpochError]) -> Result<RecordBatch, ArrowError> {
+    let mut c = Columns::default();
+    c.stamps(rows.iter().map(|e| e.stamp_ns).collect());
+    c.text("solution", vec![solution; rows.len()]);
+    for (i, axis) in ["north", "east", "down"].iter().enumerate() {
+        c.number(
+            &format!("{axis}_error_m"),
+            "m",
+            column(rows, |e| e.position_m[i]),
+        );
+    }
+    c.number(
+        "horizontal_error_m",
+        "m",
+        column(rows, EpochError::horizontal_m),
+    );
+    for (i, axis) in ["north", "east", "down"].iter().enumerate() {
+        c.number(
+            &format!("{axis}_sigma_m"),
+            "m",
+            column(rows, |e| e.position_sigma_m[i]),
+        );
+    }
+    for (i, axis) in ["north", "east", "down"].iter().enumerate() {
+        c.number(
+            &format!("vel_{axis}_error_m_s"),
+            "m/s",
+            column(rows, |e| e.velocity_m_s[i]),
+        );
+    }
+    for (i, angle) in ["roll", "pitch", "yaw"].iter().enumerate() {
+        c.number(
+            &format!("{angle}_error_rad"),
+            "rad",
+            column(rows, |e| e.euler_rad[i]),
+        );
+    }
+    for (i, angle) in ["roll", "pitch", "yaw"].iter().enumerate() {
+        c.number(
+            &format!("{angle}_sigma_rad"),
+            "rad",
+            column(rows, |e| e.euler_sigma_rad[i]),
+        );
+    }
+    c.number("nees_horizontal", "", column(rows, |e| e.nees_horizontal));
+    c.number("nees_position", "", column(rows, |e| e.nees_position));
+    c.finish()
+}

@@ -1,0 +1,582 @@
+//! Settings of a reconstruction, from a TOML file (`--config`), with a default for every
+//! key. `hindsight reconstruct --print-config` prints [`DEFAULT_TOML`], which documents
+//! every key; a test checks that it parses to [`Config::default`].
+//!
+//! The IMU's noise comes from a grade (typical data-sheet figures of the class), any value
+//! of which a key overrides.
+
+use crate::filters::ins::driver::{Aiding, Propagation, Settings};
+use crate::filters::ins::forward::{DvlMounting, Filter, ImuNoise};
+use nalgebra::{Rotation3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// The default configuration, with the documentation of every key.
+pub const DEFAULT_TOML: &str = r#"# hindsight reconstruct: configuration (every key optional; these are the defaults).
+
+[imu]
+# Grade of the IMU: "navigation" (0.01 deg/h gyro), "intermediate" (0.1 deg/h),
+# "tactical" (1 deg/h) or "mems" (10 deg/h). Sets the values below that are not given.
+grade = "tactical"
+# Any of these overrides the grade's value (1-sigma):
+# gyro_bias_deg_h = 1.0               # turn-on bias (initial uncertainty of the estimate)
+# gyro_bias_instability_deg_h = 0.1   # bias wander over bias_correlation_s
+# gyro_arw_deg_rt_h = 0.05            # angle random walk
+# accel_bias_ug = 100.0
+# accel_bias_instability_ug = 20.0
+# accel_vrw_ug_rt_hz = 30.0           # velocity random walk
+# bias_correlation_s = 3600.0
+
+[dvl]
+use = true
+sigma_m_s = 0.015          # per axis, white noise plus what scale and bias errors add
+max_altitude_m = 100.0     # readings above this altitude are out of range and not used
+check_range = true         # false: use every reading, even without bottom lock or out of
+                           # range (to see what trusting a bad DVL costs; not for real use)
+lever_arm_m = [0.0, 0.0, 0.0]     # DVL position from the reference point, body FRD
+rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z-Y-X)
+
+[depth]
+use = true
+sigma_m = 0.1
+min_interval_s = 0.1       # a faster depth sensor is decimated to this interval
+
+[eml]
+use = true
+sigma_m_s = 0.05           # speed through water taken as speed over ground
+
+[gnss]
+use = true                 # sigma from each fix's horizontal_sigma_m
+
+[position_fix]
+use = true                 # sigma from each fix's sigma_m
+
+[gate]
+# Chi-square innovation gate: a consistent measurement passes with this probability;
+# a rejected one is counted and recorded in residuals.parquet. 1.0 disables the gate.
+probability = 0.999
+
+[propagation]
+covariance_interval_s = 0.1   # longest step of the covariance between epochs
+imu_gap_s = 0.1               # a longer IMU interval is a gap (bridged, covariance grown)
+gap_accel_m_s2_rt_hz = 0.05   # extra noise over a gap: motion nobody measured
+gap_gyro_deg_s_rt_hz = 0.3
+
+[initial]
+# Heading source: "auto" (gyrocompass when the IMU is good enough, then magnetometer, then
+# the mission's initial_yaw_rad, then yaw_deg), or one of "gyrocompass", "magnetometer",
+# "mission", "given".
+heading = "auto"
+# yaw_deg = 45.0             # a heading given by hand (also --initial-yaw)
+# declination_deg = -7.8     # magnetic declination, east positive (also --declination;
+                             # else the mission's magnetic_declination_deg, else 0)
+window_s = 30.0              # IMU data averaged for levelling and gyrocompassing
+gyrocompass_max_sigma_deg = 1.0   # gyrocompass only when its predicted error is smaller
+magnetometer_sigma_deg = 3.0      # heading error of a magnetometer (deviation, field)
+mission_yaw_sigma_deg = 10.0      # of the mission's initial_yaw_rad
+given_yaw_sigma_deg = 5.0         # of yaw_deg / --initial-yaw
+gnss_window_s = 10.0          # a GNSS fix this soon after the start sets the position
+origin_sigma_m = 20.0         # position sigma when starting at the mission origin
+
+[output]
+rate_hz = 10.0             # trajectory rows per second (per solution)
+aiding_epochs = false      # also a row at every aiding measurement's epoch
+"#;
+
+/// Grade of an IMU.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum ImuGrade {
+    /// Ring-laser or fibre-optic navigation grade: 0.01 deg/h gyro, 25 ug accelerometer.
+    Navigation,
+    /// Between navigation and tactical: 0.1 deg/h, 100 ug.
+    Intermediate,
+    /// Tactical (e.g. HG1700 class): 1 deg/h, 100 ug.
+    Tactical,
+    /// MEMS AHRS: 10 deg/h, 1 mg.
+    Mems,
+}
+
+/// The noise of an IMU, data-sheet units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImuSpec {
+    pub gyro_bias_deg_h: f64,
+    pub gyro_bias_instability_deg_h: f64,
+    pub gyro_arw_deg_rt_h: f64,
+    pub accel_bias_ug: f64,
+    pub accel_bias_instability_ug: f64,
+    pub accel_vrw_ug_rt_hz: f64,
+    pub bias_correlation_s: f64,
+}
+
+impl ImuGrade {
+    /// Typical data-sheet figures of the class.
+    pub fn spec(self) -> ImuSpec {
+        let (gb, gbi, arw, ab, abi, vrw) = match self {
+            ImuGrade::Navigation => (0.01, 0.003, 0.002, 25.0, 5.0, 5.0),
+            ImuGrade::Intermediate => (0.1, 0.01, 0.0125, 100.0, 10.0, 6.5),
+            ImuGrade::Tactical => (1.0, 0.1, 0.05, 100.0, 20.0, 30.0),
+            ImuGrade::Mems => (10.0, 3.0, 0.3, 1000.0, 100.0, 100.0),
+        };
+        ImuSpec {
+            gyro_bias_deg_h: gb,
+            gyro_bias_instability_deg_h: gbi,
+            gyro_arw_deg_rt_h: arw,
+            accel_bias_ug: ab,
+            accel_bias_instability_ug: abi,
+            accel_vrw_ug_rt_hz: vrw,
+            bias_correlation_s: 3600.0,
+        }
+    }
+}
+
+const DEG_H: f64 = std::f64::consts::PI / 180.0 / 3600.0;
+const UG: f64 = 9.80665e-6;
+
+impl ImuSpec {
+    /// The filter's noise densities: white noise, and bias random walks that reach the bias
+    /// instability over the correlation time (`sigma sqrt(2 / tau)`).
+    pub fn noise(&self) -> ImuNoise {
+        let walk = (2.0 / self.bias_correlation_s).sqrt();
+        ImuNoise {
+            gyro_noise_density: self.gyro_arw_deg_rt_h.to_radians() / 60.0,
+            accel_noise_density: self.accel_vrw_ug_rt_hz * UG,
+            gyro_bias_walk: self.gyro_bias_instability_deg_h * DEG_H * walk,
+            accel_bias_walk: self.accel_bias_instability_ug * UG * walk,
+        }
+    }
+
+    /// Initial 1-sigma of the gyro bias, rad/s.
+    pub fn gyro_bias_rad_s(&self) -> f64 {
+        self.gyro_bias_deg_h * DEG_H
+    }
+
+    /// Initial 1-sigma of the accelerometer bias, m/s^2.
+    pub fn accel_bias_m_s2(&self) -> f64 {
+        self.accel_bias_ug * UG
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImuConfig {
+    pub grade: ImuGrade,
+    pub gyro_bias_deg_h: Option<f64>,
+    pub gyro_bias_instability_deg_h: Option<f64>,
+    pub gyro_arw_deg_rt_h: Option<f64>,
+    pub accel_bias_ug: Option<f64>,
+    pub accel_bias_instability_ug: Option<f64>,
+    pub accel_vrw_ug_rt_hz: Option<f64>,
+    pub bias_correlation_s: Option<f64>,
+}
+
+impl Default for ImuConfig {
+    fn default() -> Self {
+        ImuConfig {
+            grade: ImuGrade::Tactical,
+            gyro_bias_deg_h: None,
+            gyro_bias_instability_deg_h: None,
+            gyro_arw_deg_rt_h: None,
+            accel_bias_ug: None,
+            accel_bias_instability_ug: None,
+            accel_vrw_ug_rt_hz: None,
+            bias_correlation_s: None,
+        }
+    }
+}
+
+impl ImuConfig {
+    /// The grade's figures with the overrides applied.
+    pub fn spec(&self) -> ImuSpec {
+        let g = self.grade.spec();
+        ImuSpec {
+            gyro_bias_deg_h: self.gyro_bias_deg_h.unwrap_or(g.gyro_bias_deg_h),
+            gyro_bias_instability_deg_h: self
+                .gyro_bias_instability_deg_h
+                .unwrap_or(g.gyro_bias_instability_deg_h),
+            gyro_arw_deg_rt_h: self.gyro_arw_deg_rt_h.unwrap_or(g.gyro_arw_deg_rt_h),
+            accel_bias_ug: self.accel_bias_ug.unwrap_or(g.accel_bias_ug),
+            accel_bias_instability_ug: self
+                .accel_bias_instability_ug
+                .unwrap_or(g.accel_bias_instability_ug),
+            accel_vrw_ug_rt_hz: self.accel_vrw_ug_rt_hz.unwrap_or(g.accel_vrw_ug_rt_hz),
+            bias_correlation_s: self.bias_correlation_s.unwrap_or(g.bias_correlation_s),
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DvlConfig {
+    #[serde(rename = "use")]
+    pub enabled: bool,
+    pub sigma_m_s: f64,
+    pub max_altitude_m: f64,
+    pub check_range: bool,
+    pub lever_arm_m: [f64; 3],
+    pub rotation_deg: [f64; 3],
+}
+
+impl Default for DvlConfig {
+    fn default() -> Self {
+        DvlConfig {
+            enabled: true,
+            sigma_m_s: 0.015,
+            max_altitude_m: 100.0,
+            check_range: true,
+            lever_arm_m: [0.0; 3],
+            rotation_deg: [0.0; 3],
+        }
+    }
+}
+
+impl DvlConfig {
+    pub fn mounting(&self) -> DvlMounting {
+        let [r, p, y] = self.rotation_deg.map(f64::to_radians);
+        DvlMounting {
+            // The DVL's axes are the body's turned by (roll, pitch, yaw): body_from_dvl.
+            dvl_from_body: Rotation3::from_euler_angles(r, p, y).inverse(),
+            lever_arm_body_m: Vector3::from(self.lever_arm_m),
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DepthConfig {
+    #[serde(rename = "use")]
+    pub enabled: bool,
+    pub sigma_m: f64,
+    pub min_interval_s: f64,
+}
+
+impl Default for DepthConfig {
+    fn default() -> Self {
+        DepthConfig {
+            enabled: true,
+            sigma_m: 0.1,
+            min_interval_s: 0.1,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EmlConfig {
+    #[serde(rename = "use")]
+    pub enabled: bool,
+    pub sigma_m_s: f64,
+}
+
+impl Default for EmlConfig {
+    fn default() -> Self {
+        EmlConfig {
+            enabled: true,
+            sigma_m_s: 0.05,
+        }
+    }
+}
+
+/// A sensor that is used or not.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct UseConfig {
+    #[serde(rename = "use")]
+    pub enabled: bool,
+}
+
+impl Default for UseConfig {
+    fn default() -> Self {
+        UseConfig { enabled: true }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GateConfig {
+    pub probability: f64,
+}
+
+impl Default for GateConfig {
+    fn default() -> Self {
+        GateConfig { probability: 0.999 }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PropagationConfig {
+    pub covariance_interval_s: f64,
+    pub imu_gap_s: f64,
+    pub gap_accel_m_s2_rt_hz: f64,
+    pub gap_gyro_deg_s_rt_hz: f64,
+}
+
+impl Default for PropagationConfig {
+    fn default() -> Self {
+        PropagationConfig {
+            covariance_interval_s: 0.1,
+            imu_gap_s: 0.1,
+            gap_accel_m_s2_rt_hz: 0.05,
+            gap_gyro_deg_s_rt_hz: 0.3,
+        }
+    }
+}
+
+/// Where the initial heading comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum HeadingChoice {
+    Auto,
+    Gyrocompass,
+    Magnetometer,
+    Mission,
+    Given,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct InitialConfig {
+    pub heading: HeadingChoice,
+    pub yaw_deg: Option<f64>,
+    pub declination_deg: Option<f64>,
+    pub window_s: f64,
+    pub gyrocompass_max_sigma_deg: f64,
+    pub magnetometer_sigma_deg: f64,
+    pub mission_yaw_sigma_deg: f64,
+    pub given_yaw_sigma_deg: f64,
+    pub gnss_window_s: f64,
+    pub origin_sigma_m: f64,
+}
+
+impl Default for InitialConfig {
+    fn default() -> Self {
+        InitialConfig {
+            heading: HeadingChoice::Auto,
+            yaw_deg: None,
+            declination_deg: None,
+            window_s: 30.0,
+            gyrocompass_max_sigma_deg: 1.0,
+            magnetometer_sigma_deg: 3.0,
+            mission_yaw_sigma_deg: 10.0,
+            given_yaw_sigma_deg: 5.0,
+            gnss_window_s: 10.0,
+            origin_sigma_m: 20.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct OutputConfig {
+    pub rate_hz: f64,
+    pub aiding_epochs: bool,
+}
+
+impl Default for OutputConfig {
+    fn default() -> Self {
+        OutputConfig {
+            rate_hz: 10.0,
+            aiding_epochs: false,
+        }
+    }
+}
+
+/// Everything a reconstruction can be told.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Config {
+    pub imu: ImuConfig,
+    pub dvl: DvlConfig,
+    pub depth: DepthConfig,
+    pub eml: EmlConfig,
+    pub gnss: UseConfig,
+    pub position_fix: UseConfig,
+    pub gate: GateConfig,
+    pub propagation: PropagationConfig,
+    pub initial: InitialConfig,
+    pub output: OutputConfig,
+}
+
+/// Why a configuration is unusable.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConfigError {
+    #[error("{0}")]
+    Toml(String),
+    #[error("`{key}` = {value}: {reason}")]
+    Bad {
+        key: &'static str,
+        value: f64,
+        reason: &'static str,
+    },
+}
+
+impl Config {
+    /// Parses a TOML configuration (unknown keys are errors, naming the key).
+    pub fn from_toml(text: &str) -> Result<Config, ConfigError> {
+        let config: Config = toml::from_str(text).map_err(|e| ConfigError::Toml(e.to_string()))?;
+        config.check()?;
+        Ok(config)
+    }
+
+    /// Checks ranges (positive sigmas and intervals, a probability in (0, 1]).
+    pub fn check(&self) -> Result<(), ConfigError> {
+        let spec = self.imu.spec();
+        let positive: [(&'static str, f64); 16] = [
+            ("imu.gyro_bias_deg_h", spec.gyro_bias_deg_h),
+            ("imu.gyro_arw_deg_rt_h", spec.gyro_arw_deg_rt_h),
+            ("imu.accel_bias_ug", spec.accel_bias_ug),
+            ("imu.accel_vrw_ug_rt_hz", spec.accel_vrw_ug_rt_hz),
+            ("imu.bias_correlation_s", spec.bias_correlation_s),
+            ("dvl.sigma_m_s", self.dvl.sigma_m_s),
+            ("dvl.max_altitude_m", self.dvl.max_altitude_m),
+            ("depth.sigma_m", self.depth.sigma_m),
+            ("eml.sigma_m_s", self.eml.sigma_m_s),
+            (
+                "propagation.covariance_interval_s",
+                self.propagation.covariance_interval_s,
+            ),
+            ("propagation.imu_gap_s", self.propagation.imu_gap_s),
+            ("initial.window_s", self.initial.window_s),
+            (
+                "initial.magnetometer_sigma_deg",
+                self.initial.magnetometer_sigma_deg,
+            ),
+            (
+                "initial.given_yaw_sigma_deg",
+                self.initial.given_yaw_sigma_deg,
+            ),
+            ("initial.origin_sigma_m", self.initial.origin_sigma_m),
+            ("output.rate_hz", self.output.rate_hz),
+        ];
+        for (key, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(ConfigError::Bad {
+                    key,
+                    value,
+                    reason: "must be a positive number",
+                });
+            }
+        }
+        let non_negative: [(&'static str, f64); 5] = [
+            (
+                "imu.gyro_bias_instability_deg_h",
+                spec.gyro_bias_instability_deg_h,
+            ),
+            (
+                "imu.accel_bias_instability_ug",
+                spec.accel_bias_instability_ug,
+            ),
+            ("depth.min_interval_s", self.depth.min_interval_s),
+            (
+                "propagation.gap_accel_m_s2_rt_hz",
+                self.propagation.gap_accel_m_s2_rt_hz,
+            ),
+            (
+                "propagation.gap_gyro_deg_s_rt_hz",
+                self.propagation.gap_gyro_deg_s_rt_hz,
+            ),
+        ];
+        for (key, value) in non_negative {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(ConfigError::Bad {
+                    key,
+                    value,
+                    reason: "must be zero or positive",
+                });
+            }
+        }
+        let p = self.gate.probability;
+        if !(p > 0.0 && p <= 1.0) {
+            return Err(ConfigError::Bad {
+                key: "gate.probability",
+                value: p,
+                reason: "must be a probability in (0, 1]",
+            });
+        }
+        Ok(())
+    }
+
+    /// The forward filter's settings.
+    pub fn settings(&self) -> Settings {
+        let noise = self.imu.spec().noise();
+        let p = &self.propagation;
+        Settings {
+            filter: Filter {
+                noise,
+                height_damping: None,
+            },
+            propagation: Propagation {
+                covariance_interval_s: p.covariance_interval_s,
+                imu_gap_s: p.imu_gap_s,
+                gap_noise: ImuNoise {
+                    gyro_noise_density: p.gap_gyro_deg_s_rt_hz.to_radians(),
+                    accel_noise_density: p.gap_accel_m_s2_rt_hz,
+                    gyro_bias_walk: 0.0,
+                    accel_bias_walk: 0.0,
+                },
+            },
+            aiding: Aiding {
+                dvl_sigma_m_s: self.dvl.sigma_m_s,
+                dvl_max_altitude_m: self.dvl.max_altitude_m,
+                dvl_check_range: self.dvl.check_range,
+                dvl_mounting: self.dvl.mounting(),
+                depth_sigma_m: self.depth.sigma_m,
+                depth_min_interval_s: self.depth.min_interval_s,
+                eml_sigma_m_s: self.eml.enabled.then_some(self.eml.sigma_m_s),
+                gate_probability: (self.gate.probability < 1.0).then_some(self.gate.probability),
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_documented_defaults_are_the_defaults() {
+        assert_eq!(Config::from_toml(DEFAULT_TOML).unwrap(), Config::default());
+        assert_eq!(Config::from_toml("").unwrap(), Config::default());
+    }
+
+    #[test]
+    fn every_commented_override_is_a_known_key() {
+        // The commented-out examples, uncommented, must parse too.
+        let uncommented: String = DEFAULT_TOML
+            .lines()
+            .map(|l| match l.strip_prefix("# ") {
+                Some(rest) if rest.contains(" = ") && !rest.starts_with(' ') => rest,
+                _ => l,
+            })
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let c = Config::from_toml(&uncommented).unwrap();
+        assert_eq!(c.initial.yaw_deg, Some(45.0));
+        assert_eq!(c.initial.declination_deg, Some(-7.8));
+        assert_eq!(c.imu.gyro_bias_deg_h, Some(1.0));
+    }
+
+    #[test]
+    fn bad_settings_name_the_key() {
+        let e = Config::from_toml("[dvl]\nsigma_m_s = -1.0\n").unwrap_err();
+        assert!(e.to_string().contains("dvl.sigma_m_s"), "{e}");
+        let e = Config::from_toml("[dvl]\nsigma = 0.1\n").unwrap_err();
+        assert!(e.to_string().contains("sigma"), "{e}");
+        let e = Config::from_toml("[imu]\ngrade = \"consumer\"\n").unwrap_err();
+        assert!(e.to_string().contains("grade"), "{e}");
+        let e = Config::from_toml("[gate]\nprobability = 1.5\n").unwrap_err();
+        assert!(e.to_string().contains("gate.probability"), "{e}");
+    }
+
+    #[test]
+    fn grade_overrides_apply() {
+        let c =
+            Config::from_toml("[imu]\ngrade = \"navigation\"\ngyro_bias_deg_h = 0.002\n").unwrap();
+        let s = c.imu.spec();
+        assert_eq!(s.gyro_bias_deg_h, 0.002);
+        assert_eq!(s.accel_bias_ug, ImuGrade::Navigation.spec().accel_bias_ug);
+        // 0.05 deg/sqrt(h) = 0.05 / 60 deg/sqrt(s).
+        let n = ImuGrade::Tactical.spec().noise();
+        assert!((n.gyro_noise_density - 0.05f64.to_radians() / 60.0).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,529 @@
+//! The initial estimate from what the log has, and which source gave each part.
+//!
+//! - Position: the first GNSS fix near the start, else a `start` position fix near the
+//!   start, else the mission origin. Depth from the first depth reading.
+//! - Roll and pitch: the mean specific force over the first `window_s` of IMU data
+//!   (levelling), less the mean acceleration the DVL saw over the same window.
+//! - Heading, in order (`heading = "auto"`): gyrocompassing when the IMU's predicted
+//!   gyrocompass error is below `gyrocompass_max_sigma_deg` and the vehicle is not turning
+//!   (moving-base: the transport rate from the DVL velocity is removed); the magnetometer
+//!   (tilt-compensated, with the declination); the mission's `initial_yaw_rad`; a heading
+//!   given by hand.
+//! - Velocity: the first DVL reading in range, else the EM log's speed along the body x
+//!   axis, else at rest.
+//! - Biases: zero, with the IMU grade's turn-on sigma.
+//!
+//! A vehicle dropped unaligned (in-run alignment) is a later issue: this is where it hooks
+//! in, as another heading source.
+
+use super::config::{HeadingChoice, ImuSpec, InitialConfig};
+use crate::contract::{Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, SpeedLog};
+use crate::filters::ins::alignment;
+use crate::filters::ins::error_state::ErrorMatrix;
+use crate::filters::ins::forward::{DvlMounting, Estimate};
+use crate::filters::ins::mechanization::NavState;
+use crate::geodesy;
+use crate::ingest::Mission;
+use nalgebra::{SVector, UnitQuaternion, Vector3};
+use std::fmt;
+
+/// What the initialisation reads from the log.
+#[derive(Debug, Clone, Copy)]
+pub struct Sources<'a> {
+    pub imu: &'a [Imu],
+    pub mag: &'a [MagneticField],
+    pub dvl: &'a [Dvl],
+    pub eml: &'a [SpeedLog],
+    pub depth: &'a [Depth],
+    pub gnss: &'a [GnssFix],
+    pub fixes: &'a [PositionFix],
+    pub mission: &'a Mission,
+}
+
+/// What the initialisation needs to know besides the log.
+#[derive(Debug, Clone, Copy)]
+pub struct InitSettings<'a> {
+    pub initial: &'a InitialConfig,
+    pub imu: ImuSpec,
+    pub dvl_used: bool,
+    pub dvl_max_altitude_m: f64,
+    pub dvl_sigma_m_s: f64,
+    pub dvl_mounting: DvlMounting,
+    pub depth_sigma_m: f64,
+    pub gnss_used: bool,
+    pub fixes_used: bool,
+}
+
+/// Where the initial position came from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PositionSource {
+    Gnss { stamp_ns: i64 },
+    StartFix { stamp_ns: i64 },
+    MissionOrigin,
+}
+
+/// Where the initial velocity came from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum VelocitySource {
+    Dvl { stamp_ns: i64 },
+    SpeedLog { stamp_ns: i64 },
+    AtRest,
+}
+
+/// Where the declination used with the magnetometer came from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DeclinationSource {
+    Given,
+    Mission,
+    Unknown,
+}
+
+/// Where the initial heading came from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HeadingSource {
+    Gyrocompass,
+    Magnetometer {
+        declination_deg: f64,
+        declination: DeclinationSource,
+    },
+    Mission,
+    Given,
+}
+
+/// The initial estimate and its sources, with their 1-sigma.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Initialisation {
+    pub estimate: Estimate,
+    pub position: PositionSource,
+    pub position_sigma_m: f64,
+    pub velocity: VelocitySource,
+    pub velocity_sigma_m_s: f64,
+    pub heading: HeadingSource,
+    pub heading_sigma_deg: f64,
+    pub tilt_sigma_deg: f64,
+    /// Seconds of IMU data levelled (and gyrocompassed).
+    pub window_s: f64,
+}
+
+/// Why no initial estimate could be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum InitError {
+    #[error("no IMU data on /imu: a reconstruction needs the IMU")]
+    NoImu,
+    #[error("/imu has {0} sample(s): too few to initialise")]
+    TooFewImu(usize),
+    #[error("no heading source: {0}; give one with --initial-yaw DEG (or [initial] yaw_deg)")]
+    NoHeading(String),
+    #[error("heading source `{choice}` is not available: {reason}")]
+    HeadingUnavailable {
+        choice: &'static str,
+        reason: String,
+    },
+}
+
+/// The horizontal Earth rate must dominate the mean gyro for gyrocompassing: the vehicle
+/// turns no faster than this multiple of the Earth rate during the window.
+const STEADY_RATE_FACTOR: f64 = 2.0;
+
+fn mean3(values: impl Iterator<Item = [f64; 3]>) -> Option<Vector3<f64>> {
+    let (sum, n) = values.fold((Vector3::zeros(), 0usize), |(s, n), v| {
+        (s + Vector3::from(v), n + 1)
+    });
+    (n > 0).then(|| sum / n as f64)
+}
+
+/// The initial estimate at the first IMU sample.
+pub fn initialise(src: &Sources<'_>, set: &InitSettings<'_>) -> Result<Initialisation, InitError> {
+    let cfg = set.initial;
+    let imu = src.imu;
+    let first = imu.first().ok_or(InitError::NoImu)?;
+    if imu.len() < 2 {
+        return Err(InitError::TooFewImu(imu.len()));
+    }
+    let t0 = first.stamp_ns;
+    let window_end = t0 + (cfg.window_s * 1e9) as i64;
+    let in_window = |s: i64| s >= t0 && s <= window_end;
+    let window = &imu[..imu.partition_point(|m| m.stamp_ns <= window_end)];
+    let window_s = (window.last().map_or(t0, |m| m.stamp_ns) - t0) as f64 * 1e-9;
+    let f_mean = mean3(window.iter().map(|m| m.specific_force)).unwrap_or_default();
+    let w_mean = mean3(window.iter().map(|m| m.angular_velocity)).unwrap_or_default();
+
+    // DVL readings in range within the window, in body axes.
+    let body_from_dvl = set.dvl_mounting.dvl_from_body.inverse();
+    let dvl: Vec<(i64, Vector3<f64>)> = if set.dvl_used {
+        src.dvl
+            .iter()
+            .filter(|d| in_window(d.stamp_ns))
+            .filter(|d| d.valid && d.altitude.is_none_or(|h| h <= set.dvl_max_altitude_m))
+            .map(|d| (d.stamp_ns, body_from_dvl * Vector3::from(d.velocity)))
+            .collect()
+    } else {
+        Vec::new()
+    };
+
+    // Levelling: f = a - g in the body, so -g = f - a; the DVL gives the mean a.
+    let mean_accel = match (dvl.first(), dvl.last()) {
+        (Some(a), Some(b)) if b.0 - a.0 > 1_000_000_000 => {
+            (b.1 - a.1) / ((b.0 - a.0) as f64 * 1e-9)
+        }
+        _ => Vector3::zeros(),
+    };
+    let (roll, pitch) = alignment::level(&(f_mean - mean_accel));
+    let g = 9.81;
+    let motion_tilt_deg = if dvl.len() >= 2 { 0.1 } else { 0.5 };
+    let tilt_sigma_deg = (set.imu.accel_bias_m_s2() / g)
+        .to_degrees()
+        .hypot(motion_tilt_deg);
+
+    // Position.
+    let origin = (
+        src.mission.origin_latitude_deg.to_radians(),
+        src.mission.origin_longitude_deg.to_radians(),
+    );
+    let near_start = |s: i64| ((s - t0) as f64 * 1e-9).abs() <= cfg.gnss_window_s;
+    let gnss = src
+        .gnss
+        .iter()
+        .find(|g| set.gnss_used && near_start(g.stamp_ns));
+    let start_fix = src
+        .fixes
+        .iter()
+        .find(|f| set.fixes_used && f.label == "start" && near_start(f.stamp_ns));
+    let speed_guess = dvl.first().map_or(2.0, |d| d.1.norm());
+    let (lat, lon, position, position_sigma_m) = if let Some(g) = gnss {
+        let late_s = ((g.stamp_ns - t0) as f64 * 1e-9).abs();
+        (
+            g.latitude_deg.to_radians(),
+            g.longitude_deg.to_radians(),
+            PositionSource::Gnss {
+                stamp_ns: g.stamp_ns,
+            },
+            g.horizontal_sigma_m.hypot(speed_guess * late_s),
+        )
+    } else if let Some(f) = start_fix {
+        let rn = geodesy::meridian_radius_m(origin.0);
+        let re = geodesy::prime_vertical_radius_m(origin.0) * origin.0.cos();
+        (
+            origin.0 + f.north_m / rn,
+            origin.1 + f.east_m / re,
+            PositionSource::StartFix {
+                stamp_ns: f.stamp_ns,
+            },
+            f.sigma_m.max(0.01),
+        )
+    } else {
+        (
+            origin.0,
+            origin.1,
+            PositionSource::MissionOrigin,
+            cfg.origin_sigma_m,
+        )
+    };
+    let (down_m, down_sigma_m) = match src.depth.iter().find(|d| in_window(d.stamp_ns)) {
+        Some(d) => (d.depth, set.depth_sigma_m),
+        None => start_fix
+            .and_then(|f| f.down_m.map(|d| (d, f.sigma_m)))
+            .unwrap_or((0.0, 10.0)),
+    };
+
+    // Velocity along the body axes (heading not needed yet).
+    let eml = src.eml.iter().find(|e| in_window(e.stamp_ns));
+    let (v_body, velocity, velocity_sigma_m_s) = if let Some(d) = dvl.first() {
+        (
+            d.1,
+            VelocitySource::Dvl { stamp_ns: d.0 },
+            set.dvl_sigma_m_s.hypot(0.05),
+        )
+    } else if let Some(e) = eml {
+        (
+            Vector3::new(e.speed, 0.0, 0.0),
+            VelocitySource::SpeedLog {
+                stamp_ns: e.stamp_ns,
+            },
+            0.1 + 0.05 * e.speed,
+        )
+    } else {
+        (Vector3::zeros(), VelocitySource::AtRest, 1.0)
+    };
+
+    let (heading, yaw, heading_sigma_deg) = heading(
+        src,
+        set,
+        HeadingInputs {
+            lat,
+            height_m: -down_m,
+            roll,
+            pitch,
+            w_mean,
+            v_body,
+            window_s,
+            t0,
+            window_end,
+        },
+    )?;
+
+    let ned_from_body = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
+    let deg2 = |d: f64| d.to_radians().powi(2);
+    let (gb, ab) = (
+        set.imu.gyro_bias_rad_s().powi(2),
+        set.imu.accel_bias_m_s2().powi(2),
+    );
+    let (p2, v2) = (position_sigma_m.powi(2), velocity_sigma_m_s.powi(2));
+    let cov = ErrorMatrix::from_diagonal(&SVector::<f64, 15>::from_column_slice(&[
+        p2,
+        p2,
+        down_sigma_m.powi(2),
+        v2,
+        v2,
+        v2,
+        deg2(tilt_sigma_deg),
+        deg2(tilt_sigma_deg),
+        deg2(heading_sigma_deg),
+        gb,
+        gb,
+        gb,
+        ab,
+        ab,
+        ab,
+    ]));
+    Ok(Initialisation {
+        estimate: Estimate {
+            nav: NavState {
+                lat_rad: lat,
+                lon_rad: lon,
+                height_m: -down_m,
+                vel_ned_m_s: ned_from_body * v_body,
+                ned_from_body,
+            },
+            gyro_bias: Vector3::zeros(),
+            accel_bias: Vector3::zeros(),
+            cov,
+        },
+        position,
+        position_sigma_m,
+        velocity,
+        velocity_sigma_m_s,
+        heading,
+        heading_sigma_deg,
+        tilt_sigma_deg,
+        window_s,
+    })
+}
+
+struct HeadingInputs {
+    lat: f64,
+    height_m: f64,
+    roll: f64,
+    pitch: f64,
+    w_mean: Vector3<f64>,
+    v_body: Vector3<f64>,
+    window_s: f64,
+    t0: i64,
+    window_end: i64,
+}
+
+/// The heading (rad) and its 1-sigma (deg) from the first source that has one.
+fn heading(
+    src: &Sources<'_>,
+    set: &InitSettings<'_>,
+    h: HeadingInputs,
+) -> Result<(HeadingSource, f64, f64), InitError> {
+    let cfg = set.initial;
+    let mut why_not = Vec::new();
+
+    // Gyrocompass: the predicted error from the gyro bias and the noise averaged over the
+    // window, relative to the horizontal Earth rate.
+    let gyro = || -> Result<(HeadingSource, f64, f64), String> {
+        let horizontal = alignment::horizontal_earth_rate(h.lat);
+        let noise = set.imu.noise().gyro_noise_density / h.window_s.max(1e-3).sqrt();
+        let sigma_deg = (set.imu.gyro_bias_rad_s().hypot(noise) / horizontal).to_degrees();
+        if sigma_deg > cfg.gyrocompass_max_sigma_deg {
+            return Err(format!(
+                "gyrocompass: the IMU's predicted heading error {sigma_deg:.1} deg exceeds {} deg",
+                cfg.gyrocompass_max_sigma_deg
+            ));
+        }
+        if h.w_mean.norm() > STEADY_RATE_FACTOR * geodesy::OMEGA_IE_RAD_S {
+            return Err(format!(
+                "gyrocompass: the vehicle turned during the first {:.0} s (mean rate {:.3} deg/s)",
+                h.window_s,
+                h.w_mean.norm().to_degrees()
+            ));
+        }
+        // Moving base: remove the transport rate of the velocity at the current heading
+        // (twice: the heading changes the velocity's direction).
+        let mut yaw = alignment::gyrocompass(&h.w_mean, h.roll, h.pitch);
+        for _ in 0..2 {
+            let c = UnitQuaternion::from_euler_angles(h.roll, h.pitch, yaw);
+            let w_en = geodesy::transport_rate_ned(h.lat, h.height_m, &(c * h.v_body));
+            yaw = alignment::gyrocompass(&(h.w_mean - c.inverse() * w_en), h.roll, h.pitch);
+        }
+        Ok((HeadingSource::Gyrocompass, yaw, sigma_deg))
+    };
+    let mag = || -> Result<(HeadingSource, f64, f64), String> {
+        let m = mean3(
+            src.mag
+                .iter()
+                .filter(|m| m.stamp_ns >= h.t0 && m.stamp_ns <= h.window_end)
+                .map(|m| m.magnetic_field),
+        )
+        .ok_or_else(|| "magnetometer: no /mag data in the alignment window".to_string())?;
+        let (declination_deg, declination, sigma) =
+            match (cfg.declination_deg, src.mission.magnetic_declination_deg) {
+                (Some(d), _) => (d, DeclinationSource::Given, cfg.magnetometer_sigma_deg),
+                (None, Some(d)) => (d, DeclinationSource::Mission, cfg.magnetometer_sigma_deg),
+                // Declination reaches 20 deg at mid latitudes: say so in the sigma.
+                (None, None) => (
+                    0.0,
+                    DeclinationSource::Unknown,
+                    cfg.magnetometer_sigma_deg.hypot(20.0),
+                ),
+            };
+        let yaw = alignment::magnetic_heading(&m, h.roll, h.pitch, declination_deg.to_radians());
+        Ok((
+            HeadingSource::Magnetometer {
+                declination_deg,
+                declination,
+            },
+            yaw,
+            sigma,
+        ))
+    };
+    let mission = || -> Result<(HeadingSource, f64, f64), String> {
+        src.mission
+            .initial_yaw_rad
+            .map(|y| (HeadingSource::Mission, y, cfg.mission_yaw_sigma_deg))
+            .ok_or_else(|| "mission: no initial_yaw_rad in the mission metadata".to_string())
+    };
+    let given = || -> Result<(HeadingSource, f64, f64), String> {
+        cfg.yaw_deg
+            .map(|y| {
+                (
+                    HeadingSource::Given,
+                    y.to_radians(),
+                    cfg.given_yaw_sigma_deg,
+                )
+            })
+            .ok_or_else(|| "given: no --initial-yaw".to_string())
+    };
+    let forced = |choice: &'static str, r: Result<(HeadingSource, f64, f64), String>| {
+        r.map_err(|reason| InitError::HeadingUnavailable { choice, reason })
+    };
+    match cfg.heading {
+        HeadingChoice::Gyrocompass => forced("gyrocompass", gyro()),
+        HeadingChoice::Magnetometer => forced("magnetometer", mag()),
+        HeadingChoice::Mission => forced("mission", mission()),
+        HeadingChoice::Given => forced("given", given()),
+        HeadingChoice::Auto => {
+            for source in [
+                &gyro as &dyn Fn() -> Result<(HeadingSource, f64, f64), String>,
+                &mag,
+                &mission,
+                &given,
+            ] {
+                match source() {
+                    Ok(found) => return Ok(found),
+                    Err(reason) => why_not.push(reason),
+                }
+            }
+            Err(InitError::NoHeading(why_not.join("; ")))
+        }
+    }
+}
+
+impl fmt::Display for Initialisation {
+    /// One line per quantity: value, source, 1-sigma.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let nav = &self.estimate.nav;
+        let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
+        let position = match self.position {
+            PositionSource::Gnss { .. } => "first GNSS fix".to_string(),
+            PositionSource::StartFix { .. } => "`start` position fix".to_string(),
+            PositionSource::MissionOrigin => {
+                "mission origin (no GNSS fix or start mark near the start)".to_string()
+            }
+        };
+        writeln!(
+            f,
+            "position   {:.7} deg N {:.7} deg E, depth {:.1} m   from {position} (1-sigma {:.1} m)",
+            nav.lat_rad.to_degrees(),
+            nav.lon_rad.to_degrees(),
+            -nav.height_m,
+            self.position_sigma_m
+        )?;
+        let velocity = match self.velocity {
+            VelocitySource::Dvl { .. } => "first DVL reading in range",
+            VelocitySource::SpeedLog { .. } => "EM-log speed along the body x axis",
+            VelocitySource::AtRest => "none: assumed at rest",
+        };
+        let v = nav.vel_ned_m_s;
+        writeln!(
+            f,
+            "velocity   N {:.2} E {:.2} D {:.2} m/s   from {velocity} (1-sigma {:.2} m/s)",
+            v.x, v.y, v.z, self.velocity_sigma_m_s
+        )?;
+        writeln!(
+            f,
+            "roll/pitch {:.2} / {:.2} deg   from levelling {:.0} s of IMU data (1-sigma {:.2} deg)",
+            roll.to_degrees(),
+            pitch.to_degrees(),
+            self.window_s,
+            self.tilt_sigma_deg
+        )?;
+        let heading = match self.heading {
+            HeadingSource::Gyrocompass => {
+                format!("gyrocompassing {:.0} s of IMU data", self.window_s)
+            }
+            HeadingSource::Magnetometer {
+                declination_deg,
+                declination,
+            } => format!(
+                "magnetometer, declination {declination_deg:.1} deg ({})",
+                match declination {
+                    DeclinationSource::Given => "given",
+                    DeclinationSource::Mission => "mission metadata",
+                    DeclinationSource::Unknown => "unknown, taken as 0: pass --declination",
+                }
+            ),
+            HeadingSource::Mission => "mission metadata initial_yaw_rad".to_string(),
+            HeadingSource::Given => "--initial-yaw".to_string(),
+        };
+        write!(
+            f,
+            "heading    {:.2} deg   from {heading} (1-sigma {:.2} deg)",
+            crate::angle::wrap_pi(yaw).to_degrees().rem_euclid(360.0),
+            self.heading_sigma_deg
+        )
+    }
+}
+
+impl HeadingSource {
+    pub fn name(&self) -> &'static str {
+        match self {
+            HeadingSource::Gyrocompass => "gyrocompass",
+            HeadingSource::Magnetometer { .. } => "magnetometer",
+            HeadingSource::Mission => "mission",
+            HeadingSource::Given => "given",
+        }
+    }
+}
+
+impl PositionSource {
+    pub fn name(&self) -> &'static str {
+        match self {
+            PositionSource::Gnss { .. } => "gnss",
+            PositionSource::StartFix { .. } => "start_fix",
+            PositionSource::MissionOrigin => "mission_origin",
+        }
+    }
+}
+
+impl VelocitySource {
+    pub fn name(&self) -> &'static str {
+        match self {
+            VelocitySource::Dvl { .. } => "dvl",
+            VelocitySource::SpeedLog { .. } => "eml",
+            VelocitySource::AtRest => "at_rest",
+        }
+    }
+}

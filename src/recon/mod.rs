@@ -1,0 +1,167 @@
+//! Post-dive reconstruction: a log and a configuration in, forward and smoothed solutions,
+//! residuals and statistics out. Pure: the log is already read (`ingest`), the tables are
+//! written elsewhere (`output`, `cli`).
+//!
+//! `config` (settings and their defaults) -> `init` (the initial estimate from the log) ->
+//! `filters::ins::driver` (forward pass) -> `smooth::rts` -> `stats` (NIS per sensor,
+//! distance) and, when the log carries `/truth`, `score`.
+
+pub mod config;
+pub mod init;
+pub mod score;
+pub mod stats;
+
+use crate::contract::{Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, SpeedLog, Truth};
+use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs};
+use crate::filters::ins::record::Solution;
+use crate::ingest::{Log, Mission};
+use crate::smooth::rts::{smooth, SmoothError};
+use config::Config;
+use init::{InitError, InitSettings, Initialisation, Sources};
+use std::time::{Duration, Instant};
+
+/// Why a reconstruction failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ReconError {
+    #[error("initialisation: {0}")]
+    Init(#[from] InitError),
+    #[error("forward filter: {0}")]
+    Forward(#[from] ForwardError),
+    #[error("smoother: {0}")]
+    Smooth(#[from] SmoothError),
+}
+
+/// What a reconstruction produced.
+#[derive(Debug, Clone)]
+pub struct Reconstruction {
+    pub init: Initialisation,
+    /// Residuals, counts and gaps of the forward pass (its records are turned into
+    /// `forward` once smoothed, to free their memory).
+    pub run: ForwardRun,
+    pub forward: Vec<Solution>,
+    pub smoothed: Vec<Solution>,
+    /// Whether each solution falls on an output time (else only on a measurement).
+    pub output: Vec<bool>,
+    pub timing: Timing,
+}
+
+/// Wall time of each stage.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Timing {
+    pub forward: Duration,
+    pub smoother: Duration,
+}
+
+/// The streams a reconstruction reads, at their default topics (empty when absent).
+#[derive(Debug, Clone, Copy)]
+pub struct Streams<'a> {
+    pub imu: &'a [Imu],
+    pub mag: &'a [MagneticField],
+    pub dvl: &'a [Dvl],
+    pub eml: &'a [SpeedLog],
+    pub depth: &'a [Depth],
+    pub gnss: &'a [GnssFix],
+    pub fixes: &'a [PositionFix],
+    pub truth: &'a [Truth],
+}
+
+impl<'a> Streams<'a> {
+    pub fn of(log: &'a Log) -> Self {
+        Streams {
+            imu: log.messages("/imu").unwrap_or_default(),
+            mag: log.messages("/mag").unwrap_or_default(),
+            dvl: log.messages("/dvl").unwrap_or_default(),
+            eml: log.messages("/eml").unwrap_or_default(),
+            depth: log.messages("/depth").unwrap_or_default(),
+            gnss: log.messages("/gnss").unwrap_or_default(),
+            fixes: log.messages("/position_fix").unwrap_or_default(),
+            truth: log.messages("/truth").unwrap_or_default(),
+        }
+    }
+}
+
+/// Output times: every `1 / rate_hz` from the first to the last IMU sample.
+pub fn output_stamps(imu: &[Imu], rate_hz: f64) -> Vec<i64> {
+    let (Some(first), Some(last)) = (imu.first(), imu.last()) else {
+        return Vec::new();
+    };
+    let step = (1e9 / rate_hz).round().max(1.0) as i64;
+    (0..)
+        .map(|k| first.stamp_ns + k * step)
+        .take_while(|&t| t <= last.stamp_ns)
+        .collect()
+}
+
+/// Runs the whole reconstruction: initialisation, forward filter, smoother.
+pub fn reconstruct(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+) -> Result<Reconstruction, ReconError> {
+    let settings = config.settings();
+    let pick = |used: bool, n| if used { n } else { 0 };
+    let dvl = &streams.dvl[..pick(config.dvl.enabled, streams.dvl.len())];
+    let depth = &streams.depth[..pick(config.depth.enabled, streams.depth.len())];
+    let eml = &streams.eml[..pick(config.eml.enabled, streams.eml.len())];
+    let gnss = &streams.gnss[..pick(config.gnss.enabled, streams.gnss.len())];
+    let fixes = &streams.fixes[..pick(config.position_fix.enabled, streams.fixes.len())];
+
+    let init = init::initialise(
+        &Sources {
+            imu: streams.imu,
+            mag: streams.mag,
+            dvl,
+            eml,
+            depth,
+            gnss,
+            fixes,
+            mission,
+        },
+        &InitSettings {
+            initial: &config.initial,
+            imu: config.imu.spec(),
+            dvl_used: config.dvl.enabled,
+            dvl_max_altitude_m: config.dvl.max_altitude_m,
+            dvl_sigma_m_s: config.dvl.sigma_m_s,
+            dvl_mounting: config.dvl.mounting(),
+            depth_sigma_m: config.depth.sigma_m,
+            gnss_used: config.gnss.enabled,
+            fixes_used: config.position_fix.enabled,
+        },
+    )?;
+
+    let stamps = output_stamps(streams.imu, config.output.rate_hz);
+    let inputs = Inputs {
+        imu: streams.imu,
+        dvl,
+        depth,
+        eml,
+        gnss,
+        fixes,
+        origin_rad: (
+            mission.origin_latitude_deg.to_radians(),
+            mission.origin_longitude_deg.to_radians(),
+        ),
+        output_stamps_ns: &stamps,
+    };
+    let started = Instant::now();
+    let mut run = run_forward(&settings, &inputs, init.estimate)?;
+    let forward_time = started.elapsed();
+    let started = Instant::now();
+    let smoothed = smooth(&run.records)?;
+    let smoother_time = started.elapsed();
+    let forward = run.records.iter().map(Solution::forward).collect();
+    let output = run.records.iter().map(|r| r.output).collect();
+    run.records = Vec::new();
+    Ok(Reconstruction {
+        init,
+        run,
+        forward,
+        smoothed,
+        output,
+        timing: Timing {
+            forward: forward_time,
+            smoother: smoother_time,
+        },
+    })
+}

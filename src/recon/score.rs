@@ -1,0 +1,119 @@
+//! Scores against `/truth` (simulated logs only): the error of a solution at each of its
+//! epochs, and summary figures: horizontal RMS, maximum and final error, and the fraction
+//! of epochs whose position NEES lies inside the two-sided 95 % chi-square bounds.
+
+use crate::align::interpolate;
+use crate::angle::wrap_pi;
+use crate::contract::Truth;
+use crate::filters::ins::record::Solution;
+use crate::filters::kalman::chi_square_quantile;
+use crate::geodesy;
+use nalgebra::{Matrix2, Vector2, Vector3};
+use serde::Serialize;
+
+/// Truth samples further apart than this are not interpolated across.
+const MAX_TRUTH_INTERVAL_NS: i64 = 2_000_000_000;
+
+/// The error (estimate minus truth) of a solution at one epoch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EpochError {
+    pub stamp_ns: i64,
+    /// North, east, down, m.
+    pub position_m: Vector3<f64>,
+    pub velocity_m_s: Vector3<f64>,
+    /// Roll, pitch, yaw (wrapped), rad.
+    pub euler_rad: [f64; 3],
+    pub position_sigma_m: Vector3<f64>,
+    pub euler_sigma_rad: [f64; 3],
+    /// NEES of the horizontal position (2 degrees of freedom) and of the 3-D position.
+    pub nees_horizontal: f64,
+    pub nees_position: f64,
+}
+
+impl EpochError {
+    pub fn horizontal_m(&self) -> f64 {
+        self.position_m.x.hypot(self.position_m.y)
+    }
+}
+
+/// The error of `solution` against the truth at its stamp (`None` outside the truth's span
+/// or across a gap in it).
+pub fn epoch_error(truth: &[Truth], solution: &Solution) -> Option<EpochError> {
+    let t = interpolate(truth, solution.stamp_ns, MAX_TRUTH_INTERVAL_NS)?;
+    let nav = &solution.point.nav;
+    let (lat_t, lon_t) = (t.latitude_deg.to_radians(), t.longitude_deg.to_radians());
+    let h_t = -t.down_m;
+    let rn = geodesy::meridian_radius_m(lat_t) + h_t;
+    let re = geodesy::prime_vertical_radius_m(lat_t) + h_t;
+    let position_m = Vector3::new(
+        (nav.lat_rad - lat_t) * rn,
+        wrap_pi(nav.lon_rad - lon_t) * re * lat_t.cos(),
+        -nav.height_m - t.down_m,
+    );
+    let euler = solution.euler_rad();
+    let p = solution.position_cov;
+    let nees_position = p
+        .cholesky()
+        .map_or(f64::INFINITY, |c| position_m.dot(&c.solve(&position_m)));
+    let horizontal = Vector2::new(position_m.x, position_m.y);
+    let nees_horizontal = Matrix2::new(p[(0, 0)], p[(0, 1)], p[(1, 0)], p[(1, 1)])
+        .cholesky()
+        .map_or(f64::INFINITY, |c| horizontal.dot(&c.solve(&horizontal)));
+    Some(EpochError {
+        stamp_ns: solution.stamp_ns,
+        position_m,
+        velocity_m_s: nav.vel_ned_m_s - Vector3::from(t.velocity_ned),
+        euler_rad: [0, 1, 2].map(|i| wrap_pi(euler[i] - t.attitude[i])),
+        position_sigma_m: Vector3::new(solution.sigma[0], solution.sigma[1], solution.sigma[2]),
+        euler_sigma_rad: solution.euler_sigma_rad(),
+        nees_horizontal,
+        nees_position,
+    })
+}
+
+/// Summary scores of one solution against the truth.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Scores {
+    pub epochs: usize,
+    pub horizontal_rms_m: f64,
+    pub horizontal_max_m: f64,
+    pub horizontal_final_m: f64,
+    /// Fraction of epochs whose horizontal-position NEES (2 dof) lies inside the two-sided
+    /// 95 % chi-square bounds.
+    pub nees_horizontal_inside_95: f64,
+    /// The same for the 3-D position NEES (3 dof).
+    pub nees_position_inside_95: f64,
+    pub yaw_rms_deg: f64,
+}
+
+/// Two-sided 95 % bounds of a chi-square variable with `dof` degrees of freedom.
+pub fn bounds_95(dof: usize) -> (f64, f64) {
+    (
+        chi_square_quantile(dof, 0.025),
+        chi_square_quantile(dof, 0.975),
+    )
+}
+
+/// Scores of a series of epoch errors (`None` when empty).
+pub fn scores(errors: &[EpochError]) -> Option<Scores> {
+    let last = errors.last()?;
+    let n = errors.len() as f64;
+    let inside = |dof: usize, f: &dyn Fn(&EpochError) -> f64| {
+        let (lo, hi) = bounds_95(dof);
+        errors.iter().filter(|e| (lo..=hi).contains(&f(e))).count() as f64 / n
+    };
+    Some(Scores {
+        epochs: errors.len(),
+        horizontal_rms_m: (errors.iter().map(|e| e.horizontal_m().powi(2)).sum::<f64>() / n).sqrt(),
+        horizontal_max_m: errors
+            .iter()
+            .map(EpochError::horizontal_m)
+            .fold(0.0, f64::max),
+        horizontal_final_m: last.horizontal_m(),
+        nees_horizontal_inside_95: inside(2, &|e| e.nees_horizontal),
+        nees_position_inside_95: inside(3, &|e| e.nees_position),
+        yaw_rms_deg: (errors.iter().map(|e| e.euler_rad[2].powi(2)).sum::<f64>() / n)
+            .sqrt()
+            .to_degrees(),
+    })
+}

@@ -1,0 +1,100 @@
+//! Statistics of a run: per-sensor innovation statistics, distance travelled.
+
+use crate::filters::ins::driver::{Residual, Sensor};
+use crate::filters::ins::record::Solution;
+use crate::geodesy;
+use serde::Serialize;
+
+/// Innovation statistics of one sensor.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SensorStats {
+    pub sensor: &'static str,
+    /// Measurements the filter saw (accepted or rejected by the gate).
+    pub count: usize,
+    pub rejected: usize,
+    /// Components of one innovation.
+    pub dims: usize,
+    /// Mean NIS of the accepted measurements (a consistent filter: `dims`).
+    pub mean_nis: f64,
+    /// Mean and variance of the normalised innovation components (innovation over its
+    /// predicted sigma) of the accepted measurements (consistent: 0 and 1).
+    pub normalised_mean: f64,
+    pub normalised_variance: f64,
+}
+
+/// Statistics of every sensor that has residuals.
+pub fn sensor_stats(residuals: &[Residual]) -> Vec<SensorStats> {
+    Sensor::ALL
+        .iter()
+        .filter_map(|&sensor| {
+            let all: Vec<&Residual> = residuals.iter().filter(|r| r.sensor == sensor).collect();
+            if all.is_empty() {
+                return None;
+            }
+            let accepted: Vec<&&Residual> = all.iter().filter(|r| r.accepted).collect();
+            let n = accepted.len().max(1) as f64;
+            let mean_nis = accepted.iter().map(|r| r.nis).sum::<f64>() / n;
+            let z: Vec<f64> = accepted
+                .iter()
+                .flat_map(|r| (0..r.dims).map(move |i| r.innovation[i] / r.sigma[i]))
+                .collect();
+            let m = z.len().max(1) as f64;
+            let mean = z.iter().sum::<f64>() / m;
+            let variance = z.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / m;
+            Some(SensorStats {
+                sensor: sensor.name(),
+                count: all.len(),
+                rejected: all.len() - accepted.len(),
+                dims: sensor.dims(),
+                mean_nis,
+                normalised_mean: mean,
+                normalised_variance: variance,
+            })
+        })
+        .collect()
+}
+
+/// Horizontal distance along a solution, m.
+pub fn distance_travelled_m(solutions: &[Solution]) -> f64 {
+    solutions
+        .windows(2)
+        .map(|w| {
+            let (a, b) = (&w[0].point.nav, &w[1].point.nav);
+            let (n, e) = geodesy::local_north_east_m(a.lat_rad, a.lon_rad, b.lat_rad, b.lon_rad);
+            n.hypot(e)
+        })
+        .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normalised_innovations_of_a_consistent_sensor() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let normal = Normal::new(0.0, 2.0).unwrap();
+        let residuals: Vec<Residual> = (0..20_000)
+            .map(|k| {
+                let innovation = [normal.sample(&mut rng), normal.sample(&mut rng), 0.0];
+                Residual {
+                    stamp_ns: k,
+                    sensor: Sensor::Gnss,
+                    innovation,
+                    sigma: [2.0, 2.0, 0.0],
+                    dims: 2,
+                    nis: (innovation[0].powi(2) + innovation[1].powi(2)) / 4.0,
+                    accepted: k % 100 != 0,
+                }
+            })
+            .collect();
+        let s = sensor_stats(&residuals);
+        assert_eq!(s.len(), 1);
+        assert_eq!((s[0].count, s[0].rejected, s[0].dims), (20_000, 200, 2));
+        assert!((s[0].mean_nis - 2.0).abs() < 0.05, "{}", s[0].mean_nis);
+        assert!(s[0].normalised_mean.abs() < 0.02);
+        assert!((s[0].normalised_variance - 1.0).abs() < 0.03);
+    }
+}
