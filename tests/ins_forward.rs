@@ -125,6 +125,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
     let inputs = Inputs {
         imu: log.messages::<Imu>("/imu").unwrap(),
         dvl: log.messages::<Dvl>("/dvl").unwrap(),
+        altimeter: &[],
         depth: log.messages::<Depth>("/depth").unwrap(),
         gnss: log.messages::<GnssFix>("/gnss").unwrap(),
         eml: log.messages::<SpeedLog>("/eml").unwrap(),
@@ -142,6 +143,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
             dvl_sigma_m_s: 0.015,
             dvl_max_altitude_m: 100.0,
             dvl_check_range: true,
+            altimeter_max_age_s: 2.0,
             dvl_mounting: DvlMounting::default(),
             depth_sigma_m: 0.1,
             depth_min_interval_s: 0.0,
@@ -240,6 +242,7 @@ fn position_fixes_bound_the_error_without_dvl() {
             dvl_sigma_m_s: 0.015,
             dvl_max_altitude_m: 100.0,
             dvl_check_range: true,
+            altimeter_max_age_s: 2.0,
             dvl_mounting: DvlMounting::default(),
             depth_sigma_m: 0.1,
             depth_min_interval_s: 0.0,
@@ -257,6 +260,7 @@ fn position_fixes_bound_the_error_without_dvl() {
         let inputs = Inputs {
             imu: log.messages::<Imu>("/imu").unwrap(),
             dvl: &[],
+            altimeter: &[],
             depth: log.messages::<Depth>("/depth").unwrap(),
             gnss: &[],
             eml: &[],

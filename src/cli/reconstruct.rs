@@ -211,46 +211,6 @@ fn final_sigma(s: Option<&Solution>) -> Option<Sigma> {
     })
 }
 
-/// Warnings a navigation engineer should read: sensors whose innovations disagree with
-/// their noise settings, IMU gaps, an unknown declination.
-fn warnings(r: &Reconstruction, sensors: &[SensorStats]) -> Vec<String> {
-    let mut out = Vec::new();
-    for s in sensors {
-        let rejected = s.rejected as f64 / s.count as f64;
-        if s.count >= 20 && (s.mean_nis > 2.0 * s.dims as f64 || rejected > 0.05) {
-            out.push(format!(
-                "{}: mean NIS {:.1} for {} expected, {:.1} % rejected: its noise setting may be too \
-                 small, its clock offset (--offset /{}=SECONDS), or its mounting wrong",
-                s.sensor,
-                s.mean_nis,
-                s.dims,
-                100.0 * rejected,
-                if s.sensor == "position_fix" { "position_fix" } else { s.sensor }
-            ));
-        } else if s.rejected > 0 {
-            out.push(format!(
-                "{}: {} of {} measurements rejected by the gate (see residuals.parquet)",
-                s.sensor, s.rejected, s.count
-            ));
-        }
-    }
-    for g in &r.run.imu_gaps {
-        out.push(format!(
-            "IMU gap of {:.2} s at {}: bridged with grown covariance",
-            (g.to_ns - g.from_ns) as f64 * 1e-9,
-            hindsight::time::format_utc(g.from_ns)
-        ));
-    }
-    if let recon::init::HeadingSource::Magnetometer {
-        declination: recon::init::DeclinationSource::Unknown,
-        ..
-    } = r.init.heading
-    {
-        out.push("magnetic declination unknown, taken as 0: pass --declination DEG".into());
-    }
-    out
-}
-
 pub fn run(args: ReconstructArgs) -> Result<()> {
     let started = Instant::now();
     let config = args.config()?;
@@ -336,7 +296,17 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         nees_horizontal_bounds_95: score::bounds_95(2),
         nees_position_bounds_95: score::bounds_95(3),
     });
-    let warnings = warnings(&r, &sensors);
+    let mut warnings = stats::warnings(&r, &sensors);
+    if warnings.iter().any(|w| w.starts_with("dvl: mean NIS")) {
+        eprintln!("the DVL's innovations are too large: searching for a clock offset ...");
+        if let Some(s) = recon::clock::suggest_dvl_offset(&streams, &mission, &config) {
+            warnings.push(format!(
+                "dvl: its innovations are smallest with --offset /dvl={:.1} (mean NIS {:.1} \
+                 against {:.1} without, first 10 min): rerun with it if the DVL's clock is off",
+                s.offset_s, s.mean_nis, s.mean_nis_unshifted
+            ));
+        }
+    }
     let nav = r.init.estimate.nav;
     let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
     let used = |topic: &str| match topic {

@@ -30,6 +30,8 @@ grade = "tactical"
 use = true
 sigma_m_s = 0.015          # per axis, white noise plus what scale and bias errors add
 max_altitude_m = 100.0     # readings above this altitude are out of range and not used
+altimeter_max_age_s = 2.0  # a reading without altitude is checked against the echo
+                           # sounder's (/altimeter) latest altitude of at most this age
 check_range = true         # false: use every reading, even without bottom lock or out of
                            # range (to see what trusting a bad DVL costs; not for real use)
 lever_arm_m = [0.0, 0.0, 0.0]     # DVL position from the reference point, body FRD
@@ -37,7 +39,10 @@ rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z
 
 [depth]
 use = true
-sigma_m = 0.1
+sigma_m = 0.1              # white noise of a reading
+bias_sigma_m = 0.1         # constant offset of the sensor (zero point, water density): with
+                           # depth the only vertical reference it cannot be estimated, so it
+                           # is added to the reported depth uncertainty (a "consider" term)
 min_interval_s = 0.1       # a faster depth sensor is decimated to this interval
 
 [eml]
@@ -211,6 +216,7 @@ pub struct DvlConfig {
     pub enabled: bool,
     pub sigma_m_s: f64,
     pub max_altitude_m: f64,
+    pub altimeter_max_age_s: f64,
     pub check_range: bool,
     pub lever_arm_m: [f64; 3],
     pub rotation_deg: [f64; 3],
@@ -222,6 +228,7 @@ impl Default for DvlConfig {
             enabled: true,
             sigma_m_s: 0.015,
             max_altitude_m: 100.0,
+            altimeter_max_age_s: 2.0,
             check_range: true,
             lever_arm_m: [0.0; 3],
             rotation_deg: [0.0; 3],
@@ -246,6 +253,7 @@ pub struct DepthConfig {
     #[serde(rename = "use")]
     pub enabled: bool,
     pub sigma_m: f64,
+    pub bias_sigma_m: f64,
     pub min_interval_s: f64,
 }
 
@@ -254,6 +262,7 @@ impl Default for DepthConfig {
         DepthConfig {
             enabled: true,
             sigma_m: 0.1,
+            bias_sigma_m: 0.1,
             min_interval_s: 0.1,
         }
     }
@@ -457,7 +466,8 @@ impl Config {
                 });
             }
         }
-        let non_negative: [(&'static str, f64); 5] = [
+        let non_negative: [(&'static str, f64); 7] = [
+            ("dvl.altimeter_max_age_s", self.dvl.altimeter_max_age_s),
             (
                 "imu.gyro_bias_instability_deg_h",
                 spec.gyro_bias_instability_deg_h,
@@ -467,6 +477,7 @@ impl Config {
                 spec.accel_bias_instability_ug,
             ),
             ("depth.min_interval_s", self.depth.min_interval_s),
+            ("depth.bias_sigma_m", self.depth.bias_sigma_m),
             (
                 "propagation.gap_accel_m_s2_rt_hz",
                 self.propagation.gap_accel_m_s2_rt_hz,
@@ -519,6 +530,7 @@ impl Config {
                 dvl_sigma_m_s: self.dvl.sigma_m_s,
                 dvl_max_altitude_m: self.dvl.max_altitude_m,
                 dvl_check_range: self.dvl.check_range,
+                altimeter_max_age_s: self.dvl.altimeter_max_age_s,
                 dvl_mounting: self.dvl.mounting(),
                 depth_sigma_m: self.depth.sigma_m,
                 depth_min_interval_s: self.depth.min_interval_s,

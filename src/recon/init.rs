@@ -1,6 +1,7 @@
 //! The initial estimate from what the log has, and which source gave each part.
 //!
-//! - Position: the first GNSS fix near the start, else a `start` position fix near the
+//! - Position: a GNSS fix near the start (the one closest to the median of those within
+//!   `gnss_window_s`), else a `start` position fix near the
 //!   start, else the mission origin. Depth from the first depth reading.
 //! - Roll and pitch: the mean specific force over the first `window_s` of IMU data
 //!   (levelling), less the mean acceleration the DVL saw over the same window.
@@ -181,10 +182,25 @@ pub fn initialise(src: &Sources<'_>, set: &InitSettings<'_>) -> Result<Initialis
         src.mission.origin_longitude_deg.to_radians(),
     );
     let near_start = |s: i64| ((s - t0) as f64 * 1e-9).abs() <= cfg.gnss_window_s;
-    let gnss = src
-        .gnss
-        .iter()
-        .find(|g| set.gnss_used && near_start(g.stamp_ns));
+    // Of the fixes near the start, the one closest to their median: one outlier among
+    // them cannot place the start.
+    let gnss = {
+        let near: Vec<&GnssFix> = src
+            .gnss
+            .iter()
+            .filter(|g| set.gnss_used && near_start(g.stamp_ns))
+            .collect();
+        let median = |f: fn(&GnssFix) -> f64| {
+            let mut v: Vec<f64> = near.iter().map(|g| f(g)).collect();
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or_default()
+        };
+        let (lat_m, lon_m) = (median(|g| g.latitude_deg), median(|g| g.longitude_deg));
+        near.into_iter().min_by(|a, b| {
+            let d = |g: &GnssFix| (g.latitude_deg - lat_m).hypot(g.longitude_deg - lon_m);
+            d(a).total_cmp(&d(b))
+        })
+    };
     let start_fix = src
         .fixes
         .iter()

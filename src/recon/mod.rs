@@ -6,12 +6,15 @@
 //! `filters::ins::driver` (forward pass) -> `smooth::rts` -> `stats` (NIS per sensor,
 //! distance) and, when the log carries `/truth`, `score`.
 
+pub mod clock;
 pub mod config;
 pub mod init;
 pub mod score;
 pub mod stats;
 
-use crate::contract::{Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, SpeedLog, Truth};
+use crate::contract::{
+    Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, SpeedLog, Truth,
+};
 use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs};
 use crate::filters::ins::record::Solution;
 use crate::ingest::{Log, Mission};
@@ -58,6 +61,7 @@ pub struct Streams<'a> {
     pub imu: &'a [Imu],
     pub mag: &'a [MagneticField],
     pub dvl: &'a [Dvl],
+    pub altimeter: &'a [Altimeter],
     pub eml: &'a [SpeedLog],
     pub depth: &'a [Depth],
     pub gnss: &'a [GnssFix],
@@ -71,6 +75,7 @@ impl<'a> Streams<'a> {
             imu: log.messages("/imu").unwrap_or_default(),
             mag: log.messages("/mag").unwrap_or_default(),
             dvl: log.messages("/dvl").unwrap_or_default(),
+            altimeter: log.messages("/altimeter").unwrap_or_default(),
             eml: log.messages("/eml").unwrap_or_default(),
             depth: log.messages("/depth").unwrap_or_default(),
             gnss: log.messages("/gnss").unwrap_or_default(),
@@ -92,12 +97,24 @@ pub fn output_stamps(imu: &[Imu], rate_hz: f64) -> Vec<i64> {
         .collect()
 }
 
-/// Runs the whole reconstruction: initialisation, forward filter, smoother.
-pub fn reconstruct(
+/// Adds the depth sensor's constant offset, which nothing in the log can estimate (the depth
+/// is the only vertical reference), to the depth uncertainty of every solution: a Schmidt
+/// "consider" term. The estimate itself is unchanged; the offset's error is the same at
+/// every epoch, so it adds `sigma^2` to the down variance.
+pub fn consider_depth_bias(solutions: &mut [Solution], bias_sigma_m: f64) {
+    let v = bias_sigma_m * bias_sigma_m;
+    for s in solutions {
+        s.position_cov[(2, 2)] += v;
+        s.sigma[2] = s.position_cov[(2, 2)].sqrt();
+    }
+}
+
+/// Initialises from the log and runs the forward filter.
+pub fn forward(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
-) -> Result<Reconstruction, ReconError> {
+) -> Result<(Initialisation, ForwardRun, Duration), ReconError> {
     let settings = config.settings();
     let pick = |used: bool, n| if used { n } else { 0 };
     let dvl = &streams.dvl[..pick(config.dvl.enabled, streams.dvl.len())];
@@ -134,6 +151,7 @@ pub fn reconstruct(
     let inputs = Inputs {
         imu: streams.imu,
         dvl,
+        altimeter: streams.altimeter,
         depth,
         eml,
         gnss,
@@ -145,12 +163,26 @@ pub fn reconstruct(
         output_stamps_ns: &stamps,
     };
     let started = Instant::now();
-    let mut run = run_forward(&settings, &inputs, init.estimate)?;
-    let forward_time = started.elapsed();
+    let run = run_forward(&settings, &inputs, init.estimate)?;
+    Ok((init, run, started.elapsed()))
+}
+
+/// Runs the whole reconstruction: initialisation, forward filter, smoother.
+pub fn reconstruct(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+) -> Result<Reconstruction, ReconError> {
+    let (init, mut run, forward_time) = forward(streams, mission, config)?;
     let started = Instant::now();
     let smoothed = smooth(&run.records)?;
     let smoother_time = started.elapsed();
-    let forward = run.records.iter().map(Solution::forward).collect();
+    let mut forward: Vec<Solution> = run.records.iter().map(Solution::forward).collect();
+    let mut smoothed = smoothed;
+    if config.depth.enabled && !streams.depth.is_empty() {
+        consider_depth_bias(&mut forward, config.depth.bias_sigma_m);
+        consider_depth_bias(&mut smoothed, config.depth.bias_sigma_m);
+    }
     let output = run.records.iter().map(|r| r.output).collect();
     run.records = Vec::new();
     Ok(Reconstruction {

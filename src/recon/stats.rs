@@ -3,6 +3,7 @@
 use crate::filters::ins::driver::{Residual, Sensor};
 use crate::filters::ins::record::Solution;
 use crate::geodesy;
+use crate::recon::Reconstruction;
 use serde::Serialize;
 
 /// Innovation statistics of one sensor.
@@ -52,6 +53,46 @@ pub fn sensor_stats(residuals: &[Residual]) -> Vec<SensorStats> {
             })
         })
         .collect()
+}
+
+/// Warnings a navigation engineer should read: sensors whose innovations disagree with
+/// their noise settings, IMU gaps, an unknown declination.
+pub fn warnings(r: &Reconstruction, sensors: &[SensorStats]) -> Vec<String> {
+    let mut out = Vec::new();
+    for s in sensors {
+        let rejected = s.rejected as f64 / s.count as f64;
+        if s.count >= 20 && (s.mean_nis > 2.0 * s.dims as f64 || rejected > 0.05) {
+            out.push(format!(
+                "{}: mean NIS {:.1} for {} expected, {:.1} % rejected: its noise setting may be too \
+                 small, its clock offset (--offset /{}=SECONDS), or its mounting wrong",
+                s.sensor,
+                s.mean_nis,
+                s.dims,
+                100.0 * rejected,
+                if s.sensor == "position_fix" { "position_fix" } else { s.sensor }
+            ));
+        } else if s.rejected > 0 {
+            out.push(format!(
+                "{}: {} of {} measurements rejected by the gate (see residuals.parquet)",
+                s.sensor, s.rejected, s.count
+            ));
+        }
+    }
+    for g in &r.run.imu_gaps {
+        out.push(format!(
+            "IMU gap of {:.2} s at {}: bridged with grown covariance",
+            (g.to_ns - g.from_ns) as f64 * 1e-9,
+            crate::time::format_utc(g.from_ns)
+        ));
+    }
+    if let crate::recon::init::HeadingSource::Magnetometer {
+        declination: crate::recon::init::DeclinationSource::Unknown,
+        ..
+    } = r.init.heading
+    {
+        out.push("magnetic declination unknown, taken as 0: pass --declination DEG".into());
+    }
+    out
 }
 
 /// Horizontal distance along a solution, m.

@@ -20,7 +20,8 @@ use super::error_state::{ErrorMatrix, N};
 use super::forward::{measure, DvlMounting, Estimate, Filter, ImuNoise};
 use super::mechanization::{ImuSample, NavState};
 use super::record::EpochRecord;
-use crate::contract::{Depth, Dvl, GnssFix, Imu, PositionFix, SpeedLog};
+use crate::align::latest_at;
+use crate::contract::{Altimeter, Depth, Dvl, GnssFix, Imu, PositionFix, SpeedLog};
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
 use crate::geodesy;
 use nalgebra::{SMatrix, SVector, Vector3};
@@ -36,6 +37,9 @@ pub struct Aiding {
     /// show what trusting a bad DVL costs).
     pub dvl_check_range: bool,
     pub dvl_mounting: DvlMounting,
+    /// When a DVL reading carries no altitude, the echo sounder's latest altitude within this
+    /// age is used to check the range, s.
+    pub altimeter_max_age_s: f64,
     /// Depth 1-sigma, m.
     pub depth_sigma_m: f64,
     /// Depth readings closer than this to the last one used are skipped (a 100 Hz depth
@@ -72,6 +76,8 @@ pub struct Settings {
 pub struct Inputs<'a> {
     pub imu: &'a [Imu],
     pub dvl: &'a [Dvl],
+    /// Echo-sounder altitudes, to check the DVL's range when it reports none.
+    pub altimeter: &'a [Altimeter],
     pub depth: &'a [Depth],
     pub eml: &'a [SpeedLog],
     pub gnss: &'a [GnssFix],
@@ -170,7 +176,8 @@ pub struct ImuGap {
 pub struct ForwardRun {
     pub records: Vec<EpochRecord>,
     pub residuals: Vec<Residual>,
-    /// DVL readings not used: no bottom lock, or above the maximum altitude.
+    /// DVL readings not used: no bottom lock, or above the maximum altitude (the DVL's own
+    /// or the echo sounder's).
     pub dvl_out_of_range: usize,
     /// Depth readings skipped by the minimum interval.
     pub depth_skipped: usize,
@@ -446,8 +453,14 @@ impl Pass<'_> {
         let (inputs, aiding) = (self.inputs, self.settings.aiding);
         while let Some(d) = inputs.dvl.get(self.at.dvl).filter(|m| m.stamp_ns <= t) {
             self.at.dvl += 1;
+            let max_age_ns = (aiding.altimeter_max_age_s * 1e9) as i64;
+            let altitude = d.altitude.or_else(|| {
+                latest_at(inputs.altimeter, d.stamp_ns)
+                    .filter(|(_, age)| *age <= max_age_ns)
+                    .map(|(a, _)| a.altitude)
+            });
             let in_range = !aiding.dvl_check_range
-                || (d.valid && d.altitude.is_none_or(|h| h <= aiding.dvl_max_altitude_m));
+                || (d.valid && altitude.is_none_or(|h| h <= aiding.dvl_max_altitude_m));
             if !in_range {
                 self.run.dvl_out_of_range += 1;
                 continue;
