@@ -149,6 +149,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
             depth_min_interval_s: 0.0,
             eml_sigma_m_s: Some(0.05),
             gate_probability: Some(0.999),
+            gate_reset_after: 0,
         },
     );
 
@@ -248,6 +249,7 @@ fn position_fixes_bound_the_error_without_dvl() {
             depth_min_interval_s: 0.0,
             eml_sigma_m_s: None,
             gate_probability: Some(0.999),
+            gate_reset_after: 0,
         },
     );
     let initial = initial_from_truth(&truth[0], &scenario, 0.0, 0.0, 2.0, 4.0);

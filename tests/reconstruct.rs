@@ -220,12 +220,16 @@ fn bad_input_is_reported_or_handled() {
         clean_fwd.horizontal_rms_m,
         gap_smo.horizontal_rms_m,
         clean_smo.horizontal_rms_m,
-        warnings(&gapped, &sensor_stats(&gapped.run.residuals))
+        warnings(&gapped.run, &gapped.init, &sensor_stats(&gapped.run.residuals))
     );
     assert!(gap_smo.horizontal_rms_m < clean_smo.horizontal_rms_m + 1.0);
-    assert!(warnings(&gapped, &sensor_stats(&gapped.run.residuals))
-        .iter()
-        .any(|w| w.contains("IMU gap of 10.00 s")));
+    assert!(warnings(
+        &gapped.run,
+        &gapped.init,
+        &sensor_stats(&gapped.run.residuals)
+    )
+    .iter()
+    .any(|w| w.contains("IMU gap of 10.00 s")));
 
     // DVL stamps 2 s late: the innovations say so, and the offset option repairs it.
     let late: Vec<Dvl> = streams
@@ -260,14 +264,20 @@ fn bad_input_is_reported_or_handled() {
         clean_dvl.rejected,
         lag_fwd.horizontal_rms_m,
         clean_fwd.horizontal_rms_m,
-        warnings(&lagged, &sensor_stats(&lagged.run.residuals))
+        warnings(&lagged.run, &lagged.init, &sensor_stats(&lagged.run.residuals))
     );
-    assert!(warnings(&lagged, &sensor_stats(&lagged.run.residuals))
-        .iter()
-        .any(|w| w.starts_with("dvl: mean NIS") && w.contains("--offset /dvl=")));
-    assert!(!warnings(&clean, &sensor_stats(&clean.run.residuals))
-        .iter()
-        .any(|w| w.starts_with("dvl:")));
+    assert!(warnings(
+        &lagged.run,
+        &lagged.init,
+        &sensor_stats(&lagged.run.residuals)
+    )
+    .iter()
+    .any(|w| w.starts_with("dvl: mean NIS") && w.contains("--offset /dvl=")));
+    assert!(
+        !warnings(&clean.run, &clean.init, &sensor_stats(&clean.run.residuals))
+            .iter()
+            .any(|w| w.starts_with("dvl:"))
+    );
     // The offset search finds the 2 s, and the clean run needs none.
     let lagged_streams = Streams {
         dvl: &late,

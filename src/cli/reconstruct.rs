@@ -2,6 +2,7 @@
 
 use super::{LogArgs, OutputFailed, PolicyArgs};
 use anyhow::{Context, Result};
+use hindsight::contract::Truth;
 use hindsight::filters::ins::record::Solution;
 use hindsight::output::atomic::Staging;
 use hindsight::output::parquet::{write_batches, ROWS_PER_BATCH};
@@ -131,6 +132,7 @@ struct Summary {
     dvl_out_of_range: usize,
     depth_skipped_by_interval: usize,
     eml_too_slow: usize,
+    gate_resets: usize,
     imu_gaps: Vec<GapSummary>,
     sensors: Vec<SensorStats>,
     duration_s: f64,
@@ -233,25 +235,69 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             _ => 0.0,
         }
     );
-    let r = recon::reconstruct(&streams, &mission, &config)
+    let (init, run, forward_time) = recon::forward(&streams, &mission, &config)
         .with_context(|| format!("reconstructing {}", args.log.log.display()))?;
-    eprintln!("initial state:\n{}", indent(&r.init.to_string()));
+    eprintln!("initial state:\n{}", indent(&init.to_string()));
     eprintln!(
-        "forward filter {:.1} s ({} epochs, {} measurements), smoother {:.1} s",
-        r.timing.forward.as_secs_f64(),
-        r.forward.len(),
-        r.run.residuals.len(),
-        r.timing.smoother.as_secs_f64()
+        "forward filter {:.1} s ({} epochs, {} measurements)",
+        forward_time.as_secs_f64(),
+        run.records.len(),
+        run.residuals.len(),
     );
+    let sensors = stats::sensor_stats(&run.residuals);
+    let mut warnings = stats::warnings(&run, &init, &sensors);
+    if warnings.iter().any(|w| w.starts_with("dvl: mean NIS")) {
+        eprintln!("the DVL's innovations are too large: searching for a clock offset ...");
+        if let Some(s) = recon::clock::suggest_dvl_offset(&streams, &mission, &config) {
+            warnings.push(format!(
+                "dvl: its innovations are smallest with --offset /dvl={:.1} (mean NIS {:.1} \
+                 against {:.1} without, first 10 min): rerun with it if the DVL's clock is off",
+                s.offset_s, s.mean_nis, s.mean_nis_unshifted
+            ));
+        }
+    }
+    // What the outputs need from the log; the log itself is freed before smoothing.
+    let truth: Vec<Truth> = streams.truth.to_vec();
+    let used = |topic: &str| match topic {
+        "/dvl" => config.dvl.enabled,
+        "/depth" => config.depth.enabled,
+        "/eml" => config.eml.enabled,
+        "/gnss" => config.gnss.enabled,
+        "/position_fix" => config.position_fix.enabled,
+        "/truth" => false,
+        _ => true,
+    };
+    let inputs: Vec<InputCount> = [
+        ("/imu", streams.imu.len()),
+        ("/dvl", streams.dvl.len()),
+        ("/depth", streams.depth.len()),
+        ("/eml", streams.eml.len()),
+        ("/gnss", streams.gnss.len()),
+        ("/position_fix", streams.fixes.len()),
+        ("/mag", streams.mag.len()),
+        ("/altimeter", streams.altimeter.len()),
+        ("/truth", streams.truth.len()),
+    ]
+    .iter()
+    .map(|&(topic, messages)| InputCount {
+        topic,
+        messages,
+        used: messages > 0 && used(topic),
+    })
+    .collect();
+    let depth_used = config.depth.enabled && !streams.depth.is_empty();
+    drop(log);
+    let r = recon::finish(init, run, forward_time, &config, depth_used)?;
+    eprintln!("smoother {:.1} s", r.timing.smoother.as_secs_f64());
 
     let outputs_started = Instant::now();
     let keep: Vec<usize> = (0..r.forward.len())
         .filter(|&k| r.output[k] || config.output.aiding_epochs)
         .collect();
-    let truth_errors = (!streams.truth.is_empty()).then(|| {
+    let truth_errors = (!truth.is_empty()).then(|| {
         let errs = |sol: &[Solution]| -> Vec<EpochError> {
             keep.iter()
-                .filter_map(|&k| score::epoch_error(streams.truth, &sol[k]))
+                .filter_map(|&k| score::epoch_error(&truth, &sol[k]))
                 .collect()
         };
         (errs(&r.forward), errs(&r.smoothed))
@@ -289,57 +335,19 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         written.push(path);
     }
 
-    let sensors = stats::sensor_stats(&r.run.residuals);
     let truth = truth_errors.as_ref().map(|(fwd, smo)| TruthSummary {
         forward: score::scores(fwd),
         smoothed: score::scores(smo),
         nees_horizontal_bounds_95: score::bounds_95(2),
         nees_position_bounds_95: score::bounds_95(3),
     });
-    let mut warnings = stats::warnings(&r, &sensors);
-    if warnings.iter().any(|w| w.starts_with("dvl: mean NIS")) {
-        eprintln!("the DVL's innovations are too large: searching for a clock offset ...");
-        if let Some(s) = recon::clock::suggest_dvl_offset(&streams, &mission, &config) {
-            warnings.push(format!(
-                "dvl: its innovations are smallest with --offset /dvl={:.1} (mean NIS {:.1} \
-                 against {:.1} without, first 10 min): rerun with it if the DVL's clock is off",
-                s.offset_s, s.mean_nis, s.mean_nis_unshifted
-            ));
-        }
-    }
     let nav = r.init.estimate.nav;
     let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
-    let used = |topic: &str| match topic {
-        "/dvl" => config.dvl.enabled,
-        "/depth" => config.depth.enabled,
-        "/eml" => config.eml.enabled,
-        "/gnss" => config.gnss.enabled,
-        "/position_fix" => config.position_fix.enabled,
-        "/truth" => false,
-        _ => true,
-    };
-    let counts = [
-        ("/imu", streams.imu.len()),
-        ("/dvl", streams.dvl.len()),
-        ("/depth", streams.depth.len()),
-        ("/eml", streams.eml.len()),
-        ("/gnss", streams.gnss.len()),
-        ("/position_fix", streams.fixes.len()),
-        ("/mag", streams.mag.len()),
-        ("/truth", streams.truth.len()),
-    ];
     let outputs_s = outputs_started.elapsed().as_secs_f64();
     let summary = Summary {
         hindsight_version: env!("CARGO_PKG_VERSION"),
         log: args.log.log.display().to_string(),
-        inputs: counts
-            .iter()
-            .map(|&(topic, messages)| InputCount {
-                topic,
-                messages,
-                used: messages > 0 && used(topic),
-            })
-            .collect(),
+        inputs,
         initialisation: InitSummary {
             position_source: r.init.position.name(),
             position_sigma_m: r.init.position_sigma_m,
@@ -362,6 +370,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         dvl_out_of_range: r.run.dvl_out_of_range,
         depth_skipped_by_interval: r.run.depth_skipped,
         eml_too_slow: r.run.eml_too_slow,
+        gate_resets: r.run.gate_resets,
         imu_gaps: r
             .run
             .imu_gaps

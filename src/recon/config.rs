@@ -59,6 +59,9 @@ use = true                 # sigma from each fix's sigma_m
 # Chi-square innovation gate: a consistent measurement passes with this probability;
 # a rejected one is counted and recorded in residuals.parquet. 1.0 disables the gate.
 probability = 0.999
+# After this many rejections in a row of one sensor, its next measurement is applied
+# ungated: a filter that has drifted must not lock its aiding out (0: never).
+reset_after = 20
 
 [propagation]
 covariance_interval_s = 0.1   # longest step of the covariance between epochs
@@ -303,11 +306,15 @@ impl Default for UseConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct GateConfig {
     pub probability: f64,
+    pub reset_after: usize,
 }
 
 impl Default for GateConfig {
     fn default() -> Self {
-        GateConfig { probability: 0.999 }
+        GateConfig {
+            probability: 0.999,
+            reset_after: 20,
+        }
     }
 }
 
@@ -536,6 +543,7 @@ impl Config {
                 depth_min_interval_s: self.depth.min_interval_s,
                 eml_sigma_m_s: self.eml.enabled.then_some(self.eml.sigma_m_s),
                 gate_probability: (self.gate.probability < 1.0).then_some(self.gate.probability),
+                gate_reset_after: self.gate.reset_after,
             },
         }
     }

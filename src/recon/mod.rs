@@ -173,13 +173,25 @@ pub fn reconstruct(
     mission: &Mission,
     config: &Config,
 ) -> Result<Reconstruction, ReconError> {
-    let (init, mut run, forward_time) = forward(streams, mission, config)?;
+    let (init, run, forward_time) = forward(streams, mission, config)?;
+    let depth_used = config.depth.enabled && !streams.depth.is_empty();
+    finish(init, run, forward_time, config, depth_used)
+}
+
+/// Smooths a forward run and turns its records into solutions (freeing the records).
+/// `depth_used`: the run had depth updates (their offset is then added to the depth sigma).
+pub fn finish(
+    init: Initialisation,
+    mut run: ForwardRun,
+    forward_time: Duration,
+    config: &Config,
+    depth_used: bool,
+) -> Result<Reconstruction, ReconError> {
     let started = Instant::now();
-    let smoothed = smooth(&run.records)?;
+    let mut smoothed = smooth(&run.records)?;
     let smoother_time = started.elapsed();
     let mut forward: Vec<Solution> = run.records.iter().map(Solution::forward).collect();
-    let mut smoothed = smoothed;
-    if config.depth.enabled && !streams.depth.is_empty() {
+    if depth_used {
         consider_depth_bias(&mut forward, config.depth.bias_sigma_m);
         consider_depth_bias(&mut smoothed, config.depth.bias_sigma_m);
     }

@@ -1,9 +1,10 @@
 //! Statistics of a run: per-sensor innovation statistics, distance travelled.
 
+use crate::filters::ins::driver::ForwardRun;
 use crate::filters::ins::driver::{Residual, Sensor};
 use crate::filters::ins::record::Solution;
 use crate::geodesy;
-use crate::recon::Reconstruction;
+use crate::recon::init::Initialisation;
 use serde::Serialize;
 
 /// Innovation statistics of one sensor.
@@ -57,7 +58,7 @@ pub fn sensor_stats(residuals: &[Residual]) -> Vec<SensorStats> {
 
 /// Warnings a navigation engineer should read: sensors whose innovations disagree with
 /// their noise settings, IMU gaps, an unknown declination.
-pub fn warnings(r: &Reconstruction, sensors: &[SensorStats]) -> Vec<String> {
+pub fn warnings(run: &ForwardRun, init: &Initialisation, sensors: &[SensorStats]) -> Vec<String> {
     let mut out = Vec::new();
     for s in sensors {
         let rejected = s.rejected as f64 / s.count as f64;
@@ -78,7 +79,14 @@ pub fn warnings(r: &Reconstruction, sensors: &[SensorStats]) -> Vec<String> {
             ));
         }
     }
-    for g in &r.run.imu_gaps {
+    if run.gate_resets > 0 {
+        out.push(format!(
+            "the gate was reopened {} times after a sensor's measurements had been rejected many \
+             times in a row: the filter had drifted from it (see residuals.parquet)",
+            run.gate_resets
+        ));
+    }
+    for g in &run.imu_gaps {
         out.push(format!(
             "IMU gap of {:.2} s at {}: bridged with grown covariance",
             (g.to_ns - g.from_ns) as f64 * 1e-9,
@@ -88,7 +96,7 @@ pub fn warnings(r: &Reconstruction, sensors: &[SensorStats]) -> Vec<String> {
     if let crate::recon::init::HeadingSource::Magnetometer {
         declination: crate::recon::init::DeclinationSource::Unknown,
         ..
-    } = r.init.heading
+    } = init.heading
     {
         out.push("magnetic declination unknown, taken as 0: pass --declination DEG".into());
     }

@@ -50,6 +50,9 @@ pub struct Aiding {
     /// Probability of the chi-square gate (a consistent measurement passes it with this
     /// probability); `None` disables gating.
     pub gate_probability: Option<f64>,
+    /// After this many rejections in a row of one sensor, its next measurement is applied
+    /// ungated (a filter that has drifted must not lock its aiding out); 0: never.
+    pub gate_reset_after: usize,
 }
 
 /// How the covariance is carried between epochs and across IMU gaps.
@@ -93,7 +96,7 @@ pub struct Inputs<'a> {
 /// Which sensor a residual belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Sensor {
-    Dvl,
+    Dvl = 0,
     Depth,
     Gnss,
     SpeedLog,
@@ -181,6 +184,8 @@ pub struct ForwardRun {
     pub dvl_out_of_range: usize,
     /// Depth readings skipped by the minimum interval.
     pub depth_skipped: usize,
+    /// Times the gate was reopened for a sensor after `gate_reset_after` rejections in a row.
+    pub gate_resets: usize,
     /// EM-log readings not used (speed below 0.1 m/s, where its direction is undefined).
     pub eml_too_slow: usize,
     pub imu_gaps: Vec<ImuGap>,
@@ -216,7 +221,7 @@ pub fn usual_imu_interval_s(imu: &[Imu]) -> Option<f64> {
     Some(dts[dts.len() / 2])
 }
 
-/// Next index of each input, and when the last depth reading was used.
+/// Next index of each input.
 #[derive(Debug, Clone, Copy)]
 struct Cursor {
     dvl: usize,
@@ -225,7 +230,6 @@ struct Cursor {
     eml: usize,
     fix: usize,
     out: usize,
-    last_depth_ns: Option<i64>,
 }
 
 struct Pass<'a> {
@@ -244,6 +248,8 @@ struct Pass<'a> {
     omega_nb_body: Vector3<f64>,
     at: Cursor,
     run: ForwardRun,
+    /// Rejections in a row, per sensor (indexed as `Sensor::ALL`).
+    consecutive_rejections: [usize; Sensor::ALL.len()],
     origin_rn: f64,
     origin_re: f64,
 }
@@ -257,6 +263,23 @@ pub fn run_forward(
     let Some(first) = inputs.imu.first() else {
         return Ok(ForwardRun::default());
     };
+    // Depth readings closer than the minimum interval to the last kept one are dropped here,
+    // so that they do not make epochs.
+    let min_ns = (settings.aiding.depth_min_interval_s * 1e9) as i64;
+    let mut depth: Vec<Depth> = Vec::with_capacity(inputs.depth.len());
+    for d in inputs.depth {
+        if depth
+            .last()
+            .is_none_or(|last: &Depth| d.stamp_ns - last.stamp_ns >= min_ns)
+        {
+            depth.push(d.clone());
+        }
+    }
+    let depth_skipped = inputs.depth.len() - depth.len();
+    let inputs = &Inputs {
+        depth: &depth,
+        ..*inputs
+    };
     let t0 = first.stamp_ns;
     let aiding = &settings.aiding;
     let gate = |m: usize| aiding.gate_probability.map(|p| chi_square_quantile(m, p));
@@ -269,9 +292,9 @@ pub fn run_forward(
         eml: inputs.eml.partition_point(|m| m.stamp_ns <= t0),
         fix: inputs.fixes.partition_point(|m| m.stamp_ns <= t0),
         out: inputs.output_stamps_ns.partition_point(|&s| s <= t0),
-        last_depth_ns: None,
     };
     let mut pass = Pass {
+        consecutive_rejections: [0; Sensor::ALL.len()],
         settings,
         inputs,
         gate: [None, gate(1), gate(2), gate(3)],
@@ -323,6 +346,7 @@ pub fn run_forward(
             prev = next;
         }
     }
+    pass.run.depth_skipped = depth_skipped;
     Ok(pass.run)
 }
 
@@ -433,15 +457,29 @@ impl Pass<'_> {
         h: &SMatrix<f64, M, N>,
         r: &SMatrix<f64, M, M>,
     ) -> Result<(), ForwardError> {
+        // A sensor rejected this many times in a row is more likely right than the filter
+        // (which has drifted away from it): reopen its gate for one measurement.
+        let slot = sensor as usize;
+        let reset_after = self.settings.aiding.gate_reset_after;
+        let reopen = reset_after > 0 && self.consecutive_rejections[slot] >= reset_after;
+        let gate = if reopen { None } else { self.gate[M] };
+        if reopen {
+            self.run.gate_resets += 1;
+        }
         let (next, rec) = self
             .settings
             .filter
-            .update(&self.est, y, h, r, self.gate[M])
+            .update(&self.est, y, h, r, gate)
             .map_err(|source| ForwardError {
                 stamp_ns,
                 sensor,
                 source,
             })?;
+        self.consecutive_rejections[slot] = if rec.accepted {
+            0
+        } else {
+            self.consecutive_rejections[slot] + 1
+        };
         self.run
             .residuals
             .push(Residual::from_record(stamp_ns, sensor, &rec));
@@ -476,16 +514,6 @@ impl Pass<'_> {
         }
         while let Some(d) = inputs.depth.get(self.at.depth).filter(|m| m.stamp_ns <= t) {
             self.at.depth += 1;
-            let min_ns = (aiding.depth_min_interval_s * 1e9) as i64;
-            if self
-                .at
-                .last_depth_ns
-                .is_some_and(|last| d.stamp_ns - last < min_ns)
-            {
-                self.run.depth_skipped += 1;
-                continue;
-            }
-            self.at.last_depth_ns = Some(d.stamp_ns);
             let (y, h) = measure::depth(&self.est, d.depth);
             let r = SMatrix::<f64, 1, 1>::new(aiding.depth_sigma_m.powi(2));
             self.apply(d.stamp_ns, Sensor::Depth, &y, &h, &r)?;

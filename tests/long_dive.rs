@@ -1,0 +1,228 @@
+//! Seed 000's pure-SDINS study on the 5.5-hour `long-dive` (Table 1 mission, Table 2 sensors):
+//! 20 seeded runs, each started from the truth with Table 2's initial errors drawn with the
+//! run's seed; after the start only the depth sensor (the vertical channel of a strapdown INS
+//! is unstable without it; it carries no horizontal information). The paper reports a
+//! horizontal RMS error of about 1.4 km after 5.5 h, with the Schuler oscillation (84 min)
+//! visible. Then the same runs with the DVL for the first hour (as the scenario has it).
+//!
+//! Too long for CI (about 4 minutes on 2 cores):
+//! `cargo test --release --test long_dive -- --ignored --nocapture`
+
+use hindsight::contract::Truth;
+use hindsight::filters::ins::driver::{run_forward, Inputs};
+use hindsight::filters::ins::error_state::{self, ErrorMatrix, ErrorState};
+use hindsight::filters::ins::forward::Estimate;
+use hindsight::filters::ins::mechanization::NavState;
+use hindsight::filters::ins::record::Solution;
+use hindsight::ingest::{read_log_from, IngestOptions};
+use hindsight::recon::config::Config;
+use hindsight::recon::score::epoch_error;
+use hindsight::recon::{output_stamps, Streams};
+use hindsight::sim::scenario::Scenario;
+use hindsight::sim::writer::{to_bytes, WriterOptions};
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use rayon::prelude::*;
+
+/// Table 2's sensors as a configuration.
+const TABLE_2: &str = "
+[imu]
+grade = \"navigation\"
+gyro_bias_deg_h = 0.002
+gyro_bias_instability_deg_h = 0.0
+gyro_arw_deg_rt_h = 0.0004
+accel_bias_ug = 4.0
+accel_bias_instability_ug = 0.0
+accel_vrw_ug_rt_hz = 4.0
+[dvl]
+sigma_m_s = 0.03
+max_altitude_m = 500.0
+[depth]
+sigma_m = 0.5
+";
+
+/// Table 2's initial errors (1-sigma): position [10, 10, 1] m, velocity 0.1 m/s, attitude
+/// [0.01, 0.01, 0.03] arcmin; drawn with the run's seed and added to the truth.
+fn initial(t0: &Truth, config: &Config, seed: u64) -> Estimate {
+    let arcmin = (1.0f64 / 60.0).to_radians();
+    let sigma = [
+        10.0,
+        10.0,
+        1.0,
+        0.1,
+        0.1,
+        0.1,
+        0.01 * arcmin,
+        0.01 * arcmin,
+        0.03 * arcmin,
+    ];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1000 + seed);
+    let normal = Normal::new(0.0, 1.0).unwrap();
+    let mut dx = ErrorState::zeros();
+    for (i, s) in sigma.iter().enumerate() {
+        dx[i] = s * normal.sample(&mut rng);
+    }
+    let truth = NavState {
+        lat_rad: t0.latitude_deg.to_radians(),
+        lon_rad: t0.longitude_deg.to_radians(),
+        height_m: -t0.down_m,
+        vel_ned_m_s: Vector3::from(t0.velocity_ned),
+        ned_from_body: UnitQuaternion::from_euler_angles(
+            t0.attitude[0],
+            t0.attitude[1],
+            t0.attitude[2],
+        ),
+    };
+    let spec = config.imu.spec();
+    let mut diag = ErrorState::zeros();
+    for (i, s) in sigma.iter().enumerate() {
+        diag[i] = s * s;
+    }
+    for i in 9..12 {
+        diag[i] = spec.gyro_bias_rad_s().powi(2);
+    }
+    for i in 12..15 {
+        diag[i] = spec.accel_bias_m_s2().powi(2);
+    }
+    Estimate {
+        // The estimate is the truth moved by the drawn error (truth = estimate (+) dx).
+        nav: error_state::inject(&truth, &(-dx)),
+        gyro_bias: Vector3::zeros(),
+        accel_bias: Vector3::zeros(),
+        cov: ErrorMatrix::from_diagonal(&diag),
+    }
+}
+
+struct Outcome {
+    /// Horizontal error at 5.5 h, m: depth only, and with the DVL's first hour.
+    pure_m: f64,
+    dvl_hour_m: f64,
+    /// (time s, north error m) every 10 s of the depth-only run.
+    north_error: Vec<(f64, f64)>,
+}
+
+fn run_seed(scenario: &Scenario, config: &Config, seed: u64) -> Outcome {
+    let mut result = Ok(());
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        result = hindsight::sim::run::run(scenario, seed, w).map(|_| ());
+        Ok(())
+    })
+    .unwrap();
+    result.unwrap();
+    let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
+    drop(bytes);
+    let streams = Streams::of(&log);
+    let mission = log.mission().unwrap();
+    let settings = config.settings();
+    let stamps = output_stamps(streams.imu, 0.1);
+    let start = initial(&streams.truth[0], config, seed);
+    let forward = |dvl| {
+        let inputs = Inputs {
+            imu: streams.imu,
+            dvl,
+            altimeter: streams.altimeter,
+            depth: streams.depth,
+            eml: &[],
+            gnss: &[],
+            fixes: &[],
+            origin_rad: (
+                mission.origin_latitude_deg.to_radians(),
+                mission.origin_longitude_deg.to_radians(),
+            ),
+            output_stamps_ns: &stamps,
+        };
+        let run = run_forward(&settings, &inputs, start).unwrap();
+        run.records
+            .iter()
+            .filter(|r| r.output)
+            .filter_map(|r| epoch_error(streams.truth, &Solution::forward(r)))
+            .map(|e| (e.stamp_ns, e.position_m))
+            .collect::<Vec<_>>()
+    };
+    let pure = forward(&[]);
+    let with_dvl = forward(streams.dvl);
+    let t0 = pure[0].0;
+    let horizontal = |e: &[(i64, Vector3<f64>)]| {
+        let p = e.last().unwrap().1;
+        p.x.hypot(p.y)
+    };
+    Outcome {
+        pure_m: horizontal(&pure),
+        dvl_hour_m: horizontal(&with_dvl),
+        north_error: pure
+            .iter()
+            .map(|(t, p)| ((t - t0) as f64 * 1e-9, p.x))
+            .collect(),
+    }
+}
+
+/// The period (minutes) of the sinusoid that, with a quadratic trend, best fits `series`:
+/// least squares over a grid of periods from 40 to 150 min.
+fn dominant_period_min(series: &[(f64, f64)]) -> f64 {
+    use nalgebra::{DMatrix, DVector};
+    let y = DVector::from_iterator(series.len(), series.iter().map(|s| s.1));
+    let scale = series.last().unwrap().0;
+    let mut best = (f64::INFINITY, 0.0);
+    for period_min in (400..=1500).map(|p| p as f64 / 10.0) {
+        let w = std::f64::consts::TAU / (period_min * 60.0);
+        let a = DMatrix::from_fn(series.len(), 5, |i, j| {
+            let t = series[i].0;
+            match j {
+                0 => 1.0,
+                1 => t / scale,
+                2 => (t / scale).powi(2),
+                3 => (w * t).sin(),
+                _ => (w * t).cos(),
+            }
+        });
+        let x = a.clone().svd(true, true).solve(&y, 1e-12).unwrap();
+        let residual = (a * x - &y).norm_squared();
+        if residual < best.0 {
+            best = (residual, period_min);
+        }
+    }
+    best.1
+}
+
+#[test]
+#[ignore = "20 runs of the 5.5-hour mission: about 4 minutes on 2 cores"]
+fn pure_sdins_reproduces_seed_000() {
+    let scenario = Scenario::built_in("long-dive").unwrap();
+    let config = Config::from_toml(TABLE_2).unwrap();
+    let outcomes: Vec<Outcome> = (0..20u64)
+        .into_par_iter()
+        .map(|seed| run_seed(&scenario, &config, seed))
+        .collect();
+    let rms = |f: &dyn Fn(&Outcome) -> f64| {
+        (outcomes.iter().map(|o| f(o).powi(2)).sum::<f64>() / outcomes.len() as f64).sqrt()
+    };
+    let pure = rms(&|o| o.pure_m);
+    let dvl_hour = rms(&|o| o.dvl_hour_m);
+    let periods: Vec<f64> = outcomes
+        .iter()
+        .map(|o| dominant_period_min(&o.north_error))
+        .collect();
+    let mut sorted = periods.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median_period = sorted[sorted.len() / 2];
+    println!(
+        "long-dive, 20 runs: horizontal RMS at 5.5 h, depth only {:.0} m (seed 000: about 1400 m); \
+         with the DVL's first hour {:.0} m; Schuler period fitted to the north error: median {:.1} min \
+         (range {:.1}-{:.1})",
+        pure,
+        dvl_hour,
+        median_period,
+        sorted[0],
+        sorted[sorted.len() - 1]
+    );
+    for (seed, (o, p)) in outcomes.iter().zip(&periods).enumerate() {
+        println!(
+            "  seed {seed:2}: {:7.0} m depth only, {:7.0} m with the DVL hour; period {p:.1} min",
+            o.pure_m, o.dvl_hour_m
+        );
+    }
+    assert!((0.6 * 1400.0..=1.4 * 1400.0).contains(&pure), "{pure} m");
+    // Schuler period at this latitude and depth: 2 pi sqrt(R / g) = 84.4 min.
+    assert!((median_period - 84.4).abs() < 8.0, "{median_period} min");
+}

@@ -1,0 +1,204 @@
+//! `hindsight reconstruct` and `hindsight config` as a user runs them: files, summary,
+//! errors and exit codes.
+
+mod common;
+
+use arrow_array::{Array, RecordBatch, StringArray};
+use hindsight::contract::Dvl;
+use hindsight::ingest::Mission;
+use hindsight::sim::writer::{to_bytes, WriterOptions};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use std::path::Path;
+use std::process::{Command, Output};
+
+const SAMPLE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/sample-logs/survey-short-seed1.mcap"
+);
+
+fn hindsight(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hindsight"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn read_parquet(path: &Path) -> Vec<RecordBatch> {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    ParquetRecordBatchReaderBuilder::try_new(file)
+        .unwrap()
+        .build()
+        .unwrap()
+        .map(Result::unwrap)
+        .collect()
+}
+
+fn rows(batches: &[RecordBatch]) -> usize {
+    batches.iter().map(RecordBatch::num_rows).sum()
+}
+
+#[test]
+fn reconstruct_writes_trajectory_residuals_errors_and_summary() {
+    let out = common::scratch_dir("reconstruct");
+    let before = std::fs::read(SAMPLE).unwrap();
+    let o = hindsight(&["reconstruct", SAMPLE, "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(SAMPLE).unwrap(), before, "input untouched");
+    let err = stderr(&o);
+    for source in ["from first GNSS fix", "from magnetometer", "from levelling"] {
+        assert!(err.contains(source), "`{source}` not in: {err}");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let per_solution = summary["trajectory_rows_per_solution"].as_u64().unwrap() as usize;
+    // 363 s at 10 Hz.
+    assert!((3600..=3640).contains(&per_solution), "{per_solution}");
+    assert_eq!(summary["initialisation"]["heading_source"], "magnetometer");
+    assert!(
+        summary["truth"]["smoothed"]["horizontal_rms_m"]
+            .as_f64()
+            .unwrap()
+            < 2.0
+    );
+    assert!(summary["distance_travelled_m"].as_f64().unwrap() > 300.0);
+    for key in [
+        "sensors",
+        "final_sigma",
+        "run_time_s",
+        "config",
+        "inputs",
+        "warnings",
+    ] {
+        assert!(!summary[key].is_null(), "summary.json lacks {key}");
+    }
+
+    let trajectory = read_parquet(&out.join("trajectory.parquet"));
+    assert_eq!(rows(&trajectory), 2 * per_solution);
+    let schema = trajectory[0].schema();
+    for column in [
+        "stamp_ns",
+        "solution",
+        "latitude_deg",
+        "north_m",
+        "vel_down_m_s",
+        "yaw_rad",
+        "north_sigma_m",
+        "yaw_sigma_rad",
+        "gyro_bias_z_rad_s",
+        "accel_bias_x_m_s2",
+    ] {
+        assert!(
+            schema.field_with_name(column).is_ok(),
+            "trajectory lacks {column}"
+        );
+    }
+    let solutions: Vec<String> = trajectory
+        .iter()
+        .flat_map(|b| {
+            let c = b.column_by_name("solution").unwrap();
+            let s = c.as_any().downcast_ref::<StringArray>().unwrap();
+            (0..s.len())
+                .map(|i| s.value(i).to_string())
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    assert_eq!(
+        solutions.iter().filter(|s| *s == "forward").count(),
+        per_solution
+    );
+    assert_eq!(
+        solutions.iter().filter(|s| *s == "smoothed").count(),
+        per_solution
+    );
+
+    let residuals = read_parquet(&out.join("residuals.parquet"));
+    assert_eq!(
+        rows(&residuals) as u64,
+        summary["residuals"].as_u64().unwrap()
+    );
+    let errors = read_parquet(&out.join("errors.parquet"));
+    assert_eq!(rows(&errors), 2 * per_solution);
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "errors.parquet",
+            "residuals.parquet",
+            "summary.json",
+            "trajectory.parquet"
+        ]
+    );
+}
+
+#[test]
+fn config_prints_the_documented_defaults() {
+    let o = hindsight(&["config"]);
+    assert!(o.status.success());
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(
+        hindsight::recon::config::Config::from_toml(&text).unwrap(),
+        hindsight::recon::config::Config::default()
+    );
+}
+
+#[test]
+fn bad_configuration_and_logs_without_imu_are_clear_errors() {
+    let dir = common::scratch_dir("reconstruct-bad");
+    let out = dir.join("out");
+    let config = dir.join("bad.toml");
+    std::fs::write(&config, "[dvl]\nsigma = 0.01\n").unwrap();
+    let o = hindsight(&[
+        "reconstruct",
+        SAMPLE,
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("sigma"), "{}", stderr(&o));
+    assert!(!out.exists() || std::fs::read_dir(&out).unwrap().next().is_none());
+
+    // A log with a mission and a DVL, but no IMU.
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        w.write_mission(&Mission {
+            origin_latitude_deg: 35.0,
+            origin_longitude_deg: 129.0,
+            vehicle: "remus-100".into(),
+            description: "no IMU".into(),
+            initial_yaw_rad: None,
+            magnetic_declination_deg: None,
+        })?;
+        for k in 0..10 {
+            let d = Dvl {
+                stamp_ns: 1_700_000_000_000_000_000 + k * 200_000_000,
+                velocity: [1.0, 0.0, 0.0],
+                valid: true,
+                altitude: Some(20.0),
+            };
+            w.write("/dvl", &d, d.stamp_ns as u64)?;
+        }
+        Ok(())
+    })
+    .unwrap();
+    let log = dir.join("no-imu.mcap");
+    std::fs::write(&log, &bytes).unwrap();
+    let o = hindsight(&[
+        "reconstruct",
+        log.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no IMU data on /imu"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"));
+    assert!(!out.exists() || std::fs::read_dir(&out).unwrap().next().is_none());
+}
