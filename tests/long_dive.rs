@@ -1,19 +1,22 @@
 //! Seed 000's pure-SDINS study on the 5.5-hour `long-dive` (Table 1 mission, Table 2 sensors):
 //! 20 seeded runs, each started from the truth with Table 2's initial errors drawn with the
-//! run's seed; after the start only the depth sensor (the vertical channel of a strapdown INS
-//! is unstable without it; it carries no horizontal information). The paper reports a
-//! horizontal RMS error of about 1.4 km after 5.5 h, with the Schuler oscillation (84 min)
-//! visible. Then the same runs with the DVL for the first hour (as the scenario has it).
+//! run's seed. Pure SDINS: the mechanization alone with the uncorrected IMU, its vertical
+//! channel held on the depth by a damping loop (unstable without), nothing estimated. The
+//! paper reports a horizontal RMS error of about 1.4 km after 5.5 h, with the Schuler
+//! oscillation (84 min) visible. Then hindsight's filter on the same runs, with the depth
+//! alone (through the vertical channel it estimates part of the level gyro biases over
+//! hours) and with the DVL for the first hour (as the scenario has it).
 //!
 //! Too long for CI (about 4 minutes on 2 cores):
 //! `cargo test --release --test long_dive -- --ignored --nocapture`
 
+use hindsight::align::latest_at;
 use hindsight::contract::Truth;
 use hindsight::filters::ins::driver::{run_forward, Inputs};
 use hindsight::filters::ins::error_state::{self, ErrorMatrix, ErrorState};
 use hindsight::filters::ins::forward::Estimate;
-use hindsight::filters::ins::mechanization::NavState;
-use hindsight::filters::ins::record::Solution;
+use hindsight::filters::ins::mechanization::{propagate, HeightDamping, ImuSample, NavState};
+use hindsight::filters::ins::record::{NavPoint, Solution};
 use hindsight::ingest::{read_log_from, IngestOptions};
 use hindsight::recon::config::Config;
 use hindsight::recon::score::epoch_error;
@@ -26,21 +29,7 @@ use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
 
 /// Table 2's sensors as a configuration.
-const TABLE_2: &str = "
-[imu]
-grade = \"navigation\"
-gyro_bias_deg_h = 0.002
-gyro_bias_instability_deg_h = 0.0
-gyro_arw_deg_rt_h = 0.0004
-accel_bias_ug = 4.0
-accel_bias_instability_ug = 0.0
-accel_vrw_ug_rt_hz = 4.0
-[dvl]
-sigma_m_s = 0.03
-max_altitude_m = 500.0
-[depth]
-sigma_m = 0.5
-";
+const TABLE_2: &str = include_str!("../configs/long-dive.toml");
 
 /// Table 2's initial errors (1-sigma): position [10, 10, 1] m, velocity 0.1 m/s, attitude
 /// [0.01, 0.01, 0.03] arcmin; drawn with the run's seed and added to the truth.
@@ -95,11 +84,59 @@ fn initial(t0: &Truth, config: &Config, seed: u64) -> Estimate {
 }
 
 struct Outcome {
-    /// Horizontal error at 5.5 h, m: depth only, and with the DVL's first hour.
+    /// Horizontal error at 5.5 h, m: free inertial (pure SDINS), the filter with depth
+    /// alone, and the filter with the DVL's first hour.
     pure_m: f64,
+    filter_depth_m: f64,
     dvl_hour_m: f64,
-    /// (time s, north error m) every 10 s of the depth-only run.
+    /// (time s, north error m) every 10 s of the free-inertial run and of the filter with
+    /// depth alone (the forward solution, as in `errors.parquet`).
     north_error: Vec<(f64, f64)>,
+    filter_north_error: Vec<(f64, f64)>,
+}
+
+/// Pure SDINS: the mechanization alone from the initial state, IMU uncorrected, the vertical
+/// channel held by a critically damped loop on the depth (100 s); nothing is estimated.
+/// Returns (time since start s, error north/east/down m) every 10 s.
+fn free_inertial(streams: &Streams<'_>, start: &NavState) -> Vec<(f64, Vector3<f64>)> {
+    let damping = HeightDamping::critical(0.01);
+    let t0 = streams.imu[0].stamp_ns;
+    let sample = |m: &hindsight::contract::Imu| ImuSample {
+        omega_ib_body: m.angular_velocity.into(),
+        specific_force_body: m.specific_force.into(),
+    };
+    let mut nav = *start;
+    let mut out = Vec::new();
+    let mut next_out = t0;
+    for w in streams.imu.windows(2) {
+        let dt = (w[1].stamp_ns - w[0].stamp_ns) as f64 * 1e-9;
+        let depth = latest_at(streams.depth, w[1].stamp_ns).map(|(d, _)| -d.depth);
+        nav = propagate(
+            &nav,
+            &sample(&w[0]),
+            &sample(&w[1]),
+            dt,
+            depth.map(|h| (damping, h)),
+        );
+        if w[1].stamp_ns >= next_out {
+            next_out += 10_000_000_000;
+            let solution = Solution {
+                stamp_ns: w[1].stamp_ns,
+                point: NavPoint {
+                    nav,
+                    gyro_bias: Vector3::zeros(),
+                    accel_bias: Vector3::zeros(),
+                },
+                sigma: ErrorState::repeat(1.0),
+                position_cov: nalgebra::Matrix3::identity(),
+                attitude_cov: nalgebra::Matrix3::identity(),
+            };
+            if let Some(e) = epoch_error(streams.truth, &solution) {
+                out.push(((w[1].stamp_ns - t0) as f64 * 1e-9, e.position_m));
+            }
+        }
+    }
+    out
 }
 
 fn run_seed(scenario: &Scenario, config: &Config, seed: u64) -> Outcome {
@@ -117,7 +154,7 @@ fn run_seed(scenario: &Scenario, config: &Config, seed: u64) -> Outcome {
     let settings = config.settings();
     let stamps = output_stamps(streams.imu, 0.1);
     let start = initial(&streams.truth[0], config, seed);
-    let forward = |dvl| {
+    let final_error = |dvl| {
         let inputs = Inputs {
             imu: streams.imu,
             dvl,
@@ -133,27 +170,29 @@ fn run_seed(scenario: &Scenario, config: &Config, seed: u64) -> Outcome {
             output_stamps_ns: &stamps,
         };
         let run = run_forward(&settings, &inputs, start).unwrap();
-        run.records
+        let errors: Vec<_> = run
+            .records
             .iter()
             .filter(|r| r.output)
             .filter_map(|r| epoch_error(streams.truth, &Solution::forward(r)))
-            .map(|e| (e.stamp_ns, e.position_m))
-            .collect::<Vec<_>>()
-    };
-    let pure = forward(&[]);
-    let with_dvl = forward(streams.dvl);
-    let t0 = pure[0].0;
-    let horizontal = |e: &[(i64, Vector3<f64>)]| {
-        let p = e.last().unwrap().1;
-        p.x.hypot(p.y)
-    };
-    Outcome {
-        pure_m: horizontal(&pure),
-        dvl_hour_m: horizontal(&with_dvl),
-        north_error: pure
+            .collect();
+        let t0 = errors[0].stamp_ns;
+        let north: Vec<(f64, f64)> = errors
             .iter()
-            .map(|(t, p)| ((t - t0) as f64 * 1e-9, p.x))
-            .collect(),
+            .step_by(100)
+            .map(|e| ((e.stamp_ns - t0) as f64 * 1e-9, e.position_m.x))
+            .collect();
+        (errors.last().unwrap().horizontal_m(), north)
+    };
+    let pure = free_inertial(&streams, &start.nav);
+    let p = pure.last().unwrap().1;
+    let (filter_depth_m, filter_north_error) = final_error(&[]);
+    Outcome {
+        pure_m: p.x.hypot(p.y),
+        filter_depth_m,
+        dvl_hour_m: final_error(streams.dvl).0,
+        north_error: pure.iter().map(|(t, p)| (*t, p.x)).collect(),
+        filter_north_error,
     }
 }
 
@@ -198,6 +237,7 @@ fn pure_sdins_reproduces_seed_000() {
         (outcomes.iter().map(|o| f(o).powi(2)).sum::<f64>() / outcomes.len() as f64).sqrt()
     };
     let pure = rms(&|o| o.pure_m);
+    let filter_depth = rms(&|o| o.filter_depth_m);
     let dvl_hour = rms(&|o| o.dvl_hour_m);
     let periods: Vec<f64> = outcomes
         .iter()
@@ -206,11 +246,24 @@ fn pure_sdins_reproduces_seed_000() {
     let mut sorted = periods.clone();
     sorted.sort_by(f64::total_cmp);
     let median_period = sorted[sorted.len() / 2];
+    let mut filter_periods: Vec<f64> = outcomes
+        .iter()
+        .map(|o| dominant_period_min(&o.filter_north_error))
+        .collect();
+    filter_periods.sort_by(f64::total_cmp);
+    let filter_period = filter_periods[filter_periods.len() / 2];
     println!(
-        "long-dive, 20 runs: horizontal RMS at 5.5 h, depth only {:.0} m (seed 000: about 1400 m); \
-         with the DVL's first hour {:.0} m; Schuler period fitted to the north error: median {:.1} min \
-         (range {:.1}-{:.1})",
+        "Schuler period fitted to the filter's (depth alone) north error, as errors.parquet has it: \
+         median {filter_period:.1} min (range {:.1}-{:.1})",
+        filter_periods[0],
+        filter_periods[filter_periods.len() - 1]
+    );
+    println!(
+        "long-dive, 20 runs: horizontal RMS at 5.5 h, pure SDINS {:.0} m (seed 000: about 1400 m); \
+         hindsight's filter with depth alone {:.0} m, with the DVL's first hour {:.0} m; Schuler period \
+         fitted to the pure SDINS north error: median {:.1} min (range {:.1}-{:.1})",
         pure,
+        filter_depth,
         dvl_hour,
         median_period,
         sorted[0],
@@ -218,11 +271,12 @@ fn pure_sdins_reproduces_seed_000() {
     );
     for (seed, (o, p)) in outcomes.iter().zip(&periods).enumerate() {
         println!(
-            "  seed {seed:2}: {:7.0} m depth only, {:7.0} m with the DVL hour; period {p:.1} min",
-            o.pure_m, o.dvl_hour_m
+            "  seed {seed:2}: pure {:6.0} m, filter with depth {:6.0} m, with the DVL hour {:6.0} m; period {p:.1} min",
+            o.pure_m, o.filter_depth_m, o.dvl_hour_m
         );
     }
     assert!((0.6 * 1400.0..=1.4 * 1400.0).contains(&pure), "{pure} m");
     // Schuler period at this latitude and depth: 2 pi sqrt(R / g) = 84.4 min.
     assert!((median_period - 84.4).abs() < 8.0, "{median_period} min");
+    assert!((filter_period - 84.4).abs() < 8.0, "{filter_period} min");
 }

@@ -47,18 +47,8 @@ fn score(truth: &[Truth], r: &Reconstruction) -> (Scores, Scores) {
 }
 
 /// The sensor noise of the `survey` scenario, as an engineer would write it from the data
-/// sheets: DVL white noise 0.01 m/s with 0.2 % scale and 2 mm/s bias (0.011 m/s in all),
-/// depth noise 0.05 m with a 0.05 m offset, EM log 0.03 m/s with 1 % scale (0.034 m/s);
-/// the IMU is tactical grade (the default).
-const SURVEY_CONFIG: &str = "
-[dvl]
-sigma_m_s = 0.011
-[depth]
-sigma_m = 0.05
-bias_sigma_m = 0.05
-[eml]
-sigma_m_s = 0.034
-";
+/// sheets (the file says how).
+const SURVEY_CONFIG: &str = include_str!("../configs/survey.toml");
 
 #[test]
 fn survey_accuracy_and_consistency() {
@@ -132,12 +122,11 @@ fn survey_accuracy_and_consistency() {
 fn dive_27min_out_of_range_dvl_is_detected() {
     let log = simulate("dive-27min", 3);
     let streams = Streams::of(&log);
-    let config = Config::from_toml("[imu]\ngrade = \"intermediate\"\n").unwrap();
+    let config = Config::from_toml(include_str!("../configs/dive-27min.toml")).unwrap();
     let r = run(&log, &streams, &config);
-    let trusting = Config::from_toml(
-        "[imu]\ngrade = \"intermediate\"\n[dvl]\ncheck_range = false\n[gate]\nprobability = 1.0\n",
-    )
-    .unwrap();
+    let mut trusting = config.clone();
+    trusting.dvl.check_range = false;
+    trusting.gate.probability = 1.0;
     let naive = run(&log, &streams, &trusting);
     let (h_fwd, h_smo) = score(streams.truth, &r);
     let (n_fwd, _) = score(streams.truth, &naive);

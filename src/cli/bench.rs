@@ -6,7 +6,8 @@ use hindsight::sim::{synthetic, writer};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-/// Measure ingest throughput on a generated log, one thread.
+/// Measure ingest throughput on a generated log, one thread; or, with --reconstruct, the
+/// reconstruction (forward filter and smoother) on a simulated mission.
 ///
 /// The log is a synthetic survey (IMU 100 Hz, magnetometer 50 Hz, DVL 5 Hz, EM log, depth
 /// and altimeter 2 Hz, RPM 1 Hz, fins, attitude and truth 10 Hz).
@@ -16,6 +17,10 @@ use std::time::{Duration, Instant};
 ///   ingest        scan + JSON decode + validation + sort + statistics (what `info` does)
 ///   merge         the time-ordered k-way merge over all topics of the ingested log
 ///   ingest+merge  the sum of the two medians: a log from file to one event stream
+///
+/// With --reconstruct: the scenario (default long-dive, 5.5 h; seed 0) is simulated, then
+/// ingest, forward filter and smoother are timed (medians, and their ratio to ingest), and
+/// the peak memory of one whole reconstruction is printed.
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct BenchArgs {
@@ -34,6 +39,14 @@ pub struct BenchArgs {
     /// Keep the generated log at this path (otherwise a temporary file is removed).
     #[arg(long, value_name = "FILE")]
     pub keep: Option<PathBuf>,
+
+    /// Benchmark the reconstruction on a simulated scenario instead of ingest alone.
+    #[arg(long)]
+    pub reconstruct: bool,
+
+    /// Built-in scenario of --reconstruct.
+    #[arg(long, default_value = "long-dive", requires = "reconstruct")]
+    pub scenario: String,
 }
 
 pub fn run(args: BenchArgs) -> Result<()> {
@@ -42,25 +55,42 @@ pub fn run(args: BenchArgs) -> Result<()> {
         "--minutes must be in (0, 1440]"
     );
     anyhow::ensure!(args.repeat >= 1, "--repeat must be at least 1");
-    let path = args.keep.clone().unwrap_or_else(|| {
-        std::env::temp_dir().join(format!("hindsight-bench-{}.mcap", std::process::id()))
-    });
+    if args.reconstruct {
+        return super::bench_reconstruct::run(&args.scenario, args.repeat, args.keep.as_deref());
+    }
     eprintln!("generating a {} min log ...", args.minutes);
     let spec = synthetic::SurveySpec {
         duration_s: args.minutes * 60.0,
         seed: args.seed,
         ..Default::default()
     };
+    with_log_file(
+        args.keep.as_deref(),
+        |w| Ok(synthetic::write_survey(w, &spec).map(|_| ())?),
+        |path| measure(&path.to_path_buf(), args.repeat),
+    )
+}
+
+/// Writes a log with `write` to `keep` (or a temporary file, removed afterwards) and runs
+/// `measure` on it.
+pub(super) fn with_log_file(
+    keep: Option<&std::path::Path>,
+    write: impl FnOnce(&mut writer::LogWriter<std::io::BufWriter<std::fs::File>>) -> Result<()>,
+    measure: impl FnOnce(&std::path::Path) -> Result<()>,
+) -> Result<()> {
+    let path = keep.map(|p| p.to_path_buf()).unwrap_or_else(|| {
+        std::env::temp_dir().join(format!("hindsight-bench-{}.mcap", std::process::id()))
+    });
     let file =
         std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
     let mut w = writer::LogWriter::new(
         std::io::BufWriter::new(file),
         writer::WriterOptions::default(),
     )?;
-    synthetic::write_survey(&mut w, &spec)?;
+    write(&mut w)?;
     w.finish()?;
-    let result = measure(&path, args.repeat);
-    if args.keep.is_none() {
+    let result = measure(&path);
+    if keep.is_none() {
         let _ = std::fs::remove_file(&path);
     }
     result

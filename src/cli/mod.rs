@@ -4,6 +4,7 @@
 //! process exit status.
 
 mod bench;
+mod bench_reconstruct;
 mod export;
 mod info;
 mod reconstruct;

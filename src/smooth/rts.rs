@@ -46,7 +46,7 @@ pub fn smooth(records: &[EpochRecord]) -> Result<Vec<Solution>, SmoothError> {
         let rec = &records[k];
         let next = &records[k + 1];
         let p = rec.posterior_cov.unpack();
-        let prior_cov = next.prior_cov.unpack();
+        let prior_cov = next.prior_cov(&p);
         let prior_chol = prior_cov
             .cholesky()
             .ok_or(SmoothError::SingularPrior { epoch: k + 1 })?;

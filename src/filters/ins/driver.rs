@@ -16,7 +16,7 @@
 //! Takes the contract's typed messages as time-sorted slices (what ingest and align hand
 //! over), so it imports no I/O.
 
-use super::error_state::{ErrorMatrix, N};
+use super::error_state::{ErrorMatrix, ErrorState, N};
 use super::forward::{measure, DvlMounting, Estimate, Filter, ImuNoise};
 use super::mechanization::{ImuSample, NavState};
 use super::record::EpochRecord;
@@ -243,7 +243,9 @@ struct Pass<'a> {
     f_dt_sum: Vector3<f64>,
     cov_dt_s: f64,
     gap_since_cov: bool,
-    phi_acc: ErrorMatrix,
+    /// Transition and process-noise diagonal of the last covariance step (one per epoch).
+    step_phi: ErrorMatrix,
+    step_q: ErrorState,
     /// Bias-corrected body rate relative to NED at the current tick.
     omega_nb_body: Vector3<f64>,
     at: Cursor,
@@ -303,7 +305,8 @@ pub fn run_forward(
         f_dt_sum: Vector3::zeros(),
         cov_dt_s: 0.0,
         gap_since_cov: false,
-        phi_acc: ErrorMatrix::identity(),
+        step_phi: ErrorMatrix::identity(),
+        step_q: ErrorState::zeros(),
         omega_nb_body: Vector3::zeros(),
         at,
         run: ForwardRun::default(),
@@ -314,6 +317,7 @@ pub fn run_forward(
         t0,
         true,
         &ErrorMatrix::identity(),
+        &ErrorState::zeros(),
         &initial,
         &initial,
     ));
@@ -370,11 +374,11 @@ impl Pass<'_> {
         self.gap_since_cov |= in_gap;
         self.omega_nb_body = self.omega_nb(b);
 
-        let epoch = self.due(t);
-        if epoch || self.cov_dt_s >= self.settings.propagation.covariance_interval_s {
-            self.propagate_covariance();
-        }
+        // Every covariance step is an epoch, so that each record holds one step (its Q is
+        // then diagonal, and the record small).
+        let epoch = self.due(t) || self.cov_dt_s >= self.settings.propagation.covariance_interval_s;
         if epoch {
+            self.propagate_covariance();
             let prior = self.est;
             let output = self
                 .inputs
@@ -385,11 +389,11 @@ impl Pass<'_> {
             self.run.records.push(EpochRecord::new(
                 t,
                 output,
-                &self.phi_acc,
+                &self.step_phi,
+                &self.step_q,
                 &prior,
                 &self.est,
             ));
-            self.phi_acc = ErrorMatrix::identity();
             self.cov_nav = self.est.nav;
         }
         Ok(())
@@ -432,7 +436,7 @@ impl Pass<'_> {
         } else {
             filter.noise
         };
-        let (cov, phi) = filter.propagate_covariance_with(
+        let (cov, phi, q) = filter.propagate_covariance_with(
             &self.est.cov,
             &self.cov_nav,
             &self.est.nav,
@@ -441,7 +445,8 @@ impl Pass<'_> {
             &noise,
         );
         self.est.cov = cov;
-        self.phi_acc = phi * self.phi_acc;
+        self.step_phi = phi;
+        self.step_q = q;
         self.cov_nav = self.est.nav;
         self.f_dt_sum = Vector3::zeros();
         self.cov_dt_s = 0.0;

@@ -95,7 +95,7 @@ impl Filter {
         let f_mid = est
             .corrected(&ImuSample::mean(imu0, imu1))
             .specific_force_body;
-        let (cov, phi) = self.propagate_covariance(&est.cov, &est.nav, &nav, &f_mid, dt_s);
+        let (cov, phi, _) = self.propagate_covariance(&est.cov, &est.nav, &nav, &f_mid, dt_s);
         (Estimate { nav, cov, ..*est }, phi)
     }
 
@@ -123,7 +123,8 @@ impl Filter {
     /// `nav_from` to `nav_to` under the mean bias-corrected specific force `f_mean_body`:
     /// `F` averaged over the two ends (trapezoid), `Phi = exp(F dt)`, white process noise.
     /// The interval may span many IMU samples (the driver propagates the covariance at its
-    /// epochs, at most `covariance_interval_s` apart); returns the covariance and `Phi`.
+    /// epochs, at most `covariance_interval_s` apart); returns the covariance, `Phi` and the
+    /// diagonal of the process noise `Q` (which is diagonal).
     pub fn propagate_covariance(
         &self,
         cov: &ErrorMatrix,
@@ -131,7 +132,7 @@ impl Filter {
         nav_to: &NavState,
         f_mean_body: &Vector3<f64>,
         dt_s: f64,
-    ) -> (ErrorMatrix, ErrorMatrix) {
+    ) -> (ErrorMatrix, ErrorMatrix, ErrorState) {
         self.propagate_covariance_with(cov, nav_from, nav_to, f_mean_body, dt_s, &self.noise)
     }
 
@@ -145,7 +146,7 @@ impl Filter {
         f_mean_body: &Vector3<f64>,
         dt_s: f64,
         noise: &ImuNoise,
-    ) -> (ErrorMatrix, ErrorMatrix) {
+    ) -> (ErrorMatrix, ErrorMatrix, ErrorState) {
         let f = (error_state::continuous_matrix(nav_from, f_mean_body)
             + error_state::continuous_matrix(nav_to, f_mean_body))
             * 0.5;
@@ -155,7 +156,7 @@ impl Filter {
             mean: ErrorState::zeros(),
             cov: *cov,
         };
-        (kalman::predict(&prior, &phi, &q).cov, phi)
+        (kalman::predict(&prior, &phi, &q).cov, phi, q.diagonal())
     }
 
     /// Applies a measurement with innovation `y` and matrix `h` (in the error state), then
@@ -186,7 +187,8 @@ impl Filter {
 }
 
 /// Discrete process noise over `dt_s` (white noise integrated over the step). The noise
-/// enters along body axes, but `C C^T = I`, so in the NED frame it is isotropic.
+/// enters along body axes, but `C C^T = I`, so in the NED frame it is isotropic: `Q` is
+/// diagonal (the smoother's records keep only its diagonal).
 fn process_noise(n: &ImuNoise, dt_s: f64) -> ErrorMatrix {
     let mut q = ErrorMatrix::zeros();
     let mut block = |at: usize, density: f64| {

@@ -1,8 +1,10 @@
 //! What the forward pass keeps per filter epoch for the smoother, stored compactly: a
 //! 5.5-hour mission at 10 Hz has about 200 000 epochs, and three full 15x15 matrices per
-//! epoch would need 1.1 GB.
+//! epoch would need 1.1 GB (these records take 2.4 kB each).
 //!
 //! - Covariances are symmetric: only the upper triangle is kept (120 of 225 numbers).
+//! - The predicted covariance is not kept: one covariance step separates two epochs, so it
+//!   is `Phi P Phi^T + Q` again, and `Q` is diagonal (15 numbers).
 //! - The transition matrix's bias rows are always `[0 I]` (the biases are random walks, so
 //!   the rows of `F` for them are zero and every power of `F` keeps them so): only the top
 //!   nine rows are kept (135 of 225).
@@ -113,8 +115,9 @@ pub struct EpochRecord {
     pub output: bool,
     /// Transition from the previous epoch to this one (identity at the first epoch).
     pub phi_from_previous: PackedTransition,
-    /// Covariance predicted to this epoch, before its updates.
-    pub prior_cov: PackedCov,
+    /// Diagonal of the process noise added from the previous epoch (one covariance step per
+    /// epoch): the predicted covariance is `Phi P Phi^T + diag(q)` ([`EpochRecord::prior_cov`]).
+    pub process_noise: ErrorState,
     /// Correction the updates at this epoch applied, prior to posterior (position, velocity,
     /// attitude as in the error state, then the two bias changes).
     pub correction: ErrorState,
@@ -130,6 +133,7 @@ impl EpochRecord {
         stamp_ns: i64,
         output: bool,
         phi_from_previous: &ErrorMatrix,
+        process_noise: &ErrorState,
         prior: &Estimate,
         posterior: &Estimate,
     ) -> Self {
@@ -137,11 +141,20 @@ impl EpochRecord {
             stamp_ns,
             output,
             phi_from_previous: PackedTransition::pack(phi_from_previous),
-            prior_cov: PackedCov::pack(&prior.cov),
+            process_noise: *process_noise,
             correction: correction_between(prior, posterior),
             posterior: NavPoint::from(posterior),
             posterior_cov: PackedCov::pack(&posterior.cov),
         }
+    }
+
+    /// The covariance predicted to this epoch from the previous epoch's posterior covariance
+    /// (what the forward pass had before this epoch's updates).
+    pub fn prior_cov(&self, previous_posterior: &ErrorMatrix) -> ErrorMatrix {
+        let phi = self.phi_from_previous.unpack();
+        let p = phi * previous_posterior * phi.transpose()
+            + ErrorMatrix::from_diagonal(&self.process_noise);
+        (p + p.transpose()) * 0.5
     }
 
     /// The full posterior estimate.
