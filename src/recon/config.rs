@@ -98,7 +98,7 @@ pub enum ImuGrade {
     Navigation,
     /// Between navigation and tactical: 0.1 deg/h, 100 ug.
     Intermediate,
-    /// Tactical (e.g. HG1700 class): 1 deg/h, 100 ug.
+    /// Tactical: 1 deg/h gyro, 100 ug accelerometer.
     Tactical,
     /// MEMS AHRS: 10 deg/h, 1 mg.
     Mems,

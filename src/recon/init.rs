@@ -272,6 +272,7 @@ pub fn initialise(src: &Sources<'_>, set: &InitSettings<'_>) -> Result<Initialis
             pitch,
             w_mean,
             v_body,
+            v_sigma_m_s: velocity_sigma_m_s,
             window_s,
             t0,
             window_end,
@@ -333,6 +334,8 @@ struct HeadingInputs {
     pitch: f64,
     w_mean: Vector3<f64>,
     v_body: Vector3<f64>,
+    /// 1-sigma of `v_body`, m/s (its transport rate is removed from the gyro mean).
+    v_sigma_m_s: f64,
     window_s: f64,
     t0: i64,
     window_end: i64,
@@ -352,7 +355,10 @@ fn heading(
     let gyro = || -> Result<(HeadingSource, f64, f64), String> {
         let horizontal = alignment::horizontal_earth_rate(h.lat);
         let noise = set.imu.noise().gyro_noise_density / h.window_s.max(1e-3).sqrt();
-        let sigma_deg = (set.imu.gyro_bias_rad_s().hypot(noise) / horizontal).to_degrees();
+        // An unknown velocity leaves an unknown transport rate, v / R, in the gyro mean.
+        let transport = h.v_sigma_m_s / geodesy::prime_vertical_radius_m(h.lat);
+        let sigma_deg =
+            (set.imu.gyro_bias_rad_s().hypot(noise).hypot(transport) / horizontal).to_degrees();
         if sigma_deg > cfg.gyrocompass_max_sigma_deg {
             return Err(format!(
                 "gyrocompass: the IMU's predicted heading error {sigma_deg:.1} deg exceeds {} deg",
