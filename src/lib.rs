@@ -8,6 +8,7 @@
 
 pub mod align;
 pub mod angle;
+pub mod attitude;
 pub mod contract;
 pub mod filters;
 pub mod geodesy;
