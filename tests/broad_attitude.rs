@@ -44,8 +44,8 @@ fn trials() -> Vec<Trial> {
         .collect()
 }
 
-/// Scores of (raw, mekf) on one trial.
-fn score_trial(path: &Path) -> (AttitudeRms, AttitudeRms) {
+/// Scores of (raw, mekf, smoothed mekf) on one trial.
+fn score_trial(path: &Path) -> (AttitudeRms, AttitudeRms, AttitudeRms) {
     let log = read_log(path, &IngestOptions::default()).unwrap();
     let imu: &[Imu] = log.messages("/imu").unwrap();
     let mag: &[MagneticField] = log.messages("/mag").unwrap();
@@ -72,23 +72,26 @@ fn score_trial(path: &Path) -> (AttitudeRms, AttitudeRms) {
     let raw = rms(&raw::run(&inputs), &reference, scored).unwrap();
     let (m, _) = mekf::run(&inputs, &mekf::MekfSettings::default());
     let mekf = rms(&m, &reference, scored).unwrap();
-    (raw, mekf)
+    let (smoothed, _) = mekf::run_smoothed(&inputs, &mekf::MekfSettings::default()).unwrap();
+    let smoothed = rms(&smoothed, &reference, scored).unwrap();
+    (raw, mekf, smoothed)
 }
 
 #[test]
 fn attitude_methods_on_broad() {
     use rayon::prelude::*;
     let trials = trials();
-    let scores: Vec<(AttitudeRms, AttitudeRms)> = trials
+    let scores: Vec<(AttitudeRms, AttitudeRms, AttitudeRms)> = trials
         .par_iter()
         .map(|t| score_trial(&broad_dir().join(&t.file)))
         .collect();
-    println!("trial          raw total (heading, inclination)  mekf total (heading, inclination)  Madgwick  Mahony");
-    let mut better = 0;
-    let mut beats_raw = 0;
-    for (t, (r, m)) in trials.iter().zip(&scores) {
+    println!(
+        "trial          raw total (heading, incl.)  mekf total (heading, incl.)  smoothed (heading, incl.)  Madgwick  Mahony"
+    );
+    let (mut better, mut smoothed_better, mut beats_raw, mut smoothing_helps) = (0, 0, 0, 0);
+    for (t, (r, m, sm)) in trials.iter().zip(&scores) {
         println!(
-            "{:<14} {:>9.2} ({:.2}, {:.2}) {:>11.2} ({:.2}, {:.2}) {:>17.2} {:>7.2}",
+            "{:<14} {:>9.2} ({:.2}, {:.2}) {:>11.2} ({:.2}, {:.2}) {:>9.2} ({:.2}, {:.2}) {:>9.2} {:>7.2}",
             t.file,
             r.total_deg,
             r.heading_deg,
@@ -96,20 +99,33 @@ fn attitude_methods_on_broad() {
             m.total_deg,
             m.heading_deg,
             m.inclination_deg,
+            sm.total_deg,
+            sm.heading_deg,
+            sm.inclination_deg,
             t.madgwick,
             t.mahony
         );
-        better += usize::from(m.total_deg < t.madgwick.min(t.mahony));
+        let best = t.madgwick.min(t.mahony);
+        better += usize::from(m.total_deg < best);
+        smoothed_better += usize::from(sm.total_deg < best);
         beats_raw += usize::from(m.total_deg < r.total_deg);
+        smoothing_helps += usize::from(sm.total_deg < m.total_deg);
     }
-    let mean = scores.iter().map(|s| s.1.total_deg).sum::<f64>() / scores.len() as f64;
+    let mean = |f: fn(&(AttitudeRms, AttitudeRms, AttitudeRms)) -> f64| {
+        scores.iter().map(f).sum::<f64>() / scores.len() as f64
+    };
     println!(
-        "mekf beats the better published filter on {better} of {} trials; mean total {mean:.2} deg",
-        trials.len()
+        "better than the better published filter: mekf {better}, smoothed {smoothed_better} of {} trials; \
+         mean total: mekf {:.2} deg, smoothed {:.2} deg; smoothing helps on {smoothing_helps}",
+        trials.len(),
+        mean(|s| s.1.total_deg),
+        mean(|s| s.2.total_deg)
     );
     // What was measured (the settings are physical defaults, checked on these same trials:
     // see the note in `attitude::mekf`).
     assert_eq!(trials.len(), 25);
     assert_eq!(beats_raw, 25);
     assert!(better >= 17, "{better}");
+    assert!(smoothed_better >= 20, "{smoothed_better}");
+    assert!(smoothing_helps >= 23, "{smoothing_helps}");
 }

@@ -26,6 +26,7 @@
 use super::{from_gravity_and_field, AhrsInputs, AttitudeSample};
 use crate::angle::wrap_pi;
 use crate::filters::kalman::{self, chi_square_quantile, Gaussian};
+use crate::smooth::error_rts::ForwardEpoch;
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 type State = SVector<f64, 6>;
@@ -93,9 +94,72 @@ pub struct MekfCounts {
     pub mag_disturbed: usize,
 }
 
+/// What the forward pass keeps at each IMU sample for the smoother.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MekfRecord {
+    pub stamp_ns: i64,
+    q: UnitQuaternion<f64>,
+    gyro_bias: Vector3<f64>,
+    cov: Cov,
+    phi: Cov,
+    process_noise: State,
+    correction: State,
+}
+
+impl ForwardEpoch<6> for MekfRecord {
+    fn posterior_cov(&self) -> Cov {
+        self.cov
+    }
+    fn phi(&self) -> Cov {
+        self.phi
+    }
+    fn prior_cov(&self, previous_posterior: &Cov) -> Cov {
+        let p = self.phi * previous_posterior * self.phi.transpose()
+            + Cov::from_diagonal(&self.process_noise);
+        (p + p.transpose()) * 0.5
+    }
+    fn correction(&self) -> State {
+        self.correction
+    }
+}
+
 /// Runs the filter over the inputs; the attitude at every IMU stamp from the first one that
 /// has a magnetometer reading.
 pub fn run(inputs: &AhrsInputs<'_>, set: &MekfSettings) -> (Vec<AttitudeSample>, MekfCounts) {
+    let (records, counts) = forward(inputs, set);
+    let out = records
+        .iter()
+        .map(|r| AttitudeSample {
+            stamp_ns: r.stamp_ns,
+            ned_from_body: r.q,
+        })
+        .collect();
+    (out, counts)
+}
+
+/// The forward filter, then the RTS smoother over the whole record (the tool is offline:
+/// every attitude uses the past and the future). `None` if the smoother fails (a predicted
+/// covariance not positive definite).
+pub fn run_smoothed(
+    inputs: &AhrsInputs<'_>,
+    set: &MekfSettings,
+) -> Option<(Vec<AttitudeSample>, MekfCounts)> {
+    let (records, counts) = forward(inputs, set);
+    let mut out = Vec::with_capacity(records.len());
+    crate::smooth::error_rts::backward(&records, |k, dx, _| {
+        let psi = dx.fixed_rows::<3>(0).into_owned();
+        out.push(AttitudeSample {
+            stamp_ns: records[k].stamp_ns,
+            ned_from_body: UnitQuaternion::from_scaled_axis(psi) * records[k].q,
+        });
+    })
+    .ok()?;
+    out.reverse();
+    Some((out, counts))
+}
+
+/// The forward pass: one record per IMU sample.
+pub fn forward(inputs: &AhrsInputs<'_>, set: &MekfSettings) -> (Vec<MekfRecord>, MekfCounts) {
     let mut counts = MekfCounts::default();
     let mut out = Vec::with_capacity(inputs.imu.len());
     let Some(start) = inputs
@@ -132,9 +196,14 @@ pub fn run(inputs: &AhrsInputs<'_>, set: &MekfSettings) -> (Vec<AttitudeSample>,
         chi_square_quantile(1, set.gate_probability),
         chi_square_quantile(3, set.gate_probability),
     );
-    out.push(AttitudeSample {
+    out.push(MekfRecord {
         stamp_ns: first.stamp_ns,
-        ned_from_body: est.q,
+        q: est.q,
+        gyro_bias: est.gyro_bias,
+        cov: est.cov,
+        phi: Cov::identity(),
+        process_noise: State::zeros(),
+        correction: State::zeros(),
     });
     // The first reading set the initial attitude; the next one is the first update.
     let mut last_mag_ns = inputs.mag_at(first.stamp_ns).map_or(i64::MIN, |_| {
@@ -146,13 +215,15 @@ pub fn run(inputs: &AhrsInputs<'_>, set: &MekfSettings) -> (Vec<AttitudeSample>,
         if dt <= 0.0 {
             continue;
         }
-        est = predict(
+        let (predicted, phi, process_noise) = predict(
             &est,
             &Vector3::from(a.angular_velocity),
             &Vector3::from(b.angular_velocity),
             dt,
             set,
         );
+        est = predicted;
+        let prior = est;
         let f = Vector3::from(b.specific_force);
         let (next, accepted) = gravity_update(&est, &f, dt, set, gate3);
         est = next;
@@ -183,9 +254,21 @@ pub fn run(inputs: &AhrsInputs<'_>, set: &MekfSettings) -> (Vec<AttitudeSample>,
                 }
             }
         }
-        out.push(AttitudeSample {
+        let mut correction = State::zeros();
+        correction
+            .fixed_rows_mut::<3>(0)
+            .copy_from(&(est.q * prior.q.inverse()).scaled_axis());
+        correction
+            .fixed_rows_mut::<3>(3)
+            .copy_from(&(est.gyro_bias - prior.gyro_bias));
+        out.push(MekfRecord {
             stamp_ns: b.stamp_ns,
-            ned_from_body: est.q,
+            q: est.q,
+            gyro_bias: est.gyro_bias,
+            cov: est.cov,
+            phi,
+            process_noise,
+            correction,
         });
     }
     (out, counts)
@@ -210,13 +293,14 @@ fn transition(est: &Estimate, dt: f64, set: &MekfSettings) -> (Cov, Cov) {
     (phi, q)
 }
 
+/// The estimate `dt` later, with the transition and the process noise's diagonal.
 fn predict(
     est: &Estimate,
     w0: &Vector3<f64>,
     w1: &Vector3<f64>,
     dt: f64,
     set: &MekfSettings,
-) -> Estimate {
+) -> (Estimate, Cov, State) {
     // Body-frame increment of the mean rate (second order in dt for a linear rate).
     let w = (w0 + w1) * 0.5 - est.gyro_bias;
     let q = est.q * UnitQuaternion::from_scaled_axis(w * dt);
@@ -230,7 +314,7 @@ fn predict(
         &noise,
     )
     .cov;
-    Estimate { q, cov, ..*est }
+    (Estimate { q, cov, ..*est }, phi, noise.diagonal())
 }
 
 /// Applies an error-state update and injects it (reset to zero).

@@ -2,4 +2,5 @@
 //!
 //! May import: `filters` (types), `nalgebra`.
 
+pub mod error_rts;
 pub mod rts;

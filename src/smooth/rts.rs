@@ -22,7 +22,8 @@
 //! time), never per IMU sample (`filters::ins::record`); the backward pass holds one full
 //! covariance at a time and returns compact solutions.
 
-use crate::filters::ins::error_state::{self, idx, ErrorState};
+use super::error_rts::{backward, ForwardEpoch};
+use crate::filters::ins::error_state::{self, idx, ErrorMatrix, ErrorState};
 use crate::filters::ins::record::{EpochRecord, NavPoint, PackedCov, Solution};
 
 /// Why smoothing failed.
@@ -32,45 +33,34 @@ pub enum SmoothError {
     SingularPrior { epoch: usize },
 }
 
+impl ForwardEpoch<{ error_state::N }> for EpochRecord {
+    fn posterior_cov(&self) -> ErrorMatrix {
+        self.posterior_cov.unpack()
+    }
+    fn phi(&self) -> ErrorMatrix {
+        self.phi_from_previous.unpack()
+    }
+    fn prior_cov(&self, previous_posterior: &ErrorMatrix) -> ErrorMatrix {
+        EpochRecord::prior_cov(self, previous_posterior)
+    }
+    fn correction(&self) -> ErrorState {
+        self.correction
+    }
+}
+
 /// Smoothed solutions, one per record.
 pub fn smooth(records: &[EpochRecord]) -> Result<Vec<Solution>, SmoothError> {
-    let n = records.len();
-    let mut out = Vec::with_capacity(n);
-    let Some(last) = records.last() else {
-        return Ok(out);
-    };
-    let mut dx_next = ErrorState::zeros();
-    let mut p_next = last.posterior_cov.unpack();
-    out.push(Solution::forward(last));
-    for k in (0..n - 1).rev() {
+    let mut out = Vec::with_capacity(records.len());
+    backward(records, |k, dx, p| {
         let rec = &records[k];
-        let next = &records[k + 1];
-        let p = rec.posterior_cov.unpack();
-        let prior_cov = next.prior_cov(&p);
-        let prior_chol = prior_cov
-            .cholesky()
-            .ok_or(SmoothError::SingularPrior { epoch: k + 1 })?;
-        // C = P Phi^T Pp^-1  =>  C^T = Pp^-1 Phi P.
-        let gain = prior_chol
-            .solve(&(next.phi_from_previous.unpack() * p))
-            .transpose();
-        let dx = gain * (dx_next + next.correction);
-        let p_smooth = p + gain * (p_next - prior_cov) * gain.transpose();
-        let p_smooth = (p_smooth + p_smooth.transpose()) * 0.5;
         let post = &rec.posterior;
         let point = NavPoint {
-            nav: error_state::inject(&post.nav, &dx),
+            nav: error_state::inject(&post.nav, dx),
             gyro_bias: post.gyro_bias + dx.fixed_rows::<3>(idx::GYRO_BIAS),
             accel_bias: post.accel_bias + dx.fixed_rows::<3>(idx::ACCEL_BIAS),
         };
-        out.push(Solution::new(
-            rec.stamp_ns,
-            point,
-            &PackedCov::pack(&p_smooth),
-        ));
-        dx_next = dx;
-        p_next = p_smooth;
-    }
+        out.push(Solution::new(rec.stamp_ns, point, &PackedCov::pack(p)));
+    })?;
     out.reverse();
     Ok(out)
 }
