@@ -11,8 +11,24 @@ use hindsight::ingest::{read_log, IngestOptions};
 use nalgebra::UnitQuaternion;
 use std::path::{Path, PathBuf};
 
+/// The BROAD folder of the shared material: `$HINDSIGHT_SHARED_DIR`, else `../shared` next
+/// to the repository, else `/work/shared` (a clone elsewhere on the development machine).
 fn broad_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/benchmarks/broad")
+    let candidates = std::env::var_os("HINDSIGHT_SHARED_DIR")
+        .map(PathBuf::from)
+        .into_iter()
+        .chain([
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"),
+            PathBuf::from("/work/shared"),
+        ]);
+    let tried: Vec<PathBuf> = candidates.map(|d| d.join("benchmarks/broad")).collect();
+    tried
+        .iter()
+        .find(|d| d.join("manifest.json").is_file())
+        .cloned()
+        .unwrap_or_else(|| {
+            panic!("BROAD benchmark not found (tried {tried:?}); set HINDSIGHT_SHARED_DIR")
+        })
 }
 
 struct Trial {
