@@ -4,11 +4,10 @@
 //!
 //! `cargo test --release --test broad_attitude -- --nocapture`
 
-use hindsight::attitude::score::{rms, AttitudeRms};
-use hindsight::attitude::{mekf, raw, AhrsInputs, AttitudeSample};
+use hindsight::attitude::score::{reference_from_truth, rms, AttitudeRms};
+use hindsight::attitude::{mekf, raw, AhrsInputs};
 use hindsight::contract::{Imu, MagneticField, Truth};
 use hindsight::ingest::{read_log, IngestOptions};
-use nalgebra::UnitQuaternion;
 use std::path::{Path, PathBuf};
 
 /// The BROAD folder of the shared material: `$HINDSIGHT_SHARED_DIR`, else `../shared` next
@@ -69,17 +68,7 @@ fn score_trial(path: &Path) -> (AttitudeRms, AttitudeRms, AttitudeRms) {
     let intervals: Vec<[i64; 2]> =
         serde_json::from_str(&log.metadata["broad"]["movement_intervals_ns"]).unwrap();
     let scored = |t: i64| intervals.iter().any(|[a, b]| (*a..=*b).contains(&t));
-    let reference: Vec<AttitudeSample> = truth
-        .iter()
-        .map(|t| AttitudeSample {
-            stamp_ns: t.stamp_ns,
-            ned_from_body: UnitQuaternion::from_euler_angles(
-                t.attitude[0],
-                t.attitude[1],
-                t.attitude[2],
-            ),
-        })
-        .collect();
+    let reference = reference_from_truth(truth);
     let inputs = AhrsInputs {
         imu,
         mag,

@@ -11,7 +11,9 @@
 //!   aided by the accelerometer's gravity direction and the magnetometer's heading.
 //! - [`score`]: errors against a reference, as BROAD scores them (total, heading,
 //!   inclination).
+//! - [`dead_reckoning`]: the DVL dead reckoning every method's attitude feeds.
 
+pub mod dead_reckoning;
 pub mod mekf;
 pub mod raw;
 pub mod score;

@@ -4,7 +4,23 @@
 //! the part that tilts the vertical (inclination). RMS in degrees over the scored samples.
 
 use super::AttitudeSample;
+use crate::contract::Truth;
 use nalgebra::UnitQuaternion;
+
+/// The attitude of `/truth` (Euler angles) as quaternions.
+pub fn reference_from_truth(truth: &[Truth]) -> Vec<AttitudeSample> {
+    truth
+        .iter()
+        .map(|t| AttitudeSample {
+            stamp_ns: t.stamp_ns,
+            ned_from_body: UnitQuaternion::from_euler_angles(
+                t.attitude[0],
+                t.attitude[1],
+                t.attitude[2],
+            ),
+        })
+        .collect()
+}
 
 /// The three parts of one attitude error, rad.
 #[derive(Debug, Clone, Copy, PartialEq)]
