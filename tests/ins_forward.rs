@@ -5,6 +5,8 @@
 //! pitch, 2 deg heading): initialisation from the log itself is a later step of issue #4;
 //! this test exercises propagation, updates and smoothing.
 
+mod common;
+
 use hindsight::contract::{Depth, Dvl, GnssFix, Imu, SpeedLog, Truth};
 use hindsight::filters::ins::driver::{run_forward, Aiding, Inputs, Propagation, Sensor, Settings};
 use hindsight::filters::ins::error_state::ErrorMatrix;
@@ -12,9 +14,7 @@ use hindsight::filters::ins::forward::{DvlMounting, Estimate, Filter, ImuNoise};
 use hindsight::filters::ins::mechanization::NavState;
 use hindsight::filters::ins::record::NavPoint;
 use hindsight::geodesy;
-use hindsight::ingest::{read_log_from, IngestOptions, Log};
 use hindsight::sim::scenario::Scenario;
-use hindsight::sim::writer::{to_bytes, WriterOptions};
 use hindsight::smooth::rts::smooth;
 use nalgebra::{SVector, UnitQuaternion, Vector3};
 
@@ -28,15 +28,21 @@ fn horizontal_error(t: &Truth, e: &NavPoint) -> f64 {
     n.hypot(east)
 }
 
-fn simulate(scenario: &Scenario, seed: u64) -> Log {
-    let mut result = Ok(());
-    let bytes = to_bytes(WriterOptions::default(), |w| {
-        result = hindsight::sim::run::run(scenario, seed, w).map(|_| ());
-        Ok(())
-    })
-    .unwrap();
-    result.unwrap();
-    read_log_from(&bytes[..], &IngestOptions::default()).unwrap()
+/// The aiding of these tests: DVL 0.015 m/s, depth 0.1 m (every reading), the EM log with
+/// `eml_sigma_m_s` (or not), gate 0.999 never reopened.
+fn aiding(eml_sigma_m_s: Option<f64>) -> Aiding {
+    Aiding {
+        dvl_sigma_m_s: 0.015,
+        dvl_max_altitude_m: 100.0,
+        dvl_check_range: true,
+        altimeter_max_age_s: 2.0,
+        dvl_mounting: DvlMounting::default(),
+        depth_sigma_m: 0.1,
+        depth_min_interval_s: 0.0,
+        eml_sigma_m_s,
+        gate_probability: Some(0.999),
+        gate_reset_after: 0,
+    }
 }
 
 /// The filter with the noise densities of the scenario's IMU grade, and `aiding`.
@@ -119,7 +125,7 @@ fn initial_from_truth(
 #[test]
 fn forward_filter_and_smoother_follow_the_survey() {
     let scenario = Scenario::built_in("survey").unwrap();
-    let log = simulate(&scenario, 1);
+    let log = common::simulated_log(&scenario, 1);
     let truth = log.messages::<Truth>("/truth").unwrap();
     let output_stamps: Vec<i64> = truth.iter().map(|t| t.stamp_ns).collect();
     let inputs = Inputs {
@@ -137,21 +143,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
         output_stamps_ns: &output_stamps,
     };
 
-    let settings = settings_for(
-        &scenario,
-        Aiding {
-            dvl_sigma_m_s: 0.015,
-            dvl_max_altitude_m: 100.0,
-            dvl_check_range: true,
-            altimeter_max_age_s: 2.0,
-            dvl_mounting: DvlMounting::default(),
-            depth_sigma_m: 0.1,
-            depth_min_interval_s: 0.0,
-            eml_sigma_m_s: Some(0.05),
-            gate_probability: Some(0.999),
-            gate_reset_after: 0,
-        },
-    );
+    let settings = settings_for(&scenario, aiding(Some(0.05)));
 
     let initial = initial_from_truth(&truth[0], &scenario, 3.0, 0.2, 2.0, 25.0);
     let run = run_forward(&settings, &inputs, initial).unwrap();
@@ -231,27 +223,13 @@ fn position_fixes_bound_the_error_without_dvl() {
         "{text}\n[fixes]\nusbl_every_s = 10.0\nusbl_sigma_m = 2.0\n"
     ))
     .unwrap();
-    let log = simulate(&scenario, 4);
+    let log = common::simulated_log(&scenario, 4);
     let truth = log.messages::<Truth>("/truth").unwrap();
     let fixes = log
         .messages::<hindsight::contract::PositionFix>("/position_fix")
         .unwrap();
     assert!(fixes.len() > 30);
-    let settings = settings_for(
-        &scenario,
-        Aiding {
-            dvl_sigma_m_s: 0.015,
-            dvl_max_altitude_m: 100.0,
-            dvl_check_range: true,
-            altimeter_max_age_s: 2.0,
-            dvl_mounting: DvlMounting::default(),
-            depth_sigma_m: 0.1,
-            depth_min_interval_s: 0.0,
-            eml_sigma_m_s: None,
-            gate_probability: Some(0.999),
-            gate_reset_after: 0,
-        },
-    );
+    let settings = settings_for(&scenario, aiding(None));
     let initial = initial_from_truth(&truth[0], &scenario, 0.0, 0.0, 2.0, 4.0);
     let stamps: Vec<i64> = truth.iter().map(|t| t.stamp_ns).collect();
     let origin_rad = (

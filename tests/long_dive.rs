@@ -10,6 +10,8 @@
 //! Too long for CI (about 4 minutes on 2 cores):
 //! `cargo test --release --test long_dive -- --ignored --nocapture`
 
+mod common;
+
 use hindsight::align::latest_at;
 use hindsight::contract::Truth;
 use hindsight::filters::ins::driver::{run_forward, Inputs};
@@ -17,12 +19,10 @@ use hindsight::filters::ins::error_state::{self, ErrorMatrix, ErrorState};
 use hindsight::filters::ins::forward::Estimate;
 use hindsight::filters::ins::mechanization::{propagate, HeightDamping, ImuSample, NavState};
 use hindsight::filters::ins::record::{NavPoint, Solution};
-use hindsight::ingest::{read_log_from, IngestOptions};
 use hindsight::recon::config::Config;
 use hindsight::recon::score::epoch_error;
 use hindsight::recon::{output_stamps, Streams};
 use hindsight::sim::scenario::Scenario;
-use hindsight::sim::writer::{to_bytes, WriterOptions};
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -140,15 +140,7 @@ fn free_inertial(streams: &Streams<'_>, start: &NavState) -> Vec<(f64, Vector3<f
 }
 
 fn run_seed(scenario: &Scenario, config: &Config, seed: u64) -> Outcome {
-    let mut result = Ok(());
-    let bytes = to_bytes(WriterOptions::default(), |w| {
-        result = hindsight::sim::run::run(scenario, seed, w).map(|_| ());
-        Ok(())
-    })
-    .unwrap();
-    result.unwrap();
-    let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
-    drop(bytes);
+    let log = common::simulated_log(scenario, seed);
     let streams = Streams::of(&log);
     let mission = log.mission().unwrap();
     let settings = config.settings();

@@ -4,27 +4,20 @@
 //!
 //! `cargo test --release --test pool_attitude -- --nocapture`
 
+mod common;
+
 use hindsight::attitude::dead_reckoning::dead_reckon;
 use hindsight::attitude::score::reference_from_truth;
 use hindsight::attitude::{mekf, raw, AhrsInputs, AttitudeSample};
 use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};
 use hindsight::filters::ins::forward::DvlMounting;
-use hindsight::ingest::{read_log_from, IngestOptions};
 use hindsight::sim::scenario::Scenario;
-use hindsight::sim::writer::{to_bytes, WriterOptions};
 use nalgebra::Vector3;
 
 /// End-point error (m) and yaw RMS against the truth (deg) of each method, by name.
 fn pool(name: &str) -> Vec<(&'static str, f64, f64)> {
     let scenario = Scenario::built_in(name).unwrap();
-    let mut result = Ok(());
-    let bytes = to_bytes(WriterOptions::default(), |w| {
-        result = hindsight::sim::run::run(&scenario, 1, w).map(|_| ());
-        Ok(())
-    })
-    .unwrap();
-    result.unwrap();
-    let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
+    let log = common::simulated_log(&scenario, 1);
     let imu: &[Imu] = log.messages("/imu").unwrap();
     let mag: &[MagneticField] = log.messages("/mag").unwrap();
     let dvl: &[Dvl] = log.messages("/dvl").unwrap();

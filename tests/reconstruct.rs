@@ -2,9 +2,11 @@
 //! the `reconstruct` command uses: initialisation from the log, forward filter, smoother,
 //! scored against `/truth`.
 
+mod common;
+
 use hindsight::contract::{Dvl, GnssFix, Imu, Truth};
 use hindsight::filters::ins::driver::Sensor;
-use hindsight::ingest::{read_log_from, IngestOptions, Log};
+use hindsight::ingest::Log;
 use hindsight::recon::clock::suggest_dvl_offset;
 use hindsight::recon::config::Config;
 use hindsight::recon::init::{HeadingSource, PositionSource};
@@ -12,19 +14,6 @@ use hindsight::recon::score::{epoch_error, scores, EpochError, Scores};
 use hindsight::recon::stats::{sensor_stats, warnings};
 use hindsight::recon::{reconstruct, Reconstruction, Streams};
 use hindsight::sim::scenario::Scenario;
-use hindsight::sim::writer::{to_bytes, WriterOptions};
-
-fn simulate(name: &str, seed: u64) -> Log {
-    let scenario = Scenario::built_in(name).unwrap();
-    let mut result = Ok(());
-    let bytes = to_bytes(WriterOptions::default(), |w| {
-        result = hindsight::sim::run::run(&scenario, seed, w).map(|_| ());
-        Ok(())
-    })
-    .unwrap();
-    result.unwrap();
-    read_log_from(&bytes[..], &IngestOptions::default()).unwrap()
-}
 
 fn run(log: &Log, streams: &Streams<'_>, config: &Config) -> Reconstruction {
     reconstruct(streams, &log.mission().unwrap(), config).unwrap()
@@ -52,7 +41,7 @@ const SURVEY_CONFIG: &str = include_str!("../configs/survey.toml");
 
 #[test]
 fn survey_accuracy_and_consistency() {
-    let log = simulate("survey", 1);
+    let log = common::simulated_log(&Scenario::built_in("survey").unwrap(), 1);
     let streams = Streams::of(&log);
     let config = Config::from_toml(SURVEY_CONFIG).unwrap();
     let r = run(&log, &streams, &config);
@@ -120,7 +109,7 @@ fn survey_accuracy_and_consistency() {
 /// DVL's range and gates what is left; a filter that trusts every DVL reading is lost.
 #[test]
 fn dive_27min_out_of_range_dvl_is_detected() {
-    let log = simulate("dive-27min", 3);
+    let log = common::simulated_log(&Scenario::built_in("dive-27min").unwrap(), 3);
     let streams = Streams::of(&log);
     let config = Config::from_toml(include_str!("../configs/dive-27min.toml")).unwrap();
     let r = run(&log, &streams, &config);
@@ -155,7 +144,7 @@ fn dive_27min_out_of_range_dvl_is_detected() {
 /// fix 1 km off.
 #[test]
 fn bad_input_is_reported_or_handled() {
-    let log = simulate("survey-short", 1);
+    let log = common::simulated_log(&Scenario::built_in("survey-short").unwrap(), 1);
     let streams = Streams::of(&log);
     let mission = log.mission().unwrap();
     let config = Config::default();

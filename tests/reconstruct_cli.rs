@@ -4,28 +4,12 @@
 mod common;
 
 use arrow_array::{Array, RecordBatch, StringArray};
+use common::{hindsight, stderr, SAMPLE};
 use hindsight::contract::Dvl;
 use hindsight::ingest::Mission;
 use hindsight::sim::writer::{to_bytes, WriterOptions};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::path::Path;
-use std::process::{Command, Output};
-
-const SAMPLE: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/sample-logs/survey-short-seed1.mcap"
-);
-
-fn hindsight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hindsight"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn read_parquet(path: &Path) -> Vec<RecordBatch> {
     let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

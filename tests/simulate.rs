@@ -1,25 +1,15 @@
 //! Simulated logs: deterministic, valid against schemas/, read back identically by ingest.
 
+mod common;
+
 use hindsight::contract::{kind_by_schema, GnssFix, Message, Truth};
 use hindsight::geodesy;
 use hindsight::ingest::{read_log_from, Ending, IngestOptions, Log};
 use hindsight::sim::scenario::Scenario;
-use hindsight::sim::writer::{to_bytes, WriterOptions};
 use std::collections::HashMap;
 
-fn simulate_scenario(scenario: &Scenario, seed: u64) -> Vec<u8> {
-    let mut result = Ok(());
-    let bytes = to_bytes(WriterOptions::default(), |w| {
-        result = hindsight::sim::run::run(scenario, seed, w).map(|_| ());
-        Ok(())
-    })
-    .unwrap();
-    result.unwrap();
-    bytes
-}
-
 fn simulate(name: &str, seed: u64) -> Vec<u8> {
-    simulate_scenario(&Scenario::built_in(name).unwrap(), seed)
+    common::simulated_bytes(&Scenario::built_in(name).unwrap(), seed)
 }
 
 #[test]
@@ -162,7 +152,7 @@ fn usbl_fixes_have_their_sigma() {
         .1;
     let text = format!("{text}\n[fixes]\nusbl_every_s = 0.5\nusbl_sigma_m = 2.0\n");
     let scenario = Scenario::from_toml(&text).unwrap();
-    let bytes = simulate_scenario(&scenario, 5);
+    let bytes = common::simulated_bytes(&scenario, 5);
     let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
     let truth = log.messages::<Truth>("/truth").unwrap();
     let fixes = log

@@ -18,7 +18,8 @@
 //! in, as another heading source.
 
 use super::config::{HeadingChoice, ImuSpec, InitialConfig};
-use crate::contract::{Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, SpeedLog};
+use super::Streams;
+use crate::contract::GnssFix;
 use crate::filters::ins::alignment;
 use crate::filters::ins::error_state::ErrorMatrix;
 use crate::filters::ins::forward::{DvlMounting, Estimate};
@@ -28,31 +29,15 @@ use crate::ingest::Mission;
 use nalgebra::{SVector, UnitQuaternion, Vector3};
 use std::fmt;
 
-/// What the initialisation reads from the log.
-#[derive(Debug, Clone, Copy)]
-pub struct Sources<'a> {
-    pub imu: &'a [Imu],
-    pub mag: &'a [MagneticField],
-    pub dvl: &'a [Dvl],
-    pub eml: &'a [SpeedLog],
-    pub depth: &'a [Depth],
-    pub gnss: &'a [GnssFix],
-    pub fixes: &'a [PositionFix],
-    pub mission: &'a Mission,
-}
-
 /// What the initialisation needs to know besides the log.
 #[derive(Debug, Clone, Copy)]
 pub struct InitSettings<'a> {
     pub initial: &'a InitialConfig,
     pub imu: ImuSpec,
-    pub dvl_used: bool,
     pub dvl_max_altitude_m: f64,
     pub dvl_sigma_m_s: f64,
     pub dvl_mounting: DvlMounting,
     pub depth_sigma_m: f64,
-    pub gnss_used: bool,
-    pub fixes_used: bool,
 }
 
 /// Where the initial position came from.
@@ -134,7 +119,13 @@ fn mean3(values: impl Iterator<Item = [f64; 3]>) -> Option<Vector3<f64>> {
 }
 
 /// The initial estimate at the first IMU sample.
-pub fn initialise(src: &Sources<'_>, set: &InitSettings<'_>) -> Result<Initialisation, InitError> {
+/// The initial estimate at the first IMU sample, from the streams in use (a sensor the
+/// configuration leaves out comes as an empty slice).
+pub fn initialise(
+    src: &Streams<'_>,
+    mission: &Mission,
+    set: &InitSettings<'_>,
+) -> Result<Initialisation, InitError> {
     let cfg = set.initial;
     let imu = src.imu;
     let first = imu.first().ok_or(InitError::NoImu)?;
@@ -151,7 +142,7 @@ pub fn initialise(src: &Sources<'_>, set: &InitSettings<'_>) -> Result<Initialis
 
     // DVL readings in range within the window, in body axes.
     let body_from_dvl = set.dvl_mounting.dvl_from_body.inverse();
-    let dvl: Vec<(i64, Vector3<f64>)> = if set.dvl_used {
+    let dvl: Vec<(i64, Vector3<f64>)> = if !src.dvl.is_empty() {
         src.dvl
             .iter()
             .filter(|d| in_window(d.stamp_ns))
@@ -178,18 +169,14 @@ pub fn initialise(src: &Sources<'_>, set: &InitSettings<'_>) -> Result<Initialis
 
     // Position.
     let origin = (
-        src.mission.origin_latitude_deg.to_radians(),
-        src.mission.origin_longitude_deg.to_radians(),
+        mission.origin_latitude_deg.to_radians(),
+        mission.origin_longitude_deg.to_radians(),
     );
     let near_start = |s: i64| ((s - t0) as f64 * 1e-9).abs() <= cfg.gnss_window_s;
     // Of the fixes near the start, the one closest to their median: one outlier among
     // them cannot place the start.
     let gnss = {
-        let near: Vec<&GnssFix> = src
-            .gnss
-            .iter()
-            .filter(|g| set.gnss_used && near_start(g.stamp_ns))
-            .collect();
+        let near: Vec<&GnssFix> = src.gnss.iter().filter(|g| near_start(g.stamp_ns)).collect();
         let median = |f: fn(&GnssFix) -> f64| {
             let mut v: Vec<f64> = near.iter().map(|g| f(g)).collect();
             v.sort_by(f64::total_cmp);
@@ -204,7 +191,7 @@ pub fn initialise(src: &Sources<'_>, set: &InitSettings<'_>) -> Result<Initialis
     let start_fix = src
         .fixes
         .iter()
-        .find(|f| set.fixes_used && f.label == "start" && near_start(f.stamp_ns));
+        .find(|f| f.label == "start" && near_start(f.stamp_ns));
     let speed_guess = dvl.first().map_or(2.0, |d| d.1.norm());
     let (lat, lon, position, position_sigma_m) = if let Some(g) = gnss {
         let late_s = ((g.stamp_ns - t0) as f64 * 1e-9).abs();
@@ -264,6 +251,7 @@ pub fn initialise(src: &Sources<'_>, set: &InitSettings<'_>) -> Result<Initialis
 
     let (heading, yaw, heading_sigma_deg) = heading(
         src,
+        mission,
         set,
         HeadingInputs {
             lat,
@@ -343,7 +331,8 @@ struct HeadingInputs {
 
 /// The heading (rad) and its 1-sigma (deg) from the first source that has one.
 fn heading(
-    src: &Sources<'_>,
+    src: &Streams<'_>,
+    mission: &Mission,
     set: &InitSettings<'_>,
     h: HeadingInputs,
 ) -> Result<(HeadingSource, f64, f64), InitError> {
@@ -391,7 +380,7 @@ fn heading(
         )
         .ok_or_else(|| "magnetometer: no /mag data in the alignment window".to_string())?;
         let (declination_deg, declination, sigma) =
-            match (cfg.declination_deg, src.mission.magnetic_declination_deg) {
+            match (cfg.declination_deg, mission.magnetic_declination_deg) {
                 (Some(d), _) => (d, DeclinationSource::Given, cfg.magnetometer_sigma_deg),
                 (None, Some(d)) => (d, DeclinationSource::Mission, cfg.magnetometer_sigma_deg),
                 // Declination reaches 20 deg at mid latitudes: say so in the sigma.
@@ -412,7 +401,7 @@ fn heading(
         ))
     };
     let mission = || -> Result<(HeadingSource, f64, f64), String> {
-        src.mission
+        mission
             .initial_yaw_rad
             .map(|y| (HeadingSource::Mission, y, cfg.mission_yaw_sigma_deg))
             .ok_or_else(|| "mission: no initial_yaw_rad in the mission metadata".to_string())

@@ -20,7 +20,7 @@ use crate::filters::ins::record::Solution;
 use crate::ingest::{Log, Mission};
 use crate::smooth::rts::{smooth, SmoothError};
 use config::Config;
-use init::{InitError, InitSettings, Initialisation, Sources};
+use init::{InitError, InitSettings, Initialisation};
 use std::time::{Duration, Instant};
 
 /// Why a reconstruction failed.
@@ -109,6 +109,15 @@ pub fn consider_depth_bias(solutions: &mut [Solution], bias_sigma_m: f64) {
     }
 }
 
+/// `stream` if the sensor is used, else nothing.
+fn used<T>(stream: &[T], enabled: bool) -> &[T] {
+    if enabled {
+        stream
+    } else {
+        &[]
+    }
+}
+
 /// Initialises from the log and runs the forward filter.
 pub fn forward(
     streams: &Streams<'_>,
@@ -116,46 +125,37 @@ pub fn forward(
     config: &Config,
 ) -> Result<(Initialisation, ForwardRun, Duration), ReconError> {
     let settings = config.settings();
-    let pick = |used: bool, n| if used { n } else { 0 };
-    let dvl = &streams.dvl[..pick(config.dvl.enabled, streams.dvl.len())];
-    let depth = &streams.depth[..pick(config.depth.enabled, streams.depth.len())];
-    let eml = &streams.eml[..pick(config.eml.enabled, streams.eml.len())];
-    let gnss = &streams.gnss[..pick(config.gnss.enabled, streams.gnss.len())];
-    let fixes = &streams.fixes[..pick(config.position_fix.enabled, streams.fixes.len())];
-
+    // A sensor the configuration leaves out is an empty stream from here on.
+    let streams = Streams {
+        dvl: used(streams.dvl, config.dvl.enabled),
+        depth: used(streams.depth, config.depth.enabled),
+        eml: used(streams.eml, config.eml.enabled),
+        gnss: used(streams.gnss, config.gnss.enabled),
+        fixes: used(streams.fixes, config.position_fix.enabled),
+        ..*streams
+    };
     let init = init::initialise(
-        &Sources {
-            imu: streams.imu,
-            mag: streams.mag,
-            dvl,
-            eml,
-            depth,
-            gnss,
-            fixes,
-            mission,
-        },
+        &streams,
+        mission,
         &InitSettings {
             initial: &config.initial,
             imu: config.imu.spec(),
-            dvl_used: config.dvl.enabled,
             dvl_max_altitude_m: config.dvl.max_altitude_m,
             dvl_sigma_m_s: config.dvl.sigma_m_s,
             dvl_mounting: config.dvl.mounting(),
             depth_sigma_m: config.depth.sigma_m,
-            gnss_used: config.gnss.enabled,
-            fixes_used: config.position_fix.enabled,
         },
     )?;
 
     let stamps = output_stamps(streams.imu, config.output.rate_hz);
     let inputs = Inputs {
         imu: streams.imu,
-        dvl,
+        dvl: streams.dvl,
         altimeter: streams.altimeter,
-        depth,
-        eml,
-        gnss,
-        fixes,
+        depth: streams.depth,
+        eml: streams.eml,
+        gnss: streams.gnss,
+        fixes: streams.fixes,
         origin_rad: (
             mission.origin_latitude_deg.to_radians(),
             mission.origin_longitude_deg.to_radians(),

@@ -66,3 +66,39 @@ pub fn scratch_dir(name: &str) -> std::path::PathBuf {
     std::fs::create_dir_all(&d).expect("temp dir");
     d
 }
+
+/// A built-in or parsed scenario simulated with `seed`, as MCAP bytes.
+pub fn simulated_bytes(scenario: &hindsight::sim::scenario::Scenario, seed: u64) -> Vec<u8> {
+    let mut result = Ok(());
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        result = hindsight::sim::run::run(scenario, seed, w).map(|_| ());
+        Ok(())
+    })
+    .expect("in-memory write");
+    result.expect("scenario runs");
+    bytes
+}
+
+/// A scenario simulated with `seed`, read back.
+pub fn simulated_log(scenario: &hindsight::sim::scenario::Scenario, seed: u64) -> Log {
+    read(&simulated_bytes(scenario, seed))
+}
+
+/// The `hindsight` binary run with `args`.
+pub fn hindsight(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_hindsight"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+/// Standard error of a run, as text.
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The shipped sample log.
+pub const SAMPLE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/sample-logs/survey-short-seed1.mcap"
+);
