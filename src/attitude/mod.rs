@@ -13,10 +13,15 @@
 //!   inclination).
 //! - [`dead_reckoning`]: the DVL dead reckoning every method's attitude feeds.
 
+pub mod cf;
+pub mod config;
 pub mod dead_reckoning;
+pub mod ekf;
+pub mod euler;
 pub mod mekf;
 pub mod raw;
 pub mod score;
+pub mod ukf;
 
 use crate::contract::{Imu, MagneticField};
 use nalgebra::{UnitQuaternion, Vector3};

@@ -7,7 +7,6 @@
 
 use crate::filters::ins::driver::{Aiding, Propagation, Settings};
 use crate::filters::ins::forward::{DvlMounting, Filter, ImuNoise};
-use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// The default configuration, with the documentation of every key.
@@ -241,12 +240,7 @@ impl Default for DvlConfig {
 
 impl DvlConfig {
     pub fn mounting(&self) -> DvlMounting {
-        let [r, p, y] = self.rotation_deg.map(f64::to_radians);
-        DvlMounting {
-            // The DVL's axes are the body's turned by (roll, pitch, yaw): body_from_dvl.
-            dvl_from_body: Rotation3::from_euler_angles(r, p, y).inverse(),
-            lever_arm_body_m: Vector3::from(self.lever_arm_m),
-        }
+        DvlMounting::from_config(self.lever_arm_m, self.rotation_deg)
     }
 }
 

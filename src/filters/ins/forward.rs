@@ -48,6 +48,19 @@ pub struct DvlMounting {
     pub lever_arm_body_m: Vector3<f64>,
 }
 
+impl DvlMounting {
+    /// From a configuration's lever arm (body FRD, m) and the rotation of the DVL's axes
+    /// from the body's (roll, pitch, yaw, Z-Y-X, deg).
+    pub fn from_config(lever_arm_m: [f64; 3], rotation_deg: [f64; 3]) -> DvlMounting {
+        let [r, p, y] = rotation_deg.map(f64::to_radians);
+        DvlMounting {
+            // The DVL's axes are the body's turned by (roll, pitch, yaw): body_from_dvl.
+            dvl_from_body: Rotation3::from_euler_angles(r, p, y).inverse(),
+            lever_arm_body_m: Vector3::from(lever_arm_m),
+        }
+    }
+}
+
 impl Default for DvlMounting {
     fn default() -> Self {
         DvlMounting {

@@ -1,0 +1,283 @@
+//! Settings of `hindsight attitude`, from a TOML file (`--config`), with a default for every
+//! key: seed 001's parameters for its three filters, hindsight's MEKF densities, the DVL's
+//! mounting and the magnetometer checks. `hindsight attitude --print-config` prints
+//! [`DEFAULT_TOML`].
+
+use super::cf::CfSettings;
+use super::ekf::{matrix, Ekf, EkfSettings};
+use super::euler::positive_definite;
+use super::mekf::MekfSettings;
+use super::ukf::{Ukf, UkfSettings};
+use crate::filters::ins::forward::DvlMounting;
+use nalgebra::Matrix3;
+use serde::{Deserialize, Serialize};
+
+/// The documented defaults (a test parses it back to [`AttitudeConfig::default`]).
+pub const DEFAULT_TOML: &str = r#"# hindsight attitude: configuration (every key optional; these are the defaults).
+#
+# Covariances are 3x3, rows and columns [roll, pitch, yaw], rad^2, per filter step (one
+# step per IMU sample), as seed 001 gives them. NOTE: seed 001 calls the process noise R
+# and the measurement noise Q, the reverse of the usual convention. Here process_noise is
+# the paper's R and measurement_noise the paper's Q.
+
+[ekf]                  # seed 001 Table 1, parameters of its Table 6
+initial_cov = [[0.15, 0.0, 0.0], [0.0, 0.15, 0.0], [0.0, 0.0, 0.15]]
+process_noise = [[0.1, 0.08, 0.08], [0.08, 0.1, 0.08], [0.08, 0.08, 0.1]]
+measurement_noise = [[0.1, 0.08, 0.15], [0.08, 0.1, 0.15], [0.15, 0.15, 0.2]]
+
+[ukf]                  # seed 001 Table 2, parameters of its Table 7
+kappa = 1.7
+initial_cov = [[0.15, 0.0, 0.0], [0.0, 0.15, 0.0], [0.0, 0.0, 0.15]]
+process_noise = [[0.2, 0.02, 0.02], [0.02, 0.2, 0.02], [0.02, 0.02, 0.15]]
+measurement_noise = [[0.07, 0.07, 0.07], [0.07, 0.1, 0.07], [0.07, 0.07, 0.02]]
+
+[cf]                   # seed 001 Table 3, gains of its Table 8
+kp = 6.151828996322964 # 4.35 sqrt(2), 1/s
+ki = 0.415             # 1/s^2
+
+[mekf]                 # hindsight's quaternion filter (densities, one sigma)
+gyro_noise_rad_s_rt_hz = 0.002
+gyro_bias_walk_rad_s_rt_s = 1e-5
+gyro_bias_sigma_rad_s = 0.01
+accel_noise_m_s2_rt_s = 0.003   # gravity sensor at rest
+accel_sigma_growth = 2.0        # added sigma per m/s^2 of | |f| - g |
+heading_noise_rad_rt_s = 0.03
+max_field_change = 0.1          # readings whose magnitude departs more (fraction) are skipped
+max_dip_change_rad = 0.1        # ... or whose dip departs more
+gate_probability = 0.9999
+
+[checks]
+# A covariance above that is not positive definite (seed 001's printed measurement
+# covariances are not) has its eigenvalues raised to this floor, with a message.
+covariance_floor_rad2 = 1e-4
+
+[dvl]
+lever_arm_m = [0.0, 0.0, 0.0]     # DVL position from the AHRS, body FRD
+rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z-Y-X)
+
+[magnetometer]
+# A reading with an axis at that axis's extreme value of the whole log, repeated in at
+# least this many consecutive readings, is taken as saturated: flagged and not used.
+saturation_repeats = 3
+"#;
+
+/// Everything `hindsight attitude` can be told.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AttitudeConfig {
+    pub ekf: EkfSettings,
+    pub ukf: UkfSettings,
+    pub cf: CfSettings,
+    pub mekf: MekfSettings,
+    pub checks: Checks,
+    pub dvl: Mounting,
+    pub magnetometer: MagnetometerChecks,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Checks {
+    pub covariance_floor_rad2: f64,
+}
+
+impl Default for Checks {
+    fn default() -> Self {
+        Checks {
+            covariance_floor_rad2: 1e-4,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Mounting {
+    pub lever_arm_m: [f64; 3],
+    pub rotation_deg: [f64; 3],
+}
+
+impl Mounting {
+    pub fn mounting(&self) -> DvlMounting {
+        DvlMounting::from_config(self.lever_arm_m, self.rotation_deg)
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MagnetometerChecks {
+    pub saturation_repeats: usize,
+}
+
+impl Default for MagnetometerChecks {
+    fn default() -> Self {
+        MagnetometerChecks {
+            saturation_repeats: 3,
+        }
+    }
+}
+
+/// Why a configuration is unusable.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AttitudeConfigError {
+    #[error("{0}")]
+    Toml(String),
+    #[error("`{key}`: {reason}")]
+    Bad { key: &'static str, reason: String },
+}
+
+/// A covariance that had to be changed to be used, for the console.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Adjustment {
+    pub key: &'static str,
+    pub eigenvalues: [f64; 3],
+    pub floor: f64,
+}
+
+impl std::fmt::Display for Adjustment {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [a, b, c] = self.eigenvalues;
+        write!(
+            f,
+            "`{}` is not positive definite (eigenvalues {a:.4}, {b:.4}, {c:.4} rad^2): \
+             eigenvalues raised to {:e} rad^2",
+            self.key, self.floor
+        )
+    }
+}
+
+/// The filters built from a configuration, and what had to be adjusted.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Filters {
+    pub ekf: Ekf,
+    pub ukf: Ukf,
+    pub cf: CfSettings,
+    pub mekf: MekfSettings,
+    pub adjustments: Vec<Adjustment>,
+}
+
+impl AttitudeConfig {
+    /// Parses a TOML configuration (unknown keys are errors, naming the key) and checks it.
+    pub fn from_toml(text: &str) -> Result<AttitudeConfig, AttitudeConfigError> {
+        let config: AttitudeConfig =
+            toml::from_str(text).map_err(|e| AttitudeConfigError::Toml(e.to_string()))?;
+        config.filters()?;
+        Ok(config)
+    }
+
+    /// The filters, every covariance made positive definite (reported in `adjustments`).
+    pub fn filters(&self) -> Result<Filters, AttitudeConfigError> {
+        let floor = self.checks.covariance_floor_rad2;
+        if !(floor.is_finite() && floor > 0.0) {
+            return Err(bad("checks.covariance_floor_rad2", "must be a positive number"));
+        }
+        let mut adjustments = Vec::new();
+        let mut checked = |key: &'static str, m: &[[f64; 3]; 3]| {
+            if m.iter().flatten().any(|v| !v.is_finite()) {
+                return Err(bad(key, "every element must be a finite number"));
+            }
+            let (fixed, found) = positive_definite(&matrix(m), floor);
+            if let Some(e) = found {
+                let mut eigenvalues = [e[0], e[1], e[2]];
+                eigenvalues.sort_by(f64::total_cmp);
+                adjustments.push(Adjustment {
+                    key,
+                    eigenvalues,
+                    floor,
+                });
+            }
+            Ok::<Matrix3<f64>, AttitudeConfigError>(fixed)
+        };
+        let ekf = Ekf {
+            initial_cov: checked("ekf.initial_cov", &self.ekf.initial_cov)?,
+            process_noise: checked("ekf.process_noise", &self.ekf.process_noise)?,
+            measurement_noise: checked("ekf.measurement_noise", &self.ekf.measurement_noise)?,
+        };
+        let ukf = Ukf {
+            kappa: self.ukf.kappa,
+            initial_cov: checked("ukf.initial_cov", &self.ukf.initial_cov)?,
+            process_noise: checked("ukf.process_noise", &self.ukf.process_noise)?,
+            measurement_noise: checked("ukf.measurement_noise", &self.ukf.measurement_noise)?,
+        };
+        if !(self.ukf.kappa.is_finite() && self.ukf.kappa > -3.0) {
+            return Err(bad("ukf.kappa", "must be a number above -3 (n + kappa > 0)"));
+        }
+        for (key, v) in [("cf.kp", self.cf.kp), ("cf.ki", self.cf.ki)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(key, "must be zero or positive"));
+            }
+        }
+        let m = &self.mekf;
+        for (key, v) in [
+            ("mekf.gyro_noise_rad_s_rt_hz", m.gyro_noise_rad_s_rt_hz),
+            ("mekf.gyro_bias_sigma_rad_s", m.gyro_bias_sigma_rad_s),
+            ("mekf.accel_noise_m_s2_rt_s", m.accel_noise_m_s2_rt_s),
+            ("mekf.heading_noise_rad_rt_s", m.heading_noise_rad_rt_s),
+            ("mekf.max_field_change", m.max_field_change),
+            ("mekf.max_dip_change_rad", m.max_dip_change_rad),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(key, "must be a positive number"));
+            }
+        }
+        if !(m.gate_probability > 0.0 && m.gate_probability < 1.0) {
+            return Err(bad("mekf.gate_probability", "must be a probability in (0, 1)"));
+        }
+        if self.magnetometer.saturation_repeats < 2 {
+            return Err(bad("magnetometer.saturation_repeats", "must be 2 or more"));
+        }
+        Ok(Filters {
+            ekf,
+            ukf,
+            cf: self.cf,
+            mekf: self.mekf,
+            adjustments,
+        })
+    }
+}
+
+fn bad(key: &'static str, reason: &str) -> AttitudeConfigError {
+    AttitudeConfigError::Bad {
+        key,
+        reason: reason.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_documented_defaults_are_the_defaults() {
+        assert_eq!(
+            AttitudeConfig::from_toml(DEFAULT_TOML).unwrap(),
+            AttitudeConfig::default()
+        );
+        assert_eq!(
+            AttitudeConfig::from_toml("").unwrap(),
+            AttitudeConfig::default()
+        );
+    }
+
+    /// Seed 001's printed measurement covariances are indefinite: both are adjusted and
+    /// reported, nothing else is.
+    #[test]
+    fn the_papers_measurement_covariances_are_adjusted() {
+        let filters = AttitudeConfig::default().filters().unwrap();
+        let keys: Vec<_> = filters.adjustments.iter().map(|a| a.key).collect();
+        assert_eq!(keys, ["ekf.measurement_noise", "ukf.measurement_noise"]);
+        for a in &filters.adjustments {
+            assert!(a.eigenvalues[0] < 0.0, "{a}");
+        }
+        assert!(filters.ekf.measurement_noise.cholesky().is_some());
+        assert!(filters.ukf.measurement_noise.cholesky().is_some());
+    }
+
+    #[test]
+    fn bad_settings_name_the_key() {
+        let e = AttitudeConfig::from_toml("[ekf]\nprocess_nois = 1").unwrap_err();
+        assert!(e.to_string().contains("process_nois"), "{e}");
+        let e = AttitudeConfig::from_toml("[cf]\nkp = -1.0").unwrap_err();
+        assert!(e.to_string().contains("cf.kp"), "{e}");
+        let e = AttitudeConfig::from_toml("[ukf]\nkappa = -5.0").unwrap_err();
+        assert!(e.to_string().contains("ukf.kappa"), "{e}");
+    }
+}
