@@ -73,6 +73,7 @@ fn score_trial(path: &Path) -> (AttitudeRms, AttitudeRms, AttitudeRms) {
         imu,
         mag,
         declination_rad: 0.0,
+        initial_yaw_rad: None,
     };
     let raw = rms(&raw::run(&inputs), &reference, scored).unwrap();
     let (m, _) = mekf::run(&inputs, &mekf::MekfSettings::default());

@@ -8,7 +8,7 @@ mod common;
 
 use hindsight::attitude::dead_reckoning::dead_reckon;
 use hindsight::attitude::score::reference_from_truth;
-use hindsight::attitude::{mekf, raw, AhrsInputs, AttitudeSample};
+use hindsight::attitude::{euler, mekf, raw, AhrsInputs, AttitudeSample};
 use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};
 use hindsight::filters::ins::forward::DvlMounting;
 use hindsight::sim::scenario::Scenario;
@@ -38,12 +38,19 @@ fn pool(name: &str) -> Vec<(&'static str, f64, f64)> {
         imu,
         mag,
         declination_rad,
+        initial_yaw_rad: None,
     };
     let reference = reference_from_truth(truth);
     let settings = mekf::MekfSettings::default();
+    let filters = hindsight::attitude::config::AttitudeConfig::default()
+        .filters()
+        .unwrap();
     let methods: Vec<(&'static str, Vec<AttitudeSample>)> = vec![
         ("truth", reference.clone()),
         ("raw", raw::run(&inputs)),
+        ("ekf", euler::run(&filters.ekf, &inputs).0),
+        ("ukf", euler::run(&filters.ukf, &inputs).0),
+        ("cf", euler::run(&filters.cf, &inputs).0),
         ("mekf", mekf::run(&inputs, &settings).0),
         (
             "mekf-smoothed",

@@ -162,20 +162,32 @@ pub fn run_smoothed(
 pub fn forward(inputs: &AhrsInputs<'_>, set: &MekfSettings) -> (Vec<MekfRecord>, MekfCounts) {
     let mut counts = MekfCounts::default();
     let mut out = Vec::with_capacity(inputs.imu.len());
-    let Some(start) = inputs
-        .imu
-        .iter()
-        .position(|m| inputs.mag_at(m.stamp_ns).is_some())
-    else {
+    // Without a magnetometer the filter runs on gravity alone from the first IMU sample, its
+    // yaw from the gyro, starting at `initial_yaw_rad` (or 0).
+    let start = if inputs.mag.is_empty() {
+        (!inputs.imu.is_empty()).then_some(0)
+    } else {
+        inputs
+            .imu
+            .iter()
+            .position(|m| inputs.mag_at(m.stamp_ns).is_some())
+    };
+    let Some(start) = start else {
         return (out, counts);
     };
     let first = &inputs.imu[start];
     let field0 = inputs.mag_at(first.stamp_ns).unwrap_or_default();
-    let q0 = from_gravity_and_field(
-        &Vector3::from(first.specific_force),
-        &field0,
-        inputs.declination_rad,
-    );
+    let q0 = if inputs.mag.is_empty() {
+        let (roll, pitch) =
+            crate::filters::ins::alignment::level(&Vector3::from(first.specific_force));
+        UnitQuaternion::from_euler_angles(roll, pitch, inputs.initial_yaw_rad.unwrap_or(0.0))
+    } else {
+        from_gravity_and_field(
+            &Vector3::from(first.specific_force),
+            &field0,
+            inputs.declination_rad,
+        )
+    };
     // The field's reference magnitude and dip: the first reading, turned into NED.
     let field_ned0 = q0 * field0;
     let reference = (field_ned0.norm(), dip(&field_ned0));

@@ -14,9 +14,12 @@
 //! - [`dead_reckoning`]: the DVL dead reckoning every method's attitude feeds.
 
 pub mod cf;
+pub mod compare;
 pub mod config;
 pub mod dead_reckoning;
 pub mod ekf;
+pub mod mag_calibration;
+pub mod mag_checks;
 pub mod euler;
 pub mod mekf;
 pub mod raw;
@@ -34,6 +37,9 @@ pub struct AhrsInputs<'a> {
     pub mag: &'a [MagneticField],
     /// Magnetic declination, rad, east positive (0 where north is magnetic north).
     pub declination_rad: f64,
+    /// Initial yaw for a method that runs without a magnetometer (the mission's
+    /// `initial_yaw_rad`), rad.
+    pub initial_yaw_rad: Option<f64>,
 }
 
 /// The attitude at one stamp.

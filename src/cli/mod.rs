@@ -3,6 +3,7 @@
 //! Errors carry context here (anyhow); [`exit_code`] is the one place that maps them to the
 //! process exit status.
 
+mod attitude;
 mod bench;
 mod bench_reconstruct;
 mod export;
@@ -45,6 +46,7 @@ pub struct Args {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     Reconstruct(reconstruct::ReconstructArgs),
+    Attitude(attitude::AttitudeArgs),
     /// Print the default `reconstruct` configuration (TOML, every key explained).
     Config(reconstruct::ConfigArgs),
     Info(info::InfoArgs),
@@ -64,6 +66,7 @@ pub struct OutputFailed {
 pub fn run(args: Args) -> Result<()> {
     match args.command {
         Command::Reconstruct(a) => reconstruct::run(a),
+        Command::Attitude(a) => attitude::run(a),
         Command::Config(a) => reconstruct::print_config(a),
         Command::Info(a) => info::run(a),
         Command::Export(a) => export::run(a),
@@ -81,9 +84,16 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
         || err.downcast_ref::<AlignError>().is_some()
         || err.downcast_ref::<MissionError>().is_some()
         || err.downcast_ref::<ReconError>().is_some()
+        || err
+            .downcast_ref::<hindsight::attitude::compare::InputError>()
+            .is_some()
     {
         EXIT_BAD_INPUT
-    } else if err.downcast_ref::<ConfigError>().is_some() {
+    } else if err.downcast_ref::<ConfigError>().is_some()
+        || err
+            .downcast_ref::<hindsight::attitude::config::AttitudeConfigError>()
+            .is_some()
+    {
         EXIT_USAGE
     } else {
         EXIT_FAILURE

@@ -4,6 +4,9 @@
 //! May import: `contract`, `ingest` (types), `align`, `time`, `arrow-*`, `parquet`, `std::fs`.
 
 pub mod atomic;
+pub mod attitude_tables;
+mod columns;
 pub mod parquet;
+pub mod plots;
 pub mod recon_tables;
 pub mod tables;

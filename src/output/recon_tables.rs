@@ -2,62 +2,14 @@
 //! carry frame and unit (`north_m`, `yaw_rad`, `gyro_bias_x_rad_s`); units are also in each
 //! field's metadata under `unit`, as in the export tables.
 
-use super::tables::timestamp_type;
+use super::columns::Columns;
 use crate::filters::ins::driver::Residual;
 use crate::filters::ins::record::Solution;
 use crate::geodesy;
 use crate::recon::score::EpochError;
-use arrow_array::{
-    ArrayRef, BooleanArray, Float64Array, RecordBatch, StringArray, TimestampNanosecondArray,
-    UInt8Array,
-};
-use arrow_schema::{ArrowError, DataType, Field, Schema};
-use std::collections::HashMap;
+use arrow_array::{BooleanArray, RecordBatch, UInt8Array};
+use arrow_schema::{ArrowError, DataType, Field};
 use std::sync::Arc;
-
-/// Columns being assembled into one batch.
-#[derive(Default)]
-struct Columns {
-    fields: Vec<Field>,
-    arrays: Vec<ArrayRef>,
-}
-
-impl Columns {
-    fn push(&mut self, field: Field, array: ArrayRef) {
-        self.fields.push(field);
-        self.arrays.push(array);
-    }
-
-    fn stamps(&mut self, values: Vec<i64>) {
-        self.push(
-            Field::new("stamp_ns", timestamp_type(), false),
-            Arc::new(TimestampNanosecondArray::from(values).with_timezone("UTC")),
-        );
-    }
-
-    fn text(&mut self, name: &str, values: Vec<&str>) {
-        self.push(
-            Field::new(name, DataType::Utf8, false),
-            Arc::new(StringArray::from(values)),
-        );
-    }
-
-    fn number(&mut self, name: &str, unit: &str, values: Vec<f64>) {
-        let field = Field::new(name, DataType::Float64, false)
-            .with_metadata(HashMap::from([("unit".to_string(), unit.to_string())]));
-        self.push(field, Arc::new(Float64Array::from(values)));
-    }
-
-    fn optional(&mut self, name: &str, unit: &str, values: Vec<Option<f64>>) {
-        let field = Field::new(name, DataType::Float64, true)
-            .with_metadata(HashMap::from([("unit".to_string(), unit.to_string())]));
-        self.push(field, Arc::new(Float64Array::from(values)));
-    }
-
-    fn finish(self) -> Result<RecordBatch, ArrowError> {
-        RecordBatch::try_new(Arc::new(Schema::new(self.fields)), self.arrays)
-    }
-}
 
 /// One column per element of `f`'s output over `rows`.
 fn column<T>(rows: &[T], f: impl Fn(&T) -> f64) -> Vec<f64> {

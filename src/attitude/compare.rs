@@ -1,0 +1,251 @@
+//! The comparison `hindsight attitude` makes: every method on the same inputs (in parallel,
+//! each a pure function), each attitude through the same DVL dead reckoning, each scored
+//! against the `end` mark and, when the log has it, `/truth`.
+
+use super::config::Filters;
+use super::dead_reckoning::{attitude_at, dead_reckon, TrackPoint};
+use super::euler::{self, from_quaternion};
+use super::score::{attitude_error, AttitudeRms};
+use super::{mekf, raw, AhrsInputs, AttitudeSample};
+use crate::angle::wrap_pi;
+use crate::contract::Dvl;
+use crate::filters::ins::forward::DvlMounting;
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+/// Why a log cannot be compared.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum InputError {
+    #[error("no IMU data on /imu (at least two samples are needed)")]
+    NoImu,
+    #[error("no magnetometer readings on /mag, and every method asked for needs them")]
+    NoMagnetometer,
+}
+
+/// An attitude method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Seed 001 eq. 1-4: accelerometer and magnetometer, sample by sample.
+    Raw,
+    /// Seed 001 Table 1 (Euler-angle EKF).
+    Ekf,
+    /// Seed 001 Table 2 (Euler-angle UKF).
+    Ukf,
+    /// Seed 001 Table 3 (complementary filter with PI rate-bias correction).
+    Cf,
+    /// hindsight's quaternion error-state filter with gyro-bias states.
+    Mekf,
+    /// The MEKF smoothed forward and backward over the whole log.
+    MekfSmoothed,
+}
+
+impl Method {
+    pub const ALL: [Method; 6] = [
+        Method::Raw,
+        Method::Ekf,
+        Method::Ukf,
+        Method::Cf,
+        Method::Mekf,
+        Method::MekfSmoothed,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Raw => "raw",
+            Method::Ekf => "ekf",
+            Method::Ukf => "ukf",
+            Method::Cf => "cf",
+            Method::Mekf => "mekf",
+            Method::MekfSmoothed => "mekf-smoothed",
+        }
+    }
+
+    /// Whether the method cannot run without a magnetometer (seed 001's methods take yaw
+    /// from it; the MEKF then runs on gravity alone, its yaw from the gyro).
+    pub fn needs_magnetometer(self) -> bool {
+        !matches!(self, Method::Mekf | Method::MekfSmoothed)
+    }
+}
+
+/// One method's attitude and what it reports.
+#[derive(Debug, Clone)]
+pub struct MethodRun {
+    pub method: Method,
+    pub attitude: Vec<AttitudeSample>,
+    /// Counts worth reporting (rejections, covariance repairs), as text.
+    pub notes: Vec<String>,
+    /// Covariance repairs (the UKF's; zero for the others).
+    pub repairs: usize,
+}
+
+/// Runs one method.
+pub fn run_method(method: Method, inputs: &AhrsInputs<'_>, filters: &Filters) -> MethodRun {
+    let mut notes = Vec::new();
+    let mut repairs = 0;
+    let attitude = match method {
+        Method::Raw => raw::run(inputs),
+        Method::Ekf => euler::run(&filters.ekf, inputs).0,
+        Method::Ukf => {
+            let (attitude, last) = euler::run(&filters.ukf, inputs);
+            repairs = last.map_or(0, |s| s.repairs);
+            notes.push(format!("{repairs} covariance repairs"));
+            attitude
+        }
+        Method::Cf => euler::run(&filters.cf, inputs).0,
+        Method::Mekf | Method::MekfSmoothed => {
+            let (attitude, counts) = if method == Method::Mekf {
+                mekf::run(inputs, &filters.mekf)
+            } else {
+                mekf::run_smoothed(inputs, &filters.mekf).unwrap_or_else(|| {
+                    notes.push("smoother failed: forward attitude kept".to_string());
+                    mekf::run(inputs, &filters.mekf)
+                })
+            };
+            notes.push(format!(
+                "rejected: {} accelerometer, {} magnetometer; {} disturbed fields skipped",
+                counts.accel_rejected, counts.mag_rejected, counts.mag_disturbed
+            ));
+            attitude
+        }
+    };
+    MethodRun {
+        method,
+        attitude,
+        notes,
+        repairs,
+    }
+}
+
+/// Runs the methods in parallel, in the order given.
+pub fn run_methods(methods: &[Method], inputs: &AhrsInputs<'_>, filters: &Filters) -> Vec<MethodRun> {
+    methods
+        .par_iter()
+        .map(|&m| run_method(m, inputs, filters))
+        .collect()
+}
+
+/// Per-axis Euler-angle errors against the truth, deg.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct EulerErrors {
+    pub roll_rms_deg: f64,
+    pub roll_max_deg: f64,
+    pub pitch_rms_deg: f64,
+    pub pitch_max_deg: f64,
+    pub yaw_rms_deg: f64,
+    pub yaw_max_deg: f64,
+}
+
+/// A method's scores.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MethodScore {
+    pub method: Method,
+    /// The dead reckoning (empty without a DVL or a start position).
+    pub track: Vec<TrackPoint>,
+    /// Horizontal distance from the track's end to the `end` mark, m.
+    pub end_error_m: Option<f64>,
+    /// Path length of the track (horizontal), m.
+    pub path_m: Option<f64>,
+    pub euler: Option<EulerErrors>,
+    /// BROAD's total / heading / inclination RMS against the truth.
+    pub broad: Option<AttitudeRms>,
+}
+
+impl MethodScore {
+    pub fn end_error_percent(&self) -> Option<f64> {
+        match (self.end_error_m, self.path_m) {
+            (Some(e), Some(p)) if p > 0.0 => Some(100.0 * e / p),
+            _ => None,
+        }
+    }
+}
+
+/// What the scores are measured against.
+pub struct Reference<'a> {
+    pub dvl: &'a [Dvl],
+    pub mounting: &'a DvlMounting,
+    /// Where the dead reckoning starts (the `start` mark), NED m.
+    pub start_ned_m: Option<Vector3<f64>>,
+    pub end_ned_m: Option<Vector3<f64>>,
+    /// The true attitude (empty without `/truth`) and the stamps to score it at.
+    pub truth: &'a [AttitudeSample],
+    pub scored: &'a (dyn Fn(i64) -> bool + Sync),
+}
+
+/// Scores one method's attitude.
+pub fn score(run: &MethodRun, reference: &Reference<'_>) -> MethodScore {
+    let track = match reference.start_ned_m {
+        Some(start) if !reference.dvl.is_empty() => {
+            dead_reckon(&run.attitude, reference.dvl, reference.mounting, start)
+        }
+        _ => Vec::new(),
+    };
+    let path_m = (!track.is_empty()).then(|| {
+        track
+            .windows(2)
+            .map(|w| (w[1].ned_m - w[0].ned_m).xy().norm())
+            .sum()
+    });
+    let end_error_m = match (track.last(), reference.end_ned_m) {
+        (Some(last), Some(end)) => Some((last.ned_m - end).xy().norm()),
+        _ => None,
+    };
+    let (euler, broad) = truth_errors(&run.attitude, reference);
+    MethodScore {
+        method: run.method,
+        track,
+        end_error_m,
+        path_m,
+        euler,
+        broad,
+    }
+}
+
+/// Errors against the truth at its scored stamps (the estimate interpolated there).
+fn truth_errors(
+    attitude: &[AttitudeSample],
+    reference: &Reference<'_>,
+) -> (Option<EulerErrors>, Option<AttitudeRms>) {
+    let mut sums = [0.0; 6];
+    let mut max = [0.0f64; 3];
+    let mut n = 0usize;
+    for t in reference.truth {
+        if !(reference.scored)(t.stamp_ns) {
+            continue;
+        }
+        let Some(q) = attitude_at(attitude, t.stamp_ns) else {
+            continue;
+        };
+        let (e, r) = (from_quaternion(&q), from_quaternion(&t.ned_from_body));
+        let d = [wrap_pi(e[0] - r[0]), e[1] - r[1], wrap_pi(e[2] - r[2])];
+        for i in 0..3 {
+            sums[i] += d[i] * d[i];
+            max[i] = max[i].max(d[i].abs());
+        }
+        let b = attitude_error(&q, &t.ned_from_body);
+        sums[3] += b.total.powi(2);
+        sums[4] += b.heading.powi(2);
+        sums[5] += b.inclination.powi(2);
+        n += 1;
+    }
+    if n == 0 {
+        return (None, None);
+    }
+    let rms = |s: f64| (s / n as f64).sqrt().to_degrees();
+    (
+        Some(EulerErrors {
+            roll_rms_deg: rms(sums[0]),
+            roll_max_deg: max[0].to_degrees(),
+            pitch_rms_deg: rms(sums[1]),
+            pitch_max_deg: max[1].to_degrees(),
+            yaw_rms_deg: rms(sums[2]),
+            yaw_max_deg: max[2].to_degrees(),
+        }),
+        Some(AttitudeRms {
+            samples: n,
+            total_deg: rms(sums[3]),
+            heading_deg: rms(sums[4]),
+            inclination_deg: rms(sums[5]),
+        }),
+    )
+}

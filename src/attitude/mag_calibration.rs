@@ -1,0 +1,338 @@
+//! Magnetometer calibration from the log itself: hard iron (an offset) and soft iron (a
+//! symmetric distortion) by fitting an ellipsoid to the readings, which lie on a sphere once
+//! corrected.
+//!
+//! A reading is `m = D b_body + h` (D the soft iron, near identity; h the hard iron); the
+//! calibration is `W (m - h)` with `W` symmetric, `W ~ D^-1` up to scale (a symmetric fit
+//! cannot tell a rotation of the sensor from a distortion, and the scale is set to keep the
+//! field's mean magnitude). The fit is linear least squares on the conic's coefficients
+//! (readings scaled to order one first).
+//!
+//! A pool run turns mostly about the vertical: the readings then cover a circle, not a
+//! sphere, and the vertical parts of `h` and `D` cannot be found. When the readings' spread
+//! along their least-spread direction is under [`MIN_SPREAD_RATIO`] of the largest, the fit
+//! is made in the plane of the two others (an ellipse) and leaves the third axis alone:
+//! heading, which is what the dead reckoning needs, depends on the horizontal part.
+//!
+//! Quality: the scatter (standard deviation over mean) of the field's magnitude (3-D), or of
+//! its in-plane magnitude (2-D), before and after; and the heading coverage of the readings.
+
+use crate::contract::MagneticField;
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, SymmetricEigen, Vector2, Vector3};
+
+/// Below this ratio of the least to the largest spread of the readings, the fit is 2-D.
+pub const MIN_SPREAD_RATIO: f64 = 0.25;
+/// The in-plane directions must cover at least this many of 36 ten-degree sectors.
+pub const MIN_SECTORS: usize = 27;
+
+/// Which fit was made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FitKind {
+    /// Ellipsoid: all three axes.
+    Ellipsoid,
+    /// Ellipse in the plane of the readings' two largest spreads; the third axis untouched.
+    Ellipse,
+}
+
+/// A calibration and how good it is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MagCalibration {
+    pub kind: FitKind,
+    pub hard_iron: Vector3<f64>,
+    /// `W`: calibrated = `W (m - hard_iron)`.
+    pub correction: Matrix3<f64>,
+    /// Scatter of the (in-plane, for an ellipse) field magnitude, std / mean, before and after.
+    pub scatter_before: f64,
+    pub scatter_after: f64,
+    /// Ten-degree sectors of in-plane direction the readings cover (of 36).
+    pub sectors_covered: usize,
+    pub readings: usize,
+}
+
+impl MagCalibration {
+    pub fn apply(&self, field: &Vector3<f64>) -> Vector3<f64> {
+        self.correction * (field - self.hard_iron)
+    }
+
+    /// The readings calibrated (stamps kept).
+    pub fn applied(&self, mag: &[MagneticField]) -> Vec<MagneticField> {
+        mag.iter()
+            .map(|m| MagneticField {
+                magnetic_field: self.apply(&Vector3::from(m.magnetic_field)).into(),
+                ..m.clone()
+            })
+            .collect()
+    }
+}
+
+/// Why no calibration could be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CalibrationError {
+    #[error("{0} magnetometer readings: at least 50 are needed")]
+    TooFew(usize),
+    #[error(
+        "the readings cover {0} of 36 ten-degree heading sectors (at least {MIN_SECTORS} \
+         needed): the run does not turn enough to calibrate the magnetometer"
+    )]
+    NotEnoughTurning(usize),
+    #[error("the readings do not fit an ellipsoid (the fitted quadric is not one)")]
+    NotAnEllipsoid,
+}
+
+/// Fits the calibration to the readings.
+pub fn fit(mag: &[MagneticField]) -> Result<MagCalibration, CalibrationError> {
+    if mag.len() < 50 {
+        return Err(CalibrationError::TooFew(mag.len()));
+    }
+    let points: Vec<Vector3<f64>> = mag.iter().map(|m| Vector3::from(m.magnetic_field)).collect();
+    let n = points.len() as f64;
+    let mean = points.iter().sum::<Vector3<f64>>() / n;
+    let scatter: Matrix3<f64> = points
+        .iter()
+        .map(|p| (p - mean) * (p - mean).transpose())
+        .sum::<Matrix3<f64>>()
+        / n;
+    let eig = SymmetricEigen::new(scatter);
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    let axes = Matrix3::from_columns(&order.map(|i| eig.eigenvectors.column(i).into_owned()));
+    let spreads = order.map(|i| eig.eigenvalues[i].max(0.0).sqrt());
+    // Express the readings in the spread axes (largest first), scaled to order one.
+    let scale = points.iter().map(|p| p.norm()).sum::<f64>() / n;
+    let local: Vec<Vector3<f64>> = points.iter().map(|p| axes.transpose() * p / scale).collect();
+    let sectors = sectors_covered(&local, &(axes.transpose() * mean / scale));
+    if sectors < MIN_SECTORS {
+        return Err(CalibrationError::NotEnoughTurning(sectors));
+    }
+    let (kind, hard_local, correction_local) = if spreads[2] < MIN_SPREAD_RATIO * spreads[0] {
+        let (centre, w) = fit_ellipse(&local)?;
+        let mut w3 = Matrix3::identity();
+        w3.fixed_view_mut::<2, 2>(0, 0).copy_from(&w);
+        (FitKind::Ellipse, Vector3::new(centre.x, centre.y, 0.0), w3)
+    } else {
+        let (centre, w) = fit_ellipsoid(&local)?;
+        (FitKind::Ellipsoid, centre, w)
+    };
+    let hard_iron = axes * hard_local * scale;
+    let correction = axes * correction_local * axes.transpose();
+    let magnitude = |v: &Vector3<f64>| match kind {
+        FitKind::Ellipsoid => v.norm(),
+        FitKind::Ellipse => (axes.transpose() * v).xy().norm(),
+    };
+    let before: Vec<f64> = points.iter().map(|p| magnitude(p)).collect();
+    let after: Vec<f64> = points
+        .iter()
+        .map(|p| magnitude(&(correction * (p - hard_iron))))
+        .collect();
+    Ok(MagCalibration {
+        kind,
+        hard_iron,
+        correction,
+        scatter_before: relative_scatter(&before),
+        scatter_after: relative_scatter(&after),
+        sectors_covered: sectors,
+        readings: points.len(),
+    })
+}
+
+/// Ten-degree sectors covered by the in-plane (first two axes) directions about `centre`.
+fn sectors_covered(local: &[Vector3<f64>], centre: &Vector3<f64>) -> usize {
+    let mut hit = [false; 36];
+    for p in local {
+        let d = p - centre;
+        let a = d.y.atan2(d.x).to_degrees().rem_euclid(360.0);
+        hit[((a / 10.0) as usize).min(35)] = true;
+    }
+    hit.iter().filter(|&&h| h).count()
+}
+
+fn relative_scatter(values: &[f64]) -> f64 {
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
+    var.sqrt() / mean
+}
+
+/// Least squares for `rows * coefficients = 1`.
+fn least_squares(rows: Vec<Vec<f64>>) -> Option<DVector<f64>> {
+    let (m, k) = (rows.len(), rows[0].len());
+    let a = DMatrix::from_fn(m, k, |i, j| rows[i][j]);
+    let ata = a.transpose() * &a;
+    let atb = a.transpose() * DVector::from_element(m, 1.0);
+    ata.cholesky().map(|c| c.solve(&atb))
+}
+
+/// The ellipse `x^T M x + 2 g^T x = 1` through the first two coordinates: its centre and
+/// the symmetric `W` that maps it onto a circle of its mean radius.
+fn fit_ellipse(local: &[Vector3<f64>]) -> Result<(Vector2<f64>, Matrix2<f64>), CalibrationError> {
+    let rows = local
+        .iter()
+        .map(|p| vec![p.x * p.x, p.y * p.y, 2.0 * p.x * p.y, 2.0 * p.x, 2.0 * p.y])
+        .collect();
+    let c = least_squares(rows).ok_or(CalibrationError::NotAnEllipsoid)?;
+    let m = Matrix2::new(c[0], c[2], c[2], c[1]);
+    let g = Vector2::new(c[3], c[4]);
+    let centre = -m.try_inverse().ok_or(CalibrationError::NotAnEllipsoid)? * g;
+    let k = 1.0 + centre.dot(&(m * centre));
+    let shape = m / k;
+    let eig = SymmetricEigen::new(shape);
+    if eig.eigenvalues.min() <= 0.0 {
+        return Err(CalibrationError::NotAnEllipsoid);
+    }
+    // W = sqrt(shape) scaled by the geometric-mean radius.
+    let radius = eig.eigenvalues.product().powf(-0.25);
+    let root = eig.eigenvectors
+        * Matrix2::from_diagonal(&eig.eigenvalues.map(f64::sqrt))
+        * eig.eigenvectors.transpose();
+    Ok((centre, root * radius))
+}
+
+/// The ellipsoid `x^T M x + 2 g^T x = 1`: its centre and `W`, as [`fit_ellipse`].
+fn fit_ellipsoid(local: &[Vector3<f64>]) -> Result<(Vector3<f64>, Matrix3<f64>), CalibrationError> {
+    let rows = local
+        .iter()
+        .map(|p| {
+            vec![
+                p.x * p.x,
+                p.y * p.y,
+                p.z * p.z,
+                2.0 * p.x * p.y,
+                2.0 * p.x * p.z,
+                2.0 * p.y * p.z,
+                2.0 * p.x,
+                2.0 * p.y,
+                2.0 * p.z,
+            ]
+        })
+        .collect();
+    let c = least_squares(rows).ok_or(CalibrationError::NotAnEllipsoid)?;
+    let m = Matrix3::new(c[0], c[3], c[4], c[3], c[1], c[5], c[4], c[5], c[2]);
+    let g = Vector3::new(c[6], c[7], c[8]);
+    let centre = -m.try_inverse().ok_or(CalibrationError::NotAnEllipsoid)? * g;
+    let k = 1.0 + centre.dot(&(m * centre));
+    let shape = m / k;
+    let eig = SymmetricEigen::new(shape);
+    if eig.eigenvalues.min() <= 0.0 {
+        return Err(CalibrationError::NotAnEllipsoid);
+    }
+    let radius = eig.eigenvalues.product().powf(-1.0 / 6.0);
+    let root = eig.eigenvectors
+        * Matrix3::from_diagonal(&eig.eigenvalues.map(f64::sqrt))
+        * eig.eigenvectors.transpose();
+    Ok((centre, root * radius))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Rotation3, UnitQuaternion};
+    use rand::{Rng, SeedableRng};
+    use rand_distr::{Distribution, StandardNormal};
+
+    fn reading(stamp_ns: i64, field: Vector3<f64>) -> MagneticField {
+        MagneticField {
+            stamp_ns,
+            magnetic_field: field.into(),
+        }
+    }
+
+    const FIELD_NED: [f64; 3] = [29_800e-9, -4_100e-9, 38_900e-9];
+
+    fn distortion() -> (Matrix3<f64>, Vector3<f64>) {
+        let soft = Matrix3::new(0.02, 0.005, 0.0, 0.005, -0.01, 0.0, 0.0, 0.0, 0.01);
+        (Matrix3::identity() + soft, Vector3::new(600e-9, -300e-9, 200e-9))
+    }
+
+    /// Readings at attitudes from all over the sphere: the ellipsoid fit recovers the hard
+    /// iron to the noise and makes the magnitude constant.
+    #[test]
+    fn an_ellipsoid_from_tumbling_readings() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(61);
+        let (d, h) = distortion();
+        let field = Vector3::from(FIELD_NED);
+        let mag: Vec<MagneticField> = (0..2000)
+            .map(|k| {
+                let q: UnitQuaternion<f64> = UnitQuaternion::from_scaled_axis(Vector3::from_fn(
+                    |_, _| rng.random_range(-3.0..3.0),
+                ));
+                let noise = Vector3::from_fn(|_, _| {
+                    let n: f64 = StandardNormal.sample(&mut rng);
+                    n * 50e-9
+                });
+                reading(k, d * (q.inverse() * field) + h + noise)
+            })
+            .collect();
+        let cal = fit(&mag).unwrap();
+        assert_eq!(cal.kind, FitKind::Ellipsoid);
+        assert!((cal.hard_iron - h).norm() < 10e-9, "{:?}", cal.hard_iron);
+        // W D is a multiple of the identity (W undoes the symmetric distortion).
+        let wd = cal.correction * d;
+        assert!((wd / wd[(0, 0)] - Matrix3::identity()).abs().max() < 2e-3, "{wd}");
+        assert!(cal.scatter_before > 0.01 && cal.scatter_after < 0.003, "{cal:?}");
+    }
+
+    /// A level vehicle turning about the vertical: an ellipse, the horizontal hard iron
+    /// found, the heading error of the distortion removed.
+    #[test]
+    fn an_ellipse_from_turning_readings() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(62);
+        let (d, h) = distortion();
+        let field = Vector3::from(FIELD_NED);
+        let attitudes: Vec<Rotation3<f64>> = (0..3000)
+            .map(|k| {
+                let yaw = k as f64 * 0.003;
+                Rotation3::from_euler_angles(0.02 * (k as f64 * 0.05).sin(), 0.01, yaw)
+            })
+            .collect();
+        let mag: Vec<MagneticField> = attitudes
+            .iter()
+            .enumerate()
+            .map(|(k, r)| {
+                let noise = Vector3::from_fn(|_, _| {
+                    let n: f64 = StandardNormal.sample(&mut rng);
+                    n * 100e-9
+                });
+                reading(k as i64, d * (r.inverse() * field) + h + noise)
+            })
+            .collect();
+        let cal = fit(&mag).unwrap();
+        assert_eq!(cal.kind, FitKind::Ellipse);
+        assert!((cal.hard_iron.xy() - h.xy()).norm() < 30e-9, "{:?}", cal.hard_iron);
+        let heading_error = |m: &Vector3<f64>, r: &Rotation3<f64>| {
+            let (roll, pitch, _) = r.euler_angles();
+            let got =
+                crate::filters::ins::alignment::magnetic_heading(m, roll, pitch, 0.0);
+            let true_heading = crate::filters::ins::alignment::magnetic_heading(
+                &(r.inverse() * field),
+                roll,
+                pitch,
+                0.0,
+            );
+            crate::angle::wrap_pi(got - true_heading).abs()
+        };
+        let rms = |f: &dyn Fn(&Vector3<f64>) -> Vector3<f64>| {
+            let sum: f64 = mag
+                .iter()
+                .zip(&attitudes)
+                .map(|(m, r)| heading_error(&f(&Vector3::from(m.magnetic_field)), r).powi(2))
+                .sum();
+            (sum / mag.len() as f64).sqrt().to_degrees()
+        };
+        // The noise alone: 100 nT on a 30 uT horizontal field, about 0.19 deg.
+        let (before, after) = (rms(&|m| *m), rms(&|m| cal.apply(m)));
+        assert!(before > 1.0 && after < 0.25, "heading RMS {before} -> {after} deg");
+    }
+
+    #[test]
+    fn a_straight_run_is_refused() {
+        let field = Vector3::from(FIELD_NED);
+        let mag: Vec<MagneticField> = (0..500)
+            .map(|k| {
+                let r = Rotation3::from_euler_angles(0.0, 0.0, k as f64 * 1e-3);
+                reading(k, r.inverse() * field)
+            })
+            .collect();
+        assert!(matches!(fit(&mag), Err(CalibrationError::NotEnoughTurning(_))));
+    }
+}

@@ -1,0 +1,370 @@
+//! `hindsight attitude LOG --out DIR`: seed 001's attitude-method comparison on any log.
+
+use super::{OutputFailed, PolicyArgs};
+use anyhow::{Context, Result};
+use hindsight::attitude::compare::{self, Method, MethodRun, MethodScore, Reference};
+use hindsight::attitude::config::{AttitudeConfig, DEFAULT_TOML};
+use hindsight::attitude::mag_calibration;
+use hindsight::attitude::mag_checks::without_saturation;
+use hindsight::attitude::score::reference_from_truth;
+use hindsight::attitude::AhrsInputs;
+use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};
+use hindsight::output::atomic::Staging;
+use hindsight::output::attitude_tables;
+use hindsight::output::parquet::write_batches;
+use hindsight::output::plots::{self, Series, TrackPlot};
+use nalgebra::Vector3;
+use rayon::prelude::*;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Compare attitude methods from a MEMS AHRS by the DVL dead reckoning each one gives.
+///
+/// Seed 001's comparison on any log: every method turns the same IMU and magnetometer
+/// readings into an attitude; each attitude rotates the same DVL body velocity into NED
+/// (lever arm and mounting rotation from the config), integrated from the `start` mark
+/// (/position_fix labelled "start"; else the mission origin). Methods (--methods):
+///
+///   raw            seed 001 eq. 1-4: accelerometer roll/pitch, tilt-compensated magnetic yaw
+///   ekf            seed 001 Table 1, parameters of Table 6
+///   ukf            seed 001 Table 2, parameters of Table 7
+///   cf             seed 001 Table 3 (complementary filter), gains of Table 8
+///   mekf           quaternion error-state Kalman filter with gyro-bias states
+///   mekf-smoothed  the MEKF smoothed forward-backward over the whole log
+///
+/// Seed 001 names the process noise R and the measurement noise Q; the config uses the usual
+/// names (process_noise = the paper's R). Its printed measurement covariances are not
+/// positive definite: they are raised to a floor, with a message.
+///
+/// Scores: the horizontal distance from each track's end to the `end` mark (N/A without
+/// one), in m and in % of the path; with /truth, roll/pitch/yaw RMS and max errors and
+/// BROAD's total/heading/inclination RMS (over the log's `broad.movement_intervals_ns` when
+/// it has them). Without a magnetometer, raw, ekf, ukf and cf are skipped and the MEKF runs
+/// on gravity alone (yaw from the gyro, from the mission's initial_yaw_rad).
+///
+/// Writes to DIR, atomically: attitude.parquet (stamp, method, roll/pitch/yaw, dead-reckoned
+/// north/east/down), attitude_summary.parquet (one row per method), tracks_xy.png and
+/// tracks_xz.png (when there is a DVL track).
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct AttitudeArgs {
+    /// Recorded log; not needed with --print-config.
+    #[arg(required_unless_present = "print_config")]
+    pub log: Option<PathBuf>,
+
+    /// Clock offset of one topic, added to its stamps: TOPIC=SECONDS (repeatable).
+    #[arg(long = "offset", value_name = "TOPIC=SECONDS")]
+    pub offsets: Vec<hindsight::align::ClockOffset>,
+
+    #[command(flatten)]
+    pub policy: PolicyArgs,
+
+    /// Output folder (created if missing; files of the same names are replaced).
+    #[arg(long, value_name = "DIR", required_unless_present = "print_config")]
+    pub out: Option<PathBuf>,
+
+    /// Methods to run, comma-separated [default: all].
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "METHOD,...")]
+    pub methods: Vec<Method>,
+
+    /// Settings file (TOML); --print-config shows every key and its default.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+
+    /// Print the default configuration (every key explained) and exit.
+    #[arg(long)]
+    pub print_config: bool,
+
+    /// Magnetometer calibration: `auto` fits hard and soft iron to the log's own readings
+    /// (an ellipsoid, or an ellipse when the run turns only about the vertical) and applies
+    /// it to every method; `off` uses the readings as they are.
+    #[arg(long, value_enum, default_value_t = MagCalibration::Off, value_name = "MODE")]
+    pub mag_calibration: MagCalibration,
+
+    /// Magnetic declination, deg east [default: the mission's magnetic_declination_deg,
+    /// else 0].
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub declination: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MagCalibration {
+    Off,
+    Auto,
+}
+
+pub fn run(args: AttitudeArgs) -> Result<()> {
+    if args.print_config {
+        print!("{DEFAULT_TOML}");
+        return Ok(());
+    }
+    let (Some(log_path), Some(out)) = (args.log.clone(), args.out.clone()) else {
+        anyhow::bail!("a LOG and --out DIR are needed");
+    };
+    let config = match &args.config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            AttitudeConfig::from_toml(&text).with_context(|| format!("in {}", path.display()))?
+        }
+        None => AttitudeConfig::default(),
+    };
+    let filters = config.filters()?;
+    for a in &filters.adjustments {
+        eprintln!("note: {a}");
+    }
+    let started = Instant::now();
+    let log = super::load(&log_path, &args.policy.ingest_options(), &args.offsets)?;
+    let mission = log
+        .mission()
+        .with_context(|| format!("reading {}", log_path.display()))?;
+    let imu: &[Imu] = log.messages("/imu").unwrap_or_default();
+    if imu.len() < 2 {
+        return Err(compare::InputError::NoImu).with_context(|| format!("attitude from {}", log_path.display()));
+    }
+    let raw_mag: &[MagneticField] = log.messages("/mag").unwrap_or_default();
+    let dvl: &[Dvl] = log.messages("/dvl").unwrap_or_default();
+    let marks: &[PositionFix] = log.messages("/position_fix").unwrap_or_default();
+    let truth: &[Truth] = log.messages("/truth").unwrap_or_default();
+    eprintln!(
+        "read {} in {:.1} s: {} IMU, {} magnetometer, {} DVL readings",
+        log_path.display(),
+        started.elapsed().as_secs_f64(),
+        imu.len(),
+        raw_mag.len(),
+        dvl.len()
+    );
+
+    // The magnetometer: saturation, then calibration.
+    let (mut mag, spans) = without_saturation(raw_mag, config.magnetometer.saturation_repeats);
+    for s in &spans {
+        eprintln!(
+            "warning: magnetometer saturated (an axis stuck at its extreme) for {:.1} s from \
+             log time {:.3} s ({} readings): not used",
+            (s.to_ns - s.from_ns) as f64 * 1e-9,
+            s.from_ns as f64 * 1e-9,
+            s.readings
+        );
+    }
+    if args.mag_calibration == MagCalibration::Auto && !mag.is_empty() {
+        match mag_calibration::fit(&mag) {
+            Ok(cal) => {
+                let h = cal.hard_iron * 1e9;
+                eprintln!(
+                    "magnetometer calibration ({:?} fit, {} readings, {} of 36 heading \
+                     sectors): hard iron [{:.0}, {:.0}, {:.0}] nT; field magnitude scatter \
+                     {:.2} % -> {:.2} %",
+                    cal.kind,
+                    cal.readings,
+                    cal.sectors_covered,
+                    h.x,
+                    h.y,
+                    h.z,
+                    cal.scatter_before * 100.0,
+                    cal.scatter_after * 100.0
+                );
+                mag = cal.applied(&mag);
+            }
+            Err(e) => eprintln!("warning: magnetometer calibration not applied: {e}"),
+        }
+    }
+
+    let mut methods: Vec<Method> = if args.methods.is_empty() {
+        Method::ALL.to_vec()
+    } else {
+        args.methods.clone()
+    };
+    methods.dedup();
+    if mag.is_empty() {
+        let skipped: Vec<&str> = methods
+            .iter()
+            .filter(|m| m.needs_magnetometer())
+            .map(|m| m.name())
+            .collect();
+        if !skipped.is_empty() {
+            eprintln!(
+                "warning: no magnetometer readings on /mag: skipping {} (they take yaw from \
+                 it); the MEKF runs on gravity alone, its yaw from the gyro",
+                skipped.join(", ")
+            );
+        }
+        methods.retain(|m| !m.needs_magnetometer());
+    }
+    if methods.is_empty() {
+        return Err(compare::InputError::NoMagnetometer)
+            .with_context(|| format!("attitude from {}", log_path.display()));
+    }
+    let declination_rad = args
+        .declination
+        .or(mission.magnetic_declination_deg)
+        .unwrap_or(0.0)
+        .to_radians();
+    let inputs = AhrsInputs {
+        imu,
+        mag: &mag,
+        declination_rad,
+        initial_yaw_rad: mission.initial_yaw_rad,
+    };
+    let filters_started = Instant::now();
+    let runs = compare::run_methods(&methods, &inputs, &filters);
+    let filters_s = filters_started.elapsed().as_secs_f64();
+
+    // Scores.
+    let mark = |label: &str| {
+        marks
+            .iter()
+            .find(|m| m.label == label)
+            .map(|m| Vector3::new(m.north_m, m.east_m, m.down_m.unwrap_or(0.0)))
+    };
+    let start = mark("start");
+    let end = mark("end");
+    if !dvl.is_empty() && start.is_none() {
+        eprintln!("note: no `start` mark on /position_fix: dead reckoning from the mission origin");
+    }
+    if dvl.is_empty() {
+        eprintln!("note: no DVL readings: dead reckoning skipped, attitude scored only");
+    } else if end.is_none() {
+        eprintln!("note: no `end` mark on /position_fix: end-point errors not available");
+    }
+    let reference_attitude = reference_from_truth(truth);
+    let intervals: Vec<[i64; 2]> = log
+        .metadata
+        .get("broad")
+        .and_then(|b| b.get("movement_intervals_ns"))
+        .and_then(|text| serde_json::from_str(text).ok())
+        .unwrap_or_default();
+    let scored = move |t: i64| intervals.is_empty() || intervals.iter().any(|[a, b]| (*a..=*b).contains(&t));
+    let mounting = config.dvl.mounting();
+    let reference = Reference {
+        dvl,
+        mounting: &mounting,
+        start_ned_m: start.or(Some(Vector3::zeros())),
+        end_ned_m: end,
+        truth: &reference_attitude,
+        scored: &scored,
+    };
+    let scores: Vec<MethodScore> = runs.par_iter().map(|r| compare::score(r, &reference)).collect();
+
+    write_outputs(&out, &runs, &scores, start, end)?;
+    print_table(&runs, &scores, filters_s);
+    Ok(())
+}
+
+fn write_outputs(
+    out: &std::path::Path,
+    runs: &[MethodRun],
+    scores: &[MethodScore],
+    start: Option<Vector3<f64>>,
+    end: Option<Vector3<f64>>,
+) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| OutputFailed {
+        path: out.to_path_buf(),
+    })?;
+    let mut staging = Staging::new();
+    let mut written = Vec::new();
+    let path = out.join("attitude.parquet");
+    let file = staging
+        .create(&path)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    let mut batches = runs.iter().zip(scores).flat_map(|(r, s)| {
+        r.attitude
+            .chunks(hindsight::output::parquet::ROWS_PER_BATCH)
+            .map(move |c| attitude_tables::attitude_batch(r.method.name(), c, &s.track))
+    });
+    let first = batches
+        .next()
+        .unwrap_or_else(|| attitude_tables::attitude_batch("raw", &[], &[]))?;
+    write_batches(file, first, || batches.next())
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    written.push(path);
+
+    let path = out.join("attitude_summary.parquet");
+    let file = staging
+        .create(&path)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    write_batches(file, attitude_tables::summary_batch(runs, scores)?, || None)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    written.push(path);
+
+    if scores.iter().any(|s| !s.track.is_empty()) {
+        let marks: Vec<(&str, Vector3<f64>)> = [("start", start), ("end", end)]
+            .into_iter()
+            .filter_map(|(n, p)| Some((n, p?)))
+            .collect();
+        for (name, title, x_label, y_label, y_down, pick) in [
+            (
+                "tracks_xy.png",
+                "DVL dead reckoning, plan view",
+                "east (m)",
+                "north (m)",
+                false,
+                (|p: &Vector3<f64>| (p.y, p.x)) as fn(&Vector3<f64>) -> (f64, f64),
+            ),
+            (
+                "tracks_xz.png",
+                "DVL dead reckoning, north against depth",
+                "north (m)",
+                "down (m)",
+                true,
+                |p: &Vector3<f64>| (p.x, p.z),
+            ),
+        ] {
+            let plot = TrackPlot {
+                title,
+                x_label,
+                y_label,
+                series: scores
+                    .iter()
+                    .map(|s| Series {
+                        name: s.method.name(),
+                        points: s.track.iter().map(|t| pick(&t.ned_m)).collect(),
+                    })
+                    .collect(),
+                marks: marks.iter().map(|(n, p)| (*n, pick(p))).collect(),
+                y_down,
+                equal_axes: !y_down,
+            };
+            let path = out.join(name);
+            let file = staging
+                .create(&path)
+                .with_context(|| OutputFailed { path: path.clone() })?;
+            plots::write_png(&plot, std::io::BufWriter::new(file))
+                .with_context(|| OutputFailed { path: path.clone() })?;
+            written.push(path);
+        }
+    }
+    staging.commit().with_context(|| OutputFailed {
+        path: out.to_path_buf(),
+    })?;
+    for p in written {
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// The console table (seed 001's Tables 9-10, with the truth errors when there are some).
+fn print_table(runs: &[MethodRun], scores: &[MethodScore], filters_s: f64) {
+    let na = |v: Option<f64>, digits: usize| {
+        v.map_or("N/A".to_string(), |v| format!("{v:.digits$}"))
+    };
+    println!(
+        "\n{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   notes",
+        "method", "end err m", "path m", "% path", "roll rms", "pitch rms", "yaw rms", "total rms"
+    );
+    for (r, s) in runs.iter().zip(scores) {
+        let e = s.euler.as_ref();
+        println!(
+            "{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   {}",
+            s.method.name(),
+            na(s.end_error_m, 3),
+            na(s.path_m, 1),
+            na(s.end_error_percent(), 2),
+            na(e.map(|e| e.roll_rms_deg), 2),
+            na(e.map(|e| e.pitch_rms_deg), 2),
+            na(e.map(|e| e.yaw_rms_deg), 2),
+            na(s.broad.map(|b| b.total_deg), 2),
+            r.notes.join("; ")
+        );
+    }
+    println!("(angles in deg; RMS against /truth; {filters_s:.2} s for all methods)\n");
+}
