@@ -5,6 +5,8 @@
 //! `cargo test --release --test broad_attitude -- --nocapture`
 
 use hindsight::attitude::score::{reference_from_truth, rms, AttitudeRms};
+use hindsight::attitude::compare::{self, Method};
+use hindsight::attitude::config::AttitudeConfig;
 use hindsight::attitude::{mekf, raw, AhrsInputs};
 use hindsight::contract::{Imu, MagneticField, Truth};
 use hindsight::ingest::{read_log, IngestOptions};
@@ -75,6 +77,14 @@ fn score_trial(path: &Path) -> (AttitudeRms, AttitudeRms, AttitudeRms) {
         declination_rad: 0.0,
         initial_yaw_rad: None,
     };
+    // Seed 001's filters: their covariance stays positive definite (no repair) throughout.
+    let filters = AttitudeConfig::default().filters().unwrap();
+    for m in [Method::Ekf, Method::Ukf, Method::Cf] {
+        let run = compare::run_method(m, &inputs, &filters);
+        assert_eq!(run.repairs, 0, "{} on {}", m.name(), path.display());
+        let e = rms(&run.attitude, &reference, scored).unwrap();
+        println!("{:<14} {:<4} total {:7.2} deg", path.file_name().unwrap().to_string_lossy(), m.name(), e.total_deg);
+    }
     let raw = rms(&raw::run(&inputs), &reference, scored).unwrap();
     let (m, _) = mekf::run(&inputs, &mekf::MekfSettings::default());
     let mekf = rms(&m, &reference, scored).unwrap();
