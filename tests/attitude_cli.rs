@@ -52,7 +52,12 @@ fn summary_column(dir: &Path, column: &str) -> Vec<(String, Option<f64>)> {
 }
 
 fn run(log: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
-    let mut args = vec!["attitude", log.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    let mut args = vec![
+        "attitude",
+        log.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
     args.extend_from_slice(extra);
     hindsight(&args)
 }
@@ -65,27 +70,56 @@ fn pool_log_gives_every_output() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read(POOL).unwrap(), before, "input untouched");
     let err = stderr(&o);
-    assert!(err.contains("magnetometer calibration (Ellipse fit"), "{err}");
-    assert!(err.contains("`ekf.measurement_noise` is not positive definite"), "{err}");
+    assert!(
+        err.contains("magnetometer calibration (Ellipse fit"),
+        "{err}"
+    );
+    assert!(
+        err.contains("`ekf.measurement_noise` is not positive definite"),
+        "{err}"
+    );
     let console = String::from_utf8_lossy(&o.stdout);
     for m in ["raw", "ekf", "ukf", "cf", "mekf", "mekf-smoothed"] {
-        assert!(console.lines().any(|l| l.starts_with(m)), "{m} not in {console}");
+        assert!(
+            console.lines().any(|l| l.starts_with(m)),
+            "{m} not in {console}"
+        );
     }
     // attitude.parquet: every method at every IMU stamp, positions on the track.
     let batches = read_parquet(&out.join("attitude.parquet"));
     let rows: usize = batches.iter().map(RecordBatch::num_rows).sum();
     assert!(rows > 6 * 20_000, "{rows}");
-    for name in ["stamp_ns", "method", "roll_rad", "pitch_rad", "yaw_rad", "north_m", "east_m", "down_m"] {
+    for name in [
+        "stamp_ns",
+        "method",
+        "roll_rad",
+        "pitch_rad",
+        "yaw_rad",
+        "north_m",
+        "east_m",
+        "down_m",
+    ] {
         assert!(batches[0].column_by_name(name).is_some(), "{name}");
     }
     // The summary: end-point error of every method, against the end mark, and truth errors.
     let ends = summary_column(&out, "end_error_m");
     assert_eq!(ends.len(), 6);
-    assert!(ends.iter().all(|(_, e)| e.is_some_and(|e| e < 1.0)), "{ends:?}");
+    assert!(
+        ends.iter().all(|(_, e)| e.is_some_and(|e| e < 1.0)),
+        "{ends:?}"
+    );
     let yaw = summary_column(&out, "yaw_rms_deg");
-    assert!(yaw.iter().all(|(_, y)| y.is_some_and(|y| y < 1.0)), "{yaw:?}");
+    assert!(
+        yaw.iter().all(|(_, y)| y.is_some_and(|y| y < 1.0)),
+        "{yaw:?}"
+    );
     let paths = summary_column(&out, "path_m");
-    assert!(paths.iter().all(|(_, p)| p.is_some_and(|p| (p - 100.8).abs() < 1.0)), "{paths:?}");
+    assert!(
+        paths
+            .iter()
+            .all(|(_, p)| p.is_some_and(|p| (p - 100.8).abs() < 1.0)),
+        "{paths:?}"
+    );
     let b = &read_parquet(&out.join("attitude_summary.parquet"))[0];
     let repairs = b
         .column_by_name("covariance_repairs")
@@ -106,7 +140,12 @@ fn pool_log_gives_every_output() {
     names.sort();
     assert_eq!(
         names,
-        ["attitude.parquet", "attitude_summary.parquet", "tracks_xy.png", "tracks_xz.png"]
+        [
+            "attitude.parquet",
+            "attitude_summary.parquet",
+            "tracks_xy.png",
+            "tracks_xz.png"
+        ]
     );
 }
 
@@ -162,14 +201,21 @@ fn without_a_magnetometer_the_methods_that_need_it_are_skipped() {
     let o = run(&log, &out, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
-    assert!(err.contains("no magnetometer readings on /mag: skipping raw, ekf, ukf, cf"), "{err}");
+    assert!(
+        err.contains("no magnetometer readings on /mag: skipping raw, ekf, ukf, cf"),
+        "{err}"
+    );
     let ends = summary_column(&out, "end_error_m");
     let methods: Vec<&str> = ends.iter().map(|(m, _)| m.as_str()).collect();
     assert_eq!(methods, ["mekf", "mekf-smoothed"]);
     // Asking only for methods that need it is an error naming the cause.
     let o = run(&log, &out, &["--methods", "raw,ekf"]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
-    assert!(stderr(&o).contains("no magnetometer readings"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no magnetometer readings"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
@@ -180,11 +226,18 @@ fn without_an_end_mark_the_end_point_error_is_not_available() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("no `end` mark"), "{}", stderr(&o));
     let console = String::from_utf8_lossy(&o.stdout);
-    assert!(console.lines().any(|l| l.starts_with("raw") && l.contains("N/A")), "{console}");
+    assert!(
+        console
+            .lines()
+            .any(|l| l.starts_with("raw") && l.contains("N/A")),
+        "{console}"
+    );
     let ends = summary_column(&out, "end_error_m");
     assert!(ends.iter().all(|(_, e)| e.is_none()), "{ends:?}");
     // The path is still there.
-    assert!(summary_column(&out, "path_m").iter().all(|(_, p)| p.is_some()));
+    assert!(summary_column(&out, "path_m")
+        .iter()
+        .all(|(_, p)| p.is_some()));
 }
 
 #[test]
@@ -203,7 +256,10 @@ fn a_saturating_magnetometer_is_flagged() {
     assert!(err.contains("(250 readings): not used"), "{err}");
     // Taken out, the readings do not spoil the heading.
     let yaw = summary_column(&out, "yaw_rms_deg");
-    assert!(yaw.iter().all(|(_, y)| y.is_some_and(|y| y < 2.0)), "{yaw:?}");
+    assert!(
+        yaw.iter().all(|(_, y)| y.is_some_and(|y| y < 2.0)),
+        "{yaw:?}"
+    );
 }
 
 #[test]

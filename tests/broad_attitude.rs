@@ -4,9 +4,9 @@
 //!
 //! `cargo test --release --test broad_attitude -- --nocapture`
 
-use hindsight::attitude::score::{reference_from_truth, rms, AttitudeRms};
 use hindsight::attitude::compare::{self, Method};
 use hindsight::attitude::config::AttitudeConfig;
+use hindsight::attitude::score::{reference_from_truth, rms, AttitudeRms};
 use hindsight::attitude::{mekf, raw, AhrsInputs};
 use hindsight::contract::{Imu, MagneticField, Truth};
 use hindsight::ingest::{read_log, IngestOptions};
@@ -83,7 +83,12 @@ fn score_trial(path: &Path) -> (AttitudeRms, AttitudeRms, AttitudeRms) {
         let run = compare::run_method(m, &inputs, &filters);
         assert_eq!(run.repairs, 0, "{} on {}", m.name(), path.display());
         let e = rms(&run.attitude, &reference, scored).unwrap();
-        println!("{:<14} {:<4} total {:7.2} deg", path.file_name().unwrap().to_string_lossy(), m.name(), e.total_deg);
+        println!(
+            "{:<14} {:<4} total {:7.2} deg",
+            path.file_name().unwrap().to_string_lossy(),
+            m.name(),
+            e.total_deg
+        );
     }
     let raw = rms(&raw::run(&inputs), &reference, scored).unwrap();
     let (m, _) = mekf::run(&inputs, &mekf::MekfSettings::default());

@@ -82,7 +82,12 @@ fn pool(name: &str) -> Pool {
 }
 
 fn end(scores: &[MethodScore], m: Method) -> f64 {
-    scores.iter().find(|s| s.method == m).unwrap().end_error_m.unwrap()
+    scores
+        .iter()
+        .find(|s| s.method == m)
+        .unwrap()
+        .end_error_m
+        .unwrap()
 }
 
 fn yaw(scores: &[MethodScore], m: Method) -> f64 {
@@ -113,7 +118,10 @@ fn every_method_through_the_same_dead_reckoning() {
     use Method::*;
     for scenario in ["pool-circle", "pool-rectangle"] {
         let p = pool(scenario);
-        println!("{scenario:<15} truth attitude: end-point error {:.3} m", p.truth_end_m);
+        println!(
+            "{scenario:<15} truth attitude: end-point error {:.3} m",
+            p.truth_end_m
+        );
         print(scenario, "recorded", &p.recorded);
         print(scenario, "calibrated", &p.calibrated);
         // With the true attitude only the DVL's own errors remain.
@@ -122,7 +130,12 @@ fn every_method_through_the_same_dead_reckoning() {
         // Magnetometer as recorded (seed 001's set-up): every filter beats raw.
         let r = &p.recorded;
         for m in [Ekf, Ukf, Cf, Mekf, MekfSmoothed] {
-            assert!(end(r, m) < end(r, Raw), "{scenario}: {m:?} {} vs raw {}", end(r, m), end(r, Raw));
+            assert!(
+                end(r, m) < end(r, Raw),
+                "{scenario}: {m:?} {} vs raw {}",
+                end(r, m),
+                end(r, Raw)
+            );
         }
         // As recorded, the smoothed attitude has the smallest yaw RMS and the best end point.
         for m in [Raw, Ekf, Ukf, Cf, Mekf] {

@@ -51,13 +51,12 @@ impl EulerFilter for CfSettings {
 
     fn step(&self, prior: &CfState, w_body: &Vector3<f64>, dt: f64, z: &Euler) -> CfState {
         // Lines 1-4: turned by the gyro, less the bias.
-        let attitude = euler::wrapped(
-            &(euler::propagate(&prior.attitude, w_body, dt) - prior.rate_bias * dt),
-        );
+        let attitude =
+            euler::wrapped(&(euler::propagate(&prior.attitude, w_body, dt) - prior.rate_bias * dt));
         // Lines 5-6.
         let difference = euler::difference(&attitude, z);
-        let rate_bias = prior.rate_bias - prior.difference * self.kp
-            + difference * (self.kp + self.ki * dt);
+        let rate_bias =
+            prior.rate_bias - prior.difference * self.kp + difference * (self.kp + self.ki * dt);
         CfState {
             attitude,
             rate_bias,

@@ -118,7 +118,11 @@ pub fn run_method(method: Method, inputs: &AhrsInputs<'_>, filters: &Filters) ->
 }
 
 /// Runs the methods in parallel, in the order given.
-pub fn run_methods(methods: &[Method], inputs: &AhrsInputs<'_>, filters: &Filters) -> Vec<MethodRun> {
+pub fn run_methods(
+    methods: &[Method],
+    inputs: &AhrsInputs<'_>,
+    filters: &Filters,
+) -> Vec<MethodRun> {
     methods
         .par_iter()
         .map(|&m| run_method(m, inputs, filters))

@@ -167,7 +167,10 @@ impl AttitudeConfig {
     pub fn filters(&self) -> Result<Filters, AttitudeConfigError> {
         let floor = self.checks.covariance_floor_rad2;
         if !(floor.is_finite() && floor > 0.0) {
-            return Err(bad("checks.covariance_floor_rad2", "must be a positive number"));
+            return Err(bad(
+                "checks.covariance_floor_rad2",
+                "must be a positive number",
+            ));
         }
         let mut adjustments = Vec::new();
         let mut checked = |key: &'static str, m: &[[f64; 3]; 3]| {
@@ -198,7 +201,10 @@ impl AttitudeConfig {
             measurement_noise: checked("ukf.measurement_noise", &self.ukf.measurement_noise)?,
         };
         if !(self.ukf.kappa.is_finite() && self.ukf.kappa > -3.0) {
-            return Err(bad("ukf.kappa", "must be a number above -3 (n + kappa > 0)"));
+            return Err(bad(
+                "ukf.kappa",
+                "must be a number above -3 (n + kappa > 0)",
+            ));
         }
         for (key, v) in [("cf.kp", self.cf.kp), ("cf.ki", self.cf.ki)] {
             if !(v.is_finite() && v >= 0.0) {
@@ -219,7 +225,10 @@ impl AttitudeConfig {
             }
         }
         if !(m.gate_probability > 0.0 && m.gate_probability < 1.0) {
-            return Err(bad("mekf.gate_probability", "must be a probability in (0, 1)"));
+            return Err(bad(
+                "mekf.gate_probability",
+                "must be a probability in (0, 1)",
+            ));
         }
         if self.magnetometer.saturation_repeats < 2 {
             return Err(bad("magnetometer.saturation_repeats", "must be 2 or more"));

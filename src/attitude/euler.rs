@@ -129,10 +129,7 @@ pub fn positive_definite(m: &Matrix3<f64>, floor: f64) -> (Matrix3<f64>, Option<
     }
     let raised = eig.eigenvalues.map(|e| e.max(floor));
     let fixed = eig.eigenvectors * Matrix3::from_diagonal(&raised) * eig.eigenvectors.transpose();
-    (
-        (fixed + fixed.transpose()) * 0.5,
-        Some(eig.eigenvalues),
-    )
+    ((fixed + fixed.transpose()) * 0.5, Some(eig.eigenvalues))
 }
 
 /// One of seed 001's filters: a pure step from the previous state, the gyro's rate over the
@@ -247,7 +244,11 @@ mod tests {
             assert!(d1 < 1e-4 && d2 < 4.5 * d1 + 1e-12, "{d1} {d2}");
         }
         // And at pitch 90 deg the quaternion step stays finite.
-        let x = propagate(&Euler::new(0.0, 1.5, 0.0), &Vector3::new(0.0, 0.2, 0.3), 0.5);
+        let x = propagate(
+            &Euler::new(0.0, 1.5, 0.0),
+            &Vector3::new(0.0, 0.2, 0.3),
+            0.5,
+        );
         assert!(x.iter().all(|v| v.is_finite()));
     }
 

@@ -85,7 +85,10 @@ pub fn fit(mag: &[MagneticField]) -> Result<MagCalibration, CalibrationError> {
     if mag.len() < 50 {
         return Err(CalibrationError::TooFew(mag.len()));
     }
-    let points: Vec<Vector3<f64>> = mag.iter().map(|m| Vector3::from(m.magnetic_field)).collect();
+    let points: Vec<Vector3<f64>> = mag
+        .iter()
+        .map(|m| Vector3::from(m.magnetic_field))
+        .collect();
     let n = points.len() as f64;
     let mean = points.iter().sum::<Vector3<f64>>() / n;
     let scatter: Matrix3<f64> = points
@@ -100,7 +103,10 @@ pub fn fit(mag: &[MagneticField]) -> Result<MagCalibration, CalibrationError> {
     let spreads = order.map(|i| eig.eigenvalues[i].max(0.0).sqrt());
     // Express the readings in the spread axes (largest first), scaled to order one.
     let scale = points.iter().map(|p| p.norm()).sum::<f64>() / n;
-    let local: Vec<Vector3<f64>> = points.iter().map(|p| axes.transpose() * p / scale).collect();
+    let local: Vec<Vector3<f64>> = points
+        .iter()
+        .map(|p| axes.transpose() * p / scale)
+        .collect();
     let sectors = sectors_covered(&local, &(axes.transpose() * mean / scale));
     if sectors < MIN_SECTORS {
         return Err(CalibrationError::NotEnoughTurning(sectors));
@@ -120,7 +126,7 @@ pub fn fit(mag: &[MagneticField]) -> Result<MagCalibration, CalibrationError> {
         FitKind::Ellipsoid => v.norm(),
         FitKind::Ellipse => (axes.transpose() * v).xy().norm(),
     };
-    let before: Vec<f64> = points.iter().map(|p| magnitude(p)).collect();
+    let before: Vec<f64> = points.iter().map(&magnitude).collect();
     let after: Vec<f64> = points
         .iter()
         .map(|p| magnitude(&(correction * (p - hard_iron))))
@@ -241,7 +247,10 @@ mod tests {
 
     fn distortion() -> (Matrix3<f64>, Vector3<f64>) {
         let soft = Matrix3::new(0.02, 0.005, 0.0, 0.005, -0.01, 0.0, 0.0, 0.0, 0.01);
-        (Matrix3::identity() + soft, Vector3::new(600e-9, -300e-9, 200e-9))
+        (
+            Matrix3::identity() + soft,
+            Vector3::new(600e-9, -300e-9, 200e-9),
+        )
     }
 
     /// Readings at attitudes from all over the sphere: the ellipsoid fit recovers the hard
@@ -253,9 +262,10 @@ mod tests {
         let field = Vector3::from(FIELD_NED);
         let mag: Vec<MagneticField> = (0..2000)
             .map(|k| {
-                let q: UnitQuaternion<f64> = UnitQuaternion::from_scaled_axis(Vector3::from_fn(
-                    |_, _| rng.random_range(-3.0..3.0),
-                ));
+                let q: UnitQuaternion<f64> =
+                    UnitQuaternion::from_scaled_axis(Vector3::from_fn(|_, _| {
+                        rng.random_range(-3.0..3.0)
+                    }));
                 let noise = Vector3::from_fn(|_, _| {
                     let n: f64 = StandardNormal.sample(&mut rng);
                     n * 50e-9
@@ -268,8 +278,14 @@ mod tests {
         assert!((cal.hard_iron - h).norm() < 10e-9, "{:?}", cal.hard_iron);
         // W D is a multiple of the identity (W undoes the symmetric distortion).
         let wd = cal.correction * d;
-        assert!((wd / wd[(0, 0)] - Matrix3::identity()).abs().max() < 2e-3, "{wd}");
-        assert!(cal.scatter_before > 0.01 && cal.scatter_after < 0.003, "{cal:?}");
+        assert!(
+            (wd / wd[(0, 0)] - Matrix3::identity()).abs().max() < 2e-3,
+            "{wd}"
+        );
+        assert!(
+            cal.scatter_before > 0.01 && cal.scatter_after < 0.003,
+            "{cal:?}"
+        );
     }
 
     /// A level vehicle turning about the vertical: an ellipse, the horizontal hard iron
@@ -298,11 +314,14 @@ mod tests {
             .collect();
         let cal = fit(&mag).unwrap();
         assert_eq!(cal.kind, FitKind::Ellipse);
-        assert!((cal.hard_iron.xy() - h.xy()).norm() < 30e-9, "{:?}", cal.hard_iron);
+        assert!(
+            (cal.hard_iron.xy() - h.xy()).norm() < 30e-9,
+            "{:?}",
+            cal.hard_iron
+        );
         let heading_error = |m: &Vector3<f64>, r: &Rotation3<f64>| {
             let (roll, pitch, _) = r.euler_angles();
-            let got =
-                crate::filters::ins::alignment::magnetic_heading(m, roll, pitch, 0.0);
+            let got = crate::filters::ins::alignment::magnetic_heading(m, roll, pitch, 0.0);
             let true_heading = crate::filters::ins::alignment::magnetic_heading(
                 &(r.inverse() * field),
                 roll,
@@ -321,7 +340,10 @@ mod tests {
         };
         // The noise alone: 100 nT on a 30 uT horizontal field, about 0.19 deg.
         let (before, after) = (rms(&|m| *m), rms(&|m| cal.apply(m)));
-        assert!(before > 1.0 && after < 0.25, "heading RMS {before} -> {after} deg");
+        assert!(
+            before > 1.0 && after < 0.25,
+            "heading RMS {before} -> {after} deg"
+        );
     }
 
     #[test]
@@ -333,6 +355,9 @@ mod tests {
                 reading(k, r.inverse() * field)
             })
             .collect();
-        assert!(matches!(fit(&mag), Err(CalibrationError::NotEnoughTurning(_))));
+        assert!(matches!(
+            fit(&mag),
+            Err(CalibrationError::NotEnoughTurning(_))
+        ));
     }
 }

@@ -23,7 +23,10 @@ pub fn without_saturation(
     for axis in 0..3 {
         let value = |k: usize| mag[k].magnetic_field[axis];
         let (lo, hi) = mag.iter().fold((f64::MAX, f64::MIN), |(lo, hi), m| {
-            (lo.min(m.magnetic_field[axis]), hi.max(m.magnetic_field[axis]))
+            (
+                lo.min(m.magnetic_field[axis]),
+                hi.max(m.magnetic_field[axis]),
+            )
         });
         let mut k = 0;
         while k < mag.len() {
@@ -86,7 +89,10 @@ mod tests {
         let (kept, spans) = without_saturation(&mag, 3);
         assert_eq!(spans.len(), 1);
         assert_eq!(spans[0].readings, 250);
-        assert_eq!((spans[0].from_ns, spans[0].to_ns), (300 * 20_000_000, 549 * 20_000_000));
+        assert_eq!(
+            (spans[0].from_ns, spans[0].to_ns),
+            (300 * 20_000_000, 549 * 20_000_000)
+        );
         // y and z are constant over the whole log: not flagged.
         assert_eq!(kept.len(), 750);
         // Without the clipping nothing is flagged.

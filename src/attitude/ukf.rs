@@ -77,7 +77,9 @@ impl Ukf {
         }
         *repairs += 1;
         let (fixed, _) = euler::positive_definite(m, REPAIR_FLOOR);
-        fixed.cholesky().map_or(Matrix3::identity() * REPAIR_FLOOR.sqrt(), |c| c.l())
+        fixed
+            .cholesky()
+            .map_or(Matrix3::identity() * REPAIR_FLOOR.sqrt(), |c| c.l())
     }
 }
 

@@ -120,7 +120,8 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         .with_context(|| format!("reading {}", log_path.display()))?;
     let imu: &[Imu] = log.messages("/imu").unwrap_or_default();
     if imu.len() < 2 {
-        return Err(compare::InputError::NoImu).with_context(|| format!("attitude from {}", log_path.display()));
+        return Err(compare::InputError::NoImu)
+            .with_context(|| format!("attitude from {}", log_path.display()));
     }
     let raw_mag: &[MagneticField] = log.messages("/mag").unwrap_or_default();
     let dvl: &[Dvl] = log.messages("/dvl").unwrap_or_default();
@@ -233,7 +234,8 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         .and_then(|b| b.get("movement_intervals_ns"))
         .and_then(|text| serde_json::from_str(text).ok())
         .unwrap_or_default();
-    let scored = move |t: i64| intervals.is_empty() || intervals.iter().any(|[a, b]| (*a..=*b).contains(&t));
+    let scored =
+        move |t: i64| intervals.is_empty() || intervals.iter().any(|[a, b]| (*a..=*b).contains(&t));
     let mounting = config.dvl.mounting();
     let reference = Reference {
         dvl,
@@ -243,7 +245,10 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         truth: &reference_attitude,
         scored: &scored,
     };
-    let scores: Vec<MethodScore> = runs.par_iter().map(|r| compare::score(r, &reference)).collect();
+    let scores: Vec<MethodScore> = runs
+        .par_iter()
+        .map(|r| compare::score(r, &reference))
+        .collect();
 
     write_outputs(&out, &runs, &scores, start, end)?;
     print_table(&runs, &scores, filters_s);
@@ -344,9 +349,8 @@ fn write_outputs(
 
 /// The console table (seed 001's Tables 9-10, with the truth errors when there are some).
 fn print_table(runs: &[MethodRun], scores: &[MethodScore], filters_s: f64) {
-    let na = |v: Option<f64>, digits: usize| {
-        v.map_or("N/A".to_string(), |v| format!("{v:.digits$}"))
-    };
+    let na =
+        |v: Option<f64>, digits: usize| v.map_or("N/A".to_string(), |v| format!("{v:.digits$}"));
     println!(
         "\n{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   notes",
         "method", "end err m", "path m", "% path", "roll rms", "pitch rms", "yaw rms", "total rms"

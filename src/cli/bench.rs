@@ -21,6 +21,9 @@ use std::time::{Duration, Instant};
 /// With --reconstruct: the scenario (default long-dive, 5.5 h; seed 0) is simulated, then
 /// ingest, forward filter and smoother are timed (medians, and their ratio to ingest), and
 /// the peak memory of one whole reconstruction is printed.
+///
+/// With --attitude: every attitude method on a 1-hour 100 Hz AHRS log (pool-circle flown
+/// for an hour), each on one thread and all in parallel (medians).
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct BenchArgs {
@@ -44,6 +47,10 @@ pub struct BenchArgs {
     #[arg(long)]
     pub reconstruct: bool,
 
+    /// Benchmark every attitude method on a 1-hour 100 Hz AHRS log (simulated) instead.
+    #[arg(long, conflicts_with = "reconstruct")]
+    pub attitude: bool,
+
     /// Built-in scenario of --reconstruct.
     #[arg(long, default_value = "long-dive", requires = "reconstruct")]
     pub scenario: String,
@@ -55,6 +62,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         "--minutes must be in (0, 1440]"
     );
     anyhow::ensure!(args.repeat >= 1, "--repeat must be at least 1");
+    if args.attitude {
+        return super::bench_attitude::run(args.repeat, args.keep.as_deref());
+    }
     if args.reconstruct {
         return super::bench_reconstruct::run(&args.scenario, args.repeat, args.keep.as_deref());
     }

@@ -5,6 +5,7 @@
 
 mod attitude;
 mod bench;
+mod bench_attitude;
 mod bench_reconstruct;
 mod export;
 mod info;

@@ -19,9 +19,14 @@ pub fn attitude_batch(
     rows: &[AttitudeSample],
     track: &[TrackPoint],
 ) -> Result<RecordBatch, ArrowError> {
-    let euler: Vec<_> = rows.iter().map(|s| from_quaternion(&s.ned_from_body)).collect();
-    let position: Vec<Option<Vector3<f64>>> =
-        rows.iter().map(|s| position_at(track, s.stamp_ns)).collect();
+    let euler: Vec<_> = rows
+        .iter()
+        .map(|s| from_quaternion(&s.ned_from_body))
+        .collect();
+    let position: Vec<Option<Vector3<f64>>> = rows
+        .iter()
+        .map(|s| position_at(track, s.stamp_ns))
+        .collect();
     let mut c = Columns::default();
     c.stamps(rows.iter().map(|s| s.stamp_ns).collect());
     c.text("method", vec![method; rows.len()]);
@@ -29,7 +34,11 @@ pub fn attitude_batch(
         c.number(name, "rad", euler.iter().map(|e| e[i]).collect());
     }
     for (i, name) in ["north_m", "east_m", "down_m"].iter().enumerate() {
-        c.optional(name, "m", position.iter().map(|p| p.map(|p| p[i])).collect());
+        c.optional(
+            name,
+            "m",
+            position.iter().map(|p| p.map(|p| p[i])).collect(),
+        );
     }
     c.finish()
 }
@@ -47,10 +56,17 @@ fn position_at(track: &[TrackPoint], stamp_ns: i64) -> Option<Vector3<f64>> {
 }
 
 /// `attitude_summary.parquet`: one row per method.
-pub fn summary_batch(runs: &[MethodRun], scores: &[MethodScore]) -> Result<RecordBatch, ArrowError> {
+pub fn summary_batch(
+    runs: &[MethodRun],
+    scores: &[MethodScore],
+) -> Result<RecordBatch, ArrowError> {
     let mut c = Columns::default();
     c.text("method", scores.iter().map(|s| s.method.name()).collect());
-    c.optional("end_error_m", "m", scores.iter().map(|s| s.end_error_m).collect());
+    c.optional(
+        "end_error_m",
+        "m",
+        scores.iter().map(|s| s.end_error_m).collect(),
+    );
     c.optional("path_m", "m", scores.iter().map(|s| s.path_m).collect());
     c.optional(
         "end_error_percent_of_path",
@@ -58,7 +74,10 @@ pub fn summary_batch(runs: &[MethodRun], scores: &[MethodScore]) -> Result<Recor
         scores.iter().map(|s| s.end_error_percent()).collect(),
     );
     let euler = |f: fn(&crate::attitude::compare::EulerErrors) -> f64| {
-        scores.iter().map(|s| s.euler.as_ref().map(f)).collect::<Vec<_>>()
+        scores
+            .iter()
+            .map(|s| s.euler.as_ref().map(f))
+            .collect::<Vec<_>>()
     };
     c.optional("roll_rms_deg", "deg", euler(|e| e.roll_rms_deg));
     c.optional("roll_max_deg", "deg", euler(|e| e.roll_max_deg));
@@ -67,7 +86,10 @@ pub fn summary_batch(runs: &[MethodRun], scores: &[MethodScore]) -> Result<Recor
     c.optional("yaw_rms_deg", "deg", euler(|e| e.yaw_rms_deg));
     c.optional("yaw_max_deg", "deg", euler(|e| e.yaw_max_deg));
     let broad = |f: fn(&crate::attitude::score::AttitudeRms) -> f64| {
-        scores.iter().map(|s| s.broad.as_ref().map(f)).collect::<Vec<_>>()
+        scores
+            .iter()
+            .map(|s| s.broad.as_ref().map(f))
+            .collect::<Vec<_>>()
     };
     c.optional("total_rms_deg", "deg", broad(|b| b.total_deg));
     c.optional("heading_rms_deg", "deg", broad(|b| b.heading_deg));

@@ -93,7 +93,10 @@ pub fn write_png(plot: &TrackPlot<'_>, out: impl Write) -> Result<(), PlotError>
         for (i, s) in plot.series.iter().enumerate() {
             let colour = Palette99::pick(i).to_rgba();
             chart
-                .draw_series(LineSeries::new(s.points.iter().copied(), colour.stroke_width(2)))
+                .draw_series(LineSeries::new(
+                    s.points.iter().copied(),
+                    colour.stroke_width(2),
+                ))
                 .map_err(draw_error)?
                 .label(s.name)
                 .legend(move |(x, y)| {
@@ -104,7 +107,11 @@ pub fn write_png(plot: &TrackPlot<'_>, out: impl Write) -> Result<(), PlotError>
             // Labels stacked so that marks at the same place stay readable.
             let mark = EmptyElement::at((*x, *y))
                 + Circle::new((0, 0), 6, BLACK.stroke_width(2))
-                + Text::new(name.to_string(), (10, 4 + 18 * i as i32), (FAMILY, 16).into_font());
+                + Text::new(
+                    name.to_string(),
+                    (10, 4 + 18 * i as i32),
+                    (FAMILY, 16).into_font(),
+                );
             chart
                 .draw_series(std::iter::once(mark))
                 .map_err(draw_error)?;
