@@ -18,3 +18,4 @@ pub mod recon;
 pub mod sim;
 pub mod smooth;
 pub mod time;
+pub mod vehicle;

@@ -4,6 +4,7 @@ use super::OutputFailed;
 use anyhow::{bail, Context, Result};
 use hindsight::output::atomic::Staging;
 use hindsight::sim::scenario::{Scenario, BUILT_IN};
+use hindsight::sim::zigzag;
 use hindsight::sim::{run, writer};
 use std::path::PathBuf;
 
@@ -43,15 +44,26 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             let s = Scenario::built_in(name)?;
             println!("{name:<16} {}", s.description);
         }
+        for name in zigzag::BUILT_IN {
+            if let Some(s) = zigzag::ZigzagSpec::built_in(name) {
+                println!("{name:<16} {}", s.description());
+            }
+        }
         return Ok(());
     }
+    // Seed 004's zig-zags are flown by the heave-pitch model, not the kinematic simulator.
+    let zigzag = args
+        .scenario
+        .as_deref()
+        .and_then(zigzag::ZigzagSpec::built_in);
     let scenario = match (&args.scenario, &args.scenario_file) {
+        _ if zigzag.is_some() => None,
         (_, Some(path)) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("reading {}", path.display()))?;
-            Scenario::from_toml(&text).with_context(|| format!("in {}", path.display()))?
+            Some(Scenario::from_toml(&text).with_context(|| format!("in {}", path.display()))?)
         }
-        (Some(name), None) => Scenario::built_in(name)?,
+        (Some(name), None) => Some(Scenario::built_in(name)?),
         (None, None) => bail!("give --scenario NAME or --scenario-file FILE"),
     };
     let Some(out) = args.out else {
@@ -66,6 +78,34 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         std::io::BufWriter::new(file),
         writer::WriterOptions::default(),
     )?;
+    if let Some(spec) = zigzag {
+        eprintln!("simulating `{}` (seed {}) ...", spec.name, args.seed);
+        let r = zigzag::run(&spec, args.seed, &mut w)?;
+        w.finish()?
+            .into_inner()
+            .map_err(|e| e.into_error())
+            .with_context(|| OutputFailed { path: out.clone() })?
+            .sync_all()
+            .with_context(|| OutputFailed { path: out.clone() })?;
+        staging
+            .commit()
+            .with_context(|| OutputFailed { path: out.clone() })?;
+        println!(
+            "{}: {} messages, {:.0} s, plane reversals at {} s",
+            out.display(),
+            r.messages,
+            spec.duration_s,
+            r.reversals_s
+                .iter()
+                .map(|t| format!("{t:.1}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        return Ok(());
+    }
+    let Some(scenario) = scenario else {
+        bail!("give --scenario NAME or --scenario-file FILE")
+    };
     eprintln!("simulating `{}` (seed {}) ...", scenario.name, args.seed);
     let interactive = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let summary = run::run_with_progress(&scenario, args.seed, &mut w, |done| {

@@ -11,3 +11,4 @@ pub mod sensors;
 pub mod synthetic;
 pub mod trajectory;
 pub mod writer;
+pub mod zigzag;

@@ -1,0 +1,7 @@
+//! Vehicle models: equations of motion and their Jacobians, as pure functions of state,
+//! input and coefficients.
+//!
+//! - [`heave_pitch`]: seed 004's vertical-plane model, exactly as
+//!   `shared/spec/heave-pitch-model.md` pins it down.
+
+pub mod heave_pitch;
