@@ -215,6 +215,16 @@ impl HeavePitch {
         j
     }
 
+    /// One RK4 step of `dt` with the plane moving linearly from `plane0` to `plane1`.
+    pub fn rk4_varying(&self, x: &State, plane0: f64, plane1: f64, c: &Coefficients, dt: f64) -> State {
+        let mid = 0.5 * (plane0 + plane1);
+        let k1 = self.derivative(x, plane0, c);
+        let k2 = self.derivative(&(x + k1 * (dt / 2.0)), mid, c);
+        let k3 = self.derivative(&(x + k2 * (dt / 2.0)), mid, c);
+        let k4 = self.derivative(&(x + k3 * dt), plane1, c);
+        x + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (dt / 6.0)
+    }
+
     /// One RK4 step of `dt` with the plane held at `delta_s`.
     pub fn rk4(&self, x: &State, delta_s: f64, c: &Coefficients, dt: f64) -> State {
         let f = |x: &State| self.derivative(x, delta_s, c);

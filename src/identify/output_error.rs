@@ -1,0 +1,227 @@
+//! The second stage: output-error maximum likelihood over the whole record of every log
+//! (Levenberg-Marquardt), started from the EKF's answer.
+//!
+//! Parameters: the ten coefficients, and each log's initial state `[w, theta, q, z]`. The
+//! model is simulated over each log (RK4 on the IMU's clock, plane linear over a step) with
+//! its sensitivities to every parameter (the variational equations `S' = F_x S + F_p`,
+//! integrated with the state), and compared with q, theta, w and depth, each weighted by its
+//! noise. The normal matrix `J^T W J` at the optimum is the Fisher information: its inverse
+//! gives the estimates' covariance (the Cramer-Rao bound when the model is right), their
+//! standard deviations and correlations.
+
+use super::ekf::{first_state, model_for};
+use super::record::Record;
+use super::settings::Settings;
+use crate::vehicle::heave_pitch::{Coefficients, HeavePitch, State};
+use nalgebra::{DMatrix, DVector, SMatrix};
+
+/// The refined estimate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Refined {
+    pub coefficients: Coefficients,
+    /// Covariance of the coefficients (from the Fisher information, scaled by the
+    /// normalised residual variance when that exceeds one).
+    pub covariance: SMatrix<f64, 10, 10>,
+    /// Each log's fitted initial state.
+    pub initial_states: Vec<State>,
+    /// Normalised residual RMS per channel (q, theta, w, depth) over all logs: about 1 when
+    /// the model fits to the sensor noise.
+    pub normalised_rms: [f64; 4],
+    pub iterations: usize,
+    pub converged: bool,
+}
+
+/// A log simulated with given parameters: the state at every sample.
+pub fn simulate(model: &HeavePitch, record: &Record, x0: &State, c: &Coefficients) -> Vec<State> {
+    let mut x = *x0;
+    let mut out = Vec::with_capacity(record.t_s.len());
+    out.push(x);
+    for k in 1..record.t_s.len() {
+        let dt = record.t_s[k] - record.t_s[k - 1];
+        x = model.rk4_varying(&x, record.plane_rad[k - 1], record.plane_rad[k], c, dt);
+        out.push(x);
+    }
+    out
+}
+
+type Sens = SMatrix<f64, 4, 14>;
+
+/// State and sensitivity derivative: `x' = f`, `S' = F_x S + [F_c, 0]`.
+fn augmented(model: &HeavePitch, x: &State, s: &Sens, plane: f64, c: &Coefficients) -> (State, Sens) {
+    let fx = model.state_jacobian(x, c);
+    let mut ds = fx * s;
+    let fc = model.coefficient_jacobian(x, plane, c);
+    let mut head = ds.fixed_view_mut::<4, 10>(0, 0);
+    head += fc;
+    (model.derivative(x, plane, c), ds)
+}
+
+/// Accumulates one log's normal equations: `(J^T W J, J^T W r, r^T W r)` over the
+/// parameters `[c (10), x0 (4)]`, and the per-channel sums of squared normalised residuals.
+fn accumulate(
+    model: &HeavePitch,
+    record: &Record,
+    x0: &State,
+    c: &Coefficients,
+    settings: &Settings,
+) -> (SMatrix<f64, 14, 14>, SMatrix<f64, 14, 1>, f64, [f64; 4], [usize; 4]) {
+    let sigma = [
+        settings.sigma.q_rad_s,
+        settings.sigma.theta_rad,
+        settings.sigma.w_m_s,
+        settings.sigma.depth_m,
+    ];
+    let mut jtj = SMatrix::<f64, 14, 14>::zeros();
+    let mut jtr = SMatrix::<f64, 14, 1>::zeros();
+    let mut cost = 0.0;
+    let mut sums = [0.0; 4];
+    let mut counts = [0usize; 4];
+    let mut x = *x0;
+    let mut s = Sens::zeros();
+    s.fixed_view_mut::<4, 4>(0, 10)
+        .copy_from(&SMatrix::<f64, 4, 4>::identity());
+    let (mut wi, mut di) = (0usize, 0usize);
+    let mut add = |x: &State, s: &Sens, state_index: usize, channel: usize, measured: f64| {
+        let r = (measured - x[state_index]) / sigma[channel];
+        let row = s.row(state_index) / sigma[channel];
+        jtj += row.transpose() * row;
+        jtr += row.transpose() * r;
+        cost += r * r;
+        sums[channel] += r * r;
+        counts[channel] += 1;
+    };
+    for k in 0..record.t_s.len() {
+        if k > 0 {
+            let dt = record.t_s[k] - record.t_s[k - 1];
+            let (p0, p1) = (record.plane_rad[k - 1], record.plane_rad[k]);
+            let pm = 0.5 * (p0 + p1);
+            let (k1x, k1s) = augmented(model, &x, &s, p0, c);
+            let (k2x, k2s) = augmented(model, &(x + k1x * (dt / 2.0)), &(s + k1s * (dt / 2.0)), pm, c);
+            let (k3x, k3s) = augmented(model, &(x + k2x * (dt / 2.0)), &(s + k2s * (dt / 2.0)), pm, c);
+            let (k4x, k4s) = augmented(model, &(x + k3x * dt), &(s + k3s * dt), p1, c);
+            x += (k1x + k2x * 2.0 + k3x * 2.0 + k4x) * (dt / 6.0);
+            s += (k1s + k2s * 2.0 + k3s * 2.0 + k4s) * (dt / 6.0);
+        }
+        add(&x, &s, 2, 0, record.q_rad_s[k]);
+        add(&x, &s, 1, 1, record.theta_rad[k]);
+        while wi < record.w_m_s.len() && record.w_m_s[wi].0 <= k {
+            if record.w_m_s[wi].0 == k {
+                add(&x, &s, 0, 2, record.w_m_s[wi].1);
+            }
+            wi += 1;
+        }
+        while di < record.depth_m.len() && record.depth_m[di].0 <= k {
+            if record.depth_m[di].0 == k {
+                add(&x, &s, 3, 3, record.depth_m[di].1);
+            }
+            di += 1;
+        }
+    }
+    (jtj, jtr, cost, sums, counts)
+}
+
+/// The normal equations of all logs over `[c (10), x0 of log 0 (4), x0 of log 1 (4), ...]`.
+fn normal_equations(
+    records: &[Record],
+    models: &[HeavePitch],
+    c: &Coefficients,
+    x0: &[State],
+    settings: &Settings,
+) -> (DMatrix<f64>, DVector<f64>, f64, [f64; 4]) {
+    let n = 10 + 4 * records.len();
+    let mut a = DMatrix::zeros(n, n);
+    let mut b = DVector::zeros(n);
+    let mut cost = 0.0;
+    let (mut sums, mut counts) = ([0.0; 4], [0usize; 4]);
+    for (l, record) in records.iter().enumerate() {
+        let (jtj, jtr, cst, s, cnt) = accumulate(&models[l], record, &x0[l], c, settings);
+        let index = |i: usize| if i < 10 { i } else { 10 + 4 * l + (i - 10) };
+        for i in 0..14 {
+            b[index(i)] += jtr[i];
+            for j in 0..14 {
+                a[(index(i), index(j))] += jtj[(i, j)];
+            }
+        }
+        cost += cst;
+        for ch in 0..4 {
+            sums[ch] += s[ch];
+            counts[ch] += cnt[ch];
+        }
+    }
+    let rms = std::array::from_fn(|ch| (sums[ch] / counts[ch].max(1) as f64).sqrt());
+    (a, b, cost, rms)
+}
+
+/// Refines `start` (with each log's first readings as its initial state) by
+/// Levenberg-Marquardt on the whole record of every log.
+pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> Refined {
+    let models: Vec<HeavePitch> = records
+        .iter()
+        .map(|r| model_for(r, &settings.constants))
+        .collect();
+    let mut c = *start;
+    let mut x0: Vec<State> = records.iter().map(first_state).collect();
+    let (mut a, mut b, mut cost, mut rms) = normal_equations(records, &models, &c, &x0, settings);
+    let mut lambda = 1e-3;
+    let mut converged = false;
+    let mut iterations = 0;
+    while iterations < 50 {
+        iterations += 1;
+        // Scale-free damping: lambda times the diagonal.
+        let mut damped = a.clone();
+        for i in 0..damped.nrows() {
+            damped[(i, i)] *= 1.0 + lambda;
+        }
+        let Some(step) = damped.cholesky().map(|ch| ch.solve(&b)) else {
+            lambda *= 10.0;
+            continue;
+        };
+        let trial_c = c + step.rows(0, 10).into_owned();
+        let trial_x0: Vec<State> = x0
+            .iter()
+            .enumerate()
+            .map(|(l, x)| x + step.rows(10 + 4 * l, 4).into_owned())
+            .collect();
+        let (ta, tb, tcost, trms) = normal_equations(records, &models, &trial_c, &trial_x0, settings);
+        if tcost.is_finite() && tcost < cost {
+            let relative_drop = (cost - tcost) / cost;
+            (c, x0, a, b, cost, rms) = (trial_c, trial_x0, ta, tb, tcost, trms);
+            lambda = (lambda / 10.0).max(1e-12);
+            if relative_drop < 1e-10 {
+                converged = true;
+                break;
+            }
+        } else {
+            lambda *= 10.0;
+            if lambda > 1e12 {
+                // No step lowers the cost: at the minimum to rounding.
+                converged = true;
+                break;
+            }
+        }
+    }
+    // Covariance of all parameters, then the coefficients' block; inflated by the residual
+    // variance when the fit is worse than the noise (a model error or underestimated noise).
+    let n = a.nrows();
+    let inverse = a
+        .clone()
+        .cholesky()
+        .map(|ch| ch.inverse())
+        .unwrap_or_else(|| DMatrix::from_element(n, n, f64::NAN));
+    let dof = records
+        .iter()
+        .map(|r| 2 * r.t_s.len() + r.w_m_s.len() + r.depth_m.len())
+        .sum::<usize>()
+        .saturating_sub(n)
+        .max(1);
+    let variance_factor = (cost / dof as f64).max(1.0);
+    let covariance = SMatrix::<f64, 10, 10>::from_fn(|i, j| inverse[(i, j)] * variance_factor);
+    Refined {
+        coefficients: c,
+        covariance,
+        initial_states: x0,
+        normalised_rms: rms,
+        iterations,
+        converged,
+    }
+}

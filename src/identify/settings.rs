@@ -1,0 +1,59 @@
+//! Settings of `hindsight identify`: the model's constants, the sensors' noise, and the
+//! filters' tuning.
+
+use crate::vehicle::heave_pitch::Constants;
+
+/// Measurement noise, 1 sigma, white.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sigmas {
+    pub q_rad_s: f64,
+    pub theta_rad: f64,
+    pub w_m_s: f64,
+    pub depth_m: f64,
+}
+
+impl Default for Sigmas {
+    /// The realistic sensors: gyro 0.01 deg/s and pitch 0.02 deg at 100 Hz, DVL
+    /// 0.003 m/s; depth 0.01 m.
+    fn default() -> Self {
+        Sigmas {
+            q_rad_s: 0.01f64.to_radians(),
+            theta_rad: 0.02f64.to_radians(),
+            w_m_s: 0.003,
+            depth_m: 0.01,
+        }
+    }
+}
+
+/// Process noise of the EKF's dynamic states (the model is taken as exact otherwise).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProcessNoise {
+    pub w_accel_m_s2_rt_s: f64,
+    pub q_accel_rad_s2_rt_s: f64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    pub constants: Constants,
+    pub sigma: Sigmas,
+    pub process_noise: ProcessNoise,
+    /// Initial 1-sigma of each coefficient, as a fraction of its starting value.
+    pub initial_coefficient_sigma: f64,
+    /// Interval of the EKF's coefficient history, s.
+    pub history_interval_s: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            constants: Constants::default(),
+            sigma: Sigmas::default(),
+            process_noise: ProcessNoise {
+                w_accel_m_s2_rt_s: 1e-5,
+                q_accel_rad_s2_rt_s: 1e-6,
+            },
+            initial_coefficient_sigma: 0.5,
+            history_interval_s: 0.1,
+        }
+    }
+}
