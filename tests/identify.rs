@@ -1,19 +1,26 @@
-//! Coefficient identification on seed 004's zig-zags (simulated, seeded sensor noise),
-//! started 20 % off on every coefficient.
+//! Coefficient identification on seed 004's zig-zags (simulated, seeded sensor noise at the
+//! issue's levels), started 20 % off on every coefficient; scored against the true
+//! coefficients the simulator used.
 //!
 //! `cargo test --release --test identify -- --nocapture`
+//! Monte Carlo (20 seeds): `cargo test --release --test identify -- --ignored --nocapture`
 
 mod common;
 
+use hindsight::identify::identifiability::assess;
+use hindsight::identify::output_error::{refine, Refined};
 use hindsight::identify::record::Record;
 use hindsight::identify::settings::Settings;
 use hindsight::identify::{ekf, perturbed};
 use hindsight::sim::writer::{to_bytes, WriterOptions};
-use hindsight::sim::zigzag::{self, ZigzagSpec};
+use hindsight::sim::zigzag::{self, ZigzagNoise, ZigzagSpec};
 use hindsight::vehicle::heave_pitch::{Coefficients, NAMES, TRUE_COEFFICIENTS};
 
-fn record(name: &str, seed: u64) -> Record {
-    let spec = ZigzagSpec::built_in(name).unwrap();
+fn record(name: &str, seed: u64, noise: ZigzagNoise) -> Record {
+    let spec = ZigzagSpec {
+        noise,
+        ..ZigzagSpec::built_in(name).unwrap()
+    };
     let bytes = to_bytes(WriterOptions::default(), |w| {
         zigzag::run(&spec, seed, w)?;
         Ok(())
@@ -22,87 +29,167 @@ fn record(name: &str, seed: u64) -> Record {
     Record::from_log(name, &common::read(&bytes), None).unwrap()
 }
 
-fn relative_errors(c: &Coefficients) -> Vec<f64> {
-    (0..10)
-        .map(|i| (c[i] - TRUE_COEFFICIENTS[i]) / TRUE_COEFFICIENTS[i])
+fn both(seed: u64, noise: ZigzagNoise) -> Vec<Record> {
+    ["zigzag-5-5", "zigzag-10-5"]
+        .iter()
+        .map(|n| record(n, seed, noise))
         .collect()
 }
 
-#[test]
-fn ekf_stage_matches_seed_004() {
-    let settings = Settings::default();
-    let start = perturbed(&Coefficients::from(TRUE_COEFFICIENTS), 0.2);
-    for logs in [vec!["zigzag-5-5"], vec!["zigzag-10-5"], vec!["zigzag-5-5", "zigzag-10-5"]] {
-        let records: Vec<Record> = logs.iter().map(|n| record(n, 1)).collect();
-        let r = ekf::run(&records, &start, &settings);
-        let errors = relative_errors(&r.coefficients);
-        println!("EKF on {logs:?}:");
-        for i in 0..10 {
-            println!(
-                "  {:<8} {:>12.6e}  error {:>7.3} %  sigma {:>7.3} %",
-                NAMES[i],
-                r.coefficients[i],
-                errors[i] * 100.0,
-                r.covariance[(i, i)].sqrt() / TRUE_COEFFICIENTS[i].abs() * 100.0
-            );
-        }
-        assert_eq!(r.failed_updates, 0);
+fn truth() -> Coefficients {
+    Coefficients::from(TRUE_COEFFICIENTS)
+}
+
+fn relative_error(c: &Coefficients, i: usize) -> f64 {
+    (c[i] - TRUE_COEFFICIENTS[i]) / TRUE_COEFFICIENTS[i]
+}
+
+fn sigma(cov: &nalgebra::SMatrix<f64, 10, 10>, i: usize) -> f64 {
+    cov[(i, i)].sqrt()
+}
+
+fn print(label: &str, c: &Coefficients, cov: &nalgebra::SMatrix<f64, 10, 10>) {
+    println!("{label}");
+    for i in 0..10 {
+        println!(
+            "  {:<8} true {:>11.6}  estimate {:>11.6}  error {:>8.3} %  1-sigma {:>8.3} %  error/sigma {:>5.2}",
+            NAMES[i],
+            TRUE_COEFFICIENTS[i],
+            c[i],
+            relative_error(c, i) * 100.0,
+            sigma(cov, i) / TRUE_COEFFICIENTS[i].abs() * 100.0,
+            (c[i] - TRUE_COEFFICIENTS[i]).abs() / sigma(cov, i)
+        );
     }
 }
 
+/// Seed 1, both runs, the sensor noise: what the data determine and how well.
 #[test]
-fn probe_noise_free() {
+fn identification_on_seeded_zigzags() {
     let settings = Settings::default();
-    let start = perturbed(&Coefficients::from(TRUE_COEFFICIENTS), 0.2);
-    let records: Vec<Record> = ["zigzag-5-5", "zigzag-10-5"]
-        .iter()
-        .map(|n| {
-            let spec = ZigzagSpec {
-                noise: zigzag::ZigzagNoise::none(),
-                ..ZigzagSpec::built_in(n).unwrap()
-            };
-            let bytes = to_bytes(WriterOptions::default(), |w| {
-                zigzag::run(&spec, 1, w)?;
-                Ok(())
-            })
-            .unwrap();
-            Record::from_log(n, &common::read(&bytes), None).unwrap()
+    let records = both(1, ZigzagNoise::realistic());
+    let start = perturbed(&truth(), 0.2);
+    let e = ekf::run(&records, &start, &settings);
+    print("EKF stage (both runs)", &e.coefficients, &e.covariance);
+    let r: Refined = refine(&records, &e.coefficients, &settings);
+    print("output-error refinement (both runs)", &r.coefficients, &r.covariance);
+    println!(
+        "normalised residual RMS (q, theta, w, depth): {:.3?}; {} iterations",
+        r.normalised_rms, r.iterations
+    );
+    assert_eq!(e.failed_updates, 0);
+    assert!(r.converged);
+    // The model fits to the sensor noise in every channel.
+    for v in r.normalised_rms {
+        assert!((0.9..1.1).contains(&v), "{:?}", r.normalised_rms);
+    }
+    // Both stages are consistent: the truth is inside 3 sigma of each, for all ten.
+    for i in 0..10 {
+        for (stage, c, cov) in [("ekf", &e.coefficients, &e.covariance), ("refined", &r.coefficients, &r.covariance)] {
+            let z = (c[i] - TRUE_COEFFICIENTS[i]).abs() / sigma(cov, i);
+            assert!(z < 3.0, "{stage} {}: {z:.2} sigma", NAMES[i]);
+        }
+    }
+    // What the data determine (measured): M_qdot to 0.13 %, nothing else to 5 %: the rest
+    // is flagged, not printed as a confident number.
+    let flagged: Vec<&str> = assess(&r.coefficients, &r.covariance, &settings.fixed)
+        .into_iter()
+        .filter(|d| d.poorly_determined)
+        .map(|d| d.name)
+        .collect();
+    println!("flagged as poorly determined: {flagged:?}");
+    assert!(!flagged.contains(&"M_qdot"));
+    for name in ["Z_w", "Z_wdot", "Z_q", "Z_qdot", "Z_delta", "M_w", "M_wdot", "M_q"] {
+        assert!(flagged.contains(&name), "{name} not flagged");
+    }
+}
+
+/// Without noise, from 20 % off, the refinement finds the truth; started at the truth it
+/// stays there (no drift).
+#[test]
+fn noise_free_logs_give_the_truth() {
+    let settings = Settings::default();
+    let records = both(1, ZigzagNoise::none());
+    let e = ekf::run(&records, &perturbed(&truth(), 0.2), &settings);
+    let r = refine(&records, &e.coefficients, &settings);
+    let from_truth = refine(&records, &truth(), &settings);
+    for i in 0..10 {
+        let (a, b) = (relative_error(&r.coefficients, i), relative_error(&from_truth.coefficients, i));
+        println!("noise-free {:<8} from 20 % off {:>10.6} %, from the truth {:>10.6} %", NAMES[i], a * 100.0, b * 100.0);
+        // Z_qdot is 1e-4 of the heave inertia: the least determined even without noise.
+        let bound = if NAMES[i] == "Z_qdot" { 1e-3 } else { 2e-5 };
+        assert!(a.abs() < bound && b.abs() < bound, "{}: {a} {b}", NAMES[i]);
+    }
+}
+
+/// The heave equation's coefficients are unidentifiable because scaling the whole equation
+/// (m - Z_wdot, Z_w, Z_q + m U, Z_qdot, Z_delta) leaves the motion unchanged (but for the
+/// tiny m z_G q^2 term): with Z_wdot known (e.g. from an added-mass estimate) the others are
+/// found to a few tenths of a percent.
+#[test]
+fn knowing_z_wdot_resolves_the_heave_equation() {
+    let mut settings = Settings::default();
+    settings.fixed[1] = Some(TRUE_COEFFICIENTS[1]);
+    let records = both(1, ZigzagNoise::realistic());
+    let e = ekf::run(&records, &perturbed(&truth(), 0.2), &settings);
+    let r = refine(&records, &e.coefficients, &settings);
+    print("Z_wdot known", &r.coefficients, &r.covariance);
+    for name in ["Z_w", "Z_q", "Z_delta"] {
+        let i = NAMES.iter().position(|n| *n == name).unwrap();
+        let rel_sigma = sigma(&r.covariance, i) / TRUE_COEFFICIENTS[i].abs();
+        assert!(rel_sigma < 0.003, "{name}: {rel_sigma}");
+        assert!((r.coefficients[i] - TRUE_COEFFICIENTS[i]).abs() < 3.0 * sigma(&r.covariance, i));
+    }
+}
+
+/// A wrong model structure, a coefficient forced to zero. Measured on these runs: without
+/// Z_w, Z_delta or M_qdot the model cannot fit (residuals several times the sensor noise);
+/// without M_w, M_wdot, M_q, M_delta, Z_wdot, Z_q or Z_qdot it still fits to the noise,
+/// because the zig-zags' regressors are nearly collinear and the other coefficients absorb
+/// the missing one: the tool cannot tell those structures apart, and says so by flagging
+/// the coefficients as poorly determined.
+#[test]
+fn a_wrong_structure_fits_poorly() {
+    let records = both(1, ZigzagNoise::realistic());
+    let worst = |index: usize| {
+        let mut settings = Settings::default();
+        settings.fixed[index] = Some(0.0);
+        let e = ekf::run(&records, &perturbed(&truth(), 0.2), &settings);
+        let r = refine(&records, &e.coefficients, &settings);
+        println!("{} forced to 0: normalised residual RMS {:.2?}", NAMES[index], r.normalised_rms);
+        r.normalised_rms.into_iter().fold(0.0, f64::max)
+    };
+    let index = |name: &str| NAMES.iter().position(|n| *n == name).unwrap();
+    for (name, bound) in [("Z_w", 3.0), ("Z_delta", 3.0), ("M_qdot", 2.0)] {
+        assert!(worst(index(name)) > bound, "{name}");
+    }
+    for name in ["M_w", "M_delta"] {
+        assert!(worst(index(name)) < 1.1, "{name}");
+    }
+}
+
+/// Monte Carlo over 20 seeds: the spread of the refined estimates matches the sigma the
+/// tool reports (the Cramer-Rao bound), so the reported uncertainty can be trusted.
+#[test]
+#[ignore = "20 seeds x 2 logs: about a minute; run with --ignored"]
+fn monte_carlo_spread_matches_reported_sigma() {
+    let settings = Settings::default();
+    let runs: Vec<Refined> = (1..=20)
+        .map(|seed| {
+            let records = both(seed, ZigzagNoise::realistic());
+            let e = ekf::run(&records, &perturbed(&truth(), 0.2), &settings);
+            refine(&records, &e.coefficients, &settings)
         })
         .collect();
-    let r = ekf::run(&records, &start, &settings);
-    let errors = relative_errors(&r.coefficients);
     for i in 0..10 {
-        println!("noise-free {:<8} error {:>7.3} %", NAMES[i], errors[i] * 100.0);
-    }
-    let f = hindsight::identify::output_error::refine(&records, &r.coefficients, &settings);
-    let errors = relative_errors(&f.coefficients);
-    println!("noise-free refined: {} iterations, rms {:?}", f.iterations, f.normalised_rms);
-    for i in 0..10 {
-        println!("noise-free refined {:<8} error {:>9.5} %  sigma {:>8.4} %", NAMES[i], errors[i] * 100.0,
-            f.covariance[(i, i)].sqrt() / TRUE_COEFFICIENTS[i].abs() * 100.0);
-    }
-    let f = hindsight::identify::output_error::refine(&records, &Coefficients::from(TRUE_COEFFICIENTS), &settings);
-    let errors = relative_errors(&f.coefficients);
-    println!("noise-free from truth: {} iterations, rms {:?}, errors {:?}", f.iterations, f.normalised_rms, errors);
-}
-
-#[test]
-fn probe_refined() {
-    let settings = Settings::default();
-    let start = perturbed(&Coefficients::from(TRUE_COEFFICIENTS), 0.2);
-    for logs in [vec!["zigzag-5-5"], vec!["zigzag-10-5"], vec!["zigzag-5-5", "zigzag-10-5"]] {
-        let records: Vec<Record> = logs.iter().map(|n| record(n, 1)).collect();
-        let e = ekf::run(&records, &start, &settings);
-        let r = hindsight::identify::output_error::refine(&records, &e.coefficients, &settings);
-        let errors = relative_errors(&r.coefficients);
-        println!("refined on {logs:?}: {} iterations, converged {}, normalised rms {:?}", r.iterations, r.converged, r.normalised_rms);
-        for i in 0..10 {
-            println!(
-                "  {:<8} error {:>8.4} %  sigma {:>8.4} %",
-                NAMES[i],
-                errors[i] * 100.0,
-                r.covariance[(i, i)].sqrt() / TRUE_COEFFICIENTS[i].abs() * 100.0
-            );
-        }
+        let errors: Vec<f64> = runs.iter().map(|r| relative_error(&r.coefficients, i)).collect();
+        let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+        let spread = (errors.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (errors.len() - 1) as f64).sqrt();
+        let reported = runs.iter().map(|r| sigma(&r.covariance, i) / TRUE_COEFFICIENTS[i].abs()).sum::<f64>() / runs.len() as f64;
+        println!(
+            "{:<8} mean error {:>8.3} %, spread {:>8.3} %, reported sigma {:>8.3} %, ratio {:.2}",
+            NAMES[i], mean * 100.0, spread * 100.0, reported * 100.0, spread / reported
+        );
+        assert!((0.6..1.6).contains(&(spread / reported)), "{}", NAMES[i]);
     }
 }

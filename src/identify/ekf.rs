@@ -67,12 +67,18 @@ fn jacobian(model: &HeavePitch, x: &State, plane: f64, c: &Coefficients) -> Cov 
 }
 
 /// Runs the EKF over the logs, from `initial` with a relative 1-sigma of
-/// `settings.initial_coefficient_sigma` on each coefficient.
+/// `settings.initial_coefficient_sigma` on each coefficient (none on a fixed one).
 pub fn run(records: &[Record], initial: &Coefficients, settings: &Settings) -> EkfResult {
-    let mut coefficient_cov = SMatrix::<f64, 10, 10>::from_diagonal(
-        &initial.map(|c| (c * settings.initial_coefficient_sigma).powi(2)),
-    );
-    let mut coefficients = *initial;
+    let initial = settings.with_fixed(initial);
+    // A fixed coefficient starts (and stays) certain.
+    let mut coefficient_cov = SMatrix::<f64, 10, 10>::from_diagonal(&Coefficients::from_fn(|i, _| {
+        if settings.fixed[i].is_some() {
+            0.0
+        } else {
+            (initial[i] * settings.initial_coefficient_sigma).powi(2)
+        }
+    }));
+    let mut coefficients = initial;
     let mut history = Vec::new();
     let mut failed_updates = 0;
     let s = &settings.sigma;

@@ -7,6 +7,7 @@
 //! - [`settings`]: constants, sensor noise, tuning.
 
 pub mod ekf;
+pub mod identifiability;
 pub mod output_error;
 pub mod record;
 pub mod settings;

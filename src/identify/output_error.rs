@@ -92,15 +92,22 @@ fn accumulate(
     };
     for k in 0..record.t_s.len() {
         if k > 0 {
-            let dt = record.t_s[k] - record.t_s[k - 1];
-            let (p0, p1) = (record.plane_rad[k - 1], record.plane_rad[k]);
-            let pm = 0.5 * (p0 + p1);
-            let (k1x, k1s) = augmented(model, &x, &s, p0, c);
-            let (k2x, k2s) = augmented(model, &(x + k1x * (dt / 2.0)), &(s + k1s * (dt / 2.0)), pm, c);
-            let (k3x, k3s) = augmented(model, &(x + k2x * (dt / 2.0)), &(s + k2s * (dt / 2.0)), pm, c);
-            let (k4x, k4s) = augmented(model, &(x + k3x * dt), &(s + k3s * dt), p1, c);
-            x += (k1x + k2x * 2.0 + k3x * 2.0 + k4x) * (dt / 6.0);
-            s += (k1s + k2s * 2.0 + k3s * 2.0 + k4s) * (dt / 6.0);
+            let n = settings.substeps.max(1);
+            let dt = (record.t_s[k] - record.t_s[k - 1]) / n as f64;
+            let (a0, a1) = (record.plane_rad[k - 1], record.plane_rad[k]);
+            let plane = |f: f64| a0 + (a1 - a0) * f;
+            for j in 0..n {
+                let (f0, f1) = (j as f64 / n as f64, (j + 1) as f64 / n as f64);
+                let (p0, pm, p1) = (plane(f0), plane(0.5 * (f0 + f1)), plane(f1));
+                let (k1x, k1s) = augmented(model, &x, &s, p0, c);
+                let (k2x, k2s) =
+                    augmented(model, &(x + k1x * (dt / 2.0)), &(s + k1s * (dt / 2.0)), pm, c);
+                let (k3x, k3s) =
+                    augmented(model, &(x + k2x * (dt / 2.0)), &(s + k2s * (dt / 2.0)), pm, c);
+                let (k4x, k4s) = augmented(model, &(x + k3x * dt), &(s + k3s * dt), p1, c);
+                x += (k1x + k2x * 2.0 + k3x * 2.0 + k4x) * (dt / 6.0);
+                s += (k1s + k2s * 2.0 + k3s * 2.0 + k4s) * (dt / 6.0);
+            }
         }
         add(&x, &s, 2, 0, record.q_rad_s[k]);
         add(&x, &s, 1, 1, record.theta_rad[k]);
@@ -159,9 +166,20 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
         .iter()
         .map(|r| model_for(r, &settings.constants))
         .collect();
-    let mut c = *start;
+    let mut c = settings.with_fixed(start);
     let mut x0: Vec<State> = records.iter().map(first_state).collect();
-    let (mut a, mut b, mut cost, mut rms) = normal_equations(records, &models, &c, &x0, settings);
+    // A fixed coefficient's row and column are taken out of the normal equations.
+    let mask = |(mut a, mut b, cost, rms): (DMatrix<f64>, DVector<f64>, f64, [f64; 4])| {
+        for i in (0..10).filter(|&i| settings.fixed[i].is_some()) {
+            a.row_mut(i).fill(0.0);
+            a.column_mut(i).fill(0.0);
+            a[(i, i)] = 1.0;
+            b[i] = 0.0;
+        }
+        (a, b, cost, rms)
+    };
+    let (mut a, mut b, mut cost, mut rms) =
+        mask(normal_equations(records, &models, &c, &x0, settings));
     let mut lambda = 1e-3;
     let mut converged = false;
     let mut iterations = 0;
@@ -182,7 +200,8 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
             .enumerate()
             .map(|(l, x)| x + step.rows(10 + 4 * l, 4).into_owned())
             .collect();
-        let (ta, tb, tcost, trms) = normal_equations(records, &models, &trial_c, &trial_x0, settings);
+        let (ta, tb, tcost, trms) =
+            mask(normal_equations(records, &models, &trial_c, &trial_x0, settings));
         if tcost.is_finite() && tcost < cost {
             let relative_drop = (cost - tcost) / cost;
             (c, x0, a, b, cost, rms) = (trial_c, trial_x0, ta, tb, tcost, trms);
@@ -215,7 +234,13 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
         .saturating_sub(n)
         .max(1);
     let variance_factor = (cost / dof as f64).max(1.0);
-    let covariance = SMatrix::<f64, 10, 10>::from_fn(|i, j| inverse[(i, j)] * variance_factor);
+    let covariance = SMatrix::<f64, 10, 10>::from_fn(|i, j| {
+        if settings.fixed[i].is_some() || settings.fixed[j].is_some() {
+            0.0
+        } else {
+            inverse[(i, j)] * variance_factor
+        }
+    });
     Refined {
         coefficients: c,
         covariance,

@@ -41,6 +41,18 @@ pub struct Settings {
     pub initial_coefficient_sigma: f64,
     /// Interval of the EKF's coefficient history, s.
     pub history_interval_s: f64,
+    /// RK4 steps per sample interval in the output-error simulation.
+    pub substeps: usize,
+    /// Coefficients held at a given value (nondimensional) instead of estimated: known
+    /// from elsewhere, or forced (e.g. to zero, to test a model structure).
+    pub fixed: [Option<f64>; 10],
+}
+
+impl Settings {
+    /// `c` with the fixed coefficients set to their values.
+    pub fn with_fixed(&self, c: &crate::vehicle::heave_pitch::Coefficients) -> crate::vehicle::heave_pitch::Coefficients {
+        crate::vehicle::heave_pitch::Coefficients::from_fn(|i, _| self.fixed[i].unwrap_or(c[i]))
+    }
 }
 
 impl Default for Settings {
@@ -54,6 +66,8 @@ impl Default for Settings {
             },
             initial_coefficient_sigma: 0.5,
             history_interval_s: 0.1,
+            substeps: 1,
+            fixed: [None; 10],
         }
     }
 }

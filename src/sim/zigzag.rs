@@ -161,9 +161,10 @@ pub fn fly(spec: &ZigzagSpec) -> (Vec<TruthSample>, Vec<f64>) {
                 command = -command;
                 reversals.push(t + s as f64 * dt);
             }
-            // The plane moves toward the command at the rate limit; held over the step.
-            plane += (command - plane).clamp(-rate * dt, rate * dt);
-            x = model.rk4(&x, plane, &spec.coefficients, dt);
+            // The plane moves toward the command at the rate limit, linearly over the step.
+            let next = plane + (command - plane).clamp(-rate * dt, rate * dt);
+            x = model.rk4_varying(&x, plane, next, &spec.coefficients, dt);
+            plane = next;
         }
     }
     (out, reversals)

@@ -1,0 +1,75 @@
+//! Which coefficients the data determine: relative standard deviation and correlation,
+//! turned into warnings instead of confident wrong numbers.
+
+use crate::vehicle::heave_pitch::{Coefficients, NAMES};
+use nalgebra::SMatrix;
+
+/// Above this relative 1-sigma a coefficient is reported as poorly determined.
+pub const MAX_RELATIVE_SIGMA: f64 = 0.05;
+/// Above this |correlation| a pair is reported as not separable.
+pub const MAX_CORRELATION: f64 = 0.95;
+
+/// The correlation matrix of a covariance (zero rows for fixed coefficients).
+pub fn correlation(cov: &SMatrix<f64, 10, 10>) -> SMatrix<f64, 10, 10> {
+    SMatrix::from_fn(|i, j| {
+        let d = (cov[(i, i)] * cov[(j, j)]).sqrt();
+        if d > 0.0 {
+            cov[(i, j)] / d
+        } else if i == j {
+            1.0
+        } else {
+            0.0
+        }
+    })
+}
+
+/// A coefficient's determination.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Determination {
+    pub name: &'static str,
+    pub relative_sigma: f64,
+    /// The other coefficient it is most correlated with, and the correlation.
+    pub most_correlated: Option<(&'static str, f64)>,
+    pub poorly_determined: bool,
+}
+
+/// Every estimated coefficient's determination (`fixed` ones are skipped).
+pub fn assess(
+    c: &Coefficients,
+    cov: &SMatrix<f64, 10, 10>,
+    fixed: &[Option<f64>; 10],
+) -> Vec<Determination> {
+    let corr = correlation(cov);
+    (0..10)
+        .filter(|&i| fixed[i].is_none())
+        .map(|i| {
+            let relative_sigma = cov[(i, i)].sqrt() / c[i].abs().max(f64::MIN_POSITIVE);
+            let most_correlated = (0..10)
+                .filter(|&j| j != i && fixed[j].is_none())
+                .map(|j| (NAMES[j], corr[(i, j)]))
+                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+            Determination {
+                name: NAMES[i],
+                relative_sigma,
+                most_correlated,
+                poorly_determined: relative_sigma > MAX_RELATIVE_SIGMA
+                    || most_correlated.is_some_and(|(_, r)| r.abs() > MAX_CORRELATION),
+            }
+        })
+        .collect()
+}
+
+impl std::fmt::Display for Determination {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} is poorly determined: 1-sigma {:.1} % of its value",
+            self.name,
+            self.relative_sigma * 100.0
+        )?;
+        if let Some((other, r)) = self.most_correlated {
+            write!(f, ", correlation {r:+.3} with {other}")?;
+        }
+        Ok(())
+    }
+}
