@@ -44,7 +44,8 @@ pub fn simulate(model: &HeavePitch, record: &Record, x0: &State, c: &Coefficient
     out
 }
 
-type Sens = SMatrix<f64, 4, 14>;
+/// Sensitivity of the state to `[c (10), x0 (4)]`.
+pub type Sens = SMatrix<f64, 4, 14>;
 
 /// State and sensitivity derivative: `x' = f`, `S' = F_x S + [F_c, 0]`.
 fn augmented(model: &HeavePitch, x: &State, s: &Sens, plane: f64, c: &Coefficients) -> (State, Sens) {
@@ -54,6 +55,43 @@ fn augmented(model: &HeavePitch, x: &State, s: &Sens, plane: f64, c: &Coefficien
     let mut head = ds.fixed_view_mut::<4, 10>(0, 0);
     head += fc;
     (model.derivative(x, plane, c), ds)
+}
+
+/// The state and its sensitivity to `[c (10), x0 (4)]` at every sample of a log, by RK4 on
+/// the state and the variational equations together.
+pub fn trajectory_with_sensitivities(
+    model: &HeavePitch,
+    record: &Record,
+    x0: &State,
+    c: &Coefficients,
+    substeps: usize,
+) -> Vec<(State, Sens)> {
+    let mut x = *x0;
+    let mut s = Sens::zeros();
+    s.fixed_view_mut::<4, 4>(0, 10)
+        .copy_from(&SMatrix::<f64, 4, 4>::identity());
+    let mut out = Vec::with_capacity(record.t_s.len());
+    out.push((x, s));
+    let n = substeps.max(1);
+    for k in 1..record.t_s.len() {
+        let dt = (record.t_s[k] - record.t_s[k - 1]) / n as f64;
+        let (a0, a1) = (record.plane_rad[k - 1], record.plane_rad[k]);
+        let plane = |f: f64| a0 + (a1 - a0) * f;
+        for j in 0..n {
+            let (f0, f1) = (j as f64 / n as f64, (j + 1) as f64 / n as f64);
+            let (p0, pm, p1) = (plane(f0), plane(0.5 * (f0 + f1)), plane(f1));
+            let (k1x, k1s) = augmented(model, &x, &s, p0, c);
+            let (k2x, k2s) =
+                augmented(model, &(x + k1x * (dt / 2.0)), &(s + k1s * (dt / 2.0)), pm, c);
+            let (k3x, k3s) =
+                augmented(model, &(x + k2x * (dt / 2.0)), &(s + k2s * (dt / 2.0)), pm, c);
+            let (k4x, k4s) = augmented(model, &(x + k3x * dt), &(s + k3s * dt), p1, c);
+            x += (k1x + k2x * 2.0 + k3x * 2.0 + k4x) * (dt / 6.0);
+            s += (k1s + k2s * 2.0 + k3s * 2.0 + k4s) * (dt / 6.0);
+        }
+        out.push((x, s));
+    }
+    out
 }
 
 /// Accumulates one log's normal equations: `(J^T W J, J^T W r, r^T W r)` over the
@@ -76,10 +114,6 @@ fn accumulate(
     let mut cost = 0.0;
     let mut sums = [0.0; 4];
     let mut counts = [0usize; 4];
-    let mut x = *x0;
-    let mut s = Sens::zeros();
-    s.fixed_view_mut::<4, 4>(0, 10)
-        .copy_from(&SMatrix::<f64, 4, 4>::identity());
     let (mut wi, mut di) = (0usize, 0usize);
     let mut add = |x: &State, s: &Sens, state_index: usize, channel: usize, measured: f64| {
         let r = (measured - x[state_index]) / sigma[channel];
@@ -90,36 +124,19 @@ fn accumulate(
         sums[channel] += r * r;
         counts[channel] += 1;
     };
-    for k in 0..record.t_s.len() {
-        if k > 0 {
-            let n = settings.substeps.max(1);
-            let dt = (record.t_s[k] - record.t_s[k - 1]) / n as f64;
-            let (a0, a1) = (record.plane_rad[k - 1], record.plane_rad[k]);
-            let plane = |f: f64| a0 + (a1 - a0) * f;
-            for j in 0..n {
-                let (f0, f1) = (j as f64 / n as f64, (j + 1) as f64 / n as f64);
-                let (p0, pm, p1) = (plane(f0), plane(0.5 * (f0 + f1)), plane(f1));
-                let (k1x, k1s) = augmented(model, &x, &s, p0, c);
-                let (k2x, k2s) =
-                    augmented(model, &(x + k1x * (dt / 2.0)), &(s + k1s * (dt / 2.0)), pm, c);
-                let (k3x, k3s) =
-                    augmented(model, &(x + k2x * (dt / 2.0)), &(s + k2s * (dt / 2.0)), pm, c);
-                let (k4x, k4s) = augmented(model, &(x + k3x * dt), &(s + k3s * dt), p1, c);
-                x += (k1x + k2x * 2.0 + k3x * 2.0 + k4x) * (dt / 6.0);
-                s += (k1s + k2s * 2.0 + k3s * 2.0 + k4s) * (dt / 6.0);
-            }
-        }
-        add(&x, &s, 2, 0, record.q_rad_s[k]);
-        add(&x, &s, 1, 1, record.theta_rad[k]);
+    let trajectory = trajectory_with_sensitivities(model, record, x0, c, settings.substeps);
+    for (k, (x, s)) in trajectory.iter().enumerate() {
+        add(x, s, 2, 0, record.q_rad_s[k]);
+        add(x, s, 1, 1, record.theta_rad[k]);
         while wi < record.w_m_s.len() && record.w_m_s[wi].0 <= k {
             if record.w_m_s[wi].0 == k {
-                add(&x, &s, 0, 2, record.w_m_s[wi].1);
+                add(x, s, 0, 2, record.w_m_s[wi].1);
             }
             wi += 1;
         }
         while di < record.depth_m.len() && record.depth_m[di].0 <= k {
             if record.depth_m[di].0 == k {
-                add(&x, &s, 3, 3, record.depth_m[di].1);
+                add(x, s, 3, 3, record.depth_m[di].1);
             }
             di += 1;
         }
@@ -183,7 +200,7 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
     let mut lambda = 1e-3;
     let mut converged = false;
     let mut iterations = 0;
-    while iterations < 50 {
+    while iterations < settings.max_iterations {
         iterations += 1;
         // Scale-free damping: lambda times the diagonal.
         let mut damped = a.clone();
@@ -248,5 +265,71 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
         normalised_rms: rms,
         iterations,
         converged,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vehicle::heave_pitch::{Constants, TRUE_COEFFICIENTS};
+
+    /// A 60 s record of a plane doublet (only its clock and input matter here).
+    fn record() -> Record {
+        let t_s: Vec<f64> = (0..6001).map(|k| k as f64 * 0.01).collect();
+        let plane_rad = t_s
+            .iter()
+            .map(|&t| if t < 20.0 { 0.1 } else if t < 40.0 { -0.1 } else { 0.0 })
+            .collect();
+        Record {
+            name: "doublet".into(),
+            plane_rad,
+            q_rad_s: vec![0.0; t_s.len()],
+            theta_rad: vec![0.0; t_s.len()],
+            w_m_s: Vec::new(),
+            depth_m: Vec::new(),
+            speed_m_s: 3.084,
+            theta_source: "test",
+            t_s,
+        }
+    }
+
+    /// The variational sensitivities against central differences of the simulation, for
+    /// every parameter, at every second of the record.
+    #[test]
+    fn sensitivities_match_finite_differences() {
+        let model = HeavePitch::new(Constants::default());
+        let r = record();
+        let c = Coefficients::from(TRUE_COEFFICIENTS) * 1.1;
+        let x0 = State::new(0.028, 0.01, 0.001, 20.0);
+        let analytic = trajectory_with_sensitivities(&model, &r, &x0, &c, 1);
+        for p in 0..14 {
+            let h = if p < 10 { 1e-5 * c[p].abs() } else { 1e-6 };
+            let shifted = |sign: f64| {
+                let (mut cc, mut xx) = (c, x0);
+                if p < 10 {
+                    cc[p] += sign * h;
+                } else {
+                    xx[p - 10] += sign * h;
+                }
+                simulate(&model, &r, &xx, &cc)
+            };
+            let (up, down) = (shifted(1.0), shifted(-1.0));
+            for k in (0..r.t_s.len()).step_by(100) {
+                let fd = (up[k] - down[k]) / (2.0 * h);
+                let col = analytic[k].1.column(p);
+                for i in 0..4 {
+                    let scale = (0..r.t_s.len())
+                        .step_by(100)
+                        .map(|k| analytic[k].1[(i, p)].abs())
+                        .fold(0.0, f64::max);
+                    assert!(
+                        (fd[i] - col[i]).abs() <= 1e-5 * scale + 1e-12,
+                        "d x[{i}] / d p[{p}] at {k}: {} vs {}",
+                        col[i],
+                        fd[i]
+                    );
+                }
+            }
+        }
     }
 }

@@ -43,6 +43,8 @@ pub struct Settings {
     pub history_interval_s: f64,
     /// RK4 steps per sample interval in the output-error simulation.
     pub substeps: usize,
+    /// Levenberg-Marquardt iterations at most.
+    pub max_iterations: usize,
     /// Coefficients held at a given value (nondimensional) instead of estimated: known
     /// from elsewhere, or forced (e.g. to zero, to test a model structure).
     pub fixed: [Option<f64>; 10],
@@ -67,6 +69,7 @@ impl Default for Settings {
             initial_coefficient_sigma: 0.5,
             history_interval_s: 0.1,
             substeps: 1,
+            max_iterations: 50,
             fixed: [None; 10],
         }
     }
