@@ -8,6 +8,7 @@ mod bench;
 mod bench_attitude;
 mod bench_reconstruct;
 mod export;
+mod identify;
 mod info;
 mod reconstruct;
 mod simulate;
@@ -48,6 +49,7 @@ pub struct Args {
 pub enum Command {
     Reconstruct(reconstruct::ReconstructArgs),
     Attitude(attitude::AttitudeArgs),
+    Identify(identify::IdentifyArgs),
     /// Print the default `reconstruct` configuration (TOML, every key explained).
     Config(reconstruct::ConfigArgs),
     Info(info::InfoArgs),
@@ -68,6 +70,7 @@ pub fn run(args: Args) -> Result<()> {
     match args.command {
         Command::Reconstruct(a) => reconstruct::run(a),
         Command::Attitude(a) => attitude::run(a),
+        Command::Identify(a) => identify::run(a),
         Command::Config(a) => reconstruct::print_config(a),
         Command::Info(a) => info::run(a),
         Command::Export(a) => export::run(a),
@@ -88,12 +91,16 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
         || err
             .downcast_ref::<hindsight::attitude::compare::InputError>()
             .is_some()
+        || err
+            .downcast_ref::<hindsight::identify::record::RecordError>()
+            .is_some()
     {
         EXIT_BAD_INPUT
     } else if err.downcast_ref::<ConfigError>().is_some()
         || err
             .downcast_ref::<hindsight::attitude::config::AttitudeConfigError>()
             .is_some()
+        || err.downcast_ref::<identify::CoefficientArgError>().is_some()
     {
         EXIT_USAGE
     } else {

@@ -31,6 +31,16 @@ pub struct Refined {
     pub converged: bool,
 }
 
+/// Whether the model can be simulated over every log from `c` (finite all the way).
+pub fn simulates(records: &[Record], c: &Coefficients, settings: &Settings) -> bool {
+    records.iter().all(|r| {
+        let model = model_for(r, &settings.constants);
+        simulate(&model, r, &first_state(r), c)
+            .iter()
+            .all(|x| x.iter().all(|v| v.is_finite()))
+    })
+}
+
 /// A log simulated with given parameters: the state at every sample.
 pub fn simulate(model: &HeavePitch, record: &Record, x0: &State, c: &Coefficients) -> Vec<State> {
     let mut x = *x0;
@@ -177,7 +187,8 @@ fn normal_equations(
 }
 
 /// Refines `start` (with each log's first readings as its initial state) by
-/// Levenberg-Marquardt on the whole record of every log.
+/// Levenberg-Marquardt on the whole record of every log. If the model cannot be simulated
+/// from `start`, the result says so: not converged, infinite residuals.
 pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> Refined {
     let models: Vec<HeavePitch> = records
         .iter()
@@ -197,6 +208,17 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
     };
     let (mut a, mut b, mut cost, mut rms) =
         mask(normal_equations(records, &models, &c, &x0, settings));
+    if !cost.is_finite() {
+        // The model cannot even be simulated from here (e.g. a singular mass matrix).
+        return Refined {
+            coefficients: c,
+            covariance: SMatrix::repeat(f64::NAN),
+            initial_states: x0,
+            normalised_rms: [f64::INFINITY; 4],
+            iterations: 0,
+            converged: false,
+        };
+    }
     let mut lambda = 1e-3;
     let mut converged = false;
     let mut iterations = 0;
@@ -282,6 +304,7 @@ mod tests {
             .collect();
         Record {
             name: "doublet".into(),
+            start_stamp_ns: 0,
             plane_rad,
             q_rad_s: vec![0.0; t_s.len()],
             theta_rad: vec![0.0; t_s.len()],

@@ -8,6 +8,8 @@ use crate::ingest::Log;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Record {
     pub name: String,
+    /// Stamp of the first IMU sample, ns.
+    pub start_stamp_ns: i64,
     pub t_s: Vec<f64>,
     /// Stern plane (latest `/fins` reading), rad.
     pub plane_rad: Vec<f64>,
@@ -148,6 +150,7 @@ impl Record {
             .unwrap_or_else(|| dvl.iter().map(|d| d.velocity[0]).sum::<f64>() / dvl.len() as f64);
         Ok(Record {
             name: log_name,
+            start_stamp_ns: t0,
             t_s: grid.iter().map(|&t| (t - t0) as f64 * 1e-9).collect(),
             plane_rad,
             q_rad_s: imu.iter().map(|m| m.angular_velocity[1]).collect(),

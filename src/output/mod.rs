@@ -5,6 +5,7 @@
 
 pub mod atomic;
 pub mod attitude_tables;
+pub mod identify_tables;
 mod columns;
 pub mod parquet;
 pub mod plots;

@@ -1,0 +1,384 @@
+//! `hindsight identify LOG... --out DIR`: hydrodynamic coefficients from sea-trial logs.
+
+use super::{OutputFailed, PolicyArgs};
+use anyhow::{bail, Context, Result};
+use hindsight::identify::record::Record;
+use hindsight::identify::settings::Settings;
+use hindsight::identify::{identify, perturbed, Identification, CHANNELS};
+use hindsight::output::atomic::Staging;
+use hindsight::output::identify_tables;
+use hindsight::output::parquet::write_batches;
+use hindsight::output::plots::{self, Series, TrackPlot};
+use hindsight::vehicle::heave_pitch::{Coefficients, HeavePitch, NAMES, TRUE_COEFFICIENTS, UNITS};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Identify hydrodynamic coefficients from sea-trial logs (zig-zags), with their uncertainty.
+///
+/// Model (--model heave-pitch): seed 004's vertical-plane model as
+/// shared/spec/heave-pitch-model.md fixes it: state w, theta, q, depth; input the stern plane;
+/// ten nondimensional coefficients (Z_w, Z_wdot, Z_q, Z_qdot, Z_delta, M_w, M_wdot, M_q,
+/// M_qdot, M_delta). Measurements from each log: q from the gyro (/imu y), theta from
+/// /attitude (else hindsight's own attitude from the IMU), w from the DVL's body z
+/// velocity, depth from /depth; the plane from /fins; U from the DVL's body x (or --speed).
+///
+/// Two stages over all the logs together:
+///   1. seed 004's continuous-discrete EKF with the coefficients as constant states;
+///   2. output-error maximum likelihood (Levenberg-Marquardt) on the whole record, started
+///      from the EKF's answer: estimates, standard deviations, correlation matrix.
+/// A coefficient whose 1-sigma exceeds 5 % of its value, or which correlates above 0.95
+/// with another, is flagged as poorly determined: the data do not tell it.
+///
+/// Starting values: the published set (the spec's table) unless --initial FILE (TOML,
+/// NAME = value) or --perturb F (the published set moved by F, alternately up and down).
+///
+/// Writes to DIR, atomically: coefficients.parquet, correlation.parquet,
+/// coefficient_history.parquet (the EKF pass), fit.parquet (measured and re-simulated),
+/// convergence.png, fit_theta.png, fit_w.png, summary.json.
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct IdentifyArgs {
+    /// Recorded logs (MCAP): one coefficient set is fitted to all of them.
+    #[arg(required = true)]
+    pub logs: Vec<PathBuf>,
+
+    #[command(flatten)]
+    pub policy: PolicyArgs,
+
+    /// The model to identify.
+    #[arg(long, value_enum, default_value_t = Model::HeavePitch)]
+    pub model: Model,
+
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+
+    /// Starting coefficients (TOML: NAME = value, nondimensional; missing ones take the
+    /// published value).
+    #[arg(long, value_name = "FILE", conflicts_with = "perturb")]
+    pub initial: Option<PathBuf>,
+
+    /// Start from the published coefficients moved by this fraction, alternately up and
+    /// down (Z_w up, Z_wdot down, ...).
+    #[arg(long, value_name = "FRACTION")]
+    pub perturb: Option<f64>,
+
+    /// Hold a coefficient at a value instead of estimating it: NAME=VALUE (repeatable).
+    #[arg(long = "fix", value_name = "NAME=VALUE")]
+    pub fixed: Vec<String>,
+
+    /// Forward speed, m/s [default: each log's mean DVL body x velocity].
+    #[arg(long, value_name = "M/S")]
+    pub speed: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Model {
+    /// Seed 004's vertical-plane (heave-pitch) model.
+    HeavePitch,
+}
+
+/// A bad coefficient name or value on the command line or in --initial.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct CoefficientArgError(String);
+
+fn index_of(name: &str) -> Result<usize, CoefficientArgError> {
+    NAMES.iter().position(|n| *n == name).ok_or_else(|| {
+        CoefficientArgError(format!(
+            "unknown coefficient `{name}` (known: {})",
+            NAMES.join(", ")
+        ))
+    })
+}
+
+fn start_values(args: &IdentifyArgs) -> Result<Coefficients> {
+    let published = Coefficients::from(TRUE_COEFFICIENTS);
+    if let Some(f) = args.perturb {
+        if !(f.is_finite() && f.abs() < 1.0) {
+            bail!(CoefficientArgError(format!(
+                "--perturb {f}: give a fraction between -1 and 1"
+            )));
+        }
+        return Ok(perturbed(&published, f));
+    }
+    let Some(path) = &args.initial else {
+        return Ok(published);
+    };
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let table: BTreeMap<String, f64> = toml::from_str(&text)
+        .map_err(|e| CoefficientArgError(format!("{}: {e}", path.display())))?;
+    let mut c = published;
+    for (name, value) in table {
+        let i = index_of(&name).map_err(|e| CoefficientArgError(format!("{}: {e}", path.display())))?;
+        c[i] = value;
+    }
+    Ok(c)
+}
+
+pub fn run(args: IdentifyArgs) -> Result<()> {
+    let started = Instant::now();
+    let mut settings = Settings::default();
+    for f in &args.fixed {
+        let (name, value) = f.split_once('=').ok_or_else(|| {
+            CoefficientArgError(format!("--fix {f}: give NAME=VALUE, e.g. --fix Z_wdot=-0.01258"))
+        })?;
+        let value: f64 = value
+            .trim()
+            .parse()
+            .map_err(|_| CoefficientArgError(format!("--fix {f}: `{value}` is not a number")))?;
+        settings.fixed[index_of(name.trim())?] = Some(value);
+    }
+    let start = start_values(&args)?;
+    let mut records = Vec::new();
+    for path in &args.logs {
+        let log = super::load(path, &args.policy.ingest_options(), &[])?;
+        let name = path
+            .file_name()
+            .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+        let record = Record::from_log(&name, &log, args.speed)
+            .with_context(|| format!("identifying from {}", path.display()))?;
+        eprintln!(
+            "{name}: {:.0} s, U = {:.3} m/s, {} DVL and {} depth readings, theta from {}",
+            record.t_s.last().copied().unwrap_or(0.0),
+            record.speed_m_s,
+            record.w_m_s.len(),
+            record.depth_m.len(),
+            record.theta_source
+        );
+        records.push(record);
+    }
+    let fitting = Instant::now();
+    let id = identify(&records, &start, &settings);
+    eprintln!(
+        "identified in {:.2} s (EKF, then {} Levenberg-Marquardt iterations{})",
+        fitting.elapsed().as_secs_f64(),
+        id.refined.iterations,
+        if id.refined.converged { "" } else { ", NOT converged" }
+    );
+    let model = HeavePitch::new(hindsight::vehicle::heave_pitch::Constants {
+        speed_m_s: records[0].speed_m_s,
+        ..settings.constants
+    });
+    write_outputs(&args.out, &id, &records, &model, &settings)?;
+    print_report(&id, &records, &model, &settings);
+    eprintln!("total {:.1} s", started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+#[derive(serde::Serialize)]
+struct Summary<'a> {
+    logs: Vec<&'a str>,
+    iterations: usize,
+    converged: bool,
+    /// Per log and channel (q, theta, w, depth).
+    fit: Vec<BTreeMap<&'static str, hindsight::identify::ChannelFit>>,
+    poorly_determined: Vec<String>,
+}
+
+fn write_outputs(
+    out: &Path,
+    id: &Identification,
+    records: &[Record],
+    model: &HeavePitch,
+    settings: &Settings,
+) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| OutputFailed {
+        path: out.to_path_buf(),
+    })?;
+    let mut staging = Staging::new();
+    let mut written = Vec::new();
+    let mut parquet = |name: &str, batch: arrow_array::RecordBatch| -> Result<()> {
+        let path = out.join(name);
+        let file = staging
+            .create(&path)
+            .with_context(|| OutputFailed { path: path.clone() })?;
+        write_batches(file, batch, || None).with_context(|| OutputFailed { path: path.clone() })?;
+        written.push(path);
+        Ok(())
+    };
+    parquet(
+        "coefficients.parquet",
+        identify_tables::coefficients_batch(id, model, &settings.fixed)?,
+    )?;
+    parquet("correlation.parquet", identify_tables::correlation_batch(id)?)?;
+    parquet(
+        "coefficient_history.parquet",
+        identify_tables::history_batch(id, records)?,
+    )?;
+    parquet("fit.parquet", identify_tables::fit_batch(id, records)?)?;
+
+    // Plots: the EKF's convergence (each coefficient over its final refined value) and the fit.
+    let mut offset = 0.0;
+    let mut log_start = Vec::new();
+    for r in records {
+        log_start.push(offset);
+        offset += r.t_s.last().copied().unwrap_or(0.0);
+    }
+    let convergence = TrackPlot {
+        title: "EKF pass: coefficient / refined estimate (logs one after the other)",
+        x_label: "time (s)",
+        y_label: "ratio",
+        series: (0..10)
+            .filter(|&i| settings.fixed[i].is_none())
+            .map(|i| Series {
+                name: NAMES[i],
+                points: id
+                    .ekf
+                    .history
+                    .iter()
+                    .map(|p| (log_start[p.log] + p.t_s, p.value[i] / id.refined.coefficients[i]))
+                    .collect(),
+            })
+            .collect(),
+        marks: Vec::new(),
+        y_down: false,
+        equal_axes: false,
+    };
+    let labels: Vec<(String, String)> = records
+        .iter()
+        .map(|r| (format!("{} measured", r.name), format!("{} model", r.name)))
+        .collect();
+    let fit_plot = |title: &'static str, y_label: &'static str, measured: &dyn Fn(&Record) -> Vec<(f64, f64)>, state: usize, scale: f64| {
+        let mut series = Vec::new();
+        for ((r, fit), (measured_label, model_label)) in records.iter().zip(&id.fits).zip(&labels) {
+            series.push(Series {
+                name: measured_label,
+                points: measured(r),
+            });
+            series.push(Series {
+                name: model_label,
+                points: r.t_s.iter().zip(&fit.simulated).map(|(t, s)| (*t, s[state] * scale)).collect(),
+            });
+        }
+        TrackPlot {
+            title,
+            x_label: "time (s)",
+            y_label,
+            series,
+            marks: Vec::new(),
+            y_down: false,
+            equal_axes: false,
+        }
+    };
+    let theta = fit_plot(
+        "pitch: measured and re-simulated (every log)",
+        "theta (deg)",
+        &|r| r.t_s.iter().zip(&r.theta_rad).map(|(t, v)| (*t, v.to_degrees())).collect(),
+        1,
+        1f64.to_degrees(),
+    );
+    let w = fit_plot(
+        "heave velocity: measured and re-simulated (every log)",
+        "w (m/s)",
+        &|r| r.w_m_s.iter().map(|(k, v)| (r.t_s[*k], *v)).collect(),
+        0,
+        1.0,
+    );
+    for (name, plot) in [("convergence.png", convergence), ("fit_theta.png", theta), ("fit_w.png", w)] {
+        let path = out.join(name);
+        let file = staging
+            .create(&path)
+            .with_context(|| OutputFailed { path: path.clone() })?;
+        plots::write_png(&plot, std::io::BufWriter::new(file))
+            .with_context(|| OutputFailed { path: path.clone() })?;
+        written.push(path);
+    }
+
+    let summary = Summary {
+        logs: records.iter().map(|r| r.name.as_str()).collect(),
+        iterations: id.refined.iterations,
+        converged: id.refined.converged,
+        fit: id
+            .fits
+            .iter()
+            .map(|f| CHANNELS.iter().copied().zip(f.channels).collect())
+            .collect(),
+        poorly_determined: id
+            .assessment
+            .iter()
+            .filter(|d| d.poorly_determined)
+            .map(|d| d.to_string())
+            .collect(),
+    };
+    let path = out.join("summary.json");
+    let mut file = staging
+        .create(&path)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    serde_json::to_writer_pretty(&mut file, &summary)
+        .map_err(std::io::Error::from)
+        .and_then(|_| std::io::Write::write_all(&mut file, b"\n"))
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    written.push(path);
+    staging.commit().with_context(|| OutputFailed {
+        path: out.to_path_buf(),
+    })?;
+    for p in written {
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// The console table (seed 004's Tables 5.2-5.3: start, EKF, refined, with sigma), the fit
+/// and the warnings.
+fn print_report(id: &Identification, records: &[Record], model: &HeavePitch, settings: &Settings) {
+    println!(
+        "\n{:<8} {:>12} {:>12} {:>12} {:>12} {:>9} {:>14} {:<9}",
+        "name", "start", "EKF", "refined", "1-sigma", "sigma %", "dimensional", "unit"
+    );
+    for i in 0..10 {
+        let c = id.refined.coefficients[i];
+        let s = id.refined.covariance[(i, i)].sqrt();
+        let flag = if settings.fixed[i].is_some() {
+            " (fixed)"
+        } else if id.assessment.iter().any(|d| d.name == NAMES[i] && d.poorly_determined) {
+            " (poorly determined)"
+        } else {
+            ""
+        };
+        println!(
+            "{:<8} {:>12.6} {:>12.6} {:>12.6} {:>12.6} {:>9.2} {:>14.4e} {:<9}{flag}",
+            NAMES[i],
+            id.start[i],
+            id.ekf.coefficients[i],
+            c,
+            s,
+            100.0 * s / c.abs().max(f64::MIN_POSITIVE),
+            c * model.scale(i),
+            UNITS[i]
+        );
+    }
+    println!("\nfit of the identified model (normalised RMS: residual RMS over the sensor's sigma; fit %):");
+    for (r, f) in records.iter().zip(&id.fits) {
+        let cells: Vec<String> = CHANNELS
+            .iter()
+            .zip(&f.channels)
+            .map(|(n, c)| format!("{n} {:.2} ({:.1} %)", c.normalised_rms, c.fit_percent))
+            .collect();
+        println!("  {:<24} {}", r.name, cells.join(", "));
+    }
+    if id.ekf_diverged {
+        println!(
+            "warning: the EKF stage ran away (its coefficients cannot be simulated); the \
+             refinement started from the starting values"
+        );
+    }
+    let worst = id
+        .fits
+        .iter()
+        .flat_map(|f| f.channels.iter().map(|c| c.normalised_rms))
+        .fold(0.0, |a: f64, b| if b.is_nan() { f64::INFINITY } else { a.max(b) });
+    if worst > 2.0 || !id.refined.converged {
+        println!(
+            "warning: POOR FIT: residuals up to {worst:.1} times the sensor noise: the model's \
+             structure (or a fixed coefficient, or the noise figures) does not match the data; \
+             do not trust these coefficients"
+        );
+    }
+    for d in id.assessment.iter().filter(|d| d.poorly_determined) {
+        println!("warning: {d}");
+    }
+    println!();
+}

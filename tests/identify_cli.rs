@@ -1,0 +1,143 @@
+//! `hindsight identify` as a user runs it: outputs, the console table, and bad input (no
+//! /fins, no manoeuvre, too short, a bad option).
+
+mod common;
+
+use arrow_array::{Array, Float64Array, RecordBatch, StringArray};
+use common::{hindsight, stderr};
+use hindsight::contract::{Attitude, ControlSurfaces, Depth, Dvl, Imu};
+use hindsight::sim::writer::{to_bytes, WriterOptions};
+use hindsight::sim::zigzag::{self, ZigzagSpec};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use std::path::{Path, PathBuf};
+
+fn read_parquet(path: &Path) -> Vec<RecordBatch> {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    ParquetRecordBatchReaderBuilder::try_new(file)
+        .unwrap()
+        .build()
+        .unwrap()
+        .map(Result::unwrap)
+        .collect()
+}
+
+/// A zig-zag log (changed by `edit`) written to a scratch folder.
+fn log(dir: &Path, name: &str, edit: impl Fn(&mut ZigzagSpec)) -> PathBuf {
+    let mut spec = ZigzagSpec::built_in(name).unwrap();
+    edit(&mut spec);
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        zigzag::run(&spec, 1, w)?;
+        Ok(())
+    })
+    .unwrap();
+    let path = dir.join(format!("{name}.mcap"));
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+fn run(logs: &[&Path], out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["identify".to_string()];
+    args.extend(logs.iter().map(|p| p.to_str().unwrap().to_string()));
+    args.extend(["--out".to_string(), out.to_str().unwrap().to_string()]);
+    args.extend(extra.iter().map(|s| s.to_string()));
+    hindsight(&args.iter().map(String::as_str).collect::<Vec<_>>())
+}
+
+#[test]
+fn both_runs_give_every_output() {
+    let dir = common::scratch_dir("identify-cli");
+    let a = log(&dir, "zigzag-5-5", |_| {});
+    let b = log(&dir, "zigzag-10-5", |_| {});
+    let before = std::fs::read(&a).unwrap();
+    let out = dir.join("out");
+    let o = run(&[&a, &b], &out, &["--perturb", "0.2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&a).unwrap(), before, "input untouched");
+    let console = String::from_utf8_lossy(&o.stdout);
+    assert!(console.contains("M_qdot"), "{console}");
+    assert!(console.contains("warning: Z_wdot is poorly determined"), "{console}");
+    assert!(!console.contains("POOR FIT"), "{console}");
+    // coefficients.parquet: ten rows, estimate and sigma, the flag.
+    let c = &read_parquet(&out.join("coefficients.parquet"))[0];
+    assert_eq!(c.num_rows(), 10);
+    let names = c.column_by_name("name").unwrap().as_any().downcast_ref::<StringArray>().unwrap();
+    assert_eq!(names.value(8), "M_qdot");
+    let estimate = c.column_by_name("estimate").unwrap().as_any().downcast_ref::<Float64Array>().unwrap();
+    let sigma = c.column_by_name("sigma").unwrap().as_any().downcast_ref::<Float64Array>().unwrap();
+    // M_qdot, the one coefficient these runs determine: within 3 sigma of seed 004's truth.
+    assert!((estimate.value(8) - -0.005198).abs() < 3.0 * sigma.value(8));
+    for name in ["correlation.parquet", "coefficient_history.parquet", "fit.parquet"] {
+        let rows: usize = read_parquet(&out.join(name)).iter().map(RecordBatch::num_rows).sum();
+        assert!(rows >= 10, "{name}: {rows}");
+    }
+    let fit = read_parquet(&out.join("fit.parquet"));
+    let rows: usize = fit.iter().map(RecordBatch::num_rows).sum();
+    assert_eq!(rows, 2 * 20_001);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for log_fit in summary["fit"].as_array().unwrap() {
+        for ch in ["q", "theta", "w", "depth"] {
+            let v = log_fit[ch]["normalised_rms"].as_f64().unwrap();
+            assert!((0.9..1.1).contains(&v), "{ch}: {v}");
+        }
+    }
+    for png in ["convergence.png", "fit_theta.png", "fit_w.png"] {
+        assert_eq!(&std::fs::read(out.join(png)).unwrap()[1..4], b"PNG");
+    }
+}
+
+#[test]
+fn a_forced_coefficient_that_breaks_the_model_is_a_poor_fit() {
+    let dir = common::scratch_dir("identify-cli-forced");
+    let a = log(&dir, "zigzag-10-5", |_| {});
+    let o = run(&[&a], &dir.join("out"), &["--fix", "Z_delta=0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let console = String::from_utf8_lossy(&o.stdout);
+    assert!(console.contains("POOR FIT"), "{console}");
+    assert!(console.lines().any(|l| l.starts_with("Z_delta") && l.contains("(fixed)")), "{console}");
+}
+
+#[test]
+fn bad_input_is_named() {
+    let dir = common::scratch_dir("identify-cli-bad");
+    // A straight run: the plane never moves.
+    let straight = log(&dir, "zigzag-5-5", |s| s.plane_deg = 0.0);
+    let o = run(&[&straight], &dir.join("out1"), &[]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no manoeuvre"), "{}", stderr(&o));
+    // Shorter than the model's slowest time constant.
+    let short = log(&dir, "zigzag-10-5", |s| s.duration_s = 30.0);
+    let o = run(&[&short], &dir.join("out2"), &[]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("shorter than the model's slowest time constant"), "{}", stderr(&o));
+    // No /fins: the same log without its input.
+    let full = common::read(&std::fs::read(log(&dir, "zigzag-10-5", |_| {})).unwrap());
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        w.write_mission(&full.mission().unwrap())?;
+        for m in full.messages::<Imu>("/imu").unwrap() {
+            w.write("/imu", m, m.stamp_ns as u64)?;
+        }
+        for m in full.messages::<Attitude>("/attitude").unwrap() {
+            w.write("/attitude", m, m.stamp_ns as u64)?;
+        }
+        for m in full.messages::<Dvl>("/dvl").unwrap() {
+            w.write("/dvl", m, m.stamp_ns as u64)?;
+        }
+        for m in full.messages::<Depth>("/depth").unwrap() {
+            w.write("/depth", m, m.stamp_ns as u64)?;
+        }
+        let _: Option<&[ControlSurfaces]> = None;
+        Ok(())
+    })
+    .unwrap();
+    let no_fins = dir.join("no-fins.mcap");
+    std::fs::write(&no_fins, bytes).unwrap();
+    let o = run(&[&no_fins], &dir.join("out3"), &[]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no stern-plane input on /fins"), "{}", stderr(&o));
+    assert!(!dir.join("out3").exists());
+    // A coefficient name that does not exist.
+    let o = run(&[&straight], &dir.join("out4"), &["--fix", "Z_ww=0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("unknown coefficient `Z_ww`"), "{}", stderr(&o));
+}
