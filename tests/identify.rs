@@ -5,6 +5,9 @@
 //! `cargo test --release --test identify -- --nocapture`
 //! Monte Carlo (20 seeds): `cargo test --release --test identify -- --ignored --nocapture`
 
+// Coefficients are indexed in parallel arrays (names, true values, estimates, covariance).
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use hindsight::identify::identifiability::assess;
@@ -72,7 +75,11 @@ fn identification_on_seeded_zigzags() {
     let e = ekf::run(&records, &start, &settings);
     print("EKF stage (both runs)", &e.coefficients, &e.covariance);
     let r: Refined = refine(&records, &e.coefficients, &settings);
-    print("output-error refinement (both runs)", &r.coefficients, &r.covariance);
+    print(
+        "output-error refinement (both runs)",
+        &r.coefficients,
+        &r.covariance,
+    );
     println!(
         "normalised residual RMS (q, theta, w, depth): {:.3?}; {} iterations",
         r.normalised_rms, r.iterations
@@ -85,7 +92,10 @@ fn identification_on_seeded_zigzags() {
     }
     // Both stages are consistent: the truth is inside 3 sigma of each, for all ten.
     for i in 0..10 {
-        for (stage, c, cov) in [("ekf", &e.coefficients, &e.covariance), ("refined", &r.coefficients, &r.covariance)] {
+        for (stage, c, cov) in [
+            ("ekf", &e.coefficients, &e.covariance),
+            ("refined", &r.coefficients, &r.covariance),
+        ] {
             let z = (c[i] - TRUE_COEFFICIENTS[i]).abs() / sigma(cov, i);
             assert!(z < 3.0, "{stage} {}: {z:.2} sigma", NAMES[i]);
         }
@@ -99,7 +109,9 @@ fn identification_on_seeded_zigzags() {
         .collect();
     println!("flagged as poorly determined: {flagged:?}");
     assert!(!flagged.contains(&"M_qdot"));
-    for name in ["Z_w", "Z_wdot", "Z_q", "Z_qdot", "Z_delta", "M_w", "M_wdot", "M_q"] {
+    for name in [
+        "Z_w", "Z_wdot", "Z_q", "Z_qdot", "Z_delta", "M_w", "M_wdot", "M_q",
+    ] {
         assert!(flagged.contains(&name), "{name} not flagged");
     }
 }
@@ -114,8 +126,16 @@ fn noise_free_logs_give_the_truth() {
     let r = refine(&records, &e.coefficients, &settings);
     let from_truth = refine(&records, &truth(), &settings);
     for i in 0..10 {
-        let (a, b) = (relative_error(&r.coefficients, i), relative_error(&from_truth.coefficients, i));
-        println!("noise-free {:<8} from 20 % off {:>10.6} %, from the truth {:>10.6} %", NAMES[i], a * 100.0, b * 100.0);
+        let (a, b) = (
+            relative_error(&r.coefficients, i),
+            relative_error(&from_truth.coefficients, i),
+        );
+        println!(
+            "noise-free {:<8} from 20 % off {:>10.6} %, from the truth {:>10.6} %",
+            NAMES[i],
+            a * 100.0,
+            b * 100.0
+        );
         // Z_qdot is 1e-4 of the heave inertia: the least determined even without noise.
         let bound = if NAMES[i] == "Z_qdot" { 1e-3 } else { 2e-5 };
         assert!(a.abs() < bound && b.abs() < bound, "{}: {a} {b}", NAMES[i]);
@@ -156,7 +176,10 @@ fn a_wrong_structure_fits_poorly() {
         settings.fixed[index] = Some(0.0);
         let e = ekf::run(&records, &perturbed(&truth(), 0.2), &settings);
         let r = refine(&records, &e.coefficients, &settings);
-        println!("{} forced to 0: normalised residual RMS {:.2?}", NAMES[index], r.normalised_rms);
+        println!(
+            "{} forced to 0: normalised residual RMS {:.2?}",
+            NAMES[index], r.normalised_rms
+        );
         r.normalised_rms.into_iter().fold(0.0, f64::max)
     };
     let index = |name: &str| NAMES.iter().position(|n| *n == name).unwrap();
@@ -183,19 +206,33 @@ fn monte_carlo_spread_matches_reported_sigma() {
         .collect();
     let mut ratios = Vec::new();
     for i in 0..10 {
-        let errors: Vec<f64> = runs.iter().map(|r| relative_error(&r.coefficients, i)).collect();
+        let errors: Vec<f64> = runs
+            .iter()
+            .map(|r| relative_error(&r.coefficients, i))
+            .collect();
         let mean = errors.iter().sum::<f64>() / errors.len() as f64;
-        let spread = (errors.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (errors.len() - 1) as f64).sqrt();
+        let spread = (errors.iter().map(|e| (e - mean).powi(2)).sum::<f64>()
+            / (errors.len() - 1) as f64)
+            .sqrt();
         let mut each: Vec<f64> = runs
             .iter()
             .map(|r| sigma(&r.covariance, i) / TRUE_COEFFICIENTS[i].abs())
             .collect();
         each.sort_by(f64::total_cmp);
-        println!("    reported sigma min {:.3} % median {:.3} % max {:.3} %", each[0] * 100.0, each[10] * 100.0, each[19] * 100.0);
+        println!(
+            "    reported sigma min {:.3} % median {:.3} % max {:.3} %",
+            each[0] * 100.0,
+            each[10] * 100.0,
+            each[19] * 100.0
+        );
         let reported = each[each.len() / 2];
         println!(
             "{:<8} mean error {:>8.3} %, spread {:>8.3} %, reported sigma {:>8.3} %, ratio {:.2}",
-            NAMES[i], mean * 100.0, spread * 100.0, reported * 100.0, spread / reported
+            NAMES[i],
+            mean * 100.0,
+            spread * 100.0,
+            reported * 100.0,
+            spread / reported
         );
         ratios.push(spread / reported);
     }
@@ -206,4 +243,3 @@ fn monte_carlo_spread_matches_reported_sigma() {
         assert!(*r < 1.3, "{}: spread / reported sigma {r:.2}", NAMES[i]);
     }
 }
-

@@ -55,19 +55,44 @@ fn both_runs_give_every_output() {
     assert_eq!(std::fs::read(&a).unwrap(), before, "input untouched");
     let console = String::from_utf8_lossy(&o.stdout);
     assert!(console.contains("M_qdot"), "{console}");
-    assert!(console.contains("warning: Z_wdot is poorly determined"), "{console}");
+    assert!(
+        console.contains("warning: Z_wdot is poorly determined"),
+        "{console}"
+    );
     assert!(!console.contains("POOR FIT"), "{console}");
     // coefficients.parquet: ten rows, estimate and sigma, the flag.
     let c = &read_parquet(&out.join("coefficients.parquet"))[0];
     assert_eq!(c.num_rows(), 10);
-    let names = c.column_by_name("name").unwrap().as_any().downcast_ref::<StringArray>().unwrap();
+    let names = c
+        .column_by_name("name")
+        .unwrap()
+        .as_any()
+        .downcast_ref::<StringArray>()
+        .unwrap();
     assert_eq!(names.value(8), "M_qdot");
-    let estimate = c.column_by_name("estimate").unwrap().as_any().downcast_ref::<Float64Array>().unwrap();
-    let sigma = c.column_by_name("sigma").unwrap().as_any().downcast_ref::<Float64Array>().unwrap();
+    let estimate = c
+        .column_by_name("estimate")
+        .unwrap()
+        .as_any()
+        .downcast_ref::<Float64Array>()
+        .unwrap();
+    let sigma = c
+        .column_by_name("sigma")
+        .unwrap()
+        .as_any()
+        .downcast_ref::<Float64Array>()
+        .unwrap();
     // M_qdot, the one coefficient these runs determine: within 3 sigma of seed 004's truth.
     assert!((estimate.value(8) - -0.005198).abs() < 3.0 * sigma.value(8));
-    for name in ["correlation.parquet", "coefficient_history.parquet", "fit.parquet"] {
-        let rows: usize = read_parquet(&out.join(name)).iter().map(RecordBatch::num_rows).sum();
+    for name in [
+        "correlation.parquet",
+        "coefficient_history.parquet",
+        "fit.parquet",
+    ] {
+        let rows: usize = read_parquet(&out.join(name))
+            .iter()
+            .map(RecordBatch::num_rows)
+            .sum();
         assert!(rows >= 10, "{name}: {rows}");
     }
     let fit = read_parquet(&out.join("fit.parquet"));
@@ -94,7 +119,12 @@ fn a_forced_coefficient_that_breaks_the_model_is_a_poor_fit() {
     assert!(o.status.success(), "{}", stderr(&o));
     let console = String::from_utf8_lossy(&o.stdout);
     assert!(console.contains("POOR FIT"), "{console}");
-    assert!(console.lines().any(|l| l.starts_with("Z_delta") && l.contains("(fixed)")), "{console}");
+    assert!(
+        console
+            .lines()
+            .any(|l| l.starts_with("Z_delta") && l.contains("(fixed)")),
+        "{console}"
+    );
 }
 
 #[test]
@@ -109,7 +139,11 @@ fn bad_input_is_named() {
     let short = log(&dir, "zigzag-10-5", |s| s.duration_s = 30.0);
     let o = run(&[&short], &dir.join("out2"), &[]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
-    assert!(stderr(&o).contains("shorter than the model's slowest time constant"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("shorter than the model's slowest time constant"),
+        "{}",
+        stderr(&o)
+    );
     // No /fins: the same log without its input.
     let full = common::read(&std::fs::read(log(&dir, "zigzag-10-5", |_| {})).unwrap());
     let bytes = to_bytes(WriterOptions::default(), |w| {
@@ -134,10 +168,18 @@ fn bad_input_is_named() {
     std::fs::write(&no_fins, bytes).unwrap();
     let o = run(&[&no_fins], &dir.join("out3"), &[]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
-    assert!(stderr(&o).contains("no stern-plane input on /fins"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no stern-plane input on /fins"),
+        "{}",
+        stderr(&o)
+    );
     assert!(!dir.join("out3").exists());
     // A coefficient name that does not exist.
     let o = run(&[&straight], &dir.join("out4"), &["--fix", "Z_ww=0"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("unknown coefficient `Z_ww`"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("unknown coefficient `Z_ww`"),
+        "{}",
+        stderr(&o)
+    );
 }

@@ -24,6 +24,8 @@ use std::time::{Duration, Instant};
 ///
 /// With --attitude: every attitude method on a 1-hour 100 Hz AHRS log (pool-circle flown
 /// for an hour), each on one thread and all in parallel (medians).
+///
+/// With --identify: seed 004's two zig-zag logs identified jointly, both stages (medians).
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct BenchArgs {
@@ -51,6 +53,10 @@ pub struct BenchArgs {
     #[arg(long, conflicts_with = "reconstruct")]
     pub attitude: bool,
 
+    /// Benchmark the identification of seed 004's two zig-zags (both stages) instead.
+    #[arg(long, conflicts_with_all = ["reconstruct", "attitude"])]
+    pub identify: bool,
+
     /// Built-in scenario of --reconstruct.
     #[arg(long, default_value = "long-dive", requires = "reconstruct")]
     pub scenario: String,
@@ -62,6 +68,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         "--minutes must be in (0, 1440]"
     );
     anyhow::ensure!(args.repeat >= 1, "--repeat must be at least 1");
+    if args.identify {
+        return super::bench_identify::run(args.repeat);
+    }
     if args.attitude {
         return super::bench_attitude::run(args.repeat, args.keep.as_deref());
     }

@@ -27,6 +27,7 @@ use std::time::Instant;
 ///   1. seed 004's continuous-discrete EKF with the coefficients as constant states;
 ///   2. output-error maximum likelihood (Levenberg-Marquardt) on the whole record, started
 ///      from the EKF's answer: estimates, standard deviations, correlation matrix.
+///
 /// A coefficient whose 1-sigma exceeds 5 % of its value, or which correlates above 0.95
 /// with another, is flagged as poorly determined: the data do not tell it.
 ///
@@ -112,7 +113,8 @@ fn start_values(args: &IdentifyArgs) -> Result<Coefficients> {
         .map_err(|e| CoefficientArgError(format!("{}: {e}", path.display())))?;
     let mut c = published;
     for (name, value) in table {
-        let i = index_of(&name).map_err(|e| CoefficientArgError(format!("{}: {e}", path.display())))?;
+        let i =
+            index_of(&name).map_err(|e| CoefficientArgError(format!("{}: {e}", path.display())))?;
         c[i] = value;
     }
     Ok(c)
@@ -123,7 +125,9 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
     let mut settings = Settings::default();
     for f in &args.fixed {
         let (name, value) = f.split_once('=').ok_or_else(|| {
-            CoefficientArgError(format!("--fix {f}: give NAME=VALUE, e.g. --fix Z_wdot=-0.01258"))
+            CoefficientArgError(format!(
+                "--fix {f}: give NAME=VALUE, e.g. --fix Z_wdot=-0.01258"
+            ))
         })?;
         let value: f64 = value
             .trim()
@@ -135,9 +139,10 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
     let mut records = Vec::new();
     for path in &args.logs {
         let log = super::load(path, &args.policy.ingest_options(), &[])?;
-        let name = path
-            .file_name()
-            .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+        let name = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
         let record = Record::from_log(&name, &log, args.speed)
             .with_context(|| format!("identifying from {}", path.display()))?;
         eprintln!(
@@ -156,7 +161,11 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
         "identified in {:.2} s (EKF, then {} Levenberg-Marquardt iterations{})",
         fitting.elapsed().as_secs_f64(),
         id.refined.iterations,
-        if id.refined.converged { "" } else { ", NOT converged" }
+        if id.refined.converged {
+            ""
+        } else {
+            ", NOT converged"
+        }
     );
     let model = HeavePitch::new(hindsight::vehicle::heave_pitch::Constants {
         speed_m_s: records[0].speed_m_s,
@@ -203,7 +212,10 @@ fn write_outputs(
         "coefficients.parquet",
         identify_tables::coefficients_batch(id, model, &settings.fixed)?,
     )?;
-    parquet("correlation.parquet", identify_tables::correlation_batch(id)?)?;
+    parquet(
+        "correlation.parquet",
+        identify_tables::correlation_batch(id)?,
+    )?;
     parquet(
         "coefficient_history.parquet",
         identify_tables::history_batch(id, records)?,
@@ -229,7 +241,12 @@ fn write_outputs(
                     .ekf
                     .history
                     .iter()
-                    .map(|p| (log_start[p.log] + p.t_s, p.value[i] / id.refined.coefficients[i]))
+                    .map(|p| {
+                        (
+                            log_start[p.log] + p.t_s,
+                            p.value[i] / id.refined.coefficients[i],
+                        )
+                    })
                     .collect(),
             })
             .collect(),
@@ -241,7 +258,11 @@ fn write_outputs(
         .iter()
         .map(|r| (format!("{} measured", r.name), format!("{} model", r.name)))
         .collect();
-    let fit_plot = |title: &'static str, y_label: &'static str, measured: &dyn Fn(&Record) -> Vec<(f64, f64)>, state: usize, scale: f64| {
+    let fit_plot = |title: &'static str,
+                    y_label: &'static str,
+                    measured: &dyn Fn(&Record) -> Vec<(f64, f64)>,
+                    state: usize,
+                    scale: f64| {
         let mut series = Vec::new();
         for ((r, fit), (measured_label, model_label)) in records.iter().zip(&id.fits).zip(&labels) {
             series.push(Series {
@@ -250,7 +271,12 @@ fn write_outputs(
             });
             series.push(Series {
                 name: model_label,
-                points: r.t_s.iter().zip(&fit.simulated).map(|(t, s)| (*t, s[state] * scale)).collect(),
+                points: r
+                    .t_s
+                    .iter()
+                    .zip(&fit.simulated)
+                    .map(|(t, s)| (*t, s[state] * scale))
+                    .collect(),
             });
         }
         TrackPlot {
@@ -266,7 +292,13 @@ fn write_outputs(
     let theta = fit_plot(
         "pitch: measured and re-simulated (every log)",
         "theta (deg)",
-        &|r| r.t_s.iter().zip(&r.theta_rad).map(|(t, v)| (*t, v.to_degrees())).collect(),
+        &|r| {
+            r.t_s
+                .iter()
+                .zip(&r.theta_rad)
+                .map(|(t, v)| (*t, v.to_degrees()))
+                .collect()
+        },
         1,
         1f64.to_degrees(),
     );
@@ -277,7 +309,11 @@ fn write_outputs(
         0,
         1.0,
     );
-    for (name, plot) in [("convergence.png", convergence), ("fit_theta.png", theta), ("fit_w.png", w)] {
+    for (name, plot) in [
+        ("convergence.png", convergence),
+        ("fit_theta.png", theta),
+        ("fit_w.png", w),
+    ] {
         let path = out.join(name);
         let file = staging
             .create(&path)
@@ -333,7 +369,11 @@ fn print_report(id: &Identification, records: &[Record], model: &HeavePitch, set
         let s = id.refined.covariance[(i, i)].sqrt();
         let flag = if settings.fixed[i].is_some() {
             " (fixed)"
-        } else if id.assessment.iter().any(|d| d.name == NAMES[i] && d.poorly_determined) {
+        } else if id
+            .assessment
+            .iter()
+            .any(|d| d.name == NAMES[i] && d.poorly_determined)
+        {
             " (poorly determined)"
         } else {
             ""
@@ -369,7 +409,10 @@ fn print_report(id: &Identification, records: &[Record], model: &HeavePitch, set
         .fits
         .iter()
         .flat_map(|f| f.channels.iter().map(|c| c.normalised_rms))
-        .fold(0.0, |a: f64, b| if b.is_nan() { f64::INFINITY } else { a.max(b) });
+        .fold(
+            0.0,
+            |a: f64, b| if b.is_nan() { f64::INFINITY } else { a.max(b) },
+        );
     if worst > 2.0 || !id.refined.converged {
         println!(
             "warning: POOR FIT: residuals up to {worst:.1} times the sensor noise: the model's \

@@ -6,6 +6,7 @@
 mod attitude;
 mod bench;
 mod bench_attitude;
+mod bench_identify;
 mod bench_reconstruct;
 mod export;
 mod identify;
@@ -100,7 +101,9 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
         || err
             .downcast_ref::<hindsight::attitude::config::AttitudeConfigError>()
             .is_some()
-        || err.downcast_ref::<identify::CoefficientArgError>().is_some()
+        || err
+            .downcast_ref::<identify::CoefficientArgError>()
+            .is_some()
     {
         EXIT_USAGE
     } else {

@@ -71,13 +71,14 @@ fn jacobian(model: &HeavePitch, x: &State, plane: f64, c: &Coefficients) -> Cov 
 pub fn run(records: &[Record], initial: &Coefficients, settings: &Settings) -> EkfResult {
     let initial = settings.with_fixed(initial);
     // A fixed coefficient starts (and stays) certain.
-    let mut coefficient_cov = SMatrix::<f64, 10, 10>::from_diagonal(&Coefficients::from_fn(|i, _| {
-        if settings.fixed[i].is_some() {
-            0.0
-        } else {
-            (initial[i] * settings.initial_coefficient_sigma).powi(2)
-        }
-    }));
+    let mut coefficient_cov =
+        SMatrix::<f64, 10, 10>::from_diagonal(&Coefficients::from_fn(|i, _| {
+            if settings.fixed[i].is_some() {
+                0.0
+            } else {
+                (initial[i] * settings.initial_coefficient_sigma).powi(2)
+            }
+        }));
     let mut coefficients = initial;
     let mut history = Vec::new();
     let mut failed_updates = 0;
@@ -112,7 +113,14 @@ pub fn run(records: &[Record], initial: &Coefficients, settings: &Settings) -> E
             if k > 0 {
                 let dt = record.t_s[k] - record.t_s[k - 1];
                 if dt > 0.0 {
-                    est = predict(&model, &est, record.plane_rad[k - 1], record.plane_rad[k], dt, settings);
+                    est = predict(
+                        &model,
+                        &est,
+                        record.plane_rad[k - 1],
+                        record.plane_rad[k],
+                        dt,
+                        settings,
+                    );
                 }
             }
             let mut update = |est: &mut Gaussian<14>, index: usize, measured: f64, sigma: f64| {

@@ -67,7 +67,11 @@ pub fn identify(records: &[Record], start: &Coefficients, settings: &Settings) -
     // refinement then starts from the starting values instead.
     let ekf_diverged = !ekf.coefficients.iter().all(|v| v.is_finite())
         || !output_error::simulates(records, &ekf.coefficients, settings);
-    let lm_start = if ekf_diverged { settings.with_fixed(start) } else { ekf.coefficients };
+    let lm_start = if ekf_diverged {
+        settings.with_fixed(start)
+    } else {
+        ekf.coefficients
+    };
     let refined = output_error::refine(records, &lm_start, settings);
     let assessment =
         identifiability::assess(&refined.coefficients, &refined.covariance, &settings.fixed);
@@ -84,10 +88,24 @@ pub fn identify(records: &[Record], start: &Coefficients, settings: &Settings) -
                 settings.sigma.depth_m,
             ];
             let pairs: [Vec<(f64, f64)>; 4] = [
-                r.q_rad_s.iter().zip(&simulated).map(|(m, s)| (*m, s[2])).collect(),
-                r.theta_rad.iter().zip(&simulated).map(|(m, s)| (*m, s[1])).collect(),
-                r.w_m_s.iter().map(|(k, m)| (*m, simulated[*k][0])).collect(),
-                r.depth_m.iter().map(|(k, m)| (*m, simulated[*k][3])).collect(),
+                r.q_rad_s
+                    .iter()
+                    .zip(&simulated)
+                    .map(|(m, s)| (*m, s[2]))
+                    .collect(),
+                r.theta_rad
+                    .iter()
+                    .zip(&simulated)
+                    .map(|(m, s)| (*m, s[1]))
+                    .collect(),
+                r.w_m_s
+                    .iter()
+                    .map(|(k, m)| (*m, simulated[*k][0]))
+                    .collect(),
+                r.depth_m
+                    .iter()
+                    .map(|(k, m)| (*m, simulated[*k][3]))
+                    .collect(),
             ];
             let channels = std::array::from_fn(|ch| channel_fit(&pairs[ch], sigma[ch]));
             LogFit {

@@ -58,7 +58,13 @@ pub fn simulate(model: &HeavePitch, record: &Record, x0: &State, c: &Coefficient
 pub type Sens = SMatrix<f64, 4, 14>;
 
 /// State and sensitivity derivative: `x' = f`, `S' = F_x S + [F_c, 0]`.
-fn augmented(model: &HeavePitch, x: &State, s: &Sens, plane: f64, c: &Coefficients) -> (State, Sens) {
+fn augmented(
+    model: &HeavePitch,
+    x: &State,
+    s: &Sens,
+    plane: f64,
+    c: &Coefficients,
+) -> (State, Sens) {
     let fx = model.state_jacobian(x, c);
     let mut ds = fx * s;
     let fc = model.coefficient_jacobian(x, plane, c);
@@ -91,10 +97,20 @@ pub fn trajectory_with_sensitivities(
             let (f0, f1) = (j as f64 / n as f64, (j + 1) as f64 / n as f64);
             let (p0, pm, p1) = (plane(f0), plane(0.5 * (f0 + f1)), plane(f1));
             let (k1x, k1s) = augmented(model, &x, &s, p0, c);
-            let (k2x, k2s) =
-                augmented(model, &(x + k1x * (dt / 2.0)), &(s + k1s * (dt / 2.0)), pm, c);
-            let (k3x, k3s) =
-                augmented(model, &(x + k2x * (dt / 2.0)), &(s + k2s * (dt / 2.0)), pm, c);
+            let (k2x, k2s) = augmented(
+                model,
+                &(x + k1x * (dt / 2.0)),
+                &(s + k1s * (dt / 2.0)),
+                pm,
+                c,
+            );
+            let (k3x, k3s) = augmented(
+                model,
+                &(x + k2x * (dt / 2.0)),
+                &(s + k2s * (dt / 2.0)),
+                pm,
+                c,
+            );
             let (k4x, k4s) = augmented(model, &(x + k3x * dt), &(s + k3s * dt), p1, c);
             x += (k1x + k2x * 2.0 + k3x * 2.0 + k4x) * (dt / 6.0);
             s += (k1s + k2s * 2.0 + k3s * 2.0 + k4s) * (dt / 6.0);
@@ -112,7 +128,13 @@ fn accumulate(
     x0: &State,
     c: &Coefficients,
     settings: &Settings,
-) -> (SMatrix<f64, 14, 14>, SMatrix<f64, 14, 1>, f64, [f64; 4], [usize; 4]) {
+) -> (
+    SMatrix<f64, 14, 14>,
+    SMatrix<f64, 14, 1>,
+    f64,
+    [f64; 4],
+    [usize; 4],
+) {
     let sigma = [
         settings.sigma.q_rad_s,
         settings.sigma.theta_rad,
@@ -239,8 +261,9 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
             .enumerate()
             .map(|(l, x)| x + step.rows(10 + 4 * l, 4).into_owned())
             .collect();
-        let (ta, tb, tcost, trms) =
-            mask(normal_equations(records, &models, &trial_c, &trial_x0, settings));
+        let (ta, tb, tcost, trms) = mask(normal_equations(
+            records, &models, &trial_c, &trial_x0, settings,
+        ));
         if tcost.is_finite() && tcost < cost {
             let relative_drop = (cost - tcost) / cost;
             (c, x0, a, b, cost, rms) = (trial_c, trial_x0, ta, tb, tcost, trms);
@@ -300,7 +323,15 @@ mod tests {
         let t_s: Vec<f64> = (0..6001).map(|k| k as f64 * 0.01).collect();
         let plane_rad = t_s
             .iter()
-            .map(|&t| if t < 20.0 { 0.1 } else if t < 40.0 { -0.1 } else { 0.0 })
+            .map(|&t| {
+                if t < 20.0 {
+                    0.1
+                } else if t < 40.0 {
+                    -0.1
+                } else {
+                    0.0
+                }
+            })
             .collect();
         Record {
             name: "doublet".into(),

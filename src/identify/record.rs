@@ -136,7 +136,10 @@ impl Record {
             });
         }
         let (theta_rad, theta_source) = if attitude.is_empty() {
-            (own_pitch(imu), "hindsight's attitude (gyro and accelerometer; no /attitude)")
+            (
+                own_pitch(imu),
+                "hindsight's attitude (gyro and accelerometer; no /attitude)",
+            )
         } else {
             (
                 latest(attitude, |a| a.stamp_ns, &grid)

@@ -52,7 +52,10 @@ pub struct Settings {
 
 impl Settings {
     /// `c` with the fixed coefficients set to their values.
-    pub fn with_fixed(&self, c: &crate::vehicle::heave_pitch::Coefficients) -> crate::vehicle::heave_pitch::Coefficients {
+    pub fn with_fixed(
+        &self,
+        c: &crate::vehicle::heave_pitch::Coefficients,
+    ) -> crate::vehicle::heave_pitch::Coefficients {
         crate::vehicle::heave_pitch::Coefficients::from_fn(|i, _| self.fixed[i].unwrap_or(c[i]))
     }
 }

@@ -27,19 +27,35 @@ pub fn coefficients_batch(
     let mut c = Columns::default();
     c.text("name", NAMES.to_vec());
     c.number("estimate", "1", r.coefficients.iter().copied().collect());
-    c.number("sigma", "1", (0..10).map(|i| sigma(&r.covariance, i)).collect());
+    c.number(
+        "sigma",
+        "1",
+        (0..10).map(|i| sigma(&r.covariance, i)).collect(),
+    );
     c.number("initial", "1", id.start.iter().copied().collect());
-    c.number("ekf_estimate", "1", id.ekf.coefficients.iter().copied().collect());
-    c.number("ekf_sigma", "1", (0..10).map(|i| sigma(&id.ekf.covariance, i)).collect());
+    c.number(
+        "ekf_estimate",
+        "1",
+        id.ekf.coefficients.iter().copied().collect(),
+    );
+    c.number(
+        "ekf_sigma",
+        "1",
+        (0..10).map(|i| sigma(&id.ekf.covariance, i)).collect(),
+    );
     c.number(
         "dimensional",
         "see unit",
-        (0..10).map(|i| r.coefficients[i] * model.scale(i)).collect(),
+        (0..10)
+            .map(|i| r.coefficients[i] * model.scale(i))
+            .collect(),
     );
     c.number(
         "dimensional_sigma",
         "see unit",
-        (0..10).map(|i| sigma(&r.covariance, i) * model.scale(i)).collect(),
+        (0..10)
+            .map(|i| sigma(&r.covariance, i) * model.scale(i))
+            .collect(),
     );
     c.text("unit", UNITS.to_vec());
     c.push(
@@ -68,20 +84,17 @@ pub fn correlation_batch(id: &Identification) -> Result<RecordBatch, ArrowError>
 }
 
 /// `coefficient_history.parquet`: the EKF's estimate and sigma through the pass.
-pub fn history_batch(
-    id: &Identification,
-    records: &[Record],
-) -> Result<RecordBatch, ArrowError> {
+pub fn history_batch(id: &Identification, records: &[Record]) -> Result<RecordBatch, ArrowError> {
     let h = &id.ekf.history;
     let rows = h.len() * 10;
     let mut stamps = Vec::with_capacity(rows);
     let (mut logs, mut names) = (Vec::with_capacity(rows), Vec::with_capacity(rows));
     let (mut values, mut sigmas) = (Vec::with_capacity(rows), Vec::with_capacity(rows));
     for p in h {
-        for i in 0..10 {
+        for (i, name) in NAMES.iter().enumerate() {
             stamps.push(records[p.log].start_stamp_ns + (p.t_s * 1e9).round() as i64);
             logs.push(records[p.log].name.as_str());
-            names.push(NAMES[i]);
+            names.push(*name);
             values.push(p.value[i]);
             sigmas.push(p.sigma[i]);
         }
@@ -97,10 +110,7 @@ pub fn history_batch(
 
 /// `fit.parquet`: one row per sample of every log, measured (null where no reading) and
 /// re-simulated w, theta, q, depth, and the plane.
-pub fn fit_batch(
-    id: &Identification,
-    records: &[Record],
-) -> Result<RecordBatch, ArrowError> {
+pub fn fit_batch(id: &Identification, records: &[Record]) -> Result<RecordBatch, ArrowError> {
     let mut c = Columns::default();
     let mut stamps = Vec::new();
     let mut logs = Vec::new();
@@ -133,12 +143,16 @@ pub fn fit_batch(
     }
     c.stamps(stamps);
     c.text("log", logs);
-    let names = [("w", "m/s"), ("theta", "rad"), ("q", "rad/s"), ("depth", "m")];
+    let names = [
+        ("w", "m/s"),
+        ("theta", "rad"),
+        ("q", "rad/s"),
+        ("depth", "m"),
+    ];
     let [m0, m1, m2, m3] = cols;
     let [s0, s1, s2, s3] = sims;
-    for ((name, unit), (measured, simulated)) in names
-        .iter()
-        .zip([(m0, s0), (m1, s1), (m2, s2), (m3, s3)])
+    for ((name, unit), (measured, simulated)) in
+        names.iter().zip([(m0, s0), (m1, s1), (m2, s2), (m3, s3)])
     {
         let suffix = match *name {
             "w" => "_m_s",

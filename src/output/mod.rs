@@ -5,8 +5,8 @@
 
 pub mod atomic;
 pub mod attitude_tables;
-pub mod identify_tables;
 mod columns;
+pub mod identify_tables;
 pub mod parquet;
 pub mod plots;
 pub mod recon_tables;

@@ -138,7 +138,9 @@ pub fn fly(spec: &ZigzagSpec) -> (Vec<TruthSample>, Vec<f64>) {
     let model = HeavePitch::new(spec.constants);
     let (a, b) = (spec.plane_deg.to_radians(), spec.trigger_deg.to_radians());
     let rate = spec.plane_rate_deg_s.to_radians();
-    let steps_per_sample = (1.0 / (spec.noise.imu_rate_hz * spec.step_s)).round().max(1.0) as usize;
+    let steps_per_sample = (1.0 / (spec.noise.imu_rate_hz * spec.step_s))
+        .round()
+        .max(1.0) as usize;
     let dt = 1.0 / (spec.noise.imu_rate_hz * steps_per_sample as f64);
     let samples = (spec.duration_s * spec.noise.imu_rate_hz).round() as usize;
     let (mut x, mut plane, mut command) = (spec.initial_state, a, a);
@@ -182,7 +184,11 @@ pub fn run<W: Write + Seek>(
         origin_latitude_deg: 0.0,
         origin_longitude_deg: 0.0,
         vehicle: "heave-pitch (seed 004)".to_string(),
-        description: format!("simulated `{}` (seed {seed}): {}", spec.name, spec.description()),
+        description: format!(
+            "simulated `{}` (seed {seed}): {}",
+            spec.name,
+            spec.description()
+        ),
         initial_yaw_rad: Some(0.0),
         magnetic_declination_deg: None,
     })?;

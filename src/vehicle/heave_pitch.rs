@@ -50,8 +50,8 @@ pub const UNITS: [&str; 10] = [
 
 /// Seed 004's true values (Tables 5.2-5.3 "True Value"; the spec's table).
 pub const TRUE_COEFFICIENTS: [f64; 10] = [
-    -0.01991, -0.01258, -0.006371, -0.000016, -0.008791, 0.004059, -0.004970, -0.002995,
-    -0.005198, -0.003663,
+    -0.01991, -0.01258, -0.006371, -0.000016, -0.008791, 0.004059, -0.004970, -0.002995, -0.005198,
+    -0.003663,
 ];
 
 /// The model's constants (the spec's "State, input, constants").
@@ -107,8 +107,9 @@ impl HeavePitch {
     pub fn new(constants: Constants) -> HeavePitch {
         let half_rho = constants.water_density_kg_m3 / 2.0;
         let (l, u) = (constants.length_m, constants.speed_m_s);
-        let scale =
-            Coefficients::from_fn(|i, _| half_rho * l.powi(SCALE_POWERS[i].0) * u.powi(SCALE_POWERS[i].1));
+        let scale = Coefficients::from_fn(|i, _| {
+            half_rho * l.powi(SCALE_POWERS[i].0) * u.powi(SCALE_POWERS[i].1)
+        });
         HeavePitch {
             constants,
             scale,
@@ -182,7 +183,10 @@ impl HeavePitch {
             -weight * zg * theta.cos(),
             d[7] - m * zg * w,
         );
-        let inv = self.mass_matrix(&d).try_inverse().unwrap_or(Matrix2::repeat(f64::NAN));
+        let inv = self
+            .mass_matrix(&d)
+            .try_inverse()
+            .unwrap_or(Matrix2::repeat(f64::NAN));
         let dacc = inv * drhs;
         let mut j = SMatrix::<f64, 4, 4>::zeros();
         j.fixed_view_mut::<1, 3>(0, 0).copy_from(&dacc.row(0));
@@ -194,10 +198,18 @@ impl HeavePitch {
     }
 
     /// `df/dc` (4x10), by the nondimensional coefficients.
-    pub fn coefficient_jacobian(&self, x: &State, delta_s: f64, c: &Coefficients) -> SMatrix<f64, 4, 10> {
+    pub fn coefficient_jacobian(
+        &self,
+        x: &State,
+        delta_s: f64,
+        c: &Coefficients,
+    ) -> SMatrix<f64, 4, 10> {
         let d = self.dimensional(c);
         let acc = self.accelerations(x, delta_s, &d);
-        let inv = self.mass_matrix(&d).try_inverse().unwrap_or(Matrix2::repeat(f64::NAN));
+        let inv = self
+            .mass_matrix(&d)
+            .try_inverse()
+            .unwrap_or(Matrix2::repeat(f64::NAN));
         let (w, q) = (x[0], x[2]);
         // Regressors of Z_w, Z_wdot, Z_q, Z_qdot, Z_delta (row 0) and the M's (row 1).
         let regressors = [w, acc.x, q, acc.y, delta_s];
@@ -216,7 +228,14 @@ impl HeavePitch {
     }
 
     /// One RK4 step of `dt` with the plane moving linearly from `plane0` to `plane1`.
-    pub fn rk4_varying(&self, x: &State, plane0: f64, plane1: f64, c: &Coefficients, dt: f64) -> State {
+    pub fn rk4_varying(
+        &self,
+        x: &State,
+        plane0: f64,
+        plane1: f64,
+        c: &Coefficients,
+        dt: f64,
+    ) -> State {
         let mid = 0.5 * (plane0 + plane1);
         let k1 = self.derivative(x, plane0, c);
         let k2 = self.derivative(&(x + k1 * (dt / 2.0)), mid, c);
@@ -268,10 +287,16 @@ mod tests {
                 let (mut up, mut down) = (x, x);
                 up[j] += h;
                 down[j] -= h;
-                let fd = (m.derivative(&up, delta, &c) - m.derivative(&down, delta, &c)) / (2.0 * h);
+                let fd =
+                    (m.derivative(&up, delta, &c) - m.derivative(&down, delta, &c)) / (2.0 * h);
                 for i in 0..4 {
                     let err = (fd[i] - js[(i, j)]).abs();
-                    assert!(err <= 1e-5 * (js[(i, j)].abs() + 1e-6), "dx[{i}]/dx[{j}]: {} vs {}", js[(i, j)], fd[i]);
+                    assert!(
+                        err <= 1e-5 * (js[(i, j)].abs() + 1e-6),
+                        "dx[{i}]/dx[{j}]: {} vs {}",
+                        js[(i, j)],
+                        fd[i]
+                    );
                 }
             }
             let jc = m.coefficient_jacobian(&x, delta, &c);
@@ -280,10 +305,17 @@ mod tests {
                 let (mut up, mut down) = (c, c);
                 up[j] += h;
                 down[j] -= h;
-                let fd = (m.derivative(&x, delta, &up) - m.derivative(&x, delta, &down)) / (2.0 * h);
+                let fd =
+                    (m.derivative(&x, delta, &up) - m.derivative(&x, delta, &down)) / (2.0 * h);
                 for i in 0..4 {
                     let err = (fd[i] - jc[(i, j)]).abs();
-                    assert!(err <= 1e-5 * jc[(i, j)].abs() + 1e-12, "dx[{i}]/d{}: {} vs {}", NAMES[j], jc[(i, j)], fd[i]);
+                    assert!(
+                        err <= 1e-5 * jc[(i, j)].abs() + 1e-12,
+                        "dx[{i}]/d{}: {} vs {}",
+                        NAMES[j],
+                        jc[(i, j)],
+                        fd[i]
+                    );
                 }
             }
         }
