@@ -160,7 +160,6 @@ fn bad_input_is_named() {
         for m in full.messages::<Depth>("/depth").unwrap() {
             w.write("/depth", m, m.stamp_ns as u64)?;
         }
-        let _: Option<&[ControlSurfaces]> = None;
         Ok(())
     })
     .unwrap();
@@ -176,6 +175,78 @@ fn bad_input_is_named() {
     assert!(!dir.join("out3").exists());
     // A coefficient name that does not exist.
     let o = run(&[&straight], &dir.join("out4"), &["--fix", "Z_ww=0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("unknown coefficient `Z_ww`"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// Without /attitude, theta comes from hindsight's own attitude (gyro and accelerometer);
+/// starting values from a file.
+#[test]
+fn own_attitude_and_a_start_file() {
+    let dir = common::scratch_dir("identify-cli-own");
+    let full = common::read(&std::fs::read(log(&dir, "zigzag-10-5", |_| {})).unwrap());
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        w.write_mission(&full.mission().unwrap())?;
+        for m in full.messages::<Imu>("/imu").unwrap() {
+            w.write("/imu", m, m.stamp_ns as u64)?;
+        }
+        for m in full.messages::<ControlSurfaces>("/fins").unwrap() {
+            w.write("/fins", m, m.stamp_ns as u64)?;
+        }
+        for m in full.messages::<Dvl>("/dvl").unwrap() {
+            w.write("/dvl", m, m.stamp_ns as u64)?;
+        }
+        for m in full.messages::<Depth>("/depth").unwrap() {
+            w.write("/depth", m, m.stamp_ns as u64)?;
+        }
+        Ok(())
+    })
+    .unwrap();
+    let no_attitude = dir.join("no-attitude.mcap");
+    std::fs::write(&no_attitude, bytes).unwrap();
+    let start = dir.join("start.toml");
+    std::fs::write(&start, "M_qdot = -0.006\nZ_w = -0.025\n").unwrap();
+    let out = dir.join("out");
+    let o = run(
+        &[&no_attitude],
+        &out,
+        &["--initial", start.to_str().unwrap()],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("theta from hindsight's attitude"),
+        "{}",
+        stderr(&o)
+    );
+    let c = &read_parquet(&out.join("coefficients.parquet"))[0];
+    let initial = c
+        .column_by_name("initial")
+        .unwrap()
+        .as_any()
+        .downcast_ref::<Float64Array>()
+        .unwrap();
+    assert_eq!((initial.value(0), initial.value(8)), (-0.025, -0.006));
+    // The model still explains the motion (measured: theta fit 99.8 %; the own pitch is
+    // smoothed, so its residuals are below the /attitude sensor's sigma).
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let theta = summary["fit"][0]["theta"]["fit_percent"].as_f64().unwrap();
+    println!(
+        "theta fit with hindsight's own attitude: {theta:.1} %; {}",
+        summary["fit"][0]
+    );
+    assert!(theta > 90.0, "{theta}");
+    // A start file naming an unknown coefficient is refused.
+    std::fs::write(&start, "Z_ww = 1.0\n").unwrap();
+    let o = run(
+        &[&no_attitude],
+        &dir.join("out2"),
+        &["--initial", start.to_str().unwrap()],
+    );
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("unknown coefficient `Z_ww`"),
