@@ -5,3 +5,4 @@
 //!   `shared/spec/heave-pitch-model.md` pins it down.
 
 pub mod heave_pitch;
+pub mod six_dof;

@@ -1,0 +1,9 @@
+//! Seed 000's 6-DOF vehicle model (Gertler-Hagen style) with vehicle descriptions as data.
+//!
+//! - [`description`]: vehicle files to terms (the one place names meet the model).
+//! - [`terms`]: hydrodynamic terms as products of factors, with exact gradients.
+//! - [`model`]: the equations of motion and their Jacobian by velocity and rate.
+
+pub mod description;
+pub mod model;
+pub mod terms;

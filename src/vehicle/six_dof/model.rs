@@ -1,0 +1,194 @@
+//! The 6-DOF equations of motion of seed 000 (eq. 1-4): rigid body about the body origin
+//! (centre of gravity at `r_G`, Earth-rate Coriolis term), added mass, the file's
+//! hydrodynamic terms, strip-theory cross-flow drag, propulsion, and weight and buoyancy:
+//!
+//! ```text
+//! (M_RB + M_A) nu' = tau_rb(nu) + tau_earth(nu) + tau_h(nu, fins, n) + tau_cf(nu)
+//!                    + tau_prop(nu, n) + tau_restoring(roll, pitch)
+//! ```
+//!
+//! with `tau_rb = -[m (w x v + w x (w x r_G)); w x (I w) + m r_G x (w x v)]` and
+//! `tau_earth = [-2 m (w_ie^b x v); 0]`. [`SixDof::jacobian`] is `d nu' / d nu`, the
+//! appendix's `A_v2, A_v3, A_w2, A_w3` blocks, analytic term by term.
+
+use super::description::{Propulsion, Vehicle};
+use super::terms::{Inputs, Nu};
+use nalgebra::{Matrix3, Matrix6, SVector, Vector3};
+
+/// Sections of the strip-theory cross-flow integral.
+pub const CROSSFLOW_SECTIONS: usize = 10;
+
+fn add3(tau: &mut Nu, at: usize, v: &Vector3<f64>) {
+    for i in 0..3 {
+        tau[at + i] += v[i];
+    }
+}
+
+fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
+}
+
+/// The model of one vehicle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SixDof {
+    pub vehicle: Vehicle,
+    mass_matrix: Matrix6<f64>,
+    mass_inverse: Matrix6<f64>,
+}
+
+/// Where the vehicle is, for the forces that depend on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Attitude {
+    pub roll_rad: f64,
+    pub pitch_rad: f64,
+    /// Earth's rotation in body axes, rad/s (zero for a flat, non-rotating world).
+    pub earth_rate_body: Vector3<f64>,
+}
+
+impl SixDof {
+    /// The model; `None` if the mass matrix is singular.
+    pub fn new(vehicle: Vehicle) -> Option<SixDof> {
+        let m = vehicle.mass_kg;
+        let s = skew(&vehicle.centre_of_gravity_m);
+        let mut rb = Matrix6::zeros();
+        rb.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&(Matrix3::identity() * m));
+        rb.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-s * m));
+        rb.fixed_view_mut::<3, 3>(3, 0).copy_from(&(s * m));
+        rb.fixed_view_mut::<3, 3>(3, 3)
+            .copy_from(&vehicle.inertia_kg_m2);
+        let mass_matrix = rb + vehicle.added_mass;
+        let mass_inverse = mass_matrix.try_inverse()?;
+        Some(SixDof {
+            vehicle,
+            mass_matrix,
+            mass_inverse,
+        })
+    }
+
+    pub fn mass_matrix(&self) -> &Matrix6<f64> {
+        &self.mass_matrix
+    }
+
+    /// Generalised forces and their derivative by `nu`.
+    pub fn forces(&self, nu: &Nu, at: &Attitude, inputs: &Inputs) -> (Nu, Matrix6<f64>) {
+        let veh = &self.vehicle;
+        let m = veh.mass_kg;
+        let r = veh.centre_of_gravity_m;
+        let v: Vector3<f64> = nu.fixed_rows::<3>(0).into_owned();
+        let w: Vector3<f64> = nu.fixed_rows::<3>(3).into_owned();
+        let mut tau = Nu::zeros();
+        let mut d = Matrix6::zeros();
+
+        // Rigid body (Coriolis and centripetal, moved to the right-hand side).
+        let wxv = w.cross(&v);
+        let wxwxr = w.cross(&w.cross(&r));
+        let iw = veh.inertia_kg_m2 * w;
+        let f_rb = -(wxv + wxwxr) * m;
+        let m_rb = -(w.cross(&iw)) - r.cross(&wxv) * m;
+        add3(&mut tau, 0, &f_rb);
+        add3(&mut tau, 3, &m_rb);
+        let d_wxwxr = w * r.transpose() + Matrix3::identity() * w.dot(&r) - r * w.transpose() * 2.0;
+        let mut block = |row: usize, col: usize, b: Matrix3<f64>| {
+            let mut view = d.fixed_view_mut::<3, 3>(row, col);
+            view += b;
+        };
+        block(0, 0, -skew(&w) * m);
+        block(0, 3, (skew(&v) - d_wxwxr) * m);
+        block(3, 3, -(skew(&w) * veh.inertia_kg_m2 - skew(&iw)));
+        block(3, 0, -skew(&r) * skew(&w) * m);
+        block(3, 3, skew(&r) * skew(&v) * m);
+
+        // Earth-rate Coriolis on the translation (seed 000's f_v^RB).
+        let e = at.earth_rate_body;
+        add3(&mut tau, 0, &(-e.cross(&v) * (2.0 * m)));
+        block(0, 0, -skew(&e) * (2.0 * m));
+
+        // The file's hydrodynamic terms.
+        for term in &veh.terms {
+            let (value, grad) = term.eval(nu, inputs, veh.length_m);
+            tau[term.axis] += value;
+            let mut row = d.row_mut(term.axis);
+            row += grad.transpose();
+        }
+
+        // Cross-flow drag by strip theory.
+        if let Some(cf) = veh.crossflow {
+            let half_rho = veh.water_density_kg_m3 / 2.0;
+            let dx = veh.length_m / CROSSFLOW_SECTIONS as f64;
+            for i in 0..CROSSFLOW_SECTIONS {
+                let x = -veh.length_m / 2.0 + (i as f64 + 0.5) * dx;
+                let a = nu[1] + x * nu[5];
+                let b = nu[2] - x * nu[4];
+                let s = (a * a + b * b).sqrt();
+                if s < 1e-12 {
+                    continue;
+                }
+                let ky = -half_rho * cf.cd_y * cf.height_m * dx;
+                let kz = -half_rho * cf.cd_z * cf.width_m * dx;
+                let (fy, fz) = (ky * a * s, kz * b * s);
+                // Derivatives of a s and b s by a and b.
+                let (dfy_da, dfy_db) = (ky * (s + a * a / s), ky * a * b / s);
+                let (dfz_da, dfz_db) = (kz * a * b / s, kz * (s + b * b / s));
+                // a = v + x r, b = w - x q.
+                let grad = |f_da: f64, f_db: f64| {
+                    let mut g = Nu::zeros();
+                    g[1] = f_da;
+                    g[5] = f_da * x;
+                    g[2] = f_db;
+                    g[4] = -f_db * x;
+                    g
+                };
+                let (gy, gz) = (grad(dfy_da, dfy_db), grad(dfz_da, dfz_db));
+                for (axis, value, g) in [(1, fy, gy), (2, fz, gz), (4, -x * fz, -gz * x), (5, x * fy, gy * x)] {
+                    tau[axis] += value;
+                    let mut row = d.row_mut(axis);
+                    row += g.transpose();
+                }
+            }
+        }
+
+        // Propulsion.
+        let n = inputs.propeller_rad_s;
+        match veh.propulsion {
+            Propulsion::Nps { cd0 } => {
+                let k = veh.water_density_kg_m3 / 2.0 * veh.length_m.powi(2) * cd0;
+                let u = nu[0];
+                tau[0] += k * (0.012f64.powi(2) * n * n.abs() * u.signum() - u * u.abs());
+                d[(0, 0)] += -2.0 * k * u.abs();
+            }
+            Propulsion::Quadratic { thrust, torque } => {
+                tau[0] += thrust * n * n.abs();
+                tau[3] += torque * n * n.abs();
+            }
+        }
+
+        // Weight and buoyancy.
+        let (sr, cr) = at.roll_rad.sin_cos();
+        let (sp, cp) = at.pitch_rad.sin_cos();
+        let down = Vector3::new(-sp, cp * sr, cp * cr);
+        let (wt, bu) = (veh.weight_n, veh.buoyancy_n);
+        add3(&mut tau, 0, &(down * (wt - bu)));
+        add3(&mut tau, 3, 
+            &(veh.centre_of_gravity_m.cross(&down) * wt
+                - veh.centre_of_buoyancy_m.cross(&down) * bu),
+        );
+        (tau, d)
+    }
+
+    /// `nu'` and its Jacobian `d nu' / d nu`.
+    pub fn derivative(&self, nu: &Nu, at: &Attitude, inputs: &Inputs) -> (Nu, Matrix6<f64>) {
+        let (tau, d) = self.forces(nu, at, inputs);
+        (self.mass_inverse * tau, self.mass_inverse * d)
+    }
+
+    /// `d nu' / d nu` alone.
+    pub fn jacobian(&self, nu: &Nu, at: &Attitude, inputs: &Inputs) -> Matrix6<f64> {
+        self.derivative(nu, at, inputs).1
+    }
+}
+
+/// A 6-vector from a velocity and a rate.
+pub fn nu(v: Vector3<f64>, w: Vector3<f64>) -> Nu {
+    SVector::<f64, 6>::new(v.x, v.y, v.z, w.x, w.y, w.z)
+}

@@ -1,0 +1,130 @@
+//! Hydrodynamic terms as products of factors: one coefficient times velocities, rates,
+//! fin angles and the propeller-wake factor. Each factor knows its derivative by the body
+//! velocities `nu = [u, v, w, p, q, r]`, so every term's gradient is exact (product rule).
+
+use nalgebra::SVector;
+
+/// Body velocities and rates `[u, v, w, p, q, r]` (m/s, rad/s).
+pub type Nu = SVector<f64, 6>;
+
+/// What a term multiplies besides its coefficient.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Factor {
+    /// A component of `nu` (0..6).
+    Nu(usize),
+    /// Its magnitude.
+    AbsNu(usize),
+    /// Rudder, stern plane, bow plane (rad).
+    Rudder,
+    Stern,
+    Bow,
+    /// The propeller-wake factor epsilon(n, u) of the NPS AUV II model.
+    Wake,
+}
+
+/// What a factor is evaluated with besides `nu`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Inputs {
+    pub rudder_rad: f64,
+    pub stern_rad: f64,
+    pub bow_rad: f64,
+    /// Propeller speed, rad/s.
+    pub propeller_rad_s: f64,
+}
+
+/// The propeller-wake factor and its derivative by `u` (NPS AUV II, Healey and Lienard):
+/// `eps = -1 + sign(n)/sign(u) (sqrt(Ct + 1) - 1) / (sqrt(Ct1 + 1) - 1)`,
+/// `Ct = 0.008 L^2 |prop| prop / 2`, `prop = 0.012 n / u`.
+pub fn wake(u: f64, n: f64, length_m: f64) -> (f64, f64) {
+    let u = if u.abs() < 1e-6 { 1e-6f64.copysign(u) } else { u };
+    let prop = 0.012 * n / u;
+    let k = 0.008 * length_m * length_m / 2.0;
+    let ct = k * prop.abs() * prop;
+    let ct1 = k;
+    let denom = (ct1 + 1.0).sqrt() - 1.0;
+    let s = n.signum() / u.signum();
+    let root = (ct + 1.0).sqrt();
+    let value = -1.0 + s * (root - 1.0) / denom;
+    // d ct / du = k * 2 |prop| * d prop / du, d prop / du = -prop / u.
+    let dct = k * 2.0 * prop.abs() * (-prop / u);
+    let derivative = s / denom * 0.5 / root * dct;
+    (value, derivative)
+}
+
+impl Factor {
+    /// The factor's value and its gradient by `nu`.
+    fn eval(self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Nu) {
+        let mut grad = Nu::zeros();
+        let value = match self {
+            Factor::Nu(i) => {
+                grad[i] = 1.0;
+                nu[i]
+            }
+            Factor::AbsNu(i) => {
+                grad[i] = nu[i].signum();
+                nu[i].abs()
+            }
+            Factor::Rudder => inputs.rudder_rad,
+            Factor::Stern => inputs.stern_rad,
+            Factor::Bow => inputs.bow_rad,
+            Factor::Wake => {
+                let (v, d) = wake(nu[0], inputs.propeller_rad_s, length_m);
+                grad[0] = d;
+                v
+            }
+        };
+        (value, grad)
+    }
+}
+
+/// One term of a force or moment: `coefficient * product(factors)`, dimensional (N or N m).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Term {
+    /// 0..3 force X, Y, Z; 3..6 moment K, M, N.
+    pub axis: usize,
+    pub coefficient: f64,
+    pub factors: Vec<Factor>,
+    /// The file's name for it (for messages and `vehicle check`).
+    pub name: String,
+}
+
+impl Term {
+    /// The term's value and gradient by `nu`.
+    pub fn eval(&self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Nu) {
+        let evaluated: Vec<(f64, Nu)> = self
+            .factors
+            .iter()
+            .map(|f| f.eval(nu, inputs, length_m))
+            .collect();
+        let value: f64 = evaluated.iter().map(|e| e.0).product();
+        let mut grad = Nu::zeros();
+        for (k, (_, g)) in evaluated.iter().enumerate() {
+            if g.iter().all(|v| *v == 0.0) {
+                continue;
+            }
+            let others: f64 = evaluated
+                .iter()
+                .enumerate()
+                .filter(|(l, _)| *l != k)
+                .map(|(_, e)| e.0)
+                .product();
+            grad += g * others;
+        }
+        (self.coefficient * value, grad * self.coefficient)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wake_derivative_matches_finite_differences() {
+        for (u, n) in [(1.5, 100.0), (0.3, 50.0), (2.0, -80.0), (-1.0, 60.0)] {
+            let h = 1e-6;
+            let fd = (wake(u + h, n, 5.3).0 - wake(u - h, n, 5.3).0) / (2.0 * h);
+            let (_, d) = wake(u, n, 5.3);
+            assert!((fd - d).abs() < 1e-6 * (1.0 + d.abs()), "{u} {n}: {d} vs {fd}");
+        }
+    }
+}
