@@ -69,10 +69,14 @@ fn bad_files_are_named() {
     assert_ne!(unknown, nps);
     let e = Vehicle::from_json(&unknown).unwrap_err();
     assert!(
-        e.to_string().starts_with("unknown coefficient `Zwq_typo` in `heave`"),
+        e.to_string()
+            .starts_with("unknown coefficient `Zwq_typo` in `heave`"),
         "{e}"
     );
-    assert!(matches!(Vehicle::from_json("{"), Err(VehicleError::Json(_))));
+    assert!(matches!(
+        Vehicle::from_json("{"),
+        Err(VehicleError::Json(_))
+    ));
 }
 
 fn random_state(rng: &mut impl Rng) -> (Nu, Attitude, Inputs) {
@@ -203,4 +207,104 @@ fn energy_is_conserved_without_hydrodynamics() {
     let drift = ((e1 - e0) / e0).abs();
     println!("energy {e0:.6} J -> {e1:.6} J over 100 s: relative drift {drift:.1e}");
     assert!(drift < 1e-6, "{drift:e}");
+}
+
+/// The straight-line stability indices agree with the simulated response to a small
+/// disturbance: from straight flight at full-propeller speed, a yaw (or pitch) rate of
+/// 0.01 rad/s dies out when the index is positive and does not when it is negative. The
+/// test vehicles are made neutrally buoyant, without propeller torque, and (for the vertical
+/// plane) with the centre of gravity at the centre of buoyancy, so that each plane's
+/// straight-line dynamics are what is tested.
+#[test]
+fn stability_indices_agree_with_simulated_response() {
+    use hindsight::vehicle::six_dof::motion::{step, Actuators, MotionState};
+    use hindsight::vehicle::six_dof::properties::Properties;
+    for file in ["nps-auv-ii.json", "remus-100.json"] {
+        for (plane, rate_index) in [("horizontal", 5usize), ("vertical", 4)] {
+            let mut v = load(file);
+            v.buoyancy_n = v.weight_n;
+            if let Propulsion::Quadratic { thrust, .. } = v.propulsion {
+                v.propulsion = Propulsion::Quadratic {
+                    thrust,
+                    torque: 0.0,
+                };
+            }
+            if plane == "vertical" {
+                v.centre_of_gravity_m = v.centre_of_buoyancy_m;
+            }
+            let model = SixDof::new(v).unwrap();
+            let p = Properties::of(&model);
+            let index = if plane == "horizontal" {
+                p.horizontal.index
+            } else {
+                p.vertical.index
+            };
+            let mut s = MotionState::at(Vector3::new(0.0, 0.0, 50.0), 0.0);
+            s.nu[0] = p.full_speed_m_s.unwrap();
+            s.nu[rate_index] = 0.01;
+            let command = Actuators {
+                propeller_rad_s: model.vehicle.propeller_limit_rad_s,
+                ..Default::default()
+            };
+            s.actuators = command;
+            for _ in 0..12_000 {
+                s = step(&model, &s, &command, &Vector3::zeros(), 0.01);
+            }
+            let ratio = s.nu[rate_index].abs() / 0.01;
+            println!(
+                "{file} {plane}: index {index:+.5}, rate after 120 s {ratio:.3} of the disturbance"
+            );
+            assert_eq!(
+                index > 0.0,
+                ratio < 0.3,
+                "{file} {plane}: index {index}, ratio {ratio}"
+            );
+        }
+    }
+}
+
+/// `hindsight vehicle check` on both files, and on a broken one.
+#[test]
+fn vehicle_check_command() {
+    let bin = env!("CARGO_BIN_EXE_hindsight");
+    for (file, expect) in [
+        (
+            "nps-auv-ii.json",
+            "horizontal C_H         +0.00129 (straight-line stable)",
+        ),
+        (
+            "remus-100.json",
+            "net buoyancy                11.00 N (floats up)",
+        ),
+    ] {
+        let o = std::process::Command::new(bin)
+            .args([
+                "vehicle",
+                "check",
+                vehicles_dir().join(file).to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(out.contains(expect), "{out}");
+    }
+    let dir = std::env::temp_dir().join(format!("hindsight-vehicle-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.json");
+    std::fs::write(
+        &bad,
+        text("nps-auv-ii.json").replace("\"Ix_kgm2\": 2038.0", "\"Ix_kgm2\": -2038.0"),
+    )
+    .unwrap();
+    let o = std::process::Command::new(bin)
+        .args(["vehicle", "check", bad.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("physical.Ix_kgm2") && err.contains("must be a positive number"),
+        "{err}"
+    );
 }

@@ -13,6 +13,7 @@ mod identify;
 mod info;
 mod reconstruct;
 mod simulate;
+mod vehicle;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -51,6 +52,7 @@ pub enum Command {
     Reconstruct(reconstruct::ReconstructArgs),
     Attitude(attitude::AttitudeArgs),
     Identify(identify::IdentifyArgs),
+    Vehicle(vehicle::VehicleArgs),
     /// Print the default `reconstruct` configuration (TOML, every key explained).
     Config(reconstruct::ConfigArgs),
     Info(info::InfoArgs),
@@ -72,6 +74,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Reconstruct(a) => reconstruct::run(a),
         Command::Attitude(a) => attitude::run(a),
         Command::Identify(a) => identify::run(a),
+        Command::Vehicle(a) => vehicle::run(a),
         Command::Config(a) => reconstruct::print_config(a),
         Command::Info(a) => info::run(a),
         Command::Export(a) => export::run(a),
@@ -95,6 +98,10 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
         || err
             .downcast_ref::<hindsight::identify::record::RecordError>()
             .is_some()
+        || err
+            .downcast_ref::<hindsight::vehicle::six_dof::description::VehicleError>()
+            .is_some()
+        || err.downcast_ref::<vehicle::SingularMass>().is_some()
     {
         EXIT_BAD_INPUT
     } else if err.downcast_ref::<ConfigError>().is_some()

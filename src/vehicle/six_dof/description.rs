@@ -321,7 +321,8 @@ fn leading_number(v: &Value, key: &str) -> Result<f64, VehicleError> {
 impl Vehicle {
     /// Reads a vehicle description (JSON text).
     pub fn from_json(text: &str) -> Result<Vehicle, VehicleError> {
-        let root: Value = serde_json::from_str(text).map_err(|e| VehicleError::Json(e.to_string()))?;
+        let root: Value =
+            serde_json::from_str(text).map_err(|e| VehicleError::Json(e.to_string()))?;
         let name = root
             .get("name")
             .and_then(Value::as_str)
@@ -339,7 +340,11 @@ impl Vehicle {
             Some(Value::String(s)) if s.replace(' ', "") == "W/g" => weight_n / gravity_m_s2,
             Some(Value::Number(n)) => n.as_f64().unwrap_or(f64::NAN),
             None if weight_n > 0.0 => weight_n / gravity_m_s2,
-            _ => return Err(VehicleError::Missing("physical.mass_kg (a number or \"W/g\")".into())),
+            _ => {
+                return Err(VehicleError::Missing(
+                    "physical.mass_kg (a number or \"W/g\")".into(),
+                ))
+            }
         };
         let inertia = |keys: [&str; 2]| -> Result<Option<f64>, VehicleError> {
             Ok(number(phys, keys[0])?.or(number(phys, keys[1])?))
@@ -386,10 +391,12 @@ impl Vehicle {
         let propulsion;
         if let Some(coefficients) = root.get("coefficients") {
             // Dimensional (REMUS form).
-            let table = coefficients.as_object().ok_or_else(|| VehicleError::Malformed {
-                key: "coefficients".into(),
-                reason: "expected an object of NAME: value".into(),
-            })?;
+            let table = coefficients
+                .as_object()
+                .ok_or_else(|| VehicleError::Malformed {
+                    key: "coefficients".into(),
+                    reason: "expected an object of NAME: value".into(),
+                })?;
             for (key, value) in table {
                 let v = value.as_f64().ok_or_else(|| VehicleError::Malformed {
                     key: format!("coefficients.{key}"),
@@ -397,7 +404,8 @@ impl Vehicle {
                 })?;
                 if let Some(&(_, row, col)) = REMUS_ADDED_MASS.iter().find(|m| m.0 == key) {
                     added_mass[(row, col)] = -v;
-                } else if let Some(&(n, axis, factors, k)) = REMUS_TERMS.iter().find(|m| m.0 == key) {
+                } else if let Some(&(n, axis, factors, k)) = REMUS_TERMS.iter().find(|m| m.0 == key)
+                {
                     prime_power(n, axis, factors)?;
                     terms.push(Term {
                         axis,
@@ -472,7 +480,9 @@ impl Vehicle {
             }),
             _ => None,
         };
-        let fin_limit_rad = number(phys, "actuator_limit_deg")?.unwrap_or(20.0).to_radians();
+        let fin_limit_rad = number(phys, "actuator_limit_deg")?
+            .unwrap_or(20.0)
+            .to_radians();
         Ok(Vehicle {
             name,
             length_m,
@@ -489,10 +499,11 @@ impl Vehicle {
             propulsion,
             crossflow,
             fin_limit_rad,
-            fin_rate_limit_rad_s: number(phys, "actuator_rate_deg_s")?.unwrap_or(20.0).to_radians(),
+            fin_rate_limit_rad_s: number(phys, "actuator_rate_deg_s")?
+                .unwrap_or(20.0)
+                .to_radians(),
             actuator_time_constant_s: number(phys, "actuator_time_constant_s")?.unwrap_or(0.1),
-            propeller_limit_rad_s: number(phys, "propeller_limit_rpm")?
-                .unwrap_or(1500.0)
+            propeller_limit_rad_s: number(phys, "propeller_limit_rpm")?.unwrap_or(1500.0)
                 * std::f64::consts::TAU
                 / 60.0,
         })
@@ -509,7 +520,11 @@ impl Vehicle {
 }
 
 fn unknown(key: &str, section: &str, terms: &[Mapping], added: &[AddedMass]) -> VehicleError {
-    let mut known: Vec<&str> = terms.iter().map(|t| t.0).chain(added.iter().map(|a| a.0)).collect();
+    let mut known: Vec<&str> = terms
+        .iter()
+        .map(|t| t.0)
+        .chain(added.iter().map(|a| a.0))
+        .collect();
     known.sort_unstable();
     VehicleError::UnknownCoefficient {
         name: key.to_string(),

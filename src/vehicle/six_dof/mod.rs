@@ -6,4 +6,6 @@
 
 pub mod description;
 pub mod model;
+pub mod motion;
+pub mod properties;
 pub mod terms;

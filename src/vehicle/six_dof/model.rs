@@ -140,7 +140,12 @@ impl SixDof {
                     g
                 };
                 let (gy, gz) = (grad(dfy_da, dfy_db), grad(dfz_da, dfz_db));
-                for (axis, value, g) in [(1, fy, gy), (2, fz, gz), (4, -x * fz, -gz * x), (5, x * fy, gy * x)] {
+                for (axis, value, g) in [
+                    (1, fy, gy),
+                    (2, fz, gz),
+                    (4, -x * fz, -gz * x),
+                    (5, x * fy, gy * x),
+                ] {
                     tau[axis] += value;
                     let mut row = d.row_mut(axis);
                     row += g.transpose();
@@ -169,7 +174,9 @@ impl SixDof {
         let down = Vector3::new(-sp, cp * sr, cp * cr);
         let (wt, bu) = (veh.weight_n, veh.buoyancy_n);
         add3(&mut tau, 0, &(down * (wt - bu)));
-        add3(&mut tau, 3, 
+        add3(
+            &mut tau,
+            3,
             &(veh.centre_of_gravity_m.cross(&down) * wt
                 - veh.centre_of_buoyancy_m.cross(&down) * bu),
         );

@@ -36,7 +36,11 @@ pub struct Inputs {
 /// `eps = -1 + sign(n)/sign(u) (sqrt(Ct + 1) - 1) / (sqrt(Ct1 + 1) - 1)`,
 /// `Ct = 0.008 L^2 |prop| prop / 2`, `prop = 0.012 n / u`.
 pub fn wake(u: f64, n: f64, length_m: f64) -> (f64, f64) {
-    let u = if u.abs() < 1e-6 { 1e-6f64.copysign(u) } else { u };
+    let u = if u.abs() < 1e-6 {
+        1e-6f64.copysign(u)
+    } else {
+        u
+    };
     let prop = 0.012 * n / u;
     let k = 0.008 * length_m * length_m / 2.0;
     let ct = k * prop.abs() * prop;
@@ -124,7 +128,10 @@ mod tests {
             let h = 1e-6;
             let fd = (wake(u + h, n, 5.3).0 - wake(u - h, n, 5.3).0) / (2.0 * h);
             let (_, d) = wake(u, n, 5.3);
-            assert!((fd - d).abs() < 1e-6 * (1.0 + d.abs()), "{u} {n}: {d} vs {fd}");
+            assert!(
+                (fd - d).abs() < 1e-6 * (1.0 + d.abs()),
+                "{u} {n}: {d} vs {fd}"
+            );
         }
     }
 }
