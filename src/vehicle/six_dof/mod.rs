@@ -4,6 +4,7 @@
 //! - [`terms`]: hydrodynamic terms as products of factors, with exact gradients.
 //! - [`model`]: the equations of motion and their Jacobian by velocity and rate.
 
+pub mod autopilot;
 pub mod description;
 pub mod model;
 pub mod motion;

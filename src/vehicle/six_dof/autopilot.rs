@@ -1,0 +1,179 @@
+//! Heading, depth/pitch and speed control, enough to fly the papers' manoeuvres.
+//!
+//! Each loop asks for an angular acceleration of a second-order response
+//! (`omega^2 error - 2 zeta omega rate`) and turns it into a fin angle through the model's
+//! own effective inertia, rate damping and fin effectiveness at the commanded speed (so the
+//! same gains fly any vehicle file); depth is an outer loop that commands pitch. Speed: the
+//! propeller speed that holds it in straight, level flight, plus an integral on the error.
+
+use super::model::{Attitude, SixDof};
+use super::motion::{Actuators, MotionState};
+use super::properties::steady_speed;
+use super::terms::{Inputs, Nu};
+use crate::angle::wrap_pi;
+use nalgebra::Vector3;
+
+/// What the vehicle is asked to do.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Command {
+    pub speed_m_s: f64,
+    /// Heading, rad; `None`: rudder held at `rudder_rad`.
+    pub heading_rad: Option<f64>,
+    /// Depth, m; `None`: pitch held by `pitch_rad` (or the planes held at `stern_rad`).
+    pub depth_m: Option<f64>,
+    pub pitch_rad: Option<f64>,
+    pub rudder_rad: f64,
+    pub stern_rad: f64,
+}
+
+/// Gains and limits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gains {
+    /// Heading loop bandwidth, rad/s, and damping ratio.
+    pub heading_omega: f64,
+    pub pitch_omega: f64,
+    pub zeta: f64,
+    /// Pitch command per metre of depth error, rad/m, and its limit, rad.
+    pub depth_gain: f64,
+    pub max_pitch_rad: f64,
+    /// Integral gain on the speed error, (rad/s) per (m/s) per s.
+    pub speed_integral: f64,
+}
+
+impl Default for Gains {
+    fn default() -> Self {
+        Gains {
+            heading_omega: 0.3,
+            pitch_omega: 0.5,
+            zeta: 0.9,
+            depth_gain: 0.05,
+            max_pitch_rad: 20f64.to_radians(),
+            speed_integral: 2.0,
+        }
+    }
+}
+
+/// The controller's memory (the speed integral).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AutopilotState {
+    pub speed_integral: f64,
+}
+
+/// The autopilot of one vehicle at one commanded speed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Autopilot {
+    pub gains: Gains,
+    speed_m_s: f64,
+    propeller_rad_s: f64,
+    /// Effective inertia, rate damping and fin effectiveness: yaw (rudder), pitch (stern).
+    yaw: (f64, f64, f64),
+    pitch: (f64, f64, f64),
+}
+
+impl Autopilot {
+    /// Tuned on the model at `speed_m_s`; `None` if no propeller speed holds it or a fin
+    /// has no effect.
+    pub fn new(model: &SixDof, speed_m_s: f64, gains: Gains) -> Option<Autopilot> {
+        let propeller_rad_s = propeller_for(model, speed_m_s)?;
+        let nu = Nu::new(speed_m_s, 0.0, 0.0, 0.0, 0.0, 0.0);
+        let level = Attitude {
+            roll_rad: 0.0,
+            pitch_rad: 0.0,
+            earth_rate_body: Vector3::zeros(),
+        };
+        let inputs = |rudder_rad: f64, stern_rad: f64| Inputs {
+            rudder_rad,
+            stern_rad,
+            bow_rad: 0.0,
+            propeller_rad_s,
+        };
+        let (tau0, d) = model.forces(&nu, &level, &inputs(0.0, 0.0));
+        let h = 0.01;
+        let n_rudder = (model.forces(&nu, &level, &inputs(h, 0.0)).0[5] - tau0[5]) / h;
+        let m_stern = (model.forces(&nu, &level, &inputs(0.0, h)).0[4] - tau0[4]) / h;
+        if n_rudder.abs() < 1e-9 || m_stern.abs() < 1e-9 {
+            return None;
+        }
+        let m = model.mass_matrix();
+        Some(Autopilot {
+            gains,
+            speed_m_s,
+            propeller_rad_s,
+            yaw: (m[(5, 5)], d[(5, 5)], n_rudder),
+            pitch: (m[(4, 4)], d[(4, 4)], m_stern),
+        })
+    }
+
+    pub fn propeller_rad_s(&self) -> f64 {
+        self.propeller_rad_s
+    }
+
+    /// Fin and propeller commands for the state.
+    pub fn commands(
+        &self,
+        model: &SixDof,
+        s: &MotionState,
+        cmd: &Command,
+        memory: &mut AutopilotState,
+        dt: f64,
+    ) -> Actuators {
+        let g = &self.gains;
+        let (_, pitch, yaw) = s.euler();
+        let (q, r) = (s.nu[4], s.nu[5]);
+        let fin =
+            |(inertia, damping, effect): (f64, f64, f64), omega: f64, error: f64, rate: f64| {
+                let wanted = omega * omega * error - 2.0 * g.zeta * omega * rate;
+                (inertia * wanted - damping * rate) / effect
+            };
+        let rudder_rad = match cmd.heading_rad {
+            Some(h) => fin(self.yaw, g.heading_omega, wrap_pi(h - yaw), r),
+            None => cmd.rudder_rad,
+        };
+        let pitch_command = match (cmd.depth_m, cmd.pitch_rad) {
+            (Some(depth), _) => {
+                let error = depth - s.position_m.z;
+                let descent = (s.ned_from_body * Vector3::new(s.nu[0], s.nu[1], s.nu[2])).z;
+                // Deeper wanted: nose down (negative pitch); the descent rate damps it.
+                Some(
+                    (-(g.depth_gain * error) + 2.0 * g.depth_gain * descent / g.pitch_omega)
+                        .clamp(-g.max_pitch_rad, g.max_pitch_rad),
+                )
+            }
+            (None, p) => p,
+        };
+        let stern_rad = match pitch_command {
+            Some(theta) => fin(self.pitch, g.pitch_omega, theta - pitch, q),
+            None => cmd.stern_rad,
+        };
+        memory.speed_integral += (cmd.speed_m_s - s.nu[0]) * dt;
+        let limit = model.vehicle.fin_limit_rad;
+        Actuators {
+            rudder_rad: rudder_rad.clamp(-limit, limit),
+            stern_rad: stern_rad.clamp(-limit, limit),
+            bow_rad: 0.0,
+            propeller_rad_s: self.propeller_rad_s + g.speed_integral * memory.speed_integral,
+        }
+    }
+
+    pub fn speed_m_s(&self) -> f64 {
+        self.speed_m_s
+    }
+}
+
+/// The propeller speed that holds `speed_m_s` in straight, level flight (bisection).
+pub fn propeller_for(model: &SixDof, speed_m_s: f64) -> Option<f64> {
+    let max = model.vehicle.propeller_limit_rad_s;
+    let (mut lo, mut hi) = (0.0, max);
+    if steady_speed(model, max).is_none_or(|u| u < speed_m_s) {
+        return None;
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if steady_speed(model, mid).is_some_and(|u| u >= speed_m_s) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Some(hi)
+}

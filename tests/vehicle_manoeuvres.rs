@@ -1,0 +1,167 @@
+//! The 6-DOF model flown by the autopilot (NPS AUV II, the default vehicle): heading and
+//! depth steps, a turning circle at full rudder with depth held, a horizontal 20-20 zig-zag.
+//!
+//! `cargo test --release --test vehicle_manoeuvres -- --nocapture`
+
+use hindsight::angle::wrap_pi;
+use hindsight::vehicle::six_dof::autopilot::{Autopilot, AutopilotState, Command, Gains};
+use hindsight::vehicle::six_dof::description::Vehicle;
+use hindsight::vehicle::six_dof::model::SixDof;
+use hindsight::vehicle::six_dof::motion::{step, MotionState};
+use nalgebra::Vector3;
+use std::path::PathBuf;
+
+fn nps() -> SixDof {
+    let dir = std::env::var_os("HINDSIGHT_SHARED_DIR")
+        .map(PathBuf::from)
+        .into_iter()
+        .chain([
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
+            PathBuf::from("/work/shared"),
+        ])
+        .map(|d| d.join("vehicles/nps-auv-ii.json"))
+        .find(|p| p.is_file())
+        .expect("shared/vehicles not found; set HINDSIGHT_SHARED_DIR");
+    SixDof::new(Vehicle::from_json(&std::fs::read_to_string(dir).unwrap()).unwrap()).unwrap()
+}
+
+const DT: f64 = 0.01;
+
+/// Flies `seconds` under `cmd`, calling `each` with the time and state every step.
+fn fly(
+    model: &SixDof,
+    pilot: &Autopilot,
+    s: &mut MotionState,
+    cmd: &dyn Fn(f64, &MotionState) -> Command,
+    seconds: f64,
+    each: &mut dyn FnMut(f64, &MotionState),
+) {
+    let mut memory = AutopilotState::default();
+    for k in 0..(seconds / DT) as usize {
+        let t = k as f64 * DT;
+        let c = cmd(t, s);
+        let act = pilot.commands(model, s, &c, &mut memory, DT);
+        *s = step(model, s, &act, &Vector3::zeros(), DT);
+        each(t, s);
+    }
+}
+
+fn cruise(speed: f64) -> (SixDof, Autopilot, MotionState) {
+    let model = nps();
+    let pilot = Autopilot::new(&model, speed, Gains::default()).unwrap();
+    let mut s = MotionState::at(Vector3::new(0.0, 0.0, 20.0), 0.0);
+    s.nu[0] = speed;
+    s.actuators.propeller_rad_s = pilot.propeller_rad_s();
+    (model, pilot, s)
+}
+
+#[test]
+fn heading_and_depth_steps() {
+    let (model, pilot, mut s) = cruise(1.5);
+    let cmd = |_: f64, _: &MotionState| Command {
+        speed_m_s: 1.5,
+        heading_rad: Some(90f64.to_radians()),
+        depth_m: Some(40.0),
+        pitch_rad: None,
+        rudder_rad: 0.0,
+        stern_rad: 0.0,
+    };
+    let mut overshoot: f64 = 0.0;
+    let mut late_heading: f64 = 0.0;
+    let mut late_depth: f64 = 0.0;
+    let mut max_depth: f64 = 0.0;
+    fly(&model, &pilot, &mut s, &cmd, 300.0, &mut |t, s| {
+        let (_, _, yaw) = s.euler();
+        let e = wrap_pi(yaw - 90f64.to_radians()).to_degrees();
+        overshoot = overshoot.max(e);
+        max_depth = max_depth.max(s.position_m.z);
+        if t > 200.0 {
+            late_heading = late_heading.max(e.abs());
+            late_depth = late_depth.max((s.position_m.z - 40.0).abs());
+        }
+    });
+    println!(
+        "heading step 0 -> 90 deg: overshoot {overshoot:.2} deg, after 200 s within {late_heading:.3} deg; \
+         depth step 20 -> 40 m: deepest {max_depth:.2} m, after 200 s within {late_depth:.3} m; speed {:.3} m/s",
+        s.nu[0]
+    );
+    assert!(late_heading < 1.0 && overshoot < 10.0);
+    assert!(late_depth < 0.5 && max_depth < 45.0);
+    assert!((s.nu[0] - 1.5).abs() < 0.02);
+}
+
+#[test]
+fn turning_circle_at_full_rudder() {
+    let (model, pilot, mut s) = cruise(1.5);
+    let limit = model.vehicle.fin_limit_rad;
+    let cmd = |_: f64, _: &MotionState| Command {
+        speed_m_s: 1.5,
+        heading_rad: None,
+        depth_m: Some(20.0),
+        pitch_rad: None,
+        rudder_rad: limit,
+        stern_rad: 0.0,
+    };
+    let (mut n, mut e) = (Vec::new(), Vec::new());
+    let mut depth_error: f64 = 0.0;
+    fly(&model, &pilot, &mut s, &cmd, 400.0, &mut |t, s| {
+        if t > 200.0 {
+            n.push(s.position_m.x);
+            e.push(s.position_m.y);
+            depth_error = depth_error.max((s.position_m.z - 20.0).abs());
+        }
+    });
+    let span = |v: &[f64]| {
+        v.iter().cloned().fold(f64::MIN, f64::max) - v.iter().cloned().fold(f64::MAX, f64::min)
+    };
+    let (_, _, _) = s.euler();
+    println!(
+        "turning circle, rudder {:.0} deg at 1.5 m/s commanded: diameter {:.1} x {:.1} m, speed in the turn {:.3} m/s, \
+         yaw rate {:.4} rad/s, depth held within {depth_error:.2} m",
+        limit.to_degrees(),
+        span(&n),
+        span(&e),
+        s.nu[0],
+        s.nu[5]
+    );
+    assert!((span(&n) - span(&e)).abs() < 1.0, "not a circle");
+    assert!(depth_error < 2.0);
+}
+
+#[test]
+fn horizontal_zigzag_20_20() {
+    let (model, pilot, mut s) = cruise(1.5);
+    let a = 20f64.to_radians();
+    let rudder = std::cell::Cell::new(a);
+    let cmd = |_: f64, s: &MotionState| {
+        let (_, _, yaw) = s.euler();
+        // Reverse once the heading is 20 deg past the initial one in the rudder's direction
+        // (positive rudder turns to port on this vehicle: negative yaw).
+        if rudder.get() > 0.0 && yaw < -a {
+            rudder.set(-a);
+        } else if rudder.get() < 0.0 && yaw > a {
+            rudder.set(a);
+        }
+        Command {
+            speed_m_s: 1.5,
+            heading_rad: None,
+            depth_m: Some(20.0),
+            pitch_rad: None,
+            rudder_rad: rudder.get(),
+            stern_rad: 0.0,
+        }
+    };
+    let mut reversals = 0;
+    let mut last = a;
+    let mut overshoot: f64 = 0.0;
+    fly(&model, &pilot, &mut s, &cmd, 200.0, &mut |_, s| {
+        if rudder.get() != last {
+            reversals += 1;
+            last = rudder.get();
+        }
+        let (_, _, yaw) = s.euler();
+        overshoot = overshoot.max(yaw.abs().to_degrees() - 20.0);
+    });
+    println!("zig-zag 20-20 at 1.5 m/s: {reversals} reversals in 200 s, heading overshoot {overshoot:.1} deg");
+    assert!(reversals >= 3);
+}
