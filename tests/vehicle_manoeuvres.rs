@@ -165,3 +165,77 @@ fn horizontal_zigzag_20_20() {
     println!("zig-zag 20-20 at 1.5 m/s: {reversals} reversals in 200 s, heading overshoot {overshoot:.1} deg");
     assert!(reversals >= 3);
 }
+
+#[test]
+fn vertical_zigzag_10_10() {
+    let (model, pilot, mut s) = cruise(1.5);
+    s.position_m.z = 50.0;
+    let a = 10f64.to_radians();
+    let planes = std::cell::Cell::new(a);
+    let cmd = |_: f64, s: &MotionState| {
+        let (_, pitch, _) = s.euler();
+        // The plane reverses once the pitch is 10 deg past level in the direction it drives
+        // (positive stern plane pitches this vehicle nose down).
+        if planes.get() > 0.0 && pitch < -a {
+            planes.set(-a);
+        } else if planes.get() < 0.0 && pitch > a {
+            planes.set(a);
+        }
+        Command {
+            speed_m_s: 1.5,
+            heading_rad: Some(0.0),
+            depth_m: None,
+            pitch_rad: None,
+            rudder_rad: 0.0,
+            stern_rad: planes.get(),
+        }
+    };
+    let (mut reversals, mut last) = (0, a);
+    let (mut shallowest, mut deepest) = (f64::MAX, f64::MIN);
+    fly(&model, &pilot, &mut s, &cmd, 200.0, &mut |_, s| {
+        if planes.get() != last {
+            reversals += 1;
+            last = planes.get();
+        }
+        shallowest = shallowest.min(s.position_m.z);
+        deepest = deepest.max(s.position_m.z);
+    });
+    println!(
+        "vertical zig-zag 10-10 at 1.5 m/s: {reversals} reversals in 200 s, depth between {shallowest:.1} and {deepest:.1} m"
+    );
+    assert!(reversals >= 3);
+}
+
+/// Seed 002's dropped entry: the vehicle starts at speed with 10 deg roll and pitch errors;
+/// the autopilot brings it level onto its depth and heading.
+#[test]
+fn dropped_entry_recovers() {
+    let (model, pilot, mut s) = cruise(1.5);
+    s.ned_from_body =
+        nalgebra::UnitQuaternion::from_euler_angles(10f64.to_radians(), -10f64.to_radians(), 0.3);
+    s.position_m.z = 5.0;
+    let cmd = |_: f64, _: &MotionState| Command {
+        speed_m_s: 1.5,
+        heading_rad: Some(0.0),
+        depth_m: Some(30.0),
+        pitch_rad: None,
+        rudder_rad: 0.0,
+        stern_rad: 0.0,
+    };
+    let mut settled_roll: f64 = 0.0;
+    let mut settled_depth: f64 = 0.0;
+    fly(&model, &pilot, &mut s, &cmd, 300.0, &mut |t, s| {
+        if t > 200.0 {
+            let (roll, _, _) = s.euler();
+            settled_roll = settled_roll.max(roll.abs().to_degrees());
+            settled_depth = settled_depth.max((s.position_m.z - 30.0).abs());
+        }
+    });
+    let (_, _, yaw) = s.euler();
+    println!(
+        "dropped entry (roll +10, pitch -10 deg at 5 m): after 200 s roll within {settled_roll:.3} deg, \
+         depth within {settled_depth:.3} m of 30 m, heading {:.3} deg",
+        yaw.to_degrees()
+    );
+    assert!(settled_roll < 0.5 && settled_depth < 0.5 && yaw.abs() < 1f64.to_radians());
+}
