@@ -74,7 +74,7 @@ fn fly(
 
 fn perfect(traj: &Trajectory) -> impl Fn(f64, &Vector3<f64>) -> ImuSample + '_ {
     |t, p| {
-        let m = perfect_imu(&traj.kinematics(t), p.x, p.z);
+        let m = perfect_imu(&traj.kinematics(t).motion(), p.x, p.z);
         ImuSample {
             omega_ib_body: m.omega_ib_body,
             specific_force_body: m.specific_force_body,

@@ -166,7 +166,7 @@ pub fn run_with_progress<W: Write + Seek>(
         let ned_from_body = kin.ned_from_body();
         let vel_body = ned_from_body.inverse() * kin.vel_ned();
 
-        let ideal = perfect_imu(&kin, lat, height);
+        let ideal = perfect_imu(&kin.motion(), lat, height);
         let imu = Imu {
             stamp_ns,
             angular_velocity: gyro.measure(&ideal.omega_ib_body, dt_s).into(),
