@@ -308,3 +308,21 @@ fn vehicle_check_command() {
         "{err}"
     );
 }
+
+/// `--coef-uncertainty`'s draw: seeded, within its bounds, and zero uncertainty changes
+/// nothing.
+#[test]
+fn perturbed_vehicles_are_seeded_and_bounded() {
+    let v = load("nps-auv-ii.json");
+    let (a, fa) = v.perturbed(0.1, 7);
+    let (b, fb) = v.perturbed(0.1, 7);
+    let (c, _) = v.perturbed(0.1, 8);
+    assert_eq!(a, b);
+    assert_eq!(fa, fb);
+    assert_ne!(a, c);
+    assert_eq!(fa.len(), v.terms.len() + 14);
+    assert!(fa.iter().all(|(_, k)| (0.9..=1.1).contains(k)));
+    assert!(fa.iter().any(|(_, k)| (k - 1.0).abs() > 0.05));
+    assert!(SixDof::new(a).unwrap().mass_matrix().cholesky().is_some());
+    assert_eq!(v.perturbed(0.0, 7).0, v);
+}

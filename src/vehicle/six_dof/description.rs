@@ -532,3 +532,33 @@ fn unknown(key: &str, section: &str, terms: &[Mapping], added: &[AddedMass]) -> 
         known: known.join(", "),
     }
 }
+
+impl Vehicle {
+    /// A "true" vehicle drawn around this one (seed 000's case 2): every hydrodynamic term
+    /// and added-mass entry multiplied by a factor drawn uniformly in `[1 - f, 1 + f]`,
+    /// seeded. Returns the vehicle and the factors by name, to record in the log.
+    pub fn perturbed(&self, fraction: f64, seed: u64) -> (Vehicle, Vec<(String, f64)>) {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        // A stream of its own, apart from the sensors' streams of the same seed.
+        rng.set_stream(1000);
+        let mut draw = || 1.0 + fraction * rng.random_range(-1.0..=1.0);
+        let mut v = self.clone();
+        let mut factors = Vec::new();
+        for t in &mut v.terms {
+            let k = draw();
+            t.coefficient *= k;
+            factors.push((t.name.clone(), k));
+        }
+        for i in 0..6 {
+            for j in 0..6 {
+                if v.added_mass[(i, j)] != 0.0 {
+                    let k = draw();
+                    v.added_mass[(i, j)] *= k;
+                    factors.push((format!("added_mass[{i}][{j}]"), k));
+                }
+            }
+        }
+        (v, factors)
+    }
+}
