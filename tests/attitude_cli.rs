@@ -4,26 +4,15 @@
 mod common;
 
 use arrow_array::{Array, Float64Array, RecordBatch, StringArray, UInt64Array};
-use common::{hindsight, stderr};
+use common::{hindsight, read_parquet, stderr};
 use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};
 use hindsight::sim::writer::{to_bytes, WriterOptions};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::path::{Path, PathBuf};
 
 const POOL: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/sample-logs/pool-rectangle-seed1.mcap"
 );
-
-fn read_parquet(path: &Path) -> Vec<RecordBatch> {
-    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    ParquetRecordBatchReaderBuilder::try_new(file)
-        .unwrap()
-        .build()
-        .unwrap()
-        .map(Result::unwrap)
-        .collect()
-}
 
 /// The summary's rows: method and the named nullable column.
 fn summary_column(dir: &Path, column: &str) -> Vec<(String, Option<f64>)> {

@@ -4,33 +4,15 @@
 //!
 //! `cargo test --release --test broad_attitude -- --nocapture`
 
+mod common;
+
 use hindsight::attitude::compare::{self, Method};
 use hindsight::attitude::config::AttitudeConfig;
 use hindsight::attitude::score::{reference_from_truth, rms, AttitudeRms};
 use hindsight::attitude::{mekf, raw, AhrsInputs};
 use hindsight::contract::{Imu, MagneticField, Truth};
 use hindsight::ingest::{read_log, IngestOptions};
-use std::path::{Path, PathBuf};
-
-/// The BROAD folder of the shared material: `$HINDSIGHT_SHARED_DIR`, else `../shared` next
-/// to the repository, else `/work/shared` (a clone elsewhere on the development machine).
-fn broad_dir() -> PathBuf {
-    let candidates = std::env::var_os("HINDSIGHT_SHARED_DIR")
-        .map(PathBuf::from)
-        .into_iter()
-        .chain([
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-            PathBuf::from("/work/shared"),
-        ]);
-    let tried: Vec<PathBuf> = candidates.map(|d| d.join("benchmarks/broad")).collect();
-    tried
-        .iter()
-        .find(|d| d.join("manifest.json").is_file())
-        .cloned()
-        .unwrap_or_else(|| {
-            panic!("BROAD benchmark not found (tried {tried:?}); set HINDSIGHT_SHARED_DIR")
-        })
-}
+use std::path::Path;
 
 struct Trial {
     file: String,
@@ -39,9 +21,13 @@ struct Trial {
 }
 
 fn trials() -> Vec<Trial> {
-    let manifest: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(broad_dir().join("manifest.json")).unwrap())
-            .unwrap();
+    let manifest: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(
+            common::shared_dir("benchmarks/broad", "manifest.json").join("manifest.json"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
     manifest["trials"]
         .as_array()
         .unwrap()
@@ -104,7 +90,9 @@ fn attitude_methods_on_broad() {
     let trials = trials();
     let scores: Vec<(AttitudeRms, AttitudeRms, AttitudeRms)> = trials
         .par_iter()
-        .map(|t| score_trial(&broad_dir().join(&t.file)))
+        .map(|t| {
+            score_trial(&common::shared_dir("benchmarks/broad", "manifest.json").join(&t.file))
+        })
         .collect();
     println!(
         "trial          raw total (heading, incl.)  mekf total (heading, incl.)  smoothed (heading, incl.)  Madgwick  Mahony"
@@ -155,7 +143,7 @@ fn attitude_methods_on_broad() {
 /// over the movement phases as the library scores it.
 #[test]
 fn the_command_runs_on_a_broad_trial() {
-    let trial = broad_dir().join("trial_02.mcap");
+    let trial = common::shared_dir("benchmarks/broad", "manifest.json").join("trial_02.mcap");
     let out = std::env::temp_dir().join(format!("hindsight-broad-cli-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_hindsight"))

@@ -4,22 +4,11 @@
 mod common;
 
 use arrow_array::{Array, Float64Array, RecordBatch, StringArray};
-use common::{hindsight, stderr};
+use common::{hindsight, read_parquet, stderr};
 use hindsight::contract::{Attitude, ControlSurfaces, Depth, Dvl, Imu};
 use hindsight::sim::writer::{to_bytes, WriterOptions};
 use hindsight::sim::zigzag::{self, ZigzagSpec};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::path::{Path, PathBuf};
-
-fn read_parquet(path: &Path) -> Vec<RecordBatch> {
-    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    ParquetRecordBatchReaderBuilder::try_new(file)
-        .unwrap()
-        .build()
-        .unwrap()
-        .map(Result::unwrap)
-        .collect()
-}
 
 /// A zig-zag log (changed by `edit`) written to a scratch folder.
 fn log(dir: &Path, name: &str, edit: impl Fn(&mut ZigzagSpec)) -> PathBuf {
@@ -31,6 +20,37 @@ fn log(dir: &Path, name: &str, edit: impl Fn(&mut ZigzagSpec)) -> PathBuf {
     })
     .unwrap();
     let path = dir.join(format!("{name}.mcap"));
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// The zig-zag 10-5 log rewritten without one topic (its mission and the other inputs kept).
+fn without(dir: &Path, topic: &str) -> PathBuf {
+    let full = common::read(&std::fs::read(log(dir, "zigzag-10-5", |_| {})).unwrap());
+    fn copy<T: hindsight::contract::Message>(
+        w: &mut hindsight::sim::writer::LogWriter<std::io::Cursor<Vec<u8>>>,
+        log: &hindsight::ingest::Log,
+        topic: &str,
+        skip: &str,
+    ) -> Result<(), hindsight::sim::writer::WriteError> {
+        if topic != skip {
+            for m in log.messages::<T>(topic).unwrap() {
+                w.write(topic, m, m.stamp_ns() as u64)?;
+            }
+        }
+        Ok(())
+    }
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        w.write_mission(&full.mission().unwrap())?;
+        copy::<Imu>(w, &full, "/imu", topic)?;
+        copy::<ControlSurfaces>(w, &full, "/fins", topic)?;
+        copy::<Attitude>(w, &full, "/attitude", topic)?;
+        copy::<Dvl>(w, &full, "/dvl", topic)?;
+        copy::<Depth>(w, &full, "/depth", topic)?;
+        Ok(())
+    })
+    .unwrap();
+    let path = dir.join(format!("without-{}.mcap", topic.trim_start_matches('/')));
     std::fs::write(&path, bytes).unwrap();
     path
 }
@@ -145,26 +165,7 @@ fn bad_input_is_named() {
         stderr(&o)
     );
     // No /fins: the same log without its input.
-    let full = common::read(&std::fs::read(log(&dir, "zigzag-10-5", |_| {})).unwrap());
-    let bytes = to_bytes(WriterOptions::default(), |w| {
-        w.write_mission(&full.mission().unwrap())?;
-        for m in full.messages::<Imu>("/imu").unwrap() {
-            w.write("/imu", m, m.stamp_ns as u64)?;
-        }
-        for m in full.messages::<Attitude>("/attitude").unwrap() {
-            w.write("/attitude", m, m.stamp_ns as u64)?;
-        }
-        for m in full.messages::<Dvl>("/dvl").unwrap() {
-            w.write("/dvl", m, m.stamp_ns as u64)?;
-        }
-        for m in full.messages::<Depth>("/depth").unwrap() {
-            w.write("/depth", m, m.stamp_ns as u64)?;
-        }
-        Ok(())
-    })
-    .unwrap();
-    let no_fins = dir.join("no-fins.mcap");
-    std::fs::write(&no_fins, bytes).unwrap();
+    let no_fins = without(&dir, "/fins");
     let o = run(&[&no_fins], &dir.join("out3"), &[]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     assert!(
@@ -188,26 +189,7 @@ fn bad_input_is_named() {
 #[test]
 fn own_attitude_and_a_start_file() {
     let dir = common::scratch_dir("identify-cli-own");
-    let full = common::read(&std::fs::read(log(&dir, "zigzag-10-5", |_| {})).unwrap());
-    let bytes = to_bytes(WriterOptions::default(), |w| {
-        w.write_mission(&full.mission().unwrap())?;
-        for m in full.messages::<Imu>("/imu").unwrap() {
-            w.write("/imu", m, m.stamp_ns as u64)?;
-        }
-        for m in full.messages::<ControlSurfaces>("/fins").unwrap() {
-            w.write("/fins", m, m.stamp_ns as u64)?;
-        }
-        for m in full.messages::<Dvl>("/dvl").unwrap() {
-            w.write("/dvl", m, m.stamp_ns as u64)?;
-        }
-        for m in full.messages::<Depth>("/depth").unwrap() {
-            w.write("/depth", m, m.stamp_ns as u64)?;
-        }
-        Ok(())
-    })
-    .unwrap();
-    let no_attitude = dir.join("no-attitude.mcap");
-    std::fs::write(&no_attitude, bytes).unwrap();
+    let no_attitude = without(&dir, "/attitude");
     let start = dir.join("start.toml");
     std::fs::write(&start, "M_qdot = -0.006\nZ_w = -0.025\n").unwrap();
     let out = dir.join("out");

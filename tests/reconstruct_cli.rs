@@ -4,22 +4,10 @@
 mod common;
 
 use arrow_array::{Array, RecordBatch, StringArray};
-use common::{hindsight, stderr, SAMPLE};
+use common::{hindsight, read_parquet, stderr, SAMPLE};
 use hindsight::contract::Dvl;
 use hindsight::ingest::Mission;
 use hindsight::sim::writer::{to_bytes, WriterOptions};
-use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
-use std::path::Path;
-
-fn read_parquet(path: &Path) -> Vec<RecordBatch> {
-    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    ParquetRecordBatchReaderBuilder::try_new(file)
-        .unwrap()
-        .build()
-        .unwrap()
-        .map(Result::unwrap)
-        .collect()
-}
 
 fn rows(batches: &[RecordBatch]) -> usize {
     batches.iter().map(RecordBatch::num_rows).sum()

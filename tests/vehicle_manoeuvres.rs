@@ -3,26 +3,18 @@
 //!
 //! `cargo test --release --test vehicle_manoeuvres -- --nocapture`
 
+mod common;
+
 use hindsight::angle::wrap_pi;
 use hindsight::vehicle::six_dof::autopilot::{Autopilot, AutopilotState, Command, Gains};
 use hindsight::vehicle::six_dof::description::Vehicle;
 use hindsight::vehicle::six_dof::model::SixDof;
 use hindsight::vehicle::six_dof::motion::{step, MotionState};
 use nalgebra::Vector3;
-use std::path::PathBuf;
 
 fn nps() -> SixDof {
-    let dir = std::env::var_os("HINDSIGHT_SHARED_DIR")
-        .map(PathBuf::from)
-        .into_iter()
-        .chain([
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-            PathBuf::from("/work/shared"),
-        ])
-        .map(|d| d.join("vehicles/nps-auv-ii.json"))
-        .find(|p| p.is_file())
-        .expect("shared/vehicles not found; set HINDSIGHT_SHARED_DIR");
-    SixDof::new(Vehicle::from_json(&std::fs::read_to_string(dir).unwrap()).unwrap()).unwrap()
+    let file = common::shared_dir("vehicles", "nps-auv-ii.json").join("nps-auv-ii.json");
+    SixDof::new(Vehicle::from_json(&std::fs::read_to_string(file).unwrap()).unwrap()).unwrap()
 }
 
 const DT: f64 = 0.01;

@@ -3,30 +3,16 @@
 //!
 //! `cargo test --release --test vehicle_model -- --nocapture`
 
+mod common;
+
 use hindsight::vehicle::six_dof::description::{Propulsion, Vehicle, VehicleError};
 use hindsight::vehicle::six_dof::model::{Attitude, SixDof};
 use hindsight::vehicle::six_dof::terms::{Inputs, Nu};
 use nalgebra::{Matrix6, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
-use std::path::PathBuf;
-
-/// The shared vehicles folder: `$HINDSIGHT_SHARED_DIR`, else `../shared` next to the
-/// repository, else `/work/shared`.
-fn vehicles_dir() -> PathBuf {
-    std::env::var_os("HINDSIGHT_SHARED_DIR")
-        .map(PathBuf::from)
-        .into_iter()
-        .chain([
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-            PathBuf::from("/work/shared"),
-        ])
-        .map(|d| d.join("vehicles"))
-        .find(|d| d.join("nps-auv-ii.json").is_file())
-        .expect("shared/vehicles not found; set HINDSIGHT_SHARED_DIR")
-}
 
 fn text(name: &str) -> String {
-    std::fs::read_to_string(vehicles_dir().join(name)).unwrap()
+    std::fs::read_to_string(common::shared_dir("vehicles", "nps-auv-ii.json").join(name)).unwrap()
 }
 
 fn load(name: &str) -> Vehicle {
@@ -281,7 +267,10 @@ fn vehicle_check_command() {
             .args([
                 "vehicle",
                 "check",
-                vehicles_dir().join(file).to_str().unwrap(),
+                common::shared_dir("vehicles", "nps-auv-ii.json")
+                    .join(file)
+                    .to_str()
+                    .unwrap(),
             ])
             .output()
             .unwrap();

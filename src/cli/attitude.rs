@@ -338,13 +338,7 @@ fn write_outputs(
             written.push(path);
         }
     }
-    staging.commit().with_context(|| OutputFailed {
-        path: out.to_path_buf(),
-    })?;
-    for p in written {
-        println!("wrote {}", p.display());
-    }
-    Ok(())
+    super::commit_and_list(staging, &written, out)
 }
 
 /// The console table (seed 001's Tables 9-10, with the truth errors when there are some).

@@ -183,3 +183,16 @@ fn time(repeat: usize, mut f: impl FnMut() -> Result<u64>) -> Result<Duration> {
     times.sort();
     Ok(times[times.len() / 2])
 }
+
+/// Median wall time of `repeat` runs of `f` (at least one), seconds.
+pub(super) fn median_seconds(repeat: usize, f: &dyn Fn()) -> f64 {
+    let mut times: Vec<f64> = (0..repeat.max(1))
+        .map(|_| {
+            let t = std::time::Instant::now();
+            f();
+            t.elapsed().as_secs_f64()
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}

@@ -9,7 +9,6 @@ use hindsight::contract::{Imu, MagneticField};
 use hindsight::ingest::{self, IngestOptions};
 use hindsight::sim::scenario::{Scenario, Segment};
 use std::path::Path;
-use std::time::Instant;
 
 pub fn run(repeat: usize, keep: Option<&Path>) -> Result<()> {
     let mut scenario = Scenario::built_in("pool-circle").context("scenario `pool-circle`")?;
@@ -20,11 +19,6 @@ pub fn run(repeat: usize, keep: Option<&Path>) -> Result<()> {
         |w| Ok(hindsight::sim::run::run(&scenario, 0, w).map(|_| ())?),
         |path| measure(path, repeat),
     )
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn measure(path: &Path, repeat: usize) -> Result<()> {
@@ -46,17 +40,7 @@ fn measure(path: &Path, repeat: usize) -> Result<()> {
         mag.len(),
         rayon::current_num_threads()
     );
-    let time = |f: &dyn Fn()| {
-        median(
-            (0..repeat.max(1))
-                .map(|_| {
-                    let t = Instant::now();
-                    f();
-                    t.elapsed().as_secs_f64()
-                })
-                .collect(),
-        )
-    };
+    let time = |f: &dyn Fn()| super::bench::median_seconds(repeat, f);
     let mut one_by_one = 0.0;
     for m in Method::ALL {
         let s = time(&|| {

@@ -9,12 +9,6 @@ use hindsight::ingest::{read_log_from, IngestOptions};
 use hindsight::sim::writer::{to_bytes, WriterOptions};
 use hindsight::sim::zigzag::{self, ZigzagSpec};
 use hindsight::vehicle::heave_pitch::{Coefficients, TRUE_COEFFICIENTS};
-use std::time::Instant;
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
 
 pub fn run(repeat: usize) -> Result<()> {
     let mut records = Vec::new();
@@ -29,17 +23,7 @@ pub fn run(repeat: usize) -> Result<()> {
     }
     let settings = Settings::default();
     let start = perturbed(&Coefficients::from(TRUE_COEFFICIENTS), 0.2);
-    let time = |f: &dyn Fn()| {
-        median(
-            (0..repeat.max(1))
-                .map(|_| {
-                    let t = Instant::now();
-                    f();
-                    t.elapsed().as_secs_f64()
-                })
-                .collect(),
-        )
-    };
+    let time = |f: &dyn Fn()| super::bench::median_seconds(repeat, f);
     let ekf_s = time(&|| {
         std::hint::black_box(ekf::run(&records, &start, &settings));
     });

@@ -340,21 +340,9 @@ fn write_outputs(
             .collect(),
     };
     let path = out.join("summary.json");
-    let mut file = staging
-        .create(&path)
-        .with_context(|| OutputFailed { path: path.clone() })?;
-    serde_json::to_writer_pretty(&mut file, &summary)
-        .map_err(std::io::Error::from)
-        .and_then(|_| std::io::Write::write_all(&mut file, b"\n"))
-        .with_context(|| OutputFailed { path: path.clone() })?;
+    super::write_json(&mut staging, &path, &summary)?;
     written.push(path);
-    staging.commit().with_context(|| OutputFailed {
-        path: out.to_path_buf(),
-    })?;
-    for p in written {
-        println!("wrote {}", p.display());
-    }
-    Ok(())
+    super::commit_and_list(staging, &written, out)
 }
 
 /// The console table (seed 004's Tables 5.2-5.3: start, EKF, refined, with sigma), the fit

@@ -61,6 +61,39 @@ pub enum Command {
     Bench(bench::BenchArgs),
 }
 
+/// Writes `value` as pretty JSON (and a newline) to the staged file that becomes `path`.
+fn write_json(
+    staging: &mut hindsight::output::atomic::Staging,
+    path: &Path,
+    value: &impl serde::Serialize,
+) -> Result<()> {
+    use anyhow::Context;
+    let failed = || OutputFailed {
+        path: path.to_path_buf(),
+    };
+    let mut file = staging.create(path).with_context(failed)?;
+    serde_json::to_writer_pretty(&mut file, value)
+        .map_err(std::io::Error::from)
+        .and_then(|_| std::io::Write::write_all(&mut file, b"\n"))
+        .with_context(failed)
+}
+
+/// Renames the staged outputs of a run into place, then lists them.
+fn commit_and_list(
+    staging: hindsight::output::atomic::Staging,
+    written: &[PathBuf],
+    out: &Path,
+) -> Result<()> {
+    use anyhow::Context;
+    staging.commit().with_context(|| OutputFailed {
+        path: out.to_path_buf(),
+    })?;
+    for p in written {
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
 /// Output written by a command could not be written (exit status 4).
 #[derive(Debug, thiserror::Error)]
 #[error("cannot write {}", path.display())]

@@ -403,13 +403,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         config,
     };
     let path = args.out.join("summary.json");
-    let mut file = staging
-        .create(&path)
-        .with_context(|| OutputFailed { path: path.clone() })?;
-    serde_json::to_writer_pretty(&mut file, &summary)
-        .map_err(std::io::Error::from)
-        .and_then(|_| std::io::Write::write_all(&mut file, b"\n"))
-        .with_context(|| OutputFailed { path: path.clone() })?;
+    super::write_json(&mut staging, &path, &summary)?;
     written.push(path);
     staging.commit().with_context(|| OutputFailed {
         path: args.out.clone(),

@@ -81,15 +81,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     if let Some(spec) = zigzag {
         eprintln!("simulating `{}` (seed {}) ...", spec.name, args.seed);
         let r = zigzag::run(&spec, args.seed, &mut w)?;
-        w.finish()?
-            .into_inner()
-            .map_err(|e| e.into_error())
-            .with_context(|| OutputFailed { path: out.clone() })?
-            .sync_all()
-            .with_context(|| OutputFailed { path: out.clone() })?;
-        staging
-            .commit()
-            .with_context(|| OutputFailed { path: out.clone() })?;
+        finish_log(w, staging, &out)?;
         println!(
             "{}: {} messages, {:.0} s, plane reversals at {} s",
             out.display(),
@@ -116,15 +108,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     if interactive {
         eprintln!();
     }
-    w.finish()?
-        .into_inner()
-        .map_err(|e| e.into_error())
-        .with_context(|| OutputFailed { path: out.clone() })?
-        .sync_all()
-        .with_context(|| OutputFailed { path: out.clone() })?;
-    staging
-        .commit()
-        .with_context(|| OutputFailed { path: out.clone() })?;
+    finish_log(w, staging, &out)?;
     let bytes = std::fs::metadata(&out).map(|m| m.len()).unwrap_or(0);
     println!(
         "{}: {} messages, {:.0} s of mission, {:.1} MB, simulated in {:.1} s",
@@ -134,5 +118,24 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         bytes as f64 / 1e6,
         started.elapsed().as_secs_f64()
     );
+    Ok(())
+}
+
+/// Closes the log (summary, index), flushes it to disk and renames it into place.
+fn finish_log(
+    w: writer::LogWriter<std::io::BufWriter<std::fs::File>>,
+    staging: Staging,
+    out: &std::path::Path,
+) -> Result<()> {
+    let failed = || OutputFailed {
+        path: out.to_path_buf(),
+    };
+    w.finish()?
+        .into_inner()
+        .map_err(|e| e.into_error())
+        .with_context(failed)?
+        .sync_all()
+        .with_context(failed)?;
+    staging.commit().with_context(failed)?;
     Ok(())
 }

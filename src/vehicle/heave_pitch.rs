@@ -97,12 +97,6 @@ pub struct HeavePitch {
     pitch_inertia: f64,
 }
 
-/// The derivative and the accelerations it came from.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Derivative {
-    pub state: State,
-}
-
 impl HeavePitch {
     pub fn new(constants: Constants) -> HeavePitch {
         let half_rho = constants.water_density_kg_m3 / 2.0;
@@ -243,16 +237,6 @@ impl HeavePitch {
         let k4 = self.derivative(&(x + k3 * dt), plane1, c);
         x + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (dt / 6.0)
     }
-
-    /// One RK4 step of `dt` with the plane held at `delta_s`.
-    pub fn rk4(&self, x: &State, delta_s: f64, c: &Coefficients, dt: f64) -> State {
-        let f = |x: &State| self.derivative(x, delta_s, c);
-        let k1 = f(x);
-        let k2 = f(&(x + k1 * (dt / 2.0)));
-        let k3 = f(&(x + k2 * (dt / 2.0)));
-        let k4 = f(&(x + k3 * dt));
-        x + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (dt / 6.0)
-    }
 }
 
 #[cfg(test)]
@@ -332,7 +316,7 @@ mod tests {
         let mut x = State::new(0.0, 0.02, 0.0, 20.0);
         let mut peak_late: f64 = 0.0;
         for k in 0..60_000 {
-            x = m.rk4(&x, 0.0, &c, 0.01);
+            x = m.rk4_varying(&x, 0.0, 0.0, &c, 0.01);
             if k > 50_000 {
                 peak_late = peak_late.max(x[1].abs());
             }

@@ -102,3 +102,37 @@ pub const SAMPLE: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/sample-logs/survey-short-seed1.mcap"
 );
+
+/// Every batch of a Parquet file.
+pub fn read_parquet(path: &std::path::Path) -> Vec<arrow_array::RecordBatch> {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)
+        .unwrap()
+        .build()
+        .unwrap()
+        .map(Result::unwrap)
+        .collect()
+}
+
+/// A folder of the shared material (`benchmarks/broad`, `vehicles`) that holds `marker`:
+/// under `$HINDSIGHT_SHARED_DIR`, else `../shared` next to the repository, else
+/// `/work/shared` (a clone elsewhere on the development machine).
+pub fn shared_dir(sub: &str, marker: &str) -> std::path::PathBuf {
+    use std::path::PathBuf;
+    let tried: Vec<PathBuf> = std::env::var_os("HINDSIGHT_SHARED_DIR")
+        .map(PathBuf::from)
+        .into_iter()
+        .chain([
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
+            PathBuf::from("/work/shared"),
+        ])
+        .map(|d| d.join(sub))
+        .collect();
+    tried
+        .iter()
+        .find(|d| d.join(marker).is_file())
+        .cloned()
+        .unwrap_or_else(|| {
+            panic!("shared {sub} not found (tried {tried:?}); set HINDSIGHT_SHARED_DIR")
+        })
+}
