@@ -99,6 +99,15 @@ fn jacobians_match_finite_differences() {
         for _ in 0..300 {
             let (nu, at, inputs) = random_state(&mut rng);
             let analytic = model.jacobian(&nu, &at, &inputs);
+            // The simulator's value-only path is the same sum, term by term.
+            let (with_gradient, alone) = (
+                model.derivative(&nu, &at, &inputs).0,
+                model.acceleration(&nu, &at, &inputs),
+            );
+            assert!(
+                (with_gradient - alone).abs().max() <= 1e-12 * with_gradient.abs().max(),
+                "{file}: {with_gradient} vs {alone}"
+            );
             let mut numeric = Matrix6::zeros();
             for j in 0..6 {
                 let h = 1e-6 * (1.0 + nu[j].abs());

@@ -72,13 +72,31 @@ impl SixDof {
 
     /// Generalised forces and their derivative by `nu`.
     pub fn forces(&self, nu: &Nu, at: &Attitude, inputs: &Inputs) -> (Nu, Matrix6<f64>) {
+        let mut d = Matrix6::zeros();
+        let tau = self.forces_into(nu, at, inputs, Some(&mut d));
+        (tau, d)
+    }
+
+    /// Generalised forces alone (the simulator's path).
+    pub fn force_values(&self, nu: &Nu, at: &Attitude, inputs: &Inputs) -> Nu {
+        self.forces_into(nu, at, inputs, None)
+    }
+
+    /// The forces, adding their derivative by `nu` to `d` when it is given: one code path
+    /// for the model and its Jacobian.
+    fn forces_into(
+        &self,
+        nu: &Nu,
+        at: &Attitude,
+        inputs: &Inputs,
+        mut d: Option<&mut Matrix6<f64>>,
+    ) -> Nu {
         let veh = &self.vehicle;
         let m = veh.mass_kg;
         let r = veh.centre_of_gravity_m;
         let v: Vector3<f64> = nu.fixed_rows::<3>(0).into_owned();
         let w: Vector3<f64> = nu.fixed_rows::<3>(3).into_owned();
         let mut tau = Nu::zeros();
-        let mut d = Matrix6::zeros();
 
         // Rigid body (Coriolis and centripetal, moved to the right-hand side).
         let wxv = w.cross(&v);
@@ -88,28 +106,35 @@ impl SixDof {
         let m_rb = -(w.cross(&iw)) - r.cross(&wxv) * m;
         add3(&mut tau, 0, &f_rb);
         add3(&mut tau, 3, &m_rb);
-        let d_wxwxr = w * r.transpose() + Matrix3::identity() * w.dot(&r) - r * w.transpose() * 2.0;
-        let mut block = |row: usize, col: usize, b: Matrix3<f64>| {
-            let mut view = d.fixed_view_mut::<3, 3>(row, col);
-            view += b;
-        };
-        block(0, 0, -skew(&w) * m);
-        block(0, 3, (skew(&v) - d_wxwxr) * m);
-        block(3, 3, -(skew(&w) * veh.inertia_kg_m2 - skew(&iw)));
-        block(3, 0, -skew(&r) * skew(&w) * m);
-        block(3, 3, skew(&r) * skew(&v) * m);
-
         // Earth-rate Coriolis on the translation (seed 000's f_v^RB).
         let e = at.earth_rate_body;
         add3(&mut tau, 0, &(-e.cross(&v) * (2.0 * m)));
-        block(0, 0, -skew(&e) * (2.0 * m));
+        if let Some(d) = d.as_deref_mut() {
+            let d_wxwxr =
+                w * r.transpose() + Matrix3::identity() * w.dot(&r) - r * w.transpose() * 2.0;
+            let mut block = |row: usize, col: usize, b: Matrix3<f64>| {
+                let mut view = d.fixed_view_mut::<3, 3>(row, col);
+                view += b;
+            };
+            block(0, 0, -skew(&w) * m);
+            block(0, 3, (skew(&v) - d_wxwxr) * m);
+            block(3, 3, -(skew(&w) * veh.inertia_kg_m2 - skew(&iw)));
+            block(3, 0, -skew(&r) * skew(&w) * m);
+            block(3, 3, skew(&r) * skew(&v) * m);
+            block(0, 0, -skew(&e) * (2.0 * m));
+        }
 
         // The file's hydrodynamic terms.
         for term in &veh.terms {
-            let (value, grad) = term.eval(nu, inputs, veh.length_m);
-            tau[term.axis] += value;
-            let mut row = d.row_mut(term.axis);
-            row += grad.transpose();
+            match d.as_deref_mut() {
+                Some(d) => {
+                    let (value, grad) = term.eval(nu, inputs, veh.length_m);
+                    tau[term.axis] += value;
+                    let mut row = d.row_mut(term.axis);
+                    row += grad.transpose();
+                }
+                None => tau[term.axis] += term.value(nu, inputs, veh.length_m),
+            }
         }
 
         // Cross-flow drag by strip theory.
@@ -127,6 +152,13 @@ impl SixDof {
                 let ky = -half_rho * cf.cd_y * cf.height_m * dx;
                 let kz = -half_rho * cf.cd_z * cf.width_m * dx;
                 let (fy, fz) = (ky * a * s, kz * b * s);
+                tau[1] += fy;
+                tau[2] += fz;
+                tau[4] += -x * fz;
+                tau[5] += x * fy;
+                let Some(d) = d.as_deref_mut() else {
+                    continue;
+                };
                 // Derivatives of a s and b s by a and b.
                 let (dfy_da, dfy_db) = (ky * (s + a * a / s), ky * a * b / s);
                 let (dfz_da, dfz_db) = (kz * a * b / s, kz * (s + b * b / s));
@@ -140,13 +172,7 @@ impl SixDof {
                     g
                 };
                 let (gy, gz) = (grad(dfy_da, dfy_db), grad(dfz_da, dfz_db));
-                for (axis, value, g) in [
-                    (1, fy, gy),
-                    (2, fz, gz),
-                    (4, -x * fz, -gz * x),
-                    (5, x * fy, gy * x),
-                ] {
-                    tau[axis] += value;
+                for (axis, g) in [(1, gy), (2, gz), (4, -gz * x), (5, gy * x)] {
                     let mut row = d.row_mut(axis);
                     row += g.transpose();
                 }
@@ -160,7 +186,9 @@ impl SixDof {
                 let k = veh.water_density_kg_m3 / 2.0 * veh.length_m.powi(2) * cd0;
                 let u = nu[0];
                 tau[0] += k * (0.012f64.powi(2) * n * n.abs() * u.signum() - u * u.abs());
-                d[(0, 0)] += -2.0 * k * u.abs();
+                if let Some(d) = d.as_deref_mut() {
+                    d[(0, 0)] += -2.0 * k * u.abs();
+                }
             }
             Propulsion::Quadratic { thrust, torque } => {
                 tau[0] += thrust * n * n.abs();
@@ -180,13 +208,18 @@ impl SixDof {
             &(veh.centre_of_gravity_m.cross(&down) * wt
                 - veh.centre_of_buoyancy_m.cross(&down) * bu),
         );
-        (tau, d)
+        tau
     }
 
     /// `nu'` and its Jacobian `d nu' / d nu`.
     pub fn derivative(&self, nu: &Nu, at: &Attitude, inputs: &Inputs) -> (Nu, Matrix6<f64>) {
         let (tau, d) = self.forces(nu, at, inputs);
         (self.mass_inverse * tau, self.mass_inverse * d)
+    }
+
+    /// `nu'` alone (the simulator's path).
+    pub fn acceleration(&self, nu: &Nu, at: &Attitude, inputs: &Inputs) -> Nu {
+        self.mass_inverse * self.force_values(nu, at, inputs)
     }
 
     /// `d nu' / d nu` alone.

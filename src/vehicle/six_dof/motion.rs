@@ -44,11 +44,14 @@ impl MotionState {
     }
 }
 
-/// Time derivatives of everything but the attitude (turned separately).
-struct Rates {
-    nu: Nu,
-    position: Vector3<f64>,
-    actuators: Actuators,
+/// Time derivatives of everything but the attitude (turned by the body rate `nu[3..6]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rates {
+    /// `nu'`: body-frame accelerations, m/s^2 and rad/s^2.
+    pub nu: Nu,
+    /// Velocity in the world (NED) frame, m/s.
+    pub position: Vector3<f64>,
+    pub actuators: Actuators,
 }
 
 fn actuator_rates(model: &SixDof, state: &Actuators, command: &Actuators) -> Actuators {
@@ -69,7 +72,9 @@ fn actuator_rates(model: &SixDof, state: &Actuators, command: &Actuators) -> Act
     }
 }
 
-fn rates(
+/// The state's time derivatives under `command` (RK4's first stage; the simulator reads the
+/// accelerations it needs from them).
+pub fn rates(
     model: &SixDof,
     s: &MotionState,
     command: &Actuators,
@@ -89,7 +94,7 @@ fn rates(
         propeller_rad_s: a.propeller_rad_s,
     };
     Rates {
-        nu: model.derivative(&s.nu, &at, &inputs).0,
+        nu: model.acceleration(&s.nu, &at, &inputs),
         position: s.ned_from_body * Vector3::new(s.nu[0], s.nu[1], s.nu[2]),
         actuators: actuator_rates(model, &a, command),
     }
@@ -120,8 +125,22 @@ pub fn step(
     earth_rate_ned: &Vector3<f64>,
     dt: f64,
 ) -> MotionState {
-    let w = |n: &Nu| Vector3::new(n[3], n[4], n[5]);
     let k1 = rates(model, s, command, earth_rate_ned);
+    step_from(model, s, &k1, command, earth_rate_ned, dt)
+}
+
+/// [`step`] with its first stage `k1 = rates(model, s, command, earth_rate_ned)` already
+/// evaluated.
+pub fn step_from(
+    model: &SixDof,
+    s: &MotionState,
+    k1: &Rates,
+    command: &Actuators,
+    earth_rate_ned: &Vector3<f64>,
+    dt: f64,
+) -> MotionState {
+    let w = |n: &Nu| Vector3::new(n[3], n[4], n[5]);
+    let k1 = *k1;
     let s2 = advanced(s, &k1, dt / 2.0, &w(&s.nu));
     let k2 = rates(model, &s2, command, earth_rate_ned);
     let s3 = advanced(s, &k2, dt / 2.0, &w(&s2.nu));

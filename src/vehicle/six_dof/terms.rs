@@ -56,28 +56,28 @@ pub fn wake(u: f64, n: f64, length_m: f64) -> (f64, f64) {
 }
 
 impl Factor {
-    /// The factor's value and its gradient by `nu`.
-    fn eval(self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Nu) {
-        let mut grad = Nu::zeros();
-        let value = match self {
-            Factor::Nu(i) => {
-                grad[i] = 1.0;
-                nu[i]
-            }
-            Factor::AbsNu(i) => {
-                grad[i] = nu[i].signum();
-                nu[i].abs()
-            }
+    /// The factor's value.
+    fn value(self, nu: &Nu, inputs: &Inputs, length_m: f64) -> f64 {
+        match self {
+            Factor::Nu(i) => nu[i],
+            Factor::AbsNu(i) => nu[i].abs(),
             Factor::Rudder => inputs.rudder_rad,
             Factor::Stern => inputs.stern_rad,
             Factor::Bow => inputs.bow_rad,
-            Factor::Wake => {
-                let (v, d) = wake(nu[0], inputs.propeller_rad_s, length_m);
-                grad[0] = d;
-                v
-            }
-        };
-        (value, grad)
+            Factor::Wake => wake(nu[0], inputs.propeller_rad_s, length_m).0,
+        }
+    }
+
+    /// The factor's value and its gradient by `nu`.
+    fn eval(self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Nu) {
+        let mut grad = Nu::zeros();
+        match self {
+            Factor::Nu(i) => grad[i] = 1.0,
+            Factor::AbsNu(i) => grad[i] = nu[i].signum(),
+            Factor::Rudder | Factor::Stern | Factor::Bow => {}
+            Factor::Wake => grad[0] = wake(nu[0], inputs.propeller_rad_s, length_m).1,
+        }
+        (self.value(nu, inputs, length_m), grad)
     }
 }
 
@@ -93,6 +93,13 @@ pub struct Term {
 }
 
 impl Term {
+    /// The term's value (the simulator's path: no gradient, no allocation).
+    pub fn value(&self, nu: &Nu, inputs: &Inputs, length_m: f64) -> f64 {
+        self.factors
+            .iter()
+            .fold(self.coefficient, |p, f| p * f.value(nu, inputs, length_m))
+    }
+
     /// The term's value and gradient by `nu`.
     pub fn eval(&self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Nu) {
         let evaluated: Vec<(f64, Nu)> = self
