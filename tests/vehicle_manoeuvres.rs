@@ -53,8 +53,10 @@ fn heading_and_depth_steps() {
     let cmd = |_: f64, _: &MotionState| Command {
         speed_m_s: 1.5,
         heading_rad: Some(90f64.to_radians()),
+        heading_rate_rad_s: 0.0,
         depth_m: Some(40.0),
         pitch_rad: None,
+        depth_rate_m_s: 0.0,
         rudder_rad: 0.0,
         stern_rad: 0.0,
     };
@@ -89,8 +91,10 @@ fn turning_circle_at_full_rudder() {
     let cmd = |_: f64, _: &MotionState| Command {
         speed_m_s: 1.5,
         heading_rad: None,
+        heading_rate_rad_s: 0.0,
         depth_m: Some(20.0),
         pitch_rad: None,
+        depth_rate_m_s: 0.0,
         rudder_rad: limit,
         stern_rad: 0.0,
     };
@@ -137,8 +141,10 @@ fn horizontal_zigzag_20_20() {
         Command {
             speed_m_s: 1.5,
             heading_rad: None,
+            heading_rate_rad_s: 0.0,
             depth_m: Some(20.0),
             pitch_rad: None,
+            depth_rate_m_s: 0.0,
             rudder_rad: rudder.get(),
             stern_rad: 0.0,
         }
@@ -176,8 +182,10 @@ fn vertical_zigzag_10_10() {
         Command {
             speed_m_s: 1.5,
             heading_rad: Some(0.0),
+            heading_rate_rad_s: 0.0,
             depth_m: None,
             pitch_rad: None,
+            depth_rate_m_s: 0.0,
             rudder_rad: 0.0,
             stern_rad: planes.get(),
         }
@@ -209,8 +217,10 @@ fn dropped_entry_recovers() {
     let cmd = |_: f64, _: &MotionState| Command {
         speed_m_s: 1.5,
         heading_rad: Some(0.0),
+        heading_rate_rad_s: 0.0,
         depth_m: Some(30.0),
         pitch_rad: None,
+        depth_rate_m_s: 0.0,
         rudder_rad: 0.0,
         stern_rad: 0.0,
     };

@@ -3,6 +3,7 @@
 //!
 //! May import: `contract`, `ingest` (for [`Mission`](crate::ingest::Mission)), `time`, `mcap`.
 
+pub mod dynamic;
 pub mod inertial;
 pub mod profile;
 pub mod run;
@@ -10,5 +11,6 @@ pub mod scenario;
 pub mod sensors;
 pub mod synthetic;
 pub mod trajectory;
+pub mod truth;
 pub mod writer;
 pub mod zigzag;

@@ -7,7 +7,8 @@ use super::sensors::imu::Triad;
 use super::sensors::mag::MagSensor;
 use super::sensors::scalar::{Propeller as PropellerModel, ScalarSensor};
 use super::sensors::{normal, rng_for, stream};
-use super::trajectory::PositionIntegrator;
+use super::dynamic;
+use super::truth::{KinematicTruth, TruthSource};
 use super::writer::{LogWriter, WriteError};
 use crate::contract::*;
 use crate::geodesy;
@@ -77,7 +78,24 @@ pub fn run_with_progress<W: Write + Seek>(
     w: &mut LogWriter<W>,
     mut progress: impl FnMut(f64),
 ) -> Result<RunSummary, SimError> {
-    let traj = scenario.trajectory()?;
+    let dt_ns = (1e9 / scenario.imu.rate_hz).round() as i64;
+    let dt_s = dt_ns as f64 * 1e-9;
+    // The truth: the vehicle's dynamics, or the kinematic trajectory of the segments.
+    let trajectory;
+    let mut kinematic;
+    let mut dynamic;
+    let truth: &mut dyn TruthSource = match dynamic::from_scenario(scenario, seed, dt_s)? {
+        Some((source, record)) => {
+            w.write_metadata("vehicle_truth", record)?;
+            dynamic = source;
+            &mut dynamic
+        }
+        None => {
+            trajectory = scenario.trajectory()?;
+            kinematic = KinematicTruth::new(&trajectory);
+            &mut kinematic
+        }
+    };
     let origin_lat = scenario.mission.origin_latitude_deg.to_radians();
     let origin_lon = scenario.mission.origin_longitude_deg.to_radians();
     w.write_mission(&Mission {
@@ -139,12 +157,10 @@ pub fn run_with_progress<W: Write + Seek>(
         .fixes
         .filter(|f| f.usbl_every_s > 0.0)
         .map(|f| Schedule::new(1.0 / f.usbl_every_s));
+    let mut fins = scenario.fins.map(|f| Schedule::new(f.rate_hz));
     let mut truth_schedule = Schedule::new(scenario.truth_rate_hz);
 
-    let dt_ns = (1e9 / scenario.imu.rate_hz).round() as i64;
-    let dt_s = dt_ns as f64 * 1e-9;
-    let end_ns = secs_ns(traj.duration_s());
-    let mut position = PositionIntegrator::new(&traj);
+    let end_ns = secs_ns(truth.duration_s());
     let mut count = 0u64;
     let mut t_ns = 0i64;
     let progress_every_ns = (end_ns / 100).max(1);
@@ -155,18 +171,17 @@ pub fn run_with_progress<W: Write + Seek>(
             next_progress_ns += progress_every_ns;
         }
         let t_s = t_ns as f64 * 1e-9;
-        position.advance_to(t_s);
-        let p = position.position;
-        let (lat, lon, height) = (p.x, p.y, p.z);
-        let kin = traj.kinematics(t_s);
+        let sample = truth.sample(t_s);
+        let (lat, lon, height) = (sample.lat_rad, sample.lon_rad, sample.height_m);
+        let motion = &sample.motion;
         let stamp_ns = scenario.start_stamp_ns + t_ns;
         let log_ns = |latency_s: f64| (stamp_ns + secs_ns(latency_s)).max(0) as u64;
         let (north, east) = geodesy::local_north_east_m(origin_lat, origin_lon, lat, lon);
         let depth_m = -height;
-        let ned_from_body = kin.ned_from_body();
-        let vel_body = ned_from_body.inverse() * kin.vel_ned();
+        let ned_from_body = motion.ned_from_body;
+        let vel_body = ned_from_body.inverse() * motion.vel_ned;
 
-        let ideal = perfect_imu(&kin.motion(), lat, height);
+        let ideal = perfect_imu(motion, lat, height);
         let imu = Imu {
             stamp_ns,
             angular_velocity: gyro.measure(&ideal.omega_ib_body, dt_s).into(),
@@ -205,7 +220,7 @@ pub fn run_with_progress<W: Write + Seek>(
         }
         if let Some((s, sched, latency)) = eml.as_mut() {
             if sched.due(t_ns) {
-                let speed = s.measure(kin.speed_m_s).max(0.0);
+                let speed = s.measure(sample.speed_m_s).max(0.0);
                 w.write("/eml", &SpeedLog { stamp_ns, speed }, log_ns(*latency))?;
                 count += 1;
             }
@@ -236,14 +251,24 @@ pub fn run_with_progress<W: Write + Seek>(
         }
         if let Some((prop, sched)) = rpm.as_mut() {
             if sched.due(t_ns) {
-                w.write(
-                    "/rpm",
-                    &Propeller {
-                        stamp_ns,
-                        rpm: prop.measure(kin.speed_m_s),
-                    },
-                    log_ns(0.0),
-                )?;
+                // Dynamic: the propeller's own speed; kinematic: from the speed (seed 002).
+                let rpm = match sample.actuators {
+                    Some(a) => a.propeller_rad_s * 60.0 / std::f64::consts::TAU,
+                    None => prop.measure(sample.speed_m_s),
+                };
+                w.write("/rpm", &Propeller { stamp_ns, rpm }, log_ns(0.0))?;
+                count += 1;
+            }
+        }
+        if let (Some(sched), Some(a)) = (fins.as_mut(), sample.actuators) {
+            if sched.due(t_ns) {
+                let msg = ControlSurfaces {
+                    stamp_ns,
+                    rudder: a.rudder_rad,
+                    bow_plane: a.bow_rad,
+                    stern_plane: a.stern_rad,
+                };
+                w.write("/fins", &msg, log_ns(0.0))?;
                 count += 1;
             }
         }
@@ -300,13 +325,9 @@ pub fn run_with_progress<W: Write + Seek>(
                 east_m: east,
                 down_m: depth_m,
                 velocity_body: vel_body.into(),
-                velocity_ned: kin.vel_ned().into(),
-                attitude: [
-                    kin.roll_rad,
-                    kin.pitch_rad,
-                    crate::angle::wrap_pi(kin.yaw_rad),
-                ],
-                angular_velocity: kin.omega_nb_body().into(),
+                velocity_ned: motion.vel_ned.into(),
+                attitude: sample.euler_rad,
+                angular_velocity: motion.omega_nb_body.into(),
             };
             w.write("/truth", &truth, log_ns(0.0))?;
             count += 1;

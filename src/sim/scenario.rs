@@ -8,6 +8,7 @@ use super::sensors::mag::MagSpec;
 use super::sensors::scalar::{PropellerSpec, ScalarSpec};
 use super::trajectory::{SegmentError, Trajectory, TrajectoryBuilder};
 use crate::geodesy;
+use crate::vehicle::six_dof::plan::Phase;
 use serde::{Deserialize, Serialize};
 
 /// The scenarios shipped in the binary: (name, TOML text).
@@ -30,6 +31,24 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../../scenarios/dive-27min.toml"),
     ),
     ("long-dive", include_str!("../../scenarios/long-dive.toml")),
+    // Flown by the 6-DOF vehicle model and its autopilot.
+    (
+        "long-dive-dynamic",
+        include_str!("../../scenarios/long-dive-dynamic.toml"),
+    ),
+    (
+        "zigzag-rudder-20-20",
+        include_str!("../../scenarios/zigzag-rudder-20-20.toml"),
+    ),
+    (
+        "zigzag-planes-10-10",
+        include_str!("../../scenarios/zigzag-planes-10-10.toml"),
+    ),
+    (
+        "turning-circle",
+        include_str!("../../scenarios/turning-circle.toml"),
+    ),
+    ("drop-entry", include_str!("../../scenarios/drop-entry.toml")),
 ];
 
 /// Why a scenario cannot be used.
@@ -63,8 +82,14 @@ pub struct Scenario {
     pub start_stamp_ns: i64,
     pub mission: MissionSpec,
     pub start: StartSpec,
-    #[serde(rename = "segment")]
+    /// Kinematic flight: the trajectory's segments.
+    #[serde(default, rename = "segment")]
     pub segments: Vec<Segment>,
+    /// Dynamic flight: the vehicle model and its pilot's settings ...
+    pub dynamics: Option<DynamicsSpec>,
+    /// ... and the phases it flies.
+    #[serde(default, rename = "phase")]
+    pub phases: Vec<Phase>,
     pub imu: ImuSpec,
     pub mag: Option<MagSpec>,
     pub dvl: Option<DvlSpec>,
@@ -72,6 +97,8 @@ pub struct Scenario {
     pub depth: Option<RatedScalar>,
     pub altimeter: Option<RatedScalar>,
     pub rpm: Option<RatedPropeller>,
+    /// Fin angles (`/fins`): dynamic scenarios only.
+    pub fins: Option<Rate>,
     pub gnss: Option<GnssSpec>,
     pub fixes: Option<FixSpec>,
     #[serde(default)]
@@ -112,6 +139,50 @@ pub struct StartSpec {
     /// Turn rate at the start, deg/s (a run that starts already turning, e.g. a circle).
     #[serde(default)]
     pub turn_rate_deg_s: f64,
+    /// Roll and pitch at the start, deg (a dropped vehicle's; dynamic scenarios only).
+    #[serde(default)]
+    pub roll_deg: f64,
+    #[serde(default)]
+    pub pitch_deg: f64,
+}
+
+/// Flight by the 6-DOF vehicle model and its autopilot instead of kinematic segments.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DynamicsSpec {
+    /// A built-in vehicle (`nps-auv-ii`, `remus-100`) or a vehicle JSON file.
+    pub vehicle: String,
+    /// Commanded speed through the water, m/s.
+    pub speed_m_s: f64,
+    /// Fastest change of the depth reference, m/s.
+    #[serde(default = "default_vertical_rate")]
+    pub max_vertical_rate_m_s: f64,
+    /// Fastest turn of the heading reference toward a new heading, deg/s.
+    #[serde(default = "default_turn_rate")]
+    pub max_turn_rate_deg_s: f64,
+    /// 1-sigma relative uncertainty of the true vehicle's coefficients (seed 000 case 2:
+    /// the log is flown by a seeded draw around the file, recorded in its metadata); 0: the
+    /// file's own.
+    #[serde(default)]
+    pub coef_uncertainty: f64,
+    /// The vehicle file's text when `vehicle` is a file (read by the command line).
+    #[serde(skip)]
+    pub vehicle_json: Option<String>,
+}
+
+fn default_vertical_rate() -> f64 {
+    0.4
+}
+
+fn default_turn_rate() -> f64 {
+    3.0
+}
+
+/// A sampling rate alone.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rate {
+    pub rate_hz: f64,
 }
 
 /// One manoeuvre. Angles in degrees, positive yaw change to starboard.
@@ -247,6 +318,8 @@ pub struct RatedScalar {
 #[serde(deny_unknown_fields)]
 pub struct RatedPropeller {
     pub rate_hz: f64,
+    /// Kinematic scenarios: the speed-RPM relation that makes RPM from the speed. Dynamic
+    /// scenarios log the propeller's own speed and need none.
     #[serde(flatten)]
     pub model: PropellerSpec,
 }
@@ -360,6 +433,7 @@ impl Scenario {
             ("altimeter", self.altimeter.map(|d| d.rate_hz)),
             ("rpm", self.rpm.map(|d| d.rate_hz)),
             ("gnss", self.gnss.map(|d| d.rate_hz)),
+            ("fins", self.fins.map(|d| d.rate_hz)),
             ("truth", Some(self.truth_rate_hz)),
         ];
         for (name, rate) in rates {
@@ -376,12 +450,69 @@ impl Scenario {
                 "a parameter is {v}: every number of the mission, start and sensors must be finite"
             )));
         }
+        self.check_flight().map_err(bad)?;
         if self.seabed.profile.is_empty()
             || self.seabed.profile.windows(2).any(|w| w[1][0] <= w[0][0])
         {
             return Err(bad(
                 "seabed.profile needs points of increasing distance".into()
             ));
+        }
+        Ok(())
+    }
+
+    /// Kinematic or dynamic, consistently.
+    fn check_flight(&self) -> Result<(), String> {
+        let Some(d) = &self.dynamics else {
+            if !self.phases.is_empty() {
+                return Err("[[phase]] needs a [dynamics] section (vehicle, speed)".into());
+            }
+            if self.segments.is_empty() {
+                return Err("no [[segment]]: a kinematic scenario needs at least one".into());
+            }
+            if self.fins.is_some() {
+                return Err("[fins] needs a [dynamics] section: a kinematic trajectory has no fins".into());
+            }
+            if self.start.roll_deg != 0.0 || self.start.pitch_deg != 0.0 {
+                return Err("start.roll_deg and start.pitch_deg need a [dynamics] section".into());
+            }
+            if self.rpm.is_some_and(|r| r.model.k_m_s_per_rpm <= 0.0) {
+                return Err("rpm.k_m_s_per_rpm must be above 0 (it makes RPM from the speed)".into());
+            }
+            return Ok(());
+        };
+        if !self.segments.is_empty() {
+            return Err("[[segment]] and [dynamics] do not mix: a dynamic scenario flies [[phase]]s".into());
+        }
+        if self.phases.is_empty() {
+            return Err("[dynamics] needs at least one [[phase]]".into());
+        }
+        if self.rpm.is_some_and(|r| r.model.k_m_s_per_rpm != 0.0) {
+            return Err("rpm.k_m_s_per_rpm: a dynamic scenario logs the propeller's own speed; remove it".into());
+        }
+        let positive = [
+            ("dynamics.speed_m_s", d.speed_m_s),
+            ("dynamics.max_vertical_rate_m_s", d.max_vertical_rate_m_s),
+            ("dynamics.max_turn_rate_deg_s", d.max_turn_rate_deg_s),
+        ];
+        if let Some((name, v)) = positive.iter().find(|(_, v)| !(*v > 0.0)) {
+            return Err(format!("{name} is {v}: it must be above 0"));
+        }
+        if !(0.0..=0.5).contains(&d.coef_uncertainty) {
+            return Err(format!(
+                "dynamics.coef_uncertainty {} must be in [0, 0.5] (a fraction: 0.1 = 10 %)",
+                d.coef_uncertainty
+            ));
+        }
+        for (i, p) in self.phases.iter().enumerate() {
+            if !(p.duration_s() > 0.0) {
+                return Err(format!(
+                    "phase {} ({}): duration_s {} must be above 0",
+                    i + 1,
+                    p.kind(),
+                    p.duration_s()
+                ));
+            }
         }
         Ok(())
     }
@@ -401,6 +532,8 @@ impl Scenario {
             self.start.yaw_deg,
             self.start.speed_m_s,
             self.start.turn_rate_deg_s,
+            self.start.roll_deg,
+            self.start.pitch_deg,
             self.imu.latency_s,
             g.bias_deg_h,
             g.bias_instability_deg_h,
@@ -452,11 +585,27 @@ impl Scenario {
             v.extend([f.mark_sigma_m, f.usbl_every_s, f.usbl_sigma_m]);
         }
         v.extend(self.seabed.profile.iter().flatten());
+        if let Some(d) = &self.dynamics {
+            v.extend([
+                d.speed_m_s,
+                d.max_vertical_rate_m_s,
+                d.max_turn_rate_deg_s,
+                d.coef_uncertainty,
+            ]);
+        }
+        v.extend(self.phases.iter().flat_map(Phase::numbers));
+        v.extend(self.fins.map(|f| f.rate_hz));
         v
     }
 
-    /// The truth trajectory of the segments.
+    /// The truth trajectory of the segments (kinematic scenarios).
     pub fn trajectory(&self) -> Result<Trajectory, ScenarioError> {
+        if self.dynamics.is_some() {
+            return Err(ScenarioError::Invalid {
+                name: self.name.clone(),
+                reason: "a dynamic scenario has no kinematic trajectory".into(),
+            });
+        }
         let origin_lat = self.mission.origin_latitude_deg.to_radians();
         let lat = origin_lat + self.start.north_m / geodesy::meridian_radius_m(origin_lat);
         let lon = self.mission.origin_longitude_deg.to_radians()
@@ -624,8 +773,12 @@ mod tests {
         for (name, _) in BUILT_IN {
             let s = Scenario::built_in(name).unwrap_or_else(|e| panic!("{name}: {e}"));
             assert_eq!(&s.name, name);
-            let t = s.trajectory().unwrap_or_else(|e| panic!("{name}: {e}"));
-            assert!(t.duration_s() > 60.0, "{name}");
+            let duration_s = match crate::sim::dynamic::from_scenario(&s, 1, 0.01) {
+                Ok(Some((truth, _))) => crate::sim::truth::TruthSource::duration_s(&truth),
+                Ok(None) => s.trajectory().map(|t| t.duration_s()).unwrap(),
+                Err(e) => panic!("{name}: {e}"),
+            };
+            assert!(duration_s > 60.0, "{name}");
         }
         assert!(matches!(
             Scenario::built_in("nope"),

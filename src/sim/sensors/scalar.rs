@@ -62,7 +62,8 @@ pub struct Propeller {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PropellerSpec {
-    /// Nominal speed per rev/min, (m/s) / (rev/min).
+    /// Nominal speed per rev/min, (m/s) / (rev/min); required by kinematic scenarios.
+    #[serde(default)]
     pub k_m_s_per_rpm: f64,
     /// 1-sigma of eps as a fraction of k.
     #[serde(default)]

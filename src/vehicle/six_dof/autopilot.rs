@@ -19,9 +19,13 @@ pub struct Command {
     pub speed_m_s: f64,
     /// Heading, rad; `None`: rudder held at `rudder_rad`.
     pub heading_rad: Option<f64>,
+    /// The heading reference's rate, rad/s (feed-forward of a turning reference).
+    pub heading_rate_rad_s: f64,
     /// Depth, m; `None`: pitch held by `pitch_rad` (or the planes held at `stern_rad`).
     pub depth_m: Option<f64>,
     pub pitch_rad: Option<f64>,
+    /// The depth reference's rate, m/s, positive down (feed-forward of a moving reference).
+    pub depth_rate_m_s: f64,
     pub rudder_rad: f64,
     pub stern_rad: f64,
 }
@@ -65,7 +69,8 @@ pub struct Autopilot {
     pub gains: Gains,
     speed_m_s: f64,
     propeller_rad_s: f64,
-    /// Effective inertia, rate damping and fin effectiveness: yaw (rudder), pitch (stern).
+    /// Inertia, rate damping and fin effectiveness: yaw (rudder; sway eliminated, as in a
+    /// steady turn), pitch (stern).
     yaw: (f64, f64, f64),
     pitch: (f64, f64, f64),
 }
@@ -89,9 +94,16 @@ impl Autopilot {
         };
         let (tau0, d) = model.forces(&nu, &level, &inputs(0.0, 0.0));
         let h = 0.01;
-        let n_rudder = (model.forces(&nu, &level, &inputs(h, 0.0)).0[5] - tau0[5]) / h;
-        let m_stern = (model.forces(&nu, &level, &inputs(0.0, h)).0[4] - tau0[4]) / h;
-        if n_rudder.abs() < 1e-9 || m_stern.abs() < 1e-9 {
+        let rudder = (model.forces(&nu, &level, &inputs(h, 0.0)).0 - tau0) / h;
+        let stern = (model.forces(&nu, &level, &inputs(0.0, h)).0 - tau0) / h;
+        // A steady turn brings sway with it, whose yaw moment adds to the rate damping and
+        // whose force takes from the rudder's: eliminate it. (In pitch the restoring moment
+        // dominates and the plain terms serve better: eliminating heave there makes the
+        // depth loop overshoot 13 m on Table 1's climbs.)
+        let k = d[(5, 1)] / d[(1, 1)];
+        let (yaw_damping, n_rudder) = (d[(5, 5)] - k * d[(1, 5)], rudder[5] - k * rudder[1]);
+        let (pitch_damping, m_stern) = (d[(4, 4)], stern[4]);
+        if !(n_rudder.abs() > 1e-9 && m_stern.abs() > 1e-9) {
             return None;
         }
         let m = model.mass_matrix();
@@ -99,8 +111,8 @@ impl Autopilot {
             gains,
             speed_m_s,
             propeller_rad_s,
-            yaw: (m[(5, 5)], d[(5, 5)], n_rudder),
-            pitch: (m[(4, 4)], d[(4, 4)], m_stern),
+            yaw: (m[(5, 5)], yaw_damping, n_rudder),
+            pitch: (m[(4, 4)], pitch_damping, m_stern),
         })
     }
 
@@ -120,29 +132,43 @@ impl Autopilot {
         let g = &self.gains;
         let (_, pitch, yaw) = s.euler();
         let (q, r) = (s.nu[4], s.nu[5]);
-        let fin =
-            |(inertia, damping, effect): (f64, f64, f64), omega: f64, error: f64, rate: f64| {
-                let wanted = omega * omega * error - 2.0 * g.zeta * omega * rate;
-                (inertia * wanted - damping * rate) / effect
-            };
+        // `rate_error`: the reference's rate minus the body's.
+        let fin = |(inertia, damping, effect): (f64, f64, f64),
+                   omega: f64,
+                   error: f64,
+                   rate_error: f64,
+                   rate: f64| {
+            let wanted = omega * omega * error + 2.0 * g.zeta * omega * rate_error;
+            (inertia * wanted - damping * rate) / effect
+        };
         let rudder_rad = match cmd.heading_rad {
-            Some(h) => fin(self.yaw, g.heading_omega, wrap_pi(h - yaw), r),
+            Some(h) => fin(
+                self.yaw,
+                g.heading_omega,
+                wrap_pi(h - yaw),
+                cmd.heading_rate_rad_s - r,
+                r,
+            ),
             None => cmd.rudder_rad,
         };
         let pitch_command = match (cmd.depth_m, cmd.pitch_rad) {
             (Some(depth), _) => {
                 let error = depth - s.position_m.z;
                 let descent = (s.ned_from_body * Vector3::new(s.nu[0], s.nu[1], s.nu[2])).z;
-                // Deeper wanted: nose down (negative pitch); the descent rate damps it.
+                // Deeper wanted: nose down (negative pitch); the descent rate relative to the
+                // reference's damps it, and the pitch that gives the reference's rate at the
+                // commanded speed is fed forward.
+                let feed_forward = -(cmd.depth_rate_m_s / self.speed_m_s).clamp(-1.0, 1.0).asin();
                 Some(
-                    (-(g.depth_gain * error) + 2.0 * g.depth_gain * descent / g.pitch_omega)
+                    (feed_forward - g.depth_gain * error
+                        + 2.0 * g.depth_gain * (descent - cmd.depth_rate_m_s) / g.pitch_omega)
                         .clamp(-g.max_pitch_rad, g.max_pitch_rad),
                 )
             }
             (None, p) => p,
         };
         let stern_rad = match pitch_command {
-            Some(theta) => fin(self.pitch, g.pitch_omega, theta - pitch, q),
+            Some(theta) => fin(self.pitch, g.pitch_omega, theta - pitch, -q, q),
             None => cmd.stern_rad,
         };
         memory.speed_integral += (cmd.speed_m_s - s.nu[0]) * dt;
@@ -157,6 +183,17 @@ impl Autopilot {
 
     pub fn speed_m_s(&self) -> f64 {
         self.speed_m_s
+    }
+
+    /// +1 if a positive rudder angle turns the vehicle to starboard (yaw increasing), -1 if
+    /// to port: the file's sign convention, read from the model.
+    pub fn rudder_yaw_sign(&self) -> f64 {
+        self.yaw.2.signum()
+    }
+
+    /// +1 if a positive stern-plane angle pitches the nose up, -1 if down.
+    pub fn stern_pitch_sign(&self) -> f64 {
+        self.pitch.2.signum()
     }
 }
 

@@ -533,16 +533,40 @@ fn unknown(key: &str, section: &str, terms: &[Mapping], added: &[AddedMass]) -> 
     }
 }
 
+/// The vehicles shipped in the binary (copies of `../shared/vehicles/`): (name, JSON text).
+pub const BUILT_IN: &[(&str, &str)] = &[
+    (
+        "nps-auv-ii",
+        include_str!("../../../assets/vehicles/nps-auv-ii.json"),
+    ),
+    (
+        "remus-100",
+        include_str!("../../../assets/vehicles/remus-100.json"),
+    ),
+];
+
 impl Vehicle {
+    /// A built-in vehicle by name (`None` if there is none of that name).
+    pub fn built_in(name: &str) -> Option<Result<Vehicle, VehicleError>> {
+        BUILT_IN
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, text)| Vehicle::from_json(text))
+    }
+
     /// A "true" vehicle drawn around this one (seed 000's case 2): every hydrodynamic term
-    /// and added-mass entry multiplied by a factor drawn uniformly in `[1 - f, 1 + f]`,
-    /// seeded. Returns the vehicle and the factors by name, to record in the log.
+    /// and added-mass entry multiplied by `1 + f z`, `z` standard normal cut at +-3, seeded. Returns the vehicle and the factors by name, to record in the log.
     pub fn perturbed(&self, fraction: f64, seed: u64) -> (Vehicle, Vec<(String, f64)>) {
-        use rand::{Rng, SeedableRng};
+        use rand::SeedableRng;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         // A stream of its own, apart from the sensors' streams of the same seed.
         rng.set_stream(1000);
-        let mut draw = || 1.0 + fraction * rng.random_range(-1.0..=1.0);
+        // Seed 000 case 2: normal with 1-sigma `fraction`, cut at 3 sigma so that no term
+        // changes sign.
+        let mut draw = || {
+            let z: f64 = rand_distr::Distribution::sample(&rand_distr::StandardNormal, &mut rng);
+            1.0 + fraction * z.clamp(-3.0, 3.0)
+        };
         let mut v = self.clone();
         let mut factors = Vec::new();
         for t in &mut v.terms {

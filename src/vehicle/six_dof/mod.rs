@@ -8,5 +8,6 @@ pub mod autopilot;
 pub mod description;
 pub mod model;
 pub mod motion;
+pub mod plan;
 pub mod properties;
 pub mod terms;

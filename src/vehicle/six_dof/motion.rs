@@ -6,7 +6,7 @@
 
 use super::model::{Attitude, SixDof};
 use super::terms::{Inputs, Nu};
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 /// Fin and propeller commands (or states).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -51,6 +51,8 @@ pub struct Rates {
     pub nu: Nu,
     /// Velocity in the world (NED) frame, m/s.
     pub position: Vector3<f64>,
+    /// The attitude quaternion's derivative, `q' = q (0, omega) / 2`.
+    pub attitude: Quaternion<f64>,
     pub actuators: Actuators,
 }
 
@@ -96,16 +98,19 @@ pub fn rates(
     Rates {
         nu: model.acceleration(&s.nu, &at, &inputs),
         position: s.ned_from_body * Vector3::new(s.nu[0], s.nu[1], s.nu[2]),
+        attitude: s.ned_from_body.quaternion()
+            * Quaternion::from_imag(Vector3::new(s.nu[3], s.nu[4], s.nu[5]))
+            * 0.5,
         actuators: actuator_rates(model, &a, command),
     }
 }
 
-fn advanced(s: &MotionState, r: &Rates, h: f64, w_body: &Vector3<f64>) -> MotionState {
+fn advanced(s: &MotionState, r: &Rates, h: f64) -> MotionState {
     let a = &s.actuators;
     let ra = &r.actuators;
     MotionState {
         nu: s.nu + r.nu * h,
-        ned_from_body: s.ned_from_body * UnitQuaternion::from_scaled_axis(w_body * h),
+        ned_from_body: UnitQuaternion::new_normalize(s.ned_from_body.into_inner() + r.attitude * h),
         position_m: s.position_m + r.position * h,
         actuators: Actuators {
             rudder_rad: a.rudder_rad + ra.rudder_rad * h,
@@ -139,17 +144,16 @@ pub fn step_from(
     earth_rate_ned: &Vector3<f64>,
     dt: f64,
 ) -> MotionState {
-    let w = |n: &Nu| Vector3::new(n[3], n[4], n[5]);
     let k1 = *k1;
-    let s2 = advanced(s, &k1, dt / 2.0, &w(&s.nu));
+    let s2 = advanced(s, &k1, dt / 2.0);
     let k2 = rates(model, &s2, command, earth_rate_ned);
-    let s3 = advanced(s, &k2, dt / 2.0, &w(&s2.nu));
+    let s3 = advanced(s, &k2, dt / 2.0);
     let k3 = rates(model, &s3, command, earth_rate_ned);
-    let s4 = advanced(s, &k3, dt, &w(&s3.nu));
+    let s4 = advanced(s, &k3, dt);
     let k4 = rates(model, &s4, command, earth_rate_ned);
     let mean = |f: &dyn Fn(&Rates) -> Nu| (f(&k1) + f(&k2) * 2.0 + f(&k3) * 2.0 + f(&k4)) / 6.0;
     let nu_rate = mean(&|r| r.nu);
-    let w_mean = (w(&s.nu) + w(&s2.nu) * 2.0 + w(&s3.nu) * 2.0 + w(&s4.nu)) / 6.0;
+    let attitude_rate = (k1.attitude + k2.attitude * 2.0 + k3.attitude * 2.0 + k4.attitude) / 6.0;
     let position_rate = (k1.position + k2.position * 2.0 + k3.position * 2.0 + k4.position) / 6.0;
     let act = |f: fn(&Actuators) -> f64| {
         (f(&k1.actuators) + 2.0 * f(&k2.actuators) + 2.0 * f(&k3.actuators) + f(&k4.actuators))
@@ -159,7 +163,9 @@ pub fn step_from(
     let lim = model.vehicle.fin_limit_rad;
     MotionState {
         nu: s.nu + nu_rate * dt,
-        ned_from_body: s.ned_from_body * UnitQuaternion::from_scaled_axis(w_mean * dt),
+        ned_from_body: UnitQuaternion::new_normalize(
+            s.ned_from_body.into_inner() + attitude_rate * dt,
+        ),
         position_m: s.position_m + position_rate * dt,
         actuators: Actuators {
             rudder_rad: (a.rudder_rad + act(|x| x.rudder_rad) * dt).clamp(-lim, lim),
