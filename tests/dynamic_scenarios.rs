@@ -149,3 +149,150 @@ fn perfect_imu_of_the_dynamics_mechanizes_back_to_the_truth() {
         assert!(m5 < m / 10.0 && deg5 < deg / 10.0, "{name}");
     }
 }
+
+/// A dynamic scenario through the command line, read back.
+fn simulated(name: &str, extra: &[&str]) -> (std::process::Output, Option<hindsight::ingest::Log>) {
+    let dir = common::scratch_dir(&format!("dynamic-{name}-{}", extra.join("").len()));
+    let out = dir.join(format!("{name}.mcap"));
+    let mut args = vec!["simulate", "--scenario", name, "--out", out.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let o = common::hindsight(&args);
+    // A failed run leaves no file (it writes to a temporary name, renamed on success).
+    assert_eq!(o.status.success(), out.exists(), "{}", common::stderr(&o));
+    let log = o
+        .status
+        .success()
+        .then(|| common::read(&std::fs::read(&out).unwrap()));
+    (o, log)
+}
+
+/// The logs carry the fins and the propeller of the flight: the rudder zig-zag's rudder
+/// alternates at its amplitude, the turning circle's truth turns on the model's circle, the
+/// propeller turns at the cruise RPM, and the vehicle that flew is recorded.
+#[test]
+fn logs_carry_fins_and_propeller_consistent_with_the_motion() {
+    use hindsight::contract::{ControlSurfaces, Propeller, Truth};
+    let (o, log) = simulated("zigzag-rudder-20-20", &[]);
+    let log = log.unwrap_or_else(|| panic!("{}", common::stderr(&o)));
+    let fins = log.messages::<ControlSurfaces>("/fins").unwrap();
+    let t0 = fins[0].stamp_ns;
+    let in_phase = |stamp: i64| (60.0..360.0).contains(&((stamp - t0) as f64 * 1e-9));
+    let rudder: Vec<f64> = fins
+        .iter()
+        .filter(|f| in_phase(f.stamp_ns))
+        .map(|f| f.rudder.to_degrees())
+        .collect();
+    let reversals = rudder
+        .windows(2)
+        .filter(|w| w[0].signum() != w[1].signum() && w[1].abs() > 1.0)
+        .count();
+    let peak = rudder.iter().fold(0.0f64, |m, r| m.max(r.abs()));
+    let rpm = log.messages::<Propeller>("/rpm").unwrap();
+    let (lo, hi) = rpm
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), r| (lo.min(r.rpm), hi.max(r.rpm)));
+    println!(
+        "zigzag-rudder-20-20 log: {reversals} rudder reversals in the 300 s zig-zag, peak rudder {peak:.2} deg, \
+         propeller {lo:.0}-{hi:.0} rpm"
+    );
+    assert!(reversals >= 8, "{reversals}");
+    assert!((peak - 20.0).abs() < 0.01, "{peak}");
+    // 1.5 m/s needs about 1500 * 1.5 / 1.885 rpm (u = 0.012 n at full propeller).
+    // In the turns the speed loop spins it up, up to the file's 1500 rpm limit.
+    assert!((1150.0..1300.0).contains(&lo) && hi <= 1500.0 + 1e-9, "{lo} {hi}");
+    let record = &log.metadata["vehicle_truth"];
+    assert_eq!(record["vehicle"], "nps-auv-ii");
+    assert_eq!(record["coef_uncertainty"], "0");
+    assert!(!record.keys().any(|k| k.starts_with("factor.")));
+
+    let (o, log) = simulated("turning-circle", &[]);
+    let log = log.unwrap_or_else(|| panic!("{}", common::stderr(&o)));
+    let truth = log.messages::<Truth>("/truth").unwrap();
+    let t0 = truth[0].stamp_ns;
+    let turning: Vec<&Truth> = truth
+        .iter()
+        .filter(|t| (200.0..360.0).contains(&((t.stamp_ns - t0) as f64 * 1e-9)))
+        .collect();
+    let span = |f: &dyn Fn(&Truth) -> f64| {
+        let v: Vec<f64> = turning.iter().map(|t| f(t)).collect();
+        v.iter().cloned().fold(f64::MIN, f64::max) - v.iter().cloned().fold(f64::MAX, f64::min)
+    };
+    let (dn, de) = (span(&|t| t.north_m), span(&|t| t.east_m));
+    let depth = turning.iter().fold(0.0f64, |m, t| m.max((t.down_m - 20.0).abs()));
+    println!("turning-circle log: circle {dn:.1} x {de:.1} m, depth within {depth:.2} m of 20 m");
+    // The model's full-rudder circle (tests/vehicle_manoeuvres.rs: 32.2 m at 1.5 m/s).
+    assert!((dn - 32.2).abs() < 1.0 && (de - 32.2).abs() < 1.0, "{dn} {de}");
+    assert!(depth < 1.0);
+}
+
+/// `--coef-uncertainty 0.1`: a seeded "true" vehicle, recorded in the log; another seed
+/// flies another vehicle; the same seed, the same log.
+#[test]
+fn coefficient_uncertainty_draws_a_recorded_true_vehicle() {
+    use hindsight::contract::Truth;
+    let end = |log: &hindsight::ingest::Log| {
+        let t = log.messages::<Truth>("/truth").unwrap().last().unwrap().clone();
+        (t.north_m, t.east_m, t.down_m)
+    };
+    let (_, nominal) = simulated("turning-circle", &[]);
+    let (o, a) = simulated("turning-circle", &["--coef-uncertainty", "0.1", "--seed", "3"]);
+    let a = a.unwrap_or_else(|| panic!("{}", common::stderr(&o)));
+    let (_, b) = simulated("turning-circle", &["--coef-uncertainty", "0.1", "--seed", "4"]);
+    let record = &a.metadata["vehicle_truth"];
+    assert_eq!(record["coef_uncertainty"], "0.1");
+    assert_eq!(record["seed"], "3");
+    let factors: Vec<f64> = record
+        .iter()
+        .filter(|(k, _)| k.starts_with("factor."))
+        .map(|(_, v)| v.parse().unwrap())
+        .collect();
+    let sd = (factors.iter().map(|k| (k - 1.0).powi(2)).sum::<f64>() / factors.len() as f64).sqrt();
+    // Each true coefficient is the file's times its factor.
+    let nominal_vehicle = hindsight::vehicle::six_dof::description::Vehicle::built_in("nps-auv-ii")
+        .unwrap()
+        .unwrap();
+    for t in &nominal_vehicle.terms {
+        let k: f64 = record[&format!("factor.{}", t.name)].parse().unwrap();
+        let truth: f64 = record[&format!("true.{}", t.name)].parse().unwrap();
+        assert!((truth - k * t.coefficient).abs() <= 1e-12 * truth.abs().max(1e-300), "{}", t.name);
+    }
+    let (n0, n3, n4) = (end(&nominal.unwrap()), end(&a), end(&b.unwrap()));
+    let apart = |x: (f64, f64, f64), y: (f64, f64, f64)| (x.0 - y.0).hypot(x.1 - y.1);
+    println!(
+        "coef-uncertainty 0.1: {} factors, spread {sd:.3}; end point {:.2} m (seed 3) and {:.2} m (seed 4) from the nominal vehicle's",
+        factors.len(),
+        apart(n0, n3),
+        apart(n0, n4)
+    );
+    assert!(factors.len() > 80 && (0.07..0.13).contains(&sd));
+    assert!(apart(n0, n3) > 1.0 && apart(n3, n4) > 1.0);
+    let (_, again) = simulated("turning-circle", &["--seed", "3", "--coef-uncertainty", "0.1"]);
+    assert_eq!(end(&again.unwrap()), n3);
+}
+
+/// Options that do not fit and vehicles that cannot fly are refused with the reason.
+#[test]
+fn bad_dynamic_options_are_named() {
+    let dir = common::scratch_dir("bad-vehicle");
+    let bad = dir.join("bad.json");
+    let text = std::fs::read_to_string(
+        common::shared_dir("vehicles", "nps-auv-ii.json").join("nps-auv-ii.json"),
+    )
+    .unwrap()
+    .replacen("\"Xpp\"", "\"Xfoo\": 1.0, \"Xpp\"", 1);
+    std::fs::write(&bad, text).unwrap();
+    let cases: [(&str, &[&str], &str); 4] = [
+        ("survey-short", &["--coef-uncertainty", "0.1"], "need a dynamic scenario"),
+        ("drop-entry", &["--coef-uncertainty", "2"], "[0, 0.5]"),
+        ("drop-entry", &["--vehicle", "/no/such/vehicle.json"], "/no/such/vehicle.json"),
+        ("drop-entry", &["--vehicle", bad.to_str().unwrap()], "Xfoo"),
+    ];
+    for (name, extra, says) in cases {
+        let (o, log) = simulated(name, extra);
+        assert!(log.is_none());
+        let err = common::stderr(&o);
+        println!("{name} {extra:?}: exit {:?}: {}", o.status.code(), err.trim());
+        assert_eq!(o.status.code(), Some(2), "{name} {extra:?}: {err}");
+        assert!(err.contains(says), "{name} {extra:?}: {err}");
+    }
+}

@@ -78,6 +78,10 @@ fn every_scenario_log_is_valid_and_reads_back_identically() {
         "survey-short",
         "dive-27min",
         "survey",
+        "zigzag-rudder-20-20",
+        "zigzag-planes-10-10",
+        "turning-circle",
+        "drop-entry",
     ] {
         let log = check_log(name, &simulate(name, 1));
         assert!(log.stream("/truth").is_some(), "{name}");
@@ -94,6 +98,7 @@ fn every_scenario_log_is_valid_and_reads_back_identically() {
 #[ignore = "5.5 h of simulated data; run by name"]
 fn long_dive_log_is_valid_and_reads_back_identically() {
     check_log("long-dive", &simulate("long-dive", 1));
+    check_log("long-dive-dynamic", &simulate("long-dive-dynamic", 1));
 }
 
 #[test]

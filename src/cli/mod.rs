@@ -144,6 +144,13 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
         || err
             .downcast_ref::<identify::CoefficientArgError>()
             .is_some()
+        || err.downcast_ref::<simulate::SimulateArgError>().is_some()
+        || err
+            .downcast_ref::<hindsight::sim::scenario::ScenarioError>()
+            .is_some()
+        || err
+            .downcast_ref::<hindsight::sim::run::SimError>()
+            .is_some_and(|e| matches!(e, hindsight::sim::run::SimError::Scenario(_)))
     {
         EXIT_USAGE
     } else {
