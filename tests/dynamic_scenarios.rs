@@ -19,7 +19,7 @@ const DT: f64 = 0.01;
 
 fn truth_of(name: &str, seed: u64) -> (Scenario, DynamicTruth) {
     let s = Scenario::built_in(name).unwrap();
-    let (truth, _) = from_scenario(&s, seed, DT).unwrap().unwrap();
+    let truth = from_scenario(&s, seed, DT).unwrap().unwrap().truth;
     (s, truth)
 }
 
@@ -81,7 +81,10 @@ fn long_dive_flies_the_table_1_profile() {
          {worst_roll:.1} deg, speed {min_speed:.3}-{max_speed:.3} m/s; depth at phase ends (h, m): {depth_at:.1?}"
     );
     assert!(worst_depth < 5.0, "depth error {worst_depth} m");
-    assert!(worst_heading_cruise < 5.0, "heading error {worst_heading_cruise} deg");
+    assert!(
+        worst_heading_cruise < 5.0,
+        "heading error {worst_heading_cruise} deg"
+    );
     assert!((deepest - 300.0).abs() < 5.0, "deepest {deepest} m");
     let at = |h: f64| depth_at.iter().find(|(e, _)| *e == h).unwrap().1;
     assert!((at(0.75) - 300.0).abs() < 5.0);
@@ -95,7 +98,7 @@ fn long_dive_flies_the_table_1_profile() {
 /// true initial state.
 fn mechanized(name: &str, dt: f64) -> (f64, f64, f64) {
     let s = Scenario::built_in(name).unwrap();
-    let (mut truth, _) = from_scenario(&s, 1, dt).unwrap().unwrap();
+    let mut truth = from_scenario(&s, 1, dt).unwrap().unwrap().truth;
     let first = truth.sample(0.0);
     let imu = |s: &TruthSample| {
         let m = perfect_imu(&s.motion, s.lat_rad, s.height_m);
@@ -136,7 +139,12 @@ fn mechanized(name: &str, dt: f64) -> (f64, f64, f64) {
 /// curvature).
 #[test]
 fn perfect_imu_of_the_dynamics_mechanizes_back_to_the_truth() {
-    for name in ["turning-circle", "zigzag-rudder-20-20", "zigzag-planes-10-10", "drop-entry"] {
+    for name in [
+        "turning-circle",
+        "zigzag-rudder-20-20",
+        "zigzag-planes-10-10",
+        "drop-entry",
+    ] {
         let (m, v, deg) = mechanized(name, 0.01);
         let (m5, v5, deg5) = mechanized(name, 0.002);
         println!(
@@ -154,7 +162,13 @@ fn perfect_imu_of_the_dynamics_mechanizes_back_to_the_truth() {
 fn simulated(name: &str, extra: &[&str]) -> (std::process::Output, Option<hindsight::ingest::Log>) {
     let dir = common::scratch_dir(&format!("dynamic-{name}-{}", extra.join("").len()));
     let out = dir.join(format!("{name}.mcap"));
-    let mut args = vec!["simulate", "--scenario", name, "--out", out.to_str().unwrap()];
+    let mut args = vec![
+        "simulate",
+        "--scenario",
+        name,
+        "--out",
+        out.to_str().unwrap(),
+    ];
     args.extend_from_slice(extra);
     let o = common::hindsight(&args);
     // A failed run leaves no file (it writes to a temporary name, renamed on success).
@@ -188,9 +202,9 @@ fn logs_carry_fins_and_propeller_consistent_with_the_motion() {
         .count();
     let peak = rudder.iter().fold(0.0f64, |m, r| m.max(r.abs()));
     let rpm = log.messages::<Propeller>("/rpm").unwrap();
-    let (lo, hi) = rpm
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(lo, hi), r| (lo.min(r.rpm), hi.max(r.rpm)));
+    let (lo, hi) = rpm.iter().fold((f64::MAX, f64::MIN), |(lo, hi), r| {
+        (lo.min(r.rpm), hi.max(r.rpm))
+    });
     println!(
         "zigzag-rudder-20-20 log: {reversals} rudder reversals in the 300 s zig-zag, peak rudder {peak:.2} deg, \
          propeller {lo:.0}-{hi:.0} rpm"
@@ -199,7 +213,10 @@ fn logs_carry_fins_and_propeller_consistent_with_the_motion() {
     assert!((peak - 20.0).abs() < 0.01, "{peak}");
     // 1.5 m/s needs about 1500 * 1.5 / 1.885 rpm (u = 0.012 n at full propeller).
     // In the turns the speed loop spins it up, up to the file's 1500 rpm limit.
-    assert!((1150.0..1300.0).contains(&lo) && hi <= 1500.0 + 1e-9, "{lo} {hi}");
+    assert!(
+        (1150.0..1300.0).contains(&lo) && hi <= 1500.0 + 1e-9,
+        "{lo} {hi}"
+    );
     let record = &log.metadata["vehicle_truth"];
     assert_eq!(record["vehicle"], "nps-auv-ii");
     assert_eq!(record["coef_uncertainty"], "0");
@@ -218,10 +235,15 @@ fn logs_carry_fins_and_propeller_consistent_with_the_motion() {
         v.iter().cloned().fold(f64::MIN, f64::max) - v.iter().cloned().fold(f64::MAX, f64::min)
     };
     let (dn, de) = (span(&|t| t.north_m), span(&|t| t.east_m));
-    let depth = turning.iter().fold(0.0f64, |m, t| m.max((t.down_m - 20.0).abs()));
+    let depth = turning
+        .iter()
+        .fold(0.0f64, |m, t| m.max((t.down_m - 20.0).abs()));
     println!("turning-circle log: circle {dn:.1} x {de:.1} m, depth within {depth:.2} m of 20 m");
     // The model's full-rudder circle (tests/vehicle_manoeuvres.rs: 32.2 m at 1.5 m/s).
-    assert!((dn - 32.2).abs() < 1.0 && (de - 32.2).abs() < 1.0, "{dn} {de}");
+    assert!(
+        (dn - 32.2).abs() < 1.0 && (de - 32.2).abs() < 1.0,
+        "{dn} {de}"
+    );
     assert!(depth < 1.0);
 }
 
@@ -231,13 +253,24 @@ fn logs_carry_fins_and_propeller_consistent_with_the_motion() {
 fn coefficient_uncertainty_draws_a_recorded_true_vehicle() {
     use hindsight::contract::Truth;
     let end = |log: &hindsight::ingest::Log| {
-        let t = log.messages::<Truth>("/truth").unwrap().last().unwrap().clone();
+        let t = log
+            .messages::<Truth>("/truth")
+            .unwrap()
+            .last()
+            .unwrap()
+            .clone();
         (t.north_m, t.east_m, t.down_m)
     };
     let (_, nominal) = simulated("turning-circle", &[]);
-    let (o, a) = simulated("turning-circle", &["--coef-uncertainty", "0.1", "--seed", "3"]);
+    let (o, a) = simulated(
+        "turning-circle",
+        &["--coef-uncertainty", "0.1", "--seed", "3"],
+    );
     let a = a.unwrap_or_else(|| panic!("{}", common::stderr(&o)));
-    let (_, b) = simulated("turning-circle", &["--coef-uncertainty", "0.1", "--seed", "4"]);
+    let (_, b) = simulated(
+        "turning-circle",
+        &["--coef-uncertainty", "0.1", "--seed", "4"],
+    );
     let record = &a.metadata["vehicle_truth"];
     assert_eq!(record["coef_uncertainty"], "0.1");
     assert_eq!(record["seed"], "3");
@@ -254,7 +287,11 @@ fn coefficient_uncertainty_draws_a_recorded_true_vehicle() {
     for t in &nominal_vehicle.terms {
         let k: f64 = record[&format!("factor.{}", t.name)].parse().unwrap();
         let truth: f64 = record[&format!("true.{}", t.name)].parse().unwrap();
-        assert!((truth - k * t.coefficient).abs() <= 1e-12 * truth.abs().max(1e-300), "{}", t.name);
+        assert!(
+            (truth - k * t.coefficient).abs() <= 1e-12 * truth.abs().max(1e-300),
+            "{}",
+            t.name
+        );
     }
     let (n0, n3, n4) = (end(&nominal.unwrap()), end(&a), end(&b.unwrap()));
     let apart = |x: (f64, f64, f64), y: (f64, f64, f64)| (x.0 - y.0).hypot(x.1 - y.1);
@@ -266,7 +303,10 @@ fn coefficient_uncertainty_draws_a_recorded_true_vehicle() {
     );
     assert!(factors.len() > 80 && (0.07..0.13).contains(&sd));
     assert!(apart(n0, n3) > 1.0 && apart(n3, n4) > 1.0);
-    let (_, again) = simulated("turning-circle", &["--seed", "3", "--coef-uncertainty", "0.1"]);
+    let (_, again) = simulated(
+        "turning-circle",
+        &["--seed", "3", "--coef-uncertainty", "0.1"],
+    );
     assert_eq!(end(&again.unwrap()), n3);
 }
 
@@ -282,16 +322,28 @@ fn bad_dynamic_options_are_named() {
     .replacen("\"Xpp\"", "\"Xfoo\": 1.0, \"Xpp\"", 1);
     std::fs::write(&bad, text).unwrap();
     let cases: [(&str, &[&str], &str); 4] = [
-        ("survey-short", &["--coef-uncertainty", "0.1"], "need a dynamic scenario"),
+        (
+            "survey-short",
+            &["--coef-uncertainty", "0.1"],
+            "need a dynamic scenario",
+        ),
         ("drop-entry", &["--coef-uncertainty", "2"], "[0, 0.5]"),
-        ("drop-entry", &["--vehicle", "/no/such/vehicle.json"], "/no/such/vehicle.json"),
+        (
+            "drop-entry",
+            &["--vehicle", "/no/such/vehicle.json"],
+            "/no/such/vehicle.json",
+        ),
         ("drop-entry", &["--vehicle", bad.to_str().unwrap()], "Xfoo"),
     ];
     for (name, extra, says) in cases {
         let (o, log) = simulated(name, extra);
         assert!(log.is_none());
         let err = common::stderr(&o);
-        println!("{name} {extra:?}: exit {:?}: {}", o.status.code(), err.trim());
+        println!(
+            "{name} {extra:?}: exit {:?}: {}",
+            o.status.code(),
+            err.trim()
+        );
         assert_eq!(o.status.code(), Some(2), "{name} {extra:?}: {err}");
         assert!(err.contains(says), "{name} {extra:?}: {err}");
     }

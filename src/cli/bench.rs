@@ -26,6 +26,10 @@ use std::time::{Duration, Instant};
 /// for an hour), each on one thread and all in parallel (medians).
 ///
 /// With --identify: seed 004's two zig-zag logs identified jointly, both stages (medians).
+///
+/// With --simulate: a scenario (default long-dive-dynamic: seed 000's 5.5 h mission flown
+/// by the 6-DOF model, RK4 at 100 Hz) simulated and written to a file on one thread, its
+/// dynamics alone, and the kinematic long-dive for the ratio (medians).
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct BenchArgs {
@@ -57,9 +61,14 @@ pub struct BenchArgs {
     #[arg(long, conflicts_with_all = ["reconstruct", "attitude"])]
     pub identify: bool,
 
-    /// Built-in scenario of --reconstruct.
-    #[arg(long, default_value = "long-dive", requires = "reconstruct")]
-    pub scenario: String,
+    /// Benchmark the simulator (and writer) on a scenario instead.
+    #[arg(long, conflicts_with_all = ["reconstruct", "attitude", "identify"])]
+    pub simulate: bool,
+
+    /// Built-in scenario of --reconstruct (default long-dive) or --simulate (default
+    /// long-dive-dynamic).
+    #[arg(long)]
+    pub scenario: Option<String>,
 }
 
 pub fn run(args: BenchArgs) -> Result<()> {
@@ -75,8 +84,17 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return super::bench_attitude::run(args.repeat, args.keep.as_deref());
     }
     if args.reconstruct {
-        return super::bench_reconstruct::run(&args.scenario, args.repeat, args.keep.as_deref());
+        let scenario = args.scenario.as_deref().unwrap_or("long-dive");
+        return super::bench_reconstruct::run(scenario, args.repeat, args.keep.as_deref());
     }
+    if args.simulate {
+        let scenario = args.scenario.as_deref().unwrap_or("long-dive-dynamic");
+        return super::bench_simulate::run(scenario, args.repeat, args.keep.as_deref());
+    }
+    anyhow::ensure!(
+        args.scenario.is_none(),
+        "--scenario goes with --reconstruct or --simulate"
+    );
     eprintln!("generating a {} min log ...", args.minutes);
     let spec = synthetic::SurveySpec {
         duration_s: args.minutes * 60.0,

@@ -8,6 +8,7 @@ mod bench;
 mod bench_attitude;
 mod bench_identify;
 mod bench_reconstruct;
+mod bench_simulate;
 mod export;
 mod identify;
 mod info;

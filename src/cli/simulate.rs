@@ -85,7 +85,10 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         (None, None) => bail!("give --scenario NAME or --scenario-file FILE"),
     };
     if let Some(s) = scenario.as_mut() {
-        let base = args.scenario_file.as_deref().and_then(std::path::Path::parent);
+        let base = args
+            .scenario_file
+            .as_deref()
+            .and_then(std::path::Path::parent);
         dynamic_options(s, &args.vehicle, args.coef_uncertainty, base)?;
     } else if args.vehicle.is_some() || args.coef_uncertainty.is_some() {
         return Err(SimulateArgError(

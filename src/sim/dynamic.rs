@@ -9,10 +9,10 @@ use super::inertial::Motion;
 use super::scenario::{Scenario, ScenarioError};
 use super::truth::{TruthSample, TruthSource};
 use crate::geodesy;
+use crate::vehicle::six_dof::description::{Vehicle, BUILT_IN};
 use crate::vehicle::six_dof::model::SixDof;
 use crate::vehicle::six_dof::motion::{rates, step_from, Actuators, MotionState};
 use crate::vehicle::six_dof::plan::{start_state, Plan, PlanError, PlanPilot, Reference};
-use crate::vehicle::six_dof::description::{Vehicle, BUILT_IN};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 
@@ -128,14 +128,20 @@ impl TruthSource for DynamicTruth {
     }
 }
 
-/// The dynamic truth of a scenario with `[dynamics]` (`None` for a kinematic one), and the
-/// metadata record of the vehicle that flies it (`vehicle_truth`: the file, the uncertainty,
-/// each drawn factor and each true coefficient).
+/// A dynamic scenario ready to fly.
+pub struct Flight {
+    pub truth: DynamicTruth,
+    /// The log's `vehicle_truth` metadata record: the vehicle file, the uncertainty, each
+    /// drawn factor (`factor.NAME`) and each true coefficient (`true.NAME`, SI).
+    pub vehicle_record: BTreeMap<String, String>,
+}
+
+/// The flight of a scenario with `[dynamics]` (`None` for a kinematic one).
 pub fn from_scenario(
     scenario: &Scenario,
     seed: u64,
     dt_s: f64,
-) -> Result<Option<(DynamicTruth, BTreeMap<String, String>)>, ScenarioError> {
+) -> Result<Option<Flight>, ScenarioError> {
     let Some(d) = &scenario.dynamics else {
         return Ok(None);
     };
@@ -198,5 +204,8 @@ pub fn from_scenario(
         scenario.phases.clone(),
     );
     let truth = DynamicTruth::new(model, plan, start, dt_s).map_err(|e| bad(e.to_string()))?;
-    Ok(Some((truth, record)))
+    Ok(Some(Flight {
+        truth,
+        vehicle_record: record,
+    }))
 }

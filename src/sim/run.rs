@@ -1,5 +1,6 @@
 //! Runs a scenario: truth at the IMU rate, every sensor on its schedule, one MCAP log.
 
+use super::dynamic;
 use super::inertial::perfect_imu;
 use super::scenario::{Scenario, ScenarioError};
 use super::sensors::dvl::DvlSensor;
@@ -7,7 +8,6 @@ use super::sensors::imu::Triad;
 use super::sensors::mag::MagSensor;
 use super::sensors::scalar::{Propeller as PropellerModel, ScalarSensor};
 use super::sensors::{normal, rng_for, stream};
-use super::dynamic;
 use super::truth::{KinematicTruth, TruthSource};
 use super::writer::{LogWriter, WriteError};
 use crate::contract::*;
@@ -85,9 +85,9 @@ pub fn run_with_progress<W: Write + Seek>(
     let mut kinematic;
     let mut dynamic;
     let truth: &mut dyn TruthSource = match dynamic::from_scenario(scenario, seed, dt_s)? {
-        Some((source, record)) => {
-            w.write_metadata("vehicle_truth", record)?;
-            dynamic = source;
+        Some(flight) => {
+            w.write_metadata("vehicle_truth", flight.vehicle_record)?;
+            dynamic = flight.truth;
             &mut dynamic
         }
         None => {

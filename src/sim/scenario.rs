@@ -48,7 +48,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         "turning-circle",
         include_str!("../../scenarios/turning-circle.toml"),
     ),
-    ("drop-entry", include_str!("../../scenarios/drop-entry.toml")),
+    (
+        "drop-entry",
+        include_str!("../../scenarios/drop-entry.toml"),
+    ),
 ];
 
 /// Why a scenario cannot be used.
@@ -471,31 +474,40 @@ impl Scenario {
                 return Err("no [[segment]]: a kinematic scenario needs at least one".into());
             }
             if self.fins.is_some() {
-                return Err("[fins] needs a [dynamics] section: a kinematic trajectory has no fins".into());
+                return Err(
+                    "[fins] needs a [dynamics] section: a kinematic trajectory has no fins".into(),
+                );
             }
             if self.start.roll_deg != 0.0 || self.start.pitch_deg != 0.0 {
                 return Err("start.roll_deg and start.pitch_deg need a [dynamics] section".into());
             }
             if self.rpm.is_some_and(|r| r.model.k_m_s_per_rpm <= 0.0) {
-                return Err("rpm.k_m_s_per_rpm must be above 0 (it makes RPM from the speed)".into());
+                return Err(
+                    "rpm.k_m_s_per_rpm must be above 0 (it makes RPM from the speed)".into(),
+                );
             }
             return Ok(());
         };
         if !self.segments.is_empty() {
-            return Err("[[segment]] and [dynamics] do not mix: a dynamic scenario flies [[phase]]s".into());
+            return Err(
+                "[[segment]] and [dynamics] do not mix: a dynamic scenario flies [[phase]]s".into(),
+            );
         }
         if self.phases.is_empty() {
             return Err("[dynamics] needs at least one [[phase]]".into());
         }
         if self.rpm.is_some_and(|r| r.model.k_m_s_per_rpm != 0.0) {
-            return Err("rpm.k_m_s_per_rpm: a dynamic scenario logs the propeller's own speed; remove it".into());
+            return Err(
+                "rpm.k_m_s_per_rpm: a dynamic scenario logs the propeller's own speed; remove it"
+                    .into(),
+            );
         }
         let positive = [
             ("dynamics.speed_m_s", d.speed_m_s),
             ("dynamics.max_vertical_rate_m_s", d.max_vertical_rate_m_s),
             ("dynamics.max_turn_rate_deg_s", d.max_turn_rate_deg_s),
         ];
-        if let Some((name, v)) = positive.iter().find(|(_, v)| !(*v > 0.0)) {
+        if let Some((name, v)) = positive.iter().find(|(_, v)| *v <= 0.0) {
             return Err(format!("{name} is {v}: it must be above 0"));
         }
         if !(0.0..=0.5).contains(&d.coef_uncertainty) {
@@ -505,7 +517,7 @@ impl Scenario {
             ));
         }
         for (i, p) in self.phases.iter().enumerate() {
-            if !(p.duration_s() > 0.0) {
+            if p.duration_s() <= 0.0 {
                 return Err(format!(
                     "phase {} ({}): duration_s {} must be above 0",
                     i + 1,
@@ -774,7 +786,7 @@ mod tests {
             let s = Scenario::built_in(name).unwrap_or_else(|e| panic!("{name}: {e}"));
             assert_eq!(&s.name, name);
             let duration_s = match crate::sim::dynamic::from_scenario(&s, 1, 0.01) {
-                Ok(Some((truth, _))) => crate::sim::truth::TruthSource::duration_s(&truth),
+                Ok(Some(flight)) => crate::sim::truth::TruthSource::duration_s(&flight.truth),
                 Ok(None) => s.trajectory().map(|t| t.duration_s()).unwrap(),
                 Err(e) => panic!("{name}: {e}"),
             };

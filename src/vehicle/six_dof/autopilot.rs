@@ -158,7 +158,9 @@ impl Autopilot {
                 // Deeper wanted: nose down (negative pitch); the descent rate relative to the
                 // reference's damps it, and the pitch that gives the reference's rate at the
                 // commanded speed is fed forward.
-                let feed_forward = -(cmd.depth_rate_m_s / self.speed_m_s).clamp(-1.0, 1.0).asin();
+                let feed_forward = -(cmd.depth_rate_m_s / self.speed_m_s)
+                    .clamp(-1.0, 1.0)
+                    .asin();
                 Some(
                     (feed_forward - g.depth_gain * error
                         + 2.0 * g.depth_gain * (descent - cmd.depth_rate_m_s) / g.pitch_omega)
