@@ -81,6 +81,14 @@ pub fn run(args: VehicleArgs) -> Result<()> {
         "  added mass             surge {:.1} kg, sway {:.1} kg, heave {:.1} kg, roll {:.1}, pitch {:.1}, yaw {:.1} kg m^2",
         a[0], a[1], a[2], a[3], a[4], a[5]
     );
+    println!(
+        "  actuators              fins +-{:.1} deg at up to {:.1} deg/s (actuator_rate_deg_s; 20 when the file \
+         gives none), time constant {:.2} s; propeller up to {:.0} rpm",
+        v.fin_limit_rad.to_degrees(),
+        v.fin_rate_limit_rad_s.to_degrees(),
+        v.actuator_time_constant_s,
+        v.propeller_limit_rad_s * 60.0 / std::f64::consts::TAU
+    );
     match p.full_speed_m_s {
         Some(u) => println!(
             "  full-propeller speed   {u:10.3} m/s ({:.0} rpm, straight and level)",
