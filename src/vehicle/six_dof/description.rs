@@ -71,7 +71,7 @@ pub enum VehicleError {
         value: f64,
         reason: &'static str,
     },
-    #[error("unknown coefficient `{name}` in `{section}` (known there: {known})")]
+    #[error("unknown coefficient `{name}` in `{section}` (the names this file form knows: {known})")]
     UnknownCoefficient {
         name: String,
         section: String,
