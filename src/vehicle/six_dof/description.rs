@@ -71,7 +71,9 @@ pub enum VehicleError {
         value: f64,
         reason: &'static str,
     },
-    #[error("unknown coefficient `{name}` in `{section}` (the names this file form knows: {known})")]
+    #[error(
+        "unknown coefficient `{name}` in `{section}` (the names this file form knows: {known})"
+    )]
     UnknownCoefficient {
         name: String,
         section: String,

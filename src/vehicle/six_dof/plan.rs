@@ -200,9 +200,10 @@ impl Slew {
     fn step(&mut self, goal: Goal, max_rate: f64, max_accel: f64, dt: f64) -> f64 {
         let wanted = match goal {
             Goal::Error(e) => {
-                // The fastest rate that can still stop at the target, with a margin of one
-                // step's change.
-                let braking = (2.0 * max_accel * (e.abs() - max_accel * dt * dt).max(0.0)).sqrt();
+                // The fastest rate that still stops at the target braking step by step:
+                // v^2 / (2 a) + v dt / 2 = |e|.
+                let braking =
+                    max_accel * (-dt / 2.0 + (dt * dt / 4.0 + 2.0 * e.abs() / max_accel).sqrt());
                 (braking.min(e.abs() / dt) * e.signum()).clamp(-max_rate, max_rate)
             }
             Goal::Rate(r) => r,
@@ -452,4 +453,137 @@ pub fn start_state(
     s.nu[0] = speed_m_s;
     s.actuators.propeller_rad_s = propeller_rad_s;
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vehicle::six_dof::description::Vehicle;
+    use crate::vehicle::six_dof::motion::step;
+
+    #[test]
+    fn slew_respects_its_limits_and_arrives_without_overshoot() {
+        let (max_rate, max_accel, dt) = (1.0, 0.1, 0.01);
+        let mut s = Slew::at(0.0);
+        let mut previous_rate = 0.0;
+        let mut arrived_s = None;
+        for k in 0..4000 {
+            let rate = s.step(Goal::Error(10.0 - s.value), max_rate, max_accel, dt);
+            assert!(rate.abs() <= max_rate + 1e-12);
+            assert!((rate - previous_rate).abs() <= max_accel * dt + 1e-12);
+            assert!(s.value <= 10.0 + 1e-9, "overshoot to {}", s.value);
+            previous_rate = rate;
+            if arrived_s.is_none() && (10.0 - s.value).abs() < 1e-3 {
+                arrived_s = Some(k as f64 * dt);
+            }
+        }
+        // Time-optimal: 10 s to reach 1/s, 10 s to stop, 0 m ... 10 m at 1/s in between:
+        // 10 + 10 = 20 s (within 1 mm a little before).
+        let t = arrived_s.expect("arrives");
+        assert!((19.5..21.0).contains(&t), "{t}");
+        // A rate goal is followed at the acceleration limit.
+        let mut s = Slew::at(0.0);
+        for _ in 0..100 {
+            s.step(Goal::Rate(0.5), max_rate, max_accel, dt);
+        }
+        assert!((s.rate - 0.1).abs() < 1e-9);
+    }
+
+    fn nps() -> SixDof {
+        SixDof::new(Vehicle::built_in("nps-auv-ii").unwrap().unwrap()).unwrap()
+    }
+
+    /// Flies `phases` from 30 m, heading 0, at 1.5 m/s; returns the references and states
+    /// every step.
+    fn fly(phases: Vec<Phase>) -> (PlanPilot, Vec<(f64, Reference, MotionState)>) {
+        let model = nps();
+        let plan = Plan::new(1.5, 0.4, 3f64.to_radians(), phases);
+        let duration = plan.duration_s();
+        let mut s = start_state(Vector3::new(0.0, 0.0, 30.0), 0.0, 0.0, 0.0, 1.5, 0.0);
+        let mut pilot = PlanPilot::new(&model, plan, &s).unwrap();
+        s.actuators.propeller_rad_s = pilot.cruise_propeller_rad_s();
+        let dt = 0.01;
+        let mut out = Vec::new();
+        for k in 0..(duration / dt).round() as usize {
+            let t = k as f64 * dt;
+            let (act, reference) = pilot.command(&model, t, &s, dt);
+            s = step(&model, &s, &act, &Vector3::zeros(), dt);
+            out.push((t, reference, s));
+        }
+        (pilot, out)
+    }
+
+    #[test]
+    fn phases_switch_on_time_and_hand_back_where_the_vehicle_is() {
+        let (pilot, run) = fly(vec![
+            Phase::Cruise {
+                duration_s: 30.0,
+                heading_deg: None,
+                depth_m: None,
+            },
+            Phase::PlaneZigzag {
+                duration_s: 120.0,
+                plane_deg: 10.0,
+                trigger_deg: 10.0,
+            },
+            Phase::Cruise {
+                duration_s: 60.0,
+                heading_deg: Some(30.0),
+                depth_m: None,
+            },
+        ]);
+        let phase_at = |t: f64| run.iter().find(|r| r.0 >= t).unwrap().1.phase;
+        assert_eq!(
+            (phase_at(29.99), phase_at(30.0), phase_at(150.0)),
+            (0, 1, 2)
+        );
+        // The plane zig-zag reversed at its trigger and left depth to the vehicle.
+        assert!(run.iter().all(|r| r.1.phase != 1 || !r.1.depth_held));
+        // The cruise after it holds the depth it ended at (no jump back to 30 m) ...
+        let handed_over = run.iter().find(|r| r.1.phase == 2).unwrap();
+        let depth_then = handed_over.2.position_m.z;
+        assert!((handed_over.1.depth_m - depth_then).abs() < 0.05);
+        let last = run.last().unwrap();
+        assert!(
+            (last.1.depth_m - depth_then).abs() < 2.0,
+            "{} vs {depth_then}",
+            last.1.depth_m
+        );
+        // ... and turns to its heading.
+        let (_, _, yaw) = last.2.euler();
+        assert!(
+            (yaw.to_degrees() - 30.0).abs() < 1.0,
+            "{}",
+            yaw.to_degrees()
+        );
+        assert_eq!(
+            pilot.reversals(),
+            0,
+            "counted per phase: the cruise made none"
+        );
+        let reversals_in_zigzag = run
+            .windows(2)
+            .filter(|w| w[0].1.phase == 1 && w[1].1.phase == 1)
+            .filter(|w| w[0].2.actuators.stern_rad.signum() != w[1].2.actuators.stern_rad.signum())
+            .count();
+        assert!(reversals_in_zigzag >= 3, "{reversals_in_zigzag}");
+    }
+
+    #[test]
+    fn heading_zigzag_alternates_about_the_first_heading() {
+        let (_, run) = fly(vec![Phase::HeadingZigzag {
+            duration_s: 240.0,
+            angle_deg: 20.0,
+            leg_s: 60.0,
+            depth_m: None,
+        }]);
+        let heading_at = |t: f64| {
+            let r = run.iter().find(|r| r.0 >= t).unwrap();
+            r.2.euler().2.to_degrees()
+        };
+        // Each leg ends near its side: +20, -20, +20, -20 deg.
+        for (t, side) in [(59.0, 20.0), (119.0, -20.0), (179.0, 20.0), (239.0, -20.0)] {
+            assert!((heading_at(t) - side).abs() < 2.0, "{t}: {}", heading_at(t));
+        }
+    }
 }
