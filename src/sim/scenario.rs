@@ -517,13 +517,8 @@ impl Scenario {
             ));
         }
         for (i, p) in self.phases.iter().enumerate() {
-            if p.duration_s() <= 0.0 {
-                return Err(format!(
-                    "phase {} ({}): duration_s {} must be above 0",
-                    i + 1,
-                    p.kind(),
-                    p.duration_s()
-                ));
+            if let Some(problem) = p.problem() {
+                return Err(format!("phase {} ({}): {problem}", i + 1, p.kind()));
             }
         }
         Ok(())
@@ -854,6 +849,42 @@ mod tests {
             Scenario::from_toml(&nan),
             Err(ScenarioError::Invalid { .. })
         ));
+        // Dynamic scenarios: phases checked, and no mixing with kinematic segments.
+        let zigzag = Scenario::built_in("zigzag-rudder-20-20")
+            .map(|_| {
+                BUILT_IN
+                    .iter()
+                    .find(|b| b.0 == "zigzag-rudder-20-20")
+                    .unwrap()
+                    .1
+            })
+            .unwrap();
+        for (from, to, says) in [
+            (
+                "trigger_deg = 20.0",
+                "trigger_deg = 0.0",
+                "phase 2 (rudder-zigzag): trigger_deg 0",
+            ),
+            (
+                "duration_s = 300.0",
+                "duration_s = -1.0",
+                "phase 2 (rudder-zigzag): duration_s -1",
+            ),
+            (
+                "speed_m_s = 1.5\n",
+                "speed_m_s = 0.0\n",
+                "dynamics.speed_m_s is 0",
+            ),
+            (
+                "[[phase]]",
+                "[[segment]]\ntype = \"cruise\"\nduration_s = 1.0\n\n[[phase]]",
+                "do not mix",
+            ),
+        ] {
+            assert!(zigzag.contains(from), "{from}");
+            let err = Scenario::from_toml(&zigzag.replacen(from, to, 1)).unwrap_err();
+            assert!(err.to_string().contains(says), "{err}");
+        }
         let unknown = format!("{text}\nbogus = 1\n");
         assert!(matches!(
             Scenario::from_toml(&unknown),

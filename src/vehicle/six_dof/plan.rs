@@ -94,6 +94,31 @@ impl Phase {
         }
     }
 
+    /// What makes the phase unflyable, if anything (numbers are checked finite elsewhere).
+    pub fn problem(&self) -> Option<String> {
+        let positive =
+            |name: &str, v: f64| (v <= 0.0).then(|| format!("{name} {v} must be above 0"));
+        match *self {
+            _ if self.duration_s() <= 0.0 => positive("duration_s", self.duration_s()),
+            Phase::HeadingZigzag {
+                leg_s, angle_deg, ..
+            } => positive("leg_s", leg_s).or_else(|| positive("angle_deg", angle_deg)),
+            Phase::RudderZigzag {
+                rudder_deg,
+                trigger_deg,
+                ..
+            } => {
+                positive("rudder_deg", rudder_deg).or_else(|| positive("trigger_deg", trigger_deg))
+            }
+            Phase::PlaneZigzag {
+                plane_deg,
+                trigger_deg,
+                ..
+            } => positive("plane_deg", plane_deg).or_else(|| positive("trigger_deg", trigger_deg)),
+            _ => None,
+        }
+    }
+
     /// Every number, for the scenario's finiteness check.
     pub fn numbers(&self) -> Vec<f64> {
         let mut v = vec![self.duration_s()];
