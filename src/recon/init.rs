@@ -6,8 +6,9 @@
 //! - Roll and pitch: the mean specific force over the first `window_s` of IMU data
 //!   (levelling), less the mean acceleration the DVL saw over the same window.
 //! - Heading, in order (`heading = "auto"`): gyrocompassing when the IMU's predicted
-//!   gyrocompass error is below `gyrocompass_max_sigma_deg` and the vehicle is not turning
-//!   (moving-base: the transport rate from the DVL velocity is removed); the magnetometer
+//!   gyrocompass error is below `gyrocompass_max_sigma_deg`, the vehicle is not turning and
+//!   its level axes held still (a tilt rate above the accelerometer noise counts in the
+//!   predicted error) (moving-base: the transport rate from the DVL velocity is removed); the magnetometer
 //!   (tilt-compensated, with the declination); the mission's `initial_yaw_rad`; a heading
 //!   given by hand.
 //! - Velocity: the first DVL reading in range, else the EM log's speed along the body x
@@ -161,6 +162,28 @@ pub fn initialise(
         _ => Vector3::zeros(),
     };
     let (roll, pitch) = alignment::level(&(f_mean - mean_accel));
+    // How fast the level axes turned during the window: the tilt of its first third against
+    // its last (a rate there enters the gyrocompass's mean like the Earth rate does).
+    let level_rate_rad_s = {
+        let third = window.len() / 3;
+        let tilt = |part: &[crate::contract::Imu]| {
+            mean3(part.iter().map(|m| m.specific_force)).map(|f| alignment::level(&f))
+        };
+        match (
+            tilt(&window[..third]),
+            tilt(&window[window.len() - third..]),
+        ) {
+            (Some(a), Some(b)) if third > 0 && window_s > 0.0 => {
+                (b.0 - a.0).hypot(b.1 - a.1) / (window_s * 2.0 / 3.0)
+            }
+            _ => 0.0,
+        }
+    };
+    // Its accelerometer noise: two means of a third each, differenced.
+    let level_rate_noise_rad_s =
+        set.imu.noise().accel_noise_density / 9.81 / (window_s / 3.0).max(1e-3).sqrt()
+            * 2f64.sqrt()
+            / (window_s * 2.0 / 3.0).max(1e-3);
     let g = 9.81;
     let motion_tilt_deg = if dvl.len() >= 2 { 0.1 } else { 0.5 };
     let tilt_sigma_deg = (set.imu.accel_bias_m_s2() / g)
@@ -259,6 +282,8 @@ pub fn initialise(
             roll,
             pitch,
             w_mean,
+            level_rate_rad_s,
+            level_rate_noise_rad_s,
             v_body,
             v_sigma_m_s: velocity_sigma_m_s,
             window_s,
@@ -321,6 +346,10 @@ struct HeadingInputs {
     roll: f64,
     pitch: f64,
     w_mean: Vector3<f64>,
+    /// Rate of the levelled tilt over the window (first third against last), rad/s, and the
+    /// part of it accelerometer noise explains.
+    level_rate_rad_s: f64,
+    level_rate_noise_rad_s: f64,
     v_body: Vector3<f64>,
     /// 1-sigma of `v_body`, m/s (its transport rate is removed from the gyro mean).
     v_sigma_m_s: f64,
@@ -354,6 +383,25 @@ fn heading(
                 cfg.gyrocompass_max_sigma_deg
             ));
         }
+        // A vehicle pitching or rolling during the window (an autopilot settling, waves)
+        // puts its own rate into the gyro mean: an error of rate / horizontal Earth rate,
+        // counted when it stands out of the accelerometer noise.
+        let motion_deg = if h.level_rate_rad_s > 3.0 * h.level_rate_noise_rad_s {
+            (h.level_rate_rad_s / horizontal).to_degrees()
+        } else {
+            0.0
+        };
+        if motion_deg > cfg.gyrocompass_max_sigma_deg {
+            return Err(format!(
+                "gyrocompass: the vehicle's tilt changed by {:.4} deg during the first {:.0} s \
+                 ({:.1e} rad/s against an Earth rate of {:.1e}: heading error up to {motion_deg:.1} deg)",
+                (h.level_rate_rad_s * h.window_s * 2.0 / 3.0).to_degrees(),
+                h.window_s,
+                h.level_rate_rad_s,
+                horizontal
+            ));
+        }
+        let sigma_deg = sigma_deg.hypot(motion_deg);
         if h.w_mean.norm() > STEADY_RATE_FACTOR * geodesy::OMEGA_IE_RAD_S {
             return Err(format!(
                 "gyrocompass: the vehicle turned during the first {:.0} s (mean rate {:.3} deg/s)",

@@ -23,15 +23,34 @@ use config::Config;
 use init::{InitError, InitSettings, Initialisation};
 use std::time::{Duration, Instant};
 
-/// Why a reconstruction failed.
+/// Why a reconstruction failed. The message carries the cause's text, so the cause is not
+/// also a `source` (an error chain printed with `{:#}` would say it twice).
 #[derive(Debug, thiserror::Error)]
 pub enum ReconError {
     #[error("initialisation: {0}")]
-    Init(#[from] InitError),
+    Init(InitError),
     #[error("forward filter: {0}")]
-    Forward(#[from] ForwardError),
+    Forward(ForwardError),
     #[error("smoother: {0}")]
-    Smooth(#[from] SmoothError),
+    Smooth(SmoothError),
+}
+
+impl From<InitError> for ReconError {
+    fn from(e: InitError) -> Self {
+        ReconError::Init(e)
+    }
+}
+
+impl From<ForwardError> for ReconError {
+    fn from(e: ForwardError) -> Self {
+        ReconError::Forward(e)
+    }
+}
+
+impl From<SmoothError> for ReconError {
+    fn from(e: SmoothError) -> Self {
+        ReconError::Smooth(e)
+    }
 }
 
 /// What a reconstruction produced.
