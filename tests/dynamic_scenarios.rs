@@ -159,7 +159,14 @@ fn perfect_imu_of_the_dynamics_mechanizes_back_to_the_truth() {
 }
 
 /// A dynamic scenario through the command line, read back.
-fn simulated(name: &str, extra: &[&str]) -> (std::process::Output, Option<hindsight::ingest::Log>) {
+fn simulated(
+    name: &str,
+    extra: &[&str],
+) -> (
+    std::process::Output,
+    Option<hindsight::ingest::Log>,
+    std::path::PathBuf,
+) {
     let dir = common::scratch_dir(&format!("dynamic-{name}-{}", extra.join("").len()));
     let out = dir.join(format!("{name}.mcap"));
     let mut args = vec![
@@ -177,7 +184,7 @@ fn simulated(name: &str, extra: &[&str]) -> (std::process::Output, Option<hindsi
         .status
         .success()
         .then(|| common::read(&std::fs::read(&out).unwrap()));
-    (o, log)
+    (o, log, out)
 }
 
 /// The logs carry the fins and the propeller of the flight: the rudder zig-zag's rudder
@@ -186,8 +193,11 @@ fn simulated(name: &str, extra: &[&str]) -> (std::process::Output, Option<hindsi
 #[test]
 fn logs_carry_fins_and_propeller_consistent_with_the_motion() {
     use hindsight::contract::{ControlSurfaces, Propeller, Truth};
-    let (o, log) = simulated("zigzag-rudder-20-20", &[]);
+    let (o, log, path) = simulated("zigzag-rudder-20-20", &[]);
     let log = log.unwrap_or_else(|| panic!("{}", common::stderr(&o)));
+    let info = common::hindsight(&["info", path.to_str().unwrap()]);
+    let info = String::from_utf8_lossy(&info.stdout);
+    assert!(info.contains("other metadata: vehicle_truth"), "{info}");
     let fins = log.messages::<ControlSurfaces>("/fins").unwrap();
     let t0 = fins[0].stamp_ns;
     let in_phase = |stamp: i64| (60.0..360.0).contains(&((stamp - t0) as f64 * 1e-9));
@@ -222,7 +232,7 @@ fn logs_carry_fins_and_propeller_consistent_with_the_motion() {
     assert_eq!(record["coef_uncertainty"], "0");
     assert!(!record.keys().any(|k| k.starts_with("factor.")));
 
-    let (o, log) = simulated("turning-circle", &[]);
+    let (o, log, _) = simulated("turning-circle", &[]);
     let log = log.unwrap_or_else(|| panic!("{}", common::stderr(&o)));
     let truth = log.messages::<Truth>("/truth").unwrap();
     let t0 = truth[0].stamp_ns;
@@ -261,13 +271,13 @@ fn coefficient_uncertainty_draws_a_recorded_true_vehicle() {
             .clone();
         (t.north_m, t.east_m, t.down_m)
     };
-    let (_, nominal) = simulated("turning-circle", &[]);
-    let (o, a) = simulated(
+    let (_, nominal, _) = simulated("turning-circle", &[]);
+    let (o, a, _) = simulated(
         "turning-circle",
         &["--coef-uncertainty", "0.1", "--seed", "3"],
     );
     let a = a.unwrap_or_else(|| panic!("{}", common::stderr(&o)));
-    let (_, b) = simulated(
+    let (_, b, _) = simulated(
         "turning-circle",
         &["--coef-uncertainty", "0.1", "--seed", "4"],
     );
@@ -303,7 +313,7 @@ fn coefficient_uncertainty_draws_a_recorded_true_vehicle() {
     );
     assert!(factors.len() > 80 && (0.07..0.13).contains(&sd));
     assert!(apart(n0, n3) > 1.0 && apart(n3, n4) > 1.0);
-    let (_, again) = simulated(
+    let (_, again, _) = simulated(
         "turning-circle",
         &["--seed", "3", "--coef-uncertainty", "0.1"],
     );
@@ -336,7 +346,7 @@ fn bad_dynamic_options_are_named() {
         ("drop-entry", &["--vehicle", bad.to_str().unwrap()], "Xfoo"),
     ];
     for (name, extra, says) in cases {
-        let (o, log) = simulated(name, extra);
+        let (o, log, _) = simulated(name, extra);
         assert!(log.is_none());
         let err = common::stderr(&o);
         println!(

@@ -80,6 +80,16 @@ fn render(log: &Log, name: &str, list_gaps: bool) -> String {
             let _ = writeln!(out, "mission: {e}");
         }
     }
+    // Other metadata records (e.g. a simulator's `vehicle_truth`), by name and size.
+    let others: Vec<String> = log
+        .metadata
+        .iter()
+        .filter(|(name, _)| name.as_str() != "mission")
+        .map(|(name, map)| format!("{name} ({} keys)", map.len()))
+        .collect();
+    if !others.is_empty() {
+        let _ = writeln!(out, "other metadata: {}", others.join(", "));
+    }
     let header = [
         "topic",
         "schema",
