@@ -186,9 +186,17 @@ pub fn initialise(
             / (window_s * 2.0 / 3.0).max(1e-3);
     let g = 9.81;
     let motion_tilt_deg = if dvl.len() >= 2 { 0.1 } else { 0.5 };
+    // A tilt that changed during the window (a vehicle rolling after a drop) leaves the
+    // window's mean that far from the start's attitude: it counts in the sigma.
+    let tilt_change_deg = if level_rate_rad_s > 3.0 * level_rate_noise_rad_s {
+        (level_rate_rad_s * window_s * 2.0 / 3.0).to_degrees()
+    } else {
+        0.0
+    };
     let tilt_sigma_deg = (set.imu.accel_bias_m_s2() / g)
         .to_degrees()
-        .hypot(motion_tilt_deg);
+        .hypot(motion_tilt_deg)
+        .hypot(tilt_change_deg);
 
     // Position.
     let origin = (
@@ -284,6 +292,7 @@ pub fn initialise(
             w_mean,
             level_rate_rad_s,
             level_rate_noise_rad_s,
+            tilt_change_deg,
             v_body,
             v_sigma_m_s: velocity_sigma_m_s,
             window_s,
@@ -350,6 +359,8 @@ struct HeadingInputs {
     /// part of it accelerometer noise explains.
     level_rate_rad_s: f64,
     level_rate_noise_rad_s: f64,
+    /// How far the tilt moved over the window when that stands out of the noise, deg.
+    tilt_change_deg: f64,
     v_body: Vector3<f64>,
     /// 1-sigma of `v_body`, m/s (its transport rate is removed from the gyro mean).
     v_sigma_m_s: f64,
@@ -439,6 +450,11 @@ fn heading(
                 ),
             };
         let yaw = alignment::magnetic_heading(&m, h.roll, h.pitch, declination_deg.to_radians());
+        // A tilt error turns the field's vertical part into the horizontal one: up to
+        // tilt error x tan(inclination) of heading.
+        let levelled = UnitQuaternion::from_euler_angles(h.roll, h.pitch, 0.0) * m;
+        let tan_inclination = (levelled.z.abs() / levelled.x.hypot(levelled.y).max(1e-12)).min(5.0);
+        let sigma = sigma.hypot(h.tilt_change_deg * tan_inclination);
         Ok((
             HeadingSource::Magnetometer {
                 declination_deg,
