@@ -154,36 +154,59 @@ pub fn initialise(
         Vec::new()
     };
 
-    // Levelling: f = a - g in the body, so -g = f - a; the DVL gives the mean a.
-    let mean_accel = match (dvl.first(), dvl.last()) {
-        (Some(a), Some(b)) if b.0 - a.0 > 1_000_000_000 => {
-            (b.1 - a.1) / ((b.0 - a.0) as f64 * 1e-9)
+    // Levelling: f = a - g in the body, so -g = f - a; the DVL gives the mean a (between
+    // its first and last readings from `from` to `to`, when more than a second apart).
+    let dvl_accel = |from: i64, to: i64| {
+        let mut inside = dvl.iter().filter(|d| d.0 >= from && d.0 <= to);
+        let first = inside.next();
+        match (first, inside.next_back().or(first)) {
+            (Some(a), Some(b)) if b.0 - a.0 > 1_000_000_000 => {
+                (b.1 - a.1) / ((b.0 - a.0) as f64 * 1e-9)
+            }
+            _ => Vector3::zeros(),
         }
-        _ => Vector3::zeros(),
     };
+    let mean_accel = dvl_accel(t0, window_end);
     let (roll, pitch) = alignment::level(&(f_mean - mean_accel));
     // How fast the level axes turned during the window: the tilt of its first third against
-    // its last (a rate there enters the gyrocompass's mean like the Earth rate does).
-    let level_rate_rad_s = {
+    // its last (a rate there enters the gyrocompass's mean like the Earth rate does). A
+    // change of acceleration between the thirds also tilts the levelled vector: the DVL's is
+    // removed when it stands out of the DVL's noise.
+    let (level_rate_rad_s, level_rate_noise_rad_s) = {
         let third = window.len() / 3;
-        let tilt = |part: &[crate::contract::Imu]| {
-            mean3(part.iter().map(|m| m.specific_force)).map(|f| alignment::level(&f))
+        let span_s = window_s * 2.0 / 3.0;
+        let (a, b) = (&window[..third], &window[window.len() - third..]);
+        let stamps = |p: &[crate::contract::Imu]| {
+            p.first()
+                .map_or((0, 0), |f| (f.stamp_ns, p.last().map_or(0, |l| l.stamp_ns)))
         };
-        match (
-            tilt(&window[..third]),
-            tilt(&window[window.len() - third..]),
-        ) {
-            (Some(a), Some(b)) if third > 0 && window_s > 0.0 => {
-                (b.0 - a.0).hypot(b.1 - a.1) / (window_s * 2.0 / 3.0)
+        let ((a0, a1), (b0, b1)) = (stamps(a), stamps(b));
+        let third_s = ((a1 - a0) as f64 * 1e-9).max(1e-3);
+        let accel_change = dvl_accel(b0, b1) - dvl_accel(a0, a1);
+        // Two DVL differences over a third each, differenced.
+        let accel_noise = 2.0 * set.dvl_sigma_m_s / third_s;
+        let (accel_change, accel_noise) = if accel_change.norm() > 3.0 * accel_noise {
+            (accel_change, accel_noise)
+        } else {
+            (Vector3::zeros(), 0.0)
+        };
+        let tilt = |p: &[crate::contract::Imu], less: Vector3<f64>| {
+            mean3(p.iter().map(|m| m.specific_force)).map(|f| alignment::level(&(f - less)))
+        };
+        let rate = match (tilt(a, Vector3::zeros()), tilt(b, accel_change)) {
+            (Some(x), Some(y)) if third > 0 && span_s > 0.0 => {
+                (y.0 - x.0).hypot(y.1 - x.1) / span_s
             }
             _ => 0.0,
-        }
+        };
+        // The accelerometer's noise on two means of a third each, differenced, and the
+        // DVL's when its acceleration was removed.
+        let accel_white = set.imu.noise().accel_noise_density / third_s.sqrt() * 2f64.sqrt();
+        (
+            rate,
+            accel_white.hypot(accel_noise) / 9.81 / span_s.max(1e-3),
+        )
     };
-    // Its accelerometer noise: two means of a third each, differenced.
-    let level_rate_noise_rad_s =
-        set.imu.noise().accel_noise_density / 9.81 / (window_s / 3.0).max(1e-3).sqrt()
-            * 2f64.sqrt()
-            / (window_s * 2.0 / 3.0).max(1e-3);
     let g = 9.81;
     let motion_tilt_deg = if dvl.len() >= 2 { 0.1 } else { 0.5 };
     // A tilt that changed during the window (a vehicle rolling after a drop) leaves the
