@@ -51,14 +51,9 @@ fn cruise(speed: f64) -> (SixDof, Autopilot, MotionState) {
 fn heading_and_depth_steps() {
     let (model, pilot, mut s) = cruise(1.5);
     let cmd = |_: f64, _: &MotionState| Command {
-        speed_m_s: 1.5,
         heading_rad: Some(90f64.to_radians()),
-        heading_rate_rad_s: 0.0,
         depth_m: Some(40.0),
-        pitch_rad: None,
-        depth_rate_m_s: 0.0,
-        rudder_rad: 0.0,
-        stern_rad: 0.0,
+        ..Command::at_speed(1.5)
     };
     let mut overshoot: f64 = 0.0;
     let mut late_heading: f64 = 0.0;
@@ -89,14 +84,9 @@ fn turning_circle_at_full_rudder() {
     let (model, pilot, mut s) = cruise(1.5);
     let limit = model.vehicle.fin_limit_rad;
     let cmd = |_: f64, _: &MotionState| Command {
-        speed_m_s: 1.5,
-        heading_rad: None,
-        heading_rate_rad_s: 0.0,
         depth_m: Some(20.0),
-        pitch_rad: None,
-        depth_rate_m_s: 0.0,
         rudder_rad: limit,
-        stern_rad: 0.0,
+        ..Command::at_speed(1.5)
     };
     let (mut n, mut e) = (Vec::new(), Vec::new());
     let mut depth_error: f64 = 0.0;
@@ -124,6 +114,24 @@ fn turning_circle_at_full_rudder() {
     assert!(depth_error < 2.0);
 }
 
+/// A zig-zag's fin at +-`a`: reversed once `angle` (heading or pitch) is `a` past zero in
+/// the direction the fin drives it (a positive fin drives both negative on this vehicle).
+fn reverse_past(fin: &std::cell::Cell<f64>, a: f64, angle: f64) {
+    if fin.get() > 0.0 && angle < -a {
+        fin.set(-a);
+    } else if fin.get() < 0.0 && angle > a {
+        fin.set(a);
+    }
+}
+
+/// Counts a change of the fin since the last call.
+fn count_reversal(fin: &std::cell::Cell<f64>, last: &mut f64, reversals: &mut u32) {
+    if fin.get() != *last {
+        *reversals += 1;
+        *last = fin.get();
+    }
+}
+
 #[test]
 fn horizontal_zigzag_20_20() {
     let (model, pilot, mut s) = cruise(1.5);
@@ -133,30 +141,17 @@ fn horizontal_zigzag_20_20() {
         let (_, _, yaw) = s.euler();
         // Reverse once the heading is 20 deg past the initial one in the rudder's direction
         // (positive rudder turns to port on this vehicle: negative yaw).
-        if rudder.get() > 0.0 && yaw < -a {
-            rudder.set(-a);
-        } else if rudder.get() < 0.0 && yaw > a {
-            rudder.set(a);
-        }
+        reverse_past(&rudder, a, yaw);
         Command {
-            speed_m_s: 1.5,
-            heading_rad: None,
-            heading_rate_rad_s: 0.0,
             depth_m: Some(20.0),
-            pitch_rad: None,
-            depth_rate_m_s: 0.0,
             rudder_rad: rudder.get(),
-            stern_rad: 0.0,
+            ..Command::at_speed(1.5)
         }
     };
-    let mut reversals = 0;
-    let mut last = a;
+    let (mut reversals, mut last) = (0, a);
     let mut overshoot: f64 = 0.0;
     fly(&model, &pilot, &mut s, &cmd, 200.0, &mut |_, s| {
-        if rudder.get() != last {
-            reversals += 1;
-            last = rudder.get();
-        }
+        count_reversal(&rudder, &mut last, &mut reversals);
         let (_, _, yaw) = s.euler();
         overshoot = overshoot.max(yaw.abs().to_degrees() - 20.0);
     });
@@ -174,29 +169,17 @@ fn vertical_zigzag_10_10() {
         let (_, pitch, _) = s.euler();
         // The plane reverses once the pitch is 10 deg past level in the direction it drives
         // (positive stern plane pitches this vehicle nose down).
-        if planes.get() > 0.0 && pitch < -a {
-            planes.set(-a);
-        } else if planes.get() < 0.0 && pitch > a {
-            planes.set(a);
-        }
+        reverse_past(&planes, a, pitch);
         Command {
-            speed_m_s: 1.5,
             heading_rad: Some(0.0),
-            heading_rate_rad_s: 0.0,
-            depth_m: None,
-            pitch_rad: None,
-            depth_rate_m_s: 0.0,
-            rudder_rad: 0.0,
             stern_rad: planes.get(),
+            ..Command::at_speed(1.5)
         }
     };
     let (mut reversals, mut last) = (0, a);
     let (mut shallowest, mut deepest) = (f64::MAX, f64::MIN);
     fly(&model, &pilot, &mut s, &cmd, 200.0, &mut |_, s| {
-        if planes.get() != last {
-            reversals += 1;
-            last = planes.get();
-        }
+        count_reversal(&planes, &mut last, &mut reversals);
         shallowest = shallowest.min(s.position_m.z);
         deepest = deepest.max(s.position_m.z);
     });
@@ -215,14 +198,9 @@ fn dropped_entry_recovers() {
         nalgebra::UnitQuaternion::from_euler_angles(10f64.to_radians(), -10f64.to_radians(), 0.3);
     s.position_m.z = 5.0;
     let cmd = |_: f64, _: &MotionState| Command {
-        speed_m_s: 1.5,
         heading_rad: Some(0.0),
-        heading_rate_rad_s: 0.0,
         depth_m: Some(30.0),
-        pitch_rad: None,
-        depth_rate_m_s: 0.0,
-        rudder_rad: 0.0,
-        stern_rad: 0.0,
+        ..Command::at_speed(1.5)
     };
     let mut settled_roll: f64 = 0.0;
     let mut settled_depth: f64 = 0.0;

@@ -12,7 +12,7 @@ use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};
 use hindsight::output::atomic::Staging;
 use hindsight::output::attitude_tables;
 use hindsight::output::parquet::write_batches;
-use hindsight::output::plots::{self, Series, TrackPlot};
+use hindsight::output::plots::{Series, TrackPlot};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -330,11 +330,7 @@ fn write_outputs(
                 equal_axes: !y_down,
             };
             let path = out.join(name);
-            let file = staging
-                .create(&path)
-                .with_context(|| OutputFailed { path: path.clone() })?;
-            plots::write_png(&plot, std::io::BufWriter::new(file))
-                .with_context(|| OutputFailed { path: path.clone() })?;
+            super::write_png(&mut staging, &path, &plot)?;
             written.push(path);
         }
     }

@@ -8,7 +8,7 @@ use hindsight::identify::{identify, perturbed, Identification, CHANNELS};
 use hindsight::output::atomic::Staging;
 use hindsight::output::identify_tables;
 use hindsight::output::parquet::write_batches;
-use hindsight::output::plots::{self, Series, TrackPlot};
+use hindsight::output::plots::{Series, TrackPlot};
 use hindsight::vehicle::heave_pitch::{Coefficients, HeavePitch, NAMES, TRUE_COEFFICIENTS, UNITS};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -315,11 +315,7 @@ fn write_outputs(
         ("fit_w.png", w),
     ] {
         let path = out.join(name);
-        let file = staging
-            .create(&path)
-            .with_context(|| OutputFailed { path: path.clone() })?;
-        plots::write_png(&plot, std::io::BufWriter::new(file))
-            .with_context(|| OutputFailed { path: path.clone() })?;
+        super::write_png(&mut staging, &path, &plot)?;
         written.push(path);
     }
 

@@ -79,6 +79,20 @@ fn write_json(
         .with_context(failed)
 }
 
+/// Draws `plot` as PNG into the staged file that becomes `path`.
+fn write_png(
+    staging: &mut hindsight::output::atomic::Staging,
+    path: &Path,
+    plot: &hindsight::output::plots::TrackPlot<'_>,
+) -> Result<()> {
+    use anyhow::Context;
+    let failed = || OutputFailed {
+        path: path.to_path_buf(),
+    };
+    let file = staging.create(path).with_context(failed)?;
+    hindsight::output::plots::write_png(plot, std::io::BufWriter::new(file)).with_context(failed)
+}
+
 /// Renames the staged outputs of a run into place, then lists them.
 fn commit_and_list(
     staging: hindsight::output::atomic::Staging,

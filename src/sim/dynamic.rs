@@ -11,7 +11,9 @@ use super::truth::{TruthSample, TruthSource};
 use crate::geodesy;
 use crate::vehicle::six_dof::description::{Vehicle, BUILT_IN};
 use crate::vehicle::six_dof::model::SixDof;
-use crate::vehicle::six_dof::motion::{rates, step_from, Actuators, MotionState};
+use crate::vehicle::six_dof::motion::{
+    actuator_rates, rates, step_from, Actuators, MotionState, Rates,
+};
 use crate::vehicle::six_dof::plan::{start_state, Plan, PlanError, PlanPilot, Reference};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
@@ -39,6 +41,8 @@ pub struct DynamicTruth {
     dt_s: f64,
     duration_s: f64,
     reference: Option<Reference>,
+    /// The current state's rates, when `sample` evaluated them (reused by the next step).
+    sampled: Option<Rates>,
 }
 
 impl DynamicTruth {
@@ -64,6 +68,7 @@ impl DynamicTruth {
             dt_s,
             duration_s,
             reference: None,
+            sampled: None,
         })
     }
 
@@ -87,7 +92,15 @@ impl DynamicTruth {
             self.pilot
                 .command(&self.model, self.t_s, &self.state, self.dt_s);
         let earth = geodesy::earth_rate_ned(self.geodetic.x);
-        let k1 = rates(&self.model, &self.state, &command, &earth);
+        // RK4's first stage: the state's rates as sampled, with the actuators moving toward
+        // this step's command.
+        let k1 = match self.sampled.take() {
+            Some(r) => Rates {
+                actuators: actuator_rates(&self.model, &self.state.actuators, &command),
+                ..r
+            },
+            None => rates(&self.model, &self.state, &command, &earth),
+        };
         let next = step_from(&self.model, &self.state, &k1, &command, &earth, self.dt_s);
         let mean_vel_ned = (next.position_m - self.state.position_m) / self.dt_s;
         self.geodetic +=
@@ -109,8 +122,11 @@ impl TruthSource for DynamicTruth {
         }
         let s = &self.state;
         let earth = geodesy::earth_rate_ned(self.geodetic.x);
-        // The body accelerations do not depend on the fin commands, only on their state.
-        let nu_dot = rates(&self.model, s, &Actuators::default(), &earth).nu;
+        // The body accelerations do not depend on the fin commands, only on their state;
+        // kept for the next step's first stage.
+        let at_sample = rates(&self.model, s, &Actuators::default(), &earth);
+        self.sampled = Some(at_sample);
+        let nu_dot = at_sample.nu;
         let v_body = Vector3::new(s.nu[0], s.nu[1], s.nu[2]);
         let omega = Vector3::new(s.nu[3], s.nu[4], s.nu[5]);
         let v_body_dot = Vector3::new(nu_dot[0], nu_dot[1], nu_dot[2]);

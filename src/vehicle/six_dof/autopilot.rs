@@ -30,6 +30,23 @@ pub struct Command {
     pub stern_rad: f64,
 }
 
+impl Command {
+    /// Speed alone: rudder and planes held at zero, nothing else steered (set the fields
+    /// that matter with struct update syntax).
+    pub fn at_speed(speed_m_s: f64) -> Command {
+        Command {
+            speed_m_s,
+            heading_rad: None,
+            heading_rate_rad_s: 0.0,
+            depth_m: None,
+            pitch_rad: None,
+            depth_rate_m_s: 0.0,
+            rudder_rad: 0.0,
+            stern_rad: 0.0,
+        }
+    }
+}
+
 /// Gains and limits.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Gains {

@@ -56,7 +56,8 @@ pub struct Rates {
     pub actuators: Actuators,
 }
 
-fn actuator_rates(model: &SixDof, state: &Actuators, command: &Actuators) -> Actuators {
+/// How the fins and propeller move toward `command` from `state`.
+pub fn actuator_rates(model: &SixDof, state: &Actuators, command: &Actuators) -> Actuators {
     let v = &model.vehicle;
     let tau = v.actuator_time_constant_s.max(1e-3);
     let fin = |actual: f64, cmd: f64| {

@@ -16,7 +16,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 /// One phase. Angles in degrees; headings clockwise from north; depth positive down.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum Phase {
     /// Straight flight toward a heading and depth (each, when absent, held where it is).
@@ -369,18 +369,9 @@ impl PlanPilot {
             let start = self.phase_start_s + self.plan.phases[self.phase].duration_s();
             self.enter(self.phase + 1, start, s);
         }
-        let phase = self.current().cloned();
+        let phase = self.current().copied();
         let (_, pitch, yaw) = s.euler();
-        let mut cmd = Command {
-            speed_m_s: self.plan.speed_m_s,
-            heading_rad: None,
-            heading_rate_rad_s: 0.0,
-            depth_m: None,
-            pitch_rad: None,
-            depth_rate_m_s: 0.0,
-            rudder_rad: 0.0,
-            stern_rad: 0.0,
-        };
+        let mut cmd = Command::at_speed(self.plan.speed_m_s);
         // What the heading reference does: toward a target, turn at a rate, or none (the
         // rudder is open loop).
         let heading_goal = match phase {
