@@ -11,7 +11,6 @@ use hindsight::attitude::AhrsInputs;
 use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};
 use hindsight::output::atomic::Staging;
 use hindsight::output::attitude_tables;
-use hindsight::output::parquet::write_batches;
 use hindsight::output::plots::{Series, TrackPlot};
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -268,9 +267,6 @@ fn write_outputs(
     let mut staging = Staging::new();
     let mut written = Vec::new();
     let path = out.join("attitude.parquet");
-    let file = staging
-        .create(&path)
-        .with_context(|| OutputFailed { path: path.clone() })?;
     let mut batches = runs.iter().zip(scores).flat_map(|(r, s)| {
         r.attitude
             .chunks(hindsight::output::parquet::ROWS_PER_BATCH)
@@ -279,16 +275,16 @@ fn write_outputs(
     let first = batches
         .next()
         .unwrap_or_else(|| attitude_tables::attitude_batch("raw", &[], &[]))?;
-    write_batches(file, first, || batches.next())
-        .with_context(|| OutputFailed { path: path.clone() })?;
+    super::write_parquet(&mut staging, &path, first, || batches.next())?;
     written.push(path);
 
     let path = out.join("attitude_summary.parquet");
-    let file = staging
-        .create(&path)
-        .with_context(|| OutputFailed { path: path.clone() })?;
-    write_batches(file, attitude_tables::summary_batch(runs, scores)?, || None)
-        .with_context(|| OutputFailed { path: path.clone() })?;
+    super::write_parquet(
+        &mut staging,
+        &path,
+        attitude_tables::summary_batch(runs, scores)?,
+        || None,
+    )?;
     written.push(path);
 
     if scores.iter().any(|s| !s.track.is_empty()) {

@@ -7,7 +7,6 @@ use hindsight::identify::settings::Settings;
 use hindsight::identify::{identify, perturbed, Identification, CHANNELS};
 use hindsight::output::atomic::Staging;
 use hindsight::output::identify_tables;
-use hindsight::output::parquet::write_batches;
 use hindsight::output::plots::{Series, TrackPlot};
 use hindsight::vehicle::heave_pitch::{Coefficients, HeavePitch, NAMES, TRUE_COEFFICIENTS, UNITS};
 use std::collections::BTreeMap;
@@ -201,10 +200,7 @@ fn write_outputs(
     let mut written = Vec::new();
     let mut parquet = |name: &str, batch: arrow_array::RecordBatch| -> Result<()> {
         let path = out.join(name);
-        let file = staging
-            .create(&path)
-            .with_context(|| OutputFailed { path: path.clone() })?;
-        write_batches(file, batch, || None).with_context(|| OutputFailed { path: path.clone() })?;
+        super::write_parquet(&mut staging, &path, batch, || None)?;
         written.push(path);
         Ok(())
     };

@@ -79,6 +79,23 @@ fn write_json(
         .with_context(failed)
 }
 
+/// Writes `first` and the batches `next` yields as Parquet to the staged file that becomes
+/// `path`.
+fn write_parquet(
+    staging: &mut hindsight::output::atomic::Staging,
+    path: &Path,
+    first: arrow_array::RecordBatch,
+    next: impl FnMut() -> Option<Result<arrow_array::RecordBatch, arrow_schema::ArrowError>>,
+) -> Result<()> {
+    use anyhow::Context;
+    let failed = || OutputFailed {
+        path: path.to_path_buf(),
+    };
+    let file = staging.create(path).with_context(failed)?;
+    hindsight::output::parquet::write_batches(file, first, next).with_context(failed)?;
+    Ok(())
+}
+
 /// Draws `plot` as PNG into the staged file that becomes `path`.
 fn write_png(
     staging: &mut hindsight::output::atomic::Staging,
