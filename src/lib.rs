@@ -12,6 +12,7 @@ pub mod attitude;
 pub mod contract;
 pub mod filters;
 pub mod geodesy;
+pub mod geomag;
 pub mod identify;
 pub mod ingest;
 pub mod output;

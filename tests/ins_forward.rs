@@ -40,6 +40,7 @@ fn aiding(eml_sigma_m_s: Option<f64>) -> Aiding {
         depth_sigma_m: 0.1,
         depth_min_interval_s: 0.0,
         eml_sigma_m_s,
+        mag: None,
         gate_probability: Some(0.999),
         gate_reset_after: 0,
     }
@@ -135,6 +136,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
         depth: log.messages::<Depth>("/depth").unwrap(),
         gnss: log.messages::<GnssFix>("/gnss").unwrap(),
         eml: log.messages::<SpeedLog>("/eml").unwrap(),
+        mag: &[],
         fixes: &[],
         origin_rad: (
             scenario.mission.origin_latitude_deg.to_radians(),
@@ -244,6 +246,7 @@ fn position_fixes_bound_the_error_without_dvl() {
             depth: log.messages::<Depth>("/depth").unwrap(),
             gnss: &[],
             eml: &[],
+            mag: &[],
             fixes,
             origin_rad,
             output_stamps_ns: &stamps,

@@ -153,6 +153,7 @@ fn run_seed(scenario: &Scenario, config: &Config, seed: u64) -> Outcome {
             altimeter: streams.altimeter,
             depth: streams.depth,
             eml: &[],
+            mag: &[],
             gnss: &[],
             fixes: &[],
             origin_rad: (

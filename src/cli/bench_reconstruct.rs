@@ -56,11 +56,11 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
         let ingest = t.elapsed();
         let mission = log.mission()?;
         let streams = Streams::of(&log);
-        let (init, run, forward) = recon::forward(&streams, &mission, &config)?;
+        let pass = recon::forward(&streams, &mission, &config)?;
         let depth_used = !streams.depth.is_empty();
         drop(log);
-        let epochs = run.records.len();
-        let r = recon::finish(init, run, forward, &config, depth_used)?;
+        let epochs = pass.run.records.len();
+        let r = recon::finish(pass, &config, depth_used)?;
         (ingest, r.timing.forward, r.timing.smoother, epochs)
     };
     let peak = peak_rss_bytes().filter(|_| reset);

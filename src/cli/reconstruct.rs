@@ -235,17 +235,18 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             _ => 0.0,
         }
     );
-    let (init, run, forward_time) = recon::forward(&streams, &mission, &config)
+    let pass = recon::forward(&streams, &mission, &config)
         .with_context(|| format!("reconstructing {}", args.log.log.display()))?;
-    eprintln!("initial state:\n{}", indent(&init.to_string()));
+    eprintln!("initial state:\n{}", indent(&pass.init.to_string()));
     eprintln!(
         "forward filter {:.1} s ({} epochs, {} measurements)",
-        forward_time.as_secs_f64(),
-        run.records.len(),
-        run.residuals.len(),
+        pass.time.as_secs_f64(),
+        pass.run.records.len(),
+        pass.run.residuals.len(),
     );
-    let sensors = stats::sensor_stats(&run.residuals);
-    let mut warnings = stats::warnings(&run, &init, &sensors);
+    let sensors = stats::sensor_stats(&pass.run.residuals);
+    let mut warnings = stats::warnings(&pass.run, &pass.init, &sensors);
+    warnings.extend(recon::magnetometer_warnings(&pass.mag));
     if warnings.iter().any(|w| w.starts_with("dvl: mean NIS")) {
         eprintln!("the DVL's innovations are too large: searching for a clock offset ...");
         if let Some(s) = recon::clock::suggest_dvl_offset(&streams, &mission, &config) {
@@ -287,7 +288,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     .collect();
     let depth_used = config.depth.enabled && !streams.depth.is_empty();
     drop(log);
-    let r = recon::finish(init, run, forward_time, &config, depth_used)?;
+    let r = recon::finish(pass, &config, depth_used)?;
     eprintln!("smoother {:.1} s", r.timing.smoother.as_secs_f64());
 
     let outputs_started = Instant::now();

@@ -2,5 +2,6 @@
 //!
 //! May import: `geodesy`, `frames`, `angle`, `time`, `nalgebra`.
 
+pub mod heading;
 pub mod ins;
 pub mod kalman;

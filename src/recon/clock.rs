@@ -49,7 +49,7 @@ fn dvl_fit(
         dvl: &dvl,
         ..*streams
     };
-    let (_, run, _) = forward(&shifted, mission, config).ok()?;
+    let run = forward(&shifted, mission, config).ok()?.run;
     let nis: Vec<f64> = run
         .residuals
         .iter()
@@ -69,7 +69,11 @@ pub fn suggest_dvl_offset(
     let t0 = streams.imu.first()?.stamp_ns;
     let end = t0 + (SEARCH_WINDOW_S * 1e9) as i64;
     let imu = &streams.imu[..streams.imu.partition_point(|m| m.stamp_ns <= end)];
-    let fit = |offset: f64| dvl_fit(streams, imu, mission, config, offset);
+    // The candidates start from the initial heading as it is: the in-motion alignment's bank
+    // for each of them would cost a dozen forward passes more.
+    let mut config = config.clone();
+    config.alignment.enabled = false;
+    let fit = |offset: f64| dvl_fit(streams, imu, mission, &config, offset);
     let unshifted = fit(0.0)?;
     let best = |candidates: Vec<f64>| {
         candidates

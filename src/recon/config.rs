@@ -48,6 +48,20 @@ min_interval_s = 0.1       # a faster depth sensor is decimated to this interval
 use = true
 sigma_m_s = 0.05           # speed through water taken as speed over ground
 
+[mag]
+use = true                 # heading updates from /mag when the log has it
+sigma_deg = 2.0            # heading error of the calibrated magnetometer (deviation, field,
+                           # declination), 1-sigma
+correlation_s = 60.0       # that error's correlation time: the updates within it share one
+                           # sigma (each update's sigma is sigma_deg sqrt(correlation_s /
+                           # min_interval_s)), so a slow error is not averaged away
+min_interval_s = 1.0       # at most one heading update per interval
+max_field_deviation = 0.15 # a reading whose magnitude is off the log's median by more than
+                           # this fraction is a disturbed field and is not used
+calibrate = true           # hard and soft iron fitted to the log's readings when it turns
+                           # through enough headings (27 of 36 ten-degree sectors)
+saturation_repeats = 3     # an axis at its extreme this many readings in a row is saturated
+
 [gnss]
 use = true                 # sigma from each fix's horizontal_sigma_m
 
@@ -69,13 +83,15 @@ gap_accel_m_s2_rt_hz = 0.05   # extra noise over a gap: motion nobody measured
 gap_gyro_deg_s_rt_hz = 0.3
 
 [initial]
-# Heading source: "auto" (gyrocompass when the IMU is good enough, then magnetometer, then
-# the mission's initial_yaw_rad, then yaw_deg), or one of "gyrocompass", "magnetometer",
-# "mission", "given".
+# Heading source: "auto" (every source available, combined by their sigmas: gyrocompass
+# when the IMU is good enough, magnetometer, the mission's initial_yaw_rad, yaw_deg), or one
+# of "gyrocompass", "magnetometer", "mission", "given" (that one alone). Either way, the
+# in-motion alignment then checks it against the log (see [alignment]).
 heading = "auto"
 # yaw_deg = 45.0             # a heading given by hand (also --initial-yaw)
-# declination_deg = -7.8     # magnetic declination, east positive (also --declination;
-                             # else the mission's magnetic_declination_deg, else 0)
+# declination_deg = -7.8     # magnetic declination, east positive, -180..180 (also
+                             # --declination; else the mission's magnetic_declination_deg,
+                             # else the World Magnetic Model at the start's place and date)
 window_s = 30.0              # IMU data averaged for levelling and gyrocompassing
 gyrocompass_max_sigma_deg = 1.0   # gyrocompass only when its predicted error is smaller
 magnetometer_sigma_deg = 3.0      # heading error of a magnetometer (deviation, field)
@@ -83,6 +99,18 @@ mission_yaw_sigma_deg = 10.0      # of the mission's initial_yaw_rad
 given_yaw_sigma_deg = 5.0         # of yaw_deg / --initial-yaw
 gnss_window_s = 10.0          # a GNSS fix this soon after the start sets the position
 origin_sigma_m = 20.0         # position sigma when starting at the mission origin
+
+[alignment]
+# In-motion alignment: a bank of heading hypotheses spread over 360 deg, each a full forward
+# filter over the first span_s of the mission, scored by the likelihood of its innovations.
+# A decisive winner other than the initial heading replaces it (smoothed back to the start);
+# otherwise the span grows threefold up to the whole log.
+use = true
+hypotheses = 12
+first_span_s = 300.0
+hint_outlier_probability = 0.01   # prior probability that the initial heading is wrong
+decisive_weight = 0.99            # posterior weight a hypothesis needs to decide
+found_sigma_floor_deg = 1.0       # least start sigma of a heading found this way
 
 [output]
 rate_hz = 10.0             # trajectory rows per second (per solution)
@@ -267,6 +295,42 @@ impl Default for DepthConfig {
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+pub struct MagConfig {
+    #[serde(rename = "use")]
+    pub enabled: bool,
+    pub sigma_deg: f64,
+    pub correlation_s: f64,
+    pub min_interval_s: f64,
+    pub max_field_deviation: f64,
+    pub calibrate: bool,
+    pub saturation_repeats: usize,
+}
+
+impl Default for MagConfig {
+    fn default() -> Self {
+        MagConfig {
+            enabled: true,
+            sigma_deg: 2.0,
+            correlation_s: 60.0,
+            min_interval_s: 1.0,
+            max_field_deviation: 0.15,
+            calibrate: true,
+            saturation_repeats: 3,
+        }
+    }
+}
+
+impl MagConfig {
+    /// 1-sigma of one heading update, rad: the error's sigma spread over the updates within
+    /// its correlation time.
+    pub fn update_sigma_rad(&self) -> f64 {
+        let per_correlation = (self.correlation_s / self.min_interval_s).max(1.0);
+        self.sigma_deg.to_radians() * per_correlation.sqrt()
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct EmlConfig {
     #[serde(rename = "use")]
     pub enabled: bool,
@@ -377,6 +441,31 @@ impl Default for InitialConfig {
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+pub struct AlignmentConfig {
+    #[serde(rename = "use")]
+    pub enabled: bool,
+    pub hypotheses: usize,
+    pub first_span_s: f64,
+    pub hint_outlier_probability: f64,
+    pub decisive_weight: f64,
+    pub found_sigma_floor_deg: f64,
+}
+
+impl Default for AlignmentConfig {
+    fn default() -> Self {
+        AlignmentConfig {
+            enabled: true,
+            hypotheses: 12,
+            first_span_s: 300.0,
+            hint_outlier_probability: 0.01,
+            decisive_weight: 0.99,
+            found_sigma_floor_deg: 1.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct OutputConfig {
     pub rate_hz: f64,
     pub aiding_epochs: bool,
@@ -399,11 +488,13 @@ pub struct Config {
     pub dvl: DvlConfig,
     pub depth: DepthConfig,
     pub eml: EmlConfig,
+    pub mag: MagConfig,
     pub gnss: UseConfig,
     pub position_fix: UseConfig,
     pub gate: GateConfig,
     pub propagation: PropagationConfig,
     pub initial: InitialConfig,
+    pub alignment: AlignmentConfig,
     pub output: OutputConfig,
 }
 
@@ -431,7 +522,16 @@ impl Config {
     /// Checks ranges (positive sigmas and intervals, a probability in (0, 1]).
     pub fn check(&self) -> Result<(), ConfigError> {
         let spec = self.imu.spec();
-        let positive: [(&'static str, f64); 16] = [
+        let positive: [(&'static str, f64); 22] = [
+            ("alignment.first_span_s", self.alignment.first_span_s),
+            (
+                "alignment.found_sigma_floor_deg",
+                self.alignment.found_sigma_floor_deg,
+            ),
+            ("mag.sigma_deg", self.mag.sigma_deg),
+            ("mag.correlation_s", self.mag.correlation_s),
+            ("mag.min_interval_s", self.mag.min_interval_s),
+            ("mag.max_field_deviation", self.mag.max_field_deviation),
             ("imu.gyro_bias_deg_h", spec.gyro_bias_deg_h),
             ("imu.gyro_arw_deg_rt_h", spec.gyro_arw_deg_rt_h),
             ("imu.accel_bias_ug", spec.accel_bias_ug),
@@ -497,6 +597,44 @@ impl Config {
                 });
             }
         }
+        if let Some(d) = self.initial.declination_deg {
+            if !(d.is_finite() && (-180.0..=180.0).contains(&d)) {
+                return Err(ConfigError::Bad {
+                    key: "initial.declination_deg",
+                    value: d,
+                    reason: "must be a declination in degrees, -180 to 180 (east positive)",
+                });
+            }
+        }
+        for (key, value) in [
+            (
+                "alignment.hint_outlier_probability",
+                self.alignment.hint_outlier_probability,
+            ),
+            ("alignment.decisive_weight", self.alignment.decisive_weight),
+        ] {
+            if !(value > 0.0 && value < 1.0) {
+                return Err(ConfigError::Bad {
+                    key,
+                    value,
+                    reason: "must be a probability in (0, 1)",
+                });
+            }
+        }
+        if self.alignment.hypotheses < 4 {
+            return Err(ConfigError::Bad {
+                key: "alignment.hypotheses",
+                value: self.alignment.hypotheses as f64,
+                reason: "must be 4 or more",
+            });
+        }
+        if self.mag.saturation_repeats < 2 {
+            return Err(ConfigError::Bad {
+                key: "mag.saturation_repeats",
+                value: self.mag.saturation_repeats as f64,
+                reason: "must be 2 or more",
+            });
+        }
         let p = self.gate.probability;
         if !(p > 0.0 && p <= 1.0) {
             return Err(ConfigError::Bad {
@@ -536,6 +674,8 @@ impl Config {
                 depth_sigma_m: self.depth.sigma_m,
                 depth_min_interval_s: self.depth.min_interval_s,
                 eml_sigma_m_s: self.eml.enabled.then_some(self.eml.sigma_m_s),
+                // Set by the reconstruction, which knows the declination and the field.
+                mag: None,
                 gate_probability: (self.gate.probability < 1.0).then_some(self.gate.probability),
                 gate_reset_after: self.gate.reset_after,
             },

@@ -3,31 +3,33 @@
 //! - Position: a GNSS fix near the start (the one closest to the median of those within
 //!   `gnss_window_s`), else a `start` position fix near the
 //!   start, else the mission origin. Depth from the first depth reading.
-//! - Roll and pitch: the mean specific force over the first `window_s` of IMU data
-//!   (levelling), less the mean acceleration the DVL saw over the same window.
-//! - Heading, in order (`heading = "auto"`): gyrocompassing when the IMU's predicted
-//!   gyrocompass error is below `gyrocompass_max_sigma_deg`, the vehicle is not turning and
-//!   its level axes held still (a tilt rate above the accelerometer noise counts in the
-//!   predicted error) (moving-base: the transport rate from the DVL velocity is removed); the magnetometer
-//!   (tilt-compensated, with the declination); the mission's `initial_yaw_rad`; a heading
-//!   given by hand.
+//! - Roll and pitch at the first sample: the specific force over the first `window_s` of IMU
+//!   data, each sample carried to the start's body axes by the gyro, less the acceleration
+//!   the DVL saw (carried the same way), levelled. A vehicle that rolls or turns during the
+//!   window (a drop) is levelled as it was at the start.
+//! - Heading (`recon::heading`): every source, combined by sigma (`auto`) or the one forced:
+//!   gyrocompassing when the IMU's predicted gyrocompass error is below
+//!   `gyrocompass_max_sigma_deg`, the vehicle is not turning and its level axes held still
+//!   (moving base: the transport rate from the DVL velocity is removed); the magnetometer
+//!   (its readings carried to the start by the gyro, tilt-compensated, with the declination
+//!   given, from the mission, or from the World Magnetic Model); the mission's
+//!   `initial_yaw_rad`; a heading given by hand.
 //! - Velocity: the first DVL reading in range, else the EM log's speed along the body x
 //!   axis, else at rest.
 //! - Biases: zero, with the IMU grade's turn-on sigma.
 //!
-//! A vehicle dropped unaligned (in-run alignment) is a later issue: this is where it hooks
-//! in, as another heading source.
-
 use super::config::{HeadingChoice, ImuSpec, InitialConfig};
+use super::heading::combine;
+pub use super::heading::{DeclinationSource, DeclinationUsed, HeadingCandidate, HeadingSource};
 use super::Streams;
 use crate::contract::GnssFix;
 use crate::filters::ins::alignment;
-use crate::filters::ins::error_state::ErrorMatrix;
+use crate::filters::ins::error_state::{idx, ErrorMatrix, ErrorState};
 use crate::filters::ins::forward::{DvlMounting, Estimate};
 use crate::filters::ins::mechanization::NavState;
 use crate::geodesy;
 use crate::ingest::Mission;
-use nalgebra::{SVector, UnitQuaternion, Vector3};
+use nalgebra::{UnitQuaternion, Vector3};
 use std::fmt;
 
 /// What the initialisation needs to know besides the log.
@@ -57,36 +59,32 @@ pub enum VelocitySource {
     AtRest,
 }
 
-/// Where the declination used with the magnetometer came from.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum DeclinationSource {
-    Given,
-    Mission,
-    Unknown,
-}
-
-/// Where the initial heading came from.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum HeadingSource {
-    Gyrocompass,
-    Magnetometer {
-        declination_deg: f64,
-        declination: DeclinationSource,
-    },
-    Mission,
-    Given,
-}
-
 /// The initial estimate and its sources, with their 1-sigma.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Initialisation {
+    /// The independent variances the covariance was built from.
+    pub variances: ErrorState,
+    /// Whether the velocity was measured along the body axes (its NED error then follows the
+    /// heading's).
+    pub body_velocity: bool,
     pub estimate: Estimate,
     pub position: PositionSource,
     pub position_sigma_m: f64,
     pub velocity: VelocitySource,
     pub velocity_sigma_m_s: f64,
+    /// The source of the heading used (`Combined` when several were).
     pub heading: HeadingSource,
     pub heading_sigma_deg: f64,
+    /// Every heading source with its value and sigma, and whether it was used.
+    pub heading_sources: Vec<HeadingCandidate>,
+    /// Why the other sources gave no heading.
+    pub heading_unavailable: Vec<String>,
+    /// Sources that disagree beyond their sigmas (warnings).
+    pub heading_disagreements: Vec<String>,
+    /// The in-motion alignment's bank, when it ran.
+    pub in_motion: Option<super::in_motion::InMotion>,
+    /// The declination for the magnetometer (`None` without magnetometer readings).
+    pub declination: Option<DeclinationUsed>,
     pub tilt_sigma_deg: f64,
     /// Seconds of IMU data levelled (and gyrocompassed).
     pub window_s: f64,
@@ -99,7 +97,10 @@ pub enum InitError {
     NoImu,
     #[error("/imu has {0} sample(s): too few to initialise")]
     TooFewImu(usize),
-    #[error("no heading source: {0}; give one with --initial-yaw DEG (or [initial] yaw_deg)")]
+    #[error(
+        "no heading source ({0}), and the log does not determine the heading in motion; \
+         give one with --initial-yaw DEG (or [initial] yaw_deg)"
+    )]
     NoHeading(String),
     #[error("heading source `{choice}` is not available: {reason}")]
     HeadingUnavailable {
@@ -166,8 +167,28 @@ pub fn initialise(
             _ => Vector3::zeros(),
         }
     };
-    let mean_accel = dvl_accel(t0, window_end);
-    let (roll, pitch) = alignment::level(&(f_mean - mean_accel));
+    // Levelling at the start: each sample carried to the start's body axes by the gyro, so
+    // that a vehicle rolling or turning in the window is levelled as it was at the start.
+    // `q f = d(q v)/dt - g_b0` (q: start body from body), so the mean of `q f` less the DVL's
+    // change of `q v` over its span is `-g` in the start's axes.
+    let carry = Carry::new(window);
+    let f_carried = mean3(
+        window
+            .iter()
+            .zip(&carry.q)
+            .map(|(m, q)| (q * Vector3::from(m.specific_force)).into()),
+    )
+    .unwrap_or(f_mean);
+    let carried_accel = {
+        let (a, b) = (dvl.first(), dvl.last());
+        match (a, b) {
+            (Some(a), Some(b)) if b.0 - a.0 > 1_000_000_000 => {
+                (carry.at(b.0) * b.1 - carry.at(a.0) * a.1) / ((b.0 - a.0) as f64 * 1e-9)
+            }
+            _ => Vector3::zeros(),
+        }
+    };
+    let (roll, pitch) = alignment::level(&(f_carried - carried_accel));
     // How fast the level axes turned during the window: the tilt of its first third against
     // its last (a rate there enters the gyrocompass's mean like the Earth rate does). A
     // change of acceleration between the thirds also tilts the levelled vector: the DVL's is
@@ -209,17 +230,12 @@ pub fn initialise(
     };
     let g = 9.81;
     let motion_tilt_deg = if dvl.len() >= 2 { 0.1 } else { 0.5 };
-    // A tilt that changed during the window (a vehicle rolling after a drop) leaves the
-    // window's mean that far from the start's attitude: it counts in the sigma.
-    let tilt_change_deg = if level_rate_rad_s > 3.0 * level_rate_noise_rad_s {
-        (level_rate_rad_s * window_s * 2.0 / 3.0).to_degrees()
-    } else {
-        0.0
-    };
+    // The gyro's bias over the window turns the carried samples: half of it on average.
+    let carry_deg = (set.imu.gyro_bias_rad_s() * window_s * 0.5).to_degrees();
     let tilt_sigma_deg = (set.imu.accel_bias_m_s2() / g)
         .to_degrees()
         .hypot(motion_tilt_deg)
-        .hypot(tilt_change_deg);
+        .hypot(carry_deg);
 
     // Position.
     let origin = (
@@ -303,11 +319,13 @@ pub fn initialise(
         (Vector3::zeros(), VelocitySource::AtRest, 1.0)
     };
 
-    let (heading, yaw, heading_sigma_deg) = heading(
+    let declination =
+        (!src.mag.is_empty()).then(|| declination(mission, cfg, lat, lon, -down_m, t0));
+    let found = headings(
         src,
         mission,
         set,
-        HeadingInputs {
+        &HeadingInputs {
             lat,
             height_m: -down_m,
             roll,
@@ -315,14 +333,17 @@ pub fn initialise(
             w_mean,
             level_rate_rad_s,
             level_rate_noise_rad_s,
-            tilt_change_deg,
+            tilt_sigma_deg,
             v_body,
             v_sigma_m_s: velocity_sigma_m_s,
             window_s,
             t0,
             window_end,
+            declination,
+            carry: &carry,
         },
     )?;
+    let (heading, yaw, heading_sigma_deg) = (found.source, found.yaw_rad, found.sigma_deg);
 
     let ned_from_body = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
     let deg2 = |d: f64| d.to_radians().powi(2);
@@ -331,7 +352,7 @@ pub fn initialise(
         set.imu.accel_bias_m_s2().powi(2),
     );
     let (p2, v2) = (position_sigma_m.powi(2), velocity_sigma_m_s.powi(2));
-    let cov = ErrorMatrix::from_diagonal(&SVector::<f64, 15>::from_column_slice(&[
+    let variances = ErrorState::from_column_slice(&[
         p2,
         p2,
         down_sigma_m.powi(2),
@@ -347,14 +368,19 @@ pub fn initialise(
         ab,
         ab,
         ab,
-    ]));
+    ]);
+    let body_velocity = !matches!(velocity, VelocitySource::AtRest);
+    let vel_ned = ned_from_body * v_body;
+    let cov = initial_covariance(&variances, &vel_ned, body_velocity);
     Ok(Initialisation {
+        variances,
+        body_velocity,
         estimate: Estimate {
             nav: NavState {
                 lat_rad: lat,
                 lon_rad: lon,
                 height_m: -down_m,
-                vel_ned_m_s: ned_from_body * v_body,
+                vel_ned_m_s: vel_ned,
                 ned_from_body,
             },
             gyro_bias: Vector3::zeros(),
@@ -367,12 +393,144 @@ pub fn initialise(
         velocity_sigma_m_s,
         heading,
         heading_sigma_deg,
+        heading_sources: found.candidates,
+        heading_unavailable: found.unavailable,
+        heading_disagreements: found.disagreements,
+        in_motion: None,
+        declination,
         tilt_sigma_deg,
         window_s,
     })
 }
 
-struct HeadingInputs {
+/// The initial covariance from independent variances, with the velocity's error tied to the
+/// attitude's when the velocity was measured along the body axes (DVL, EM log): an attitude
+/// error `psi` turns it, `dv = psi x v = -[v x] psi`.
+pub fn initial_covariance(
+    variances: &ErrorState,
+    vel_ned: &Vector3<f64>,
+    body_velocity: bool,
+) -> ErrorMatrix {
+    let independent = ErrorMatrix::from_diagonal(variances);
+    if !body_velocity {
+        return independent;
+    }
+    let mut t = ErrorMatrix::identity();
+    t.fixed_view_mut::<3, 3>(idx::VEL, idx::ATT)
+        .copy_from(&(-vel_ned.cross_matrix()));
+    let cov = t * independent * t.transpose();
+    (cov + cov.transpose()) * 0.5
+}
+
+impl Initialisation {
+    /// The initial estimate turned to another heading (rad) with another heading sigma (deg):
+    /// attitude and velocity turned about the vertical, covariance rebuilt.
+    pub fn estimate_with_heading(&self, yaw_rad: f64, sigma_deg: f64) -> Estimate {
+        let nav = &self.estimate.nav;
+        let (_, _, yaw) = nav.ned_from_body.euler_angles();
+        let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw_rad - yaw);
+        let vel_ned = turn * nav.vel_ned_m_s;
+        let mut variances = self.variances;
+        variances[idx::ATT + 2] = sigma_deg.to_radians().powi(2);
+        Estimate {
+            nav: NavState {
+                ned_from_body: turn * nav.ned_from_body,
+                vel_ned_m_s: vel_ned,
+                ..*nav
+            },
+            cov: initial_covariance(&variances, &vel_ned, self.body_velocity),
+            ..self.estimate
+        }
+    }
+}
+
+/// The body's attitude at each IMU sample of the window relative to the first sample's (start
+/// body from body), the gyro integrated. The Earth's rate is not removed: 0.13 deg over 30 s
+/// at most.
+struct Carry {
+    stamps: Vec<i64>,
+    q: Vec<UnitQuaternion<f64>>,
+}
+
+impl Carry {
+    fn new(window: &[crate::contract::Imu]) -> Carry {
+        let mut q = Vec::with_capacity(window.len());
+        let mut at = UnitQuaternion::identity();
+        q.push(at);
+        for w in window.windows(2) {
+            let dt = (w[1].stamp_ns - w[0].stamp_ns) as f64 * 1e-9;
+            let omega =
+                (Vector3::from(w[0].angular_velocity) + Vector3::from(w[1].angular_velocity)) * 0.5;
+            at *= UnitQuaternion::from_scaled_axis(omega * dt);
+            q.push(at);
+        }
+        Carry {
+            stamps: window.iter().map(|m| m.stamp_ns).collect(),
+            q,
+        }
+    }
+
+    /// The rotation at a stamp (interpolated between samples; held beyond the window).
+    fn at(&self, stamp_ns: i64) -> UnitQuaternion<f64> {
+        let k = self.stamps.partition_point(|&s| s <= stamp_ns);
+        match (k.checked_sub(1), self.q.get(k)) {
+            (Some(i), Some(next)) => {
+                let span = (self.stamps[k] - self.stamps[i]) as f64;
+                let s = if span > 0.0 {
+                    (stamp_ns - self.stamps[i]) as f64 / span
+                } else {
+                    0.0
+                };
+                self.q[i].slerp(next, s)
+            }
+            (Some(i), None) => self.q[i],
+            (None, _) => self
+                .q
+                .first()
+                .copied()
+                .unwrap_or_else(UnitQuaternion::identity),
+        }
+    }
+}
+
+/// The declination: given, else the mission's, else the World Magnetic Model's at the start.
+fn declination(
+    mission: &Mission,
+    cfg: &InitialConfig,
+    lat: f64,
+    lon: f64,
+    height_m: f64,
+    t0: i64,
+) -> DeclinationUsed {
+    // A declination from a chart or the mission is as good as the model's, about 0.5 deg.
+    const STATED_SIGMA_DEG: f64 = 0.5;
+    let stated = |source, d| DeclinationUsed {
+        source,
+        declination_deg: d,
+        sigma_deg: STATED_SIGMA_DEG,
+    };
+    if let Some(d) = cfg.declination_deg {
+        return stated(DeclinationSource::Given, d);
+    }
+    if let Some(d) = mission.magnetic_declination_deg {
+        return stated(DeclinationSource::Mission, d);
+    }
+    match crate::geomag::declination(lat.to_degrees(), lon.to_degrees(), height_m, t0) {
+        Ok(d) => DeclinationUsed {
+            source: DeclinationSource::Wmm,
+            declination_deg: d.declination_deg,
+            sigma_deg: d.sigma_deg,
+        },
+        // Declination reaches 20 deg at mid latitudes: say so in the sigma.
+        Err(_) => DeclinationUsed {
+            source: DeclinationSource::Unknown,
+            declination_deg: 0.0,
+            sigma_deg: 20.0,
+        },
+    }
+}
+
+struct HeadingInputs<'c> {
     lat: f64,
     height_m: f64,
     roll: f64,
@@ -382,151 +540,189 @@ struct HeadingInputs {
     /// part of it accelerometer noise explains.
     level_rate_rad_s: f64,
     level_rate_noise_rad_s: f64,
-    /// How far the tilt moved over the window when that stands out of the noise, deg.
-    tilt_change_deg: f64,
+    tilt_sigma_deg: f64,
     v_body: Vector3<f64>,
     /// 1-sigma of `v_body`, m/s (its transport rate is removed from the gyro mean).
     v_sigma_m_s: f64,
     window_s: f64,
     t0: i64,
     window_end: i64,
+    declination: Option<DeclinationUsed>,
+    carry: &'c Carry,
 }
 
-/// The heading (rad) and its 1-sigma (deg) from the first source that has one.
-fn heading(
+/// The heading sources found, their combination, and why the others gave none.
+struct Headings {
+    source: HeadingSource,
+    yaw_rad: f64,
+    sigma_deg: f64,
+    candidates: Vec<HeadingCandidate>,
+    unavailable: Vec<String>,
+    disagreements: Vec<String>,
+}
+
+/// Every heading source, then the combination (`auto`) or the one forced. Without any source
+/// (`auto`), the heading is unknown: 0 with a sigma of 180 deg, for the in-motion alignment
+/// to find.
+fn headings(
     src: &Streams<'_>,
     mission: &Mission,
     set: &InitSettings<'_>,
-    h: HeadingInputs,
-) -> Result<(HeadingSource, f64, f64), InitError> {
+    h: &HeadingInputs<'_>,
+) -> Result<Headings, InitError> {
     let cfg = set.initial;
-    let mut why_not = Vec::new();
-
-    // Gyrocompass: the predicted error from the gyro bias and the noise averaged over the
-    // window, relative to the horizontal Earth rate.
-    let gyro = || -> Result<(HeadingSource, f64, f64), String> {
-        let horizontal = alignment::horizontal_earth_rate(h.lat);
-        let noise = set.imu.noise().gyro_noise_density / h.window_s.max(1e-3).sqrt();
-        // An unknown velocity leaves an unknown transport rate, v / R, in the gyro mean.
-        let transport = h.v_sigma_m_s / geodesy::prime_vertical_radius_m(h.lat);
-        let sigma_deg =
-            (set.imu.gyro_bias_rad_s().hypot(noise).hypot(transport) / horizontal).to_degrees();
-        if sigma_deg > cfg.gyrocompass_max_sigma_deg {
-            return Err(format!(
-                "gyrocompass: the IMU's predicted heading error {sigma_deg:.1} deg exceeds {} deg",
-                cfg.gyrocompass_max_sigma_deg
-            ));
-        }
-        // A vehicle pitching or rolling during the window (an autopilot settling, waves)
-        // puts its own rate into the gyro mean: an error of rate / horizontal Earth rate,
-        // counted when it stands out of the accelerometer noise.
-        let motion_deg = if h.level_rate_rad_s > 3.0 * h.level_rate_noise_rad_s {
-            (h.level_rate_rad_s / horizontal).to_degrees()
-        } else {
-            0.0
-        };
-        if motion_deg > cfg.gyrocompass_max_sigma_deg {
-            return Err(format!(
-                "gyrocompass: the vehicle's tilt changed by {:.4} deg during the first {:.0} s \
-                 ({:.1e} rad/s against an Earth rate of {:.1e}: heading error up to {motion_deg:.1} deg)",
-                (h.level_rate_rad_s * h.window_s * 2.0 / 3.0).to_degrees(),
-                h.window_s,
-                h.level_rate_rad_s,
-                horizontal
-            ));
-        }
-        let sigma_deg = sigma_deg.hypot(motion_deg);
-        if h.w_mean.norm() > STEADY_RATE_FACTOR * geodesy::OMEGA_IE_RAD_S {
-            return Err(format!(
-                "gyrocompass: the vehicle turned during the first {:.0} s (mean rate {:.3} deg/s)",
-                h.window_s,
-                h.w_mean.norm().to_degrees()
-            ));
-        }
-        // Moving base: remove the transport rate of the velocity at the current heading
-        // (twice: the heading changes the velocity's direction).
-        let mut yaw = alignment::gyrocompass(&h.w_mean, h.roll, h.pitch);
-        for _ in 0..2 {
-            let c = UnitQuaternion::from_euler_angles(h.roll, h.pitch, yaw);
-            let w_en = geodesy::transport_rate_ned(h.lat, h.height_m, &(c * h.v_body));
-            yaw = alignment::gyrocompass(&(h.w_mean - c.inverse() * w_en), h.roll, h.pitch);
-        }
-        Ok((HeadingSource::Gyrocompass, yaw, sigma_deg))
+    let sources: [(HeadingSource, Result<(f64, f64), String>); 4] = [
+        (HeadingSource::Gyrocompass, gyrocompass(set, h)),
+        (HeadingSource::Magnetometer, magnetometer(src, set, h)),
+        (
+            HeadingSource::Mission,
+            mission
+                .initial_yaw_rad
+                .map(|y| (y, cfg.mission_yaw_sigma_deg))
+                .ok_or_else(|| "mission: no initial_yaw_rad in the mission metadata".to_string()),
+        ),
+        (
+            HeadingSource::Given,
+            cfg.yaw_deg
+                .map(|y| (y.to_radians(), cfg.given_yaw_sigma_deg))
+                .ok_or_else(|| "given: no --initial-yaw".to_string()),
+        ),
+    ];
+    let forced = match cfg.heading {
+        HeadingChoice::Auto => None,
+        HeadingChoice::Gyrocompass => Some(HeadingSource::Gyrocompass),
+        HeadingChoice::Magnetometer => Some(HeadingSource::Magnetometer),
+        HeadingChoice::Mission => Some(HeadingSource::Mission),
+        HeadingChoice::Given => Some(HeadingSource::Given),
     };
-    let mag = || -> Result<(HeadingSource, f64, f64), String> {
-        let m = mean3(
-            src.mag
-                .iter()
-                .filter(|m| m.stamp_ns >= h.t0 && m.stamp_ns <= h.window_end)
-                .map(|m| m.magnetic_field),
-        )
-        .ok_or_else(|| "magnetometer: no /mag data in the alignment window".to_string())?;
-        let (declination_deg, declination, sigma) =
-            match (cfg.declination_deg, mission.magnetic_declination_deg) {
-                (Some(d), _) => (d, DeclinationSource::Given, cfg.magnetometer_sigma_deg),
-                (None, Some(d)) => (d, DeclinationSource::Mission, cfg.magnetometer_sigma_deg),
-                // Declination reaches 20 deg at mid latitudes: say so in the sigma.
-                (None, None) => (
-                    0.0,
-                    DeclinationSource::Unknown,
-                    cfg.magnetometer_sigma_deg.hypot(20.0),
-                ),
-            };
-        let yaw = alignment::magnetic_heading(&m, h.roll, h.pitch, declination_deg.to_radians());
-        // A tilt error turns the field's vertical part into the horizontal one: up to
-        // tilt error x tan(inclination) of heading.
-        let levelled = UnitQuaternion::from_euler_angles(h.roll, h.pitch, 0.0) * m;
-        let tan_inclination = (levelled.z.abs() / levelled.x.hypot(levelled.y).max(1e-12)).min(5.0);
-        let sigma = sigma.hypot(h.tilt_change_deg * tan_inclination);
-        Ok((
-            HeadingSource::Magnetometer {
-                declination_deg,
-                declination,
-            },
-            yaw,
-            sigma,
-        ))
-    };
-    let mission = || -> Result<(HeadingSource, f64, f64), String> {
-        mission
-            .initial_yaw_rad
-            .map(|y| (HeadingSource::Mission, y, cfg.mission_yaw_sigma_deg))
-            .ok_or_else(|| "mission: no initial_yaw_rad in the mission metadata".to_string())
-    };
-    let given = || -> Result<(HeadingSource, f64, f64), String> {
-        cfg.yaw_deg
-            .map(|y| {
-                (
-                    HeadingSource::Given,
-                    y.to_radians(),
-                    cfg.given_yaw_sigma_deg,
-                )
-            })
-            .ok_or_else(|| "given: no --initial-yaw".to_string())
-    };
-    let forced = |choice: &'static str, r: Result<(HeadingSource, f64, f64), String>| {
-        r.map_err(|reason| InitError::HeadingUnavailable { choice, reason })
-    };
-    match cfg.heading {
-        HeadingChoice::Gyrocompass => forced("gyrocompass", gyro()),
-        HeadingChoice::Magnetometer => forced("magnetometer", mag()),
-        HeadingChoice::Mission => forced("mission", mission()),
-        HeadingChoice::Given => forced("given", given()),
-        HeadingChoice::Auto => {
-            for source in [
-                &gyro as &dyn Fn() -> Result<(HeadingSource, f64, f64), String>,
-                &mag,
-                &mission,
-                &given,
-            ] {
-                match source() {
-                    Ok(found) => return Ok(found),
-                    Err(reason) => why_not.push(reason),
-                }
+    let mut candidates = Vec::new();
+    let mut unavailable = Vec::new();
+    for (source, found) in sources {
+        match found {
+            Ok((yaw, sigma)) => {
+                let mut c = HeadingCandidate::new(source, yaw, sigma);
+                c.used = forced.is_none_or(|f| f == source);
+                candidates.push(c);
             }
-            Err(InitError::NoHeading(why_not.join("; ")))
+            Err(reason) => {
+                if forced == Some(source) {
+                    return Err(InitError::HeadingUnavailable {
+                        choice: source.name(),
+                        reason,
+                    });
+                }
+                unavailable.push(reason);
+            }
         }
     }
+    let Some(combined) = combine(&candidates) else {
+        return Ok(Headings {
+            source: HeadingSource::Unknown,
+            yaw_rad: 0.0,
+            sigma_deg: 180.0,
+            candidates,
+            unavailable,
+            disagreements: Vec::new(),
+        });
+    };
+    let mut used = candidates.iter().filter(|c| c.used);
+    let source = match (used.next(), used.next()) {
+        (Some(only), None) => only.source,
+        _ => HeadingSource::Combined,
+    };
+    Ok(Headings {
+        source,
+        yaw_rad: combined.yaw_rad,
+        sigma_deg: combined.sigma_deg,
+        candidates,
+        unavailable,
+        disagreements: combined.disagreements,
+    })
+}
+
+/// Gyrocompass: the predicted error from the gyro bias and the noise averaged over the
+/// window, relative to the horizontal Earth rate; (yaw rad, sigma deg).
+fn gyrocompass(set: &InitSettings<'_>, h: &HeadingInputs<'_>) -> Result<(f64, f64), String> {
+    let cfg = set.initial;
+    let horizontal = alignment::horizontal_earth_rate(h.lat);
+    let noise = set.imu.noise().gyro_noise_density / h.window_s.max(1e-3).sqrt();
+    // An unknown velocity leaves an unknown transport rate, v / R, in the gyro mean.
+    let transport = h.v_sigma_m_s / geodesy::prime_vertical_radius_m(h.lat);
+    let sigma_deg =
+        (set.imu.gyro_bias_rad_s().hypot(noise).hypot(transport) / horizontal).to_degrees();
+    if sigma_deg > cfg.gyrocompass_max_sigma_deg {
+        return Err(format!(
+            "gyrocompass: the IMU's predicted heading error {sigma_deg:.1} deg exceeds {} deg",
+            cfg.gyrocompass_max_sigma_deg
+        ));
+    }
+    // A vehicle pitching or rolling during the window (an autopilot settling, waves) puts its
+    // own rate into the gyro mean: an error of rate / horizontal Earth rate, counted when it
+    // stands out of the accelerometer noise.
+    let motion_deg = if h.level_rate_rad_s > 3.0 * h.level_rate_noise_rad_s {
+        (h.level_rate_rad_s / horizontal).to_degrees()
+    } else {
+        0.0
+    };
+    if motion_deg > cfg.gyrocompass_max_sigma_deg {
+        return Err(format!(
+            "gyrocompass: the vehicle's tilt changed by {:.4} deg during the first {:.0} s \
+             ({:.1e} rad/s against an Earth rate of {:.1e}: heading error up to {motion_deg:.1} deg)",
+            (h.level_rate_rad_s * h.window_s * 2.0 / 3.0).to_degrees(),
+            h.window_s,
+            h.level_rate_rad_s,
+            horizontal
+        ));
+    }
+    let sigma_deg = sigma_deg.hypot(motion_deg);
+    if h.w_mean.norm() > STEADY_RATE_FACTOR * geodesy::OMEGA_IE_RAD_S {
+        return Err(format!(
+            "gyrocompass: the vehicle turned during the first {:.0} s (mean rate {:.3} deg/s)",
+            h.window_s,
+            h.w_mean.norm().to_degrees()
+        ));
+    }
+    // Moving base: remove the transport rate of the velocity at the current heading (twice:
+    // the heading changes the velocity's direction).
+    let mut yaw = alignment::gyrocompass(&h.w_mean, h.roll, h.pitch);
+    for _ in 0..2 {
+        let c = UnitQuaternion::from_euler_angles(h.roll, h.pitch, yaw);
+        let w_en = geodesy::transport_rate_ned(h.lat, h.height_m, &(c * h.v_body));
+        yaw = alignment::gyrocompass(&(h.w_mean - c.inverse() * w_en), h.roll, h.pitch);
+    }
+    Ok((yaw, sigma_deg))
+}
+
+/// Magnetometer: the readings of the window carried to the start's body axes by the gyro
+/// (so a vehicle turning in the window still gives its start heading), their mean
+/// tilt-compensated with the start's roll and pitch, plus the declination; (yaw rad, sigma
+/// deg).
+fn magnetometer(
+    src: &Streams<'_>,
+    set: &InitSettings<'_>,
+    h: &HeadingInputs<'_>,
+) -> Result<(f64, f64), String> {
+    let m = mean3(
+        src.mag
+            .iter()
+            .filter(|m| m.stamp_ns >= h.t0 && m.stamp_ns <= h.window_end)
+            .map(|m| (h.carry.at(m.stamp_ns) * Vector3::from(m.magnetic_field)).into()),
+    )
+    .ok_or_else(|| "magnetometer: no /mag data in the alignment window".to_string())?;
+    let d = h
+        .declination
+        .ok_or_else(|| "magnetometer: no /mag data".to_string())?;
+    let yaw = alignment::magnetic_heading(&m, h.roll, h.pitch, d.declination_deg.to_radians());
+    // A tilt error turns the field's vertical part into the horizontal one: up to tilt error
+    // x tan(inclination) of heading.
+    let levelled = UnitQuaternion::from_euler_angles(h.roll, h.pitch, 0.0) * m;
+    let tan_inclination = (levelled.z.abs() / levelled.x.hypot(levelled.y).max(1e-12)).min(5.0);
+    let sigma = set
+        .initial
+        .magnetometer_sigma_deg
+        .hypot(d.sigma_deg)
+        .hypot(h.tilt_sigma_deg * tan_inclination);
+    Ok((yaw, sigma))
 }
 
 impl fmt::Display for Initialisation {
@@ -568,41 +764,55 @@ impl fmt::Display for Initialisation {
             self.window_s,
             self.tilt_sigma_deg
         )?;
-        let heading = match self.heading {
-            HeadingSource::Gyrocompass => {
-                format!("gyrocompassing {:.0} s of IMU data", self.window_s)
-            }
-            HeadingSource::Magnetometer {
-                declination_deg,
-                declination,
-            } => format!(
-                "magnetometer, declination {declination_deg:.1} deg ({})",
-                match declination {
+        let declination = |d: &DeclinationUsed| {
+            format!(
+                "declination {:.2} deg ({}, 1-sigma {:.2})",
+                d.declination_deg,
+                match d.source {
                     DeclinationSource::Given => "given",
                     DeclinationSource::Mission => "mission metadata",
+                    DeclinationSource::Wmm => "World Magnetic Model",
                     DeclinationSource::Unknown => "unknown, taken as 0: pass --declination",
-                }
-            ),
-            HeadingSource::Mission => "mission metadata initial_yaw_rad".to_string(),
-            HeadingSource::Given => "--initial-yaw".to_string(),
+                },
+                d.sigma_deg
+            )
         };
+        for c in &self.heading_sources {
+            let detail = match c.source {
+                HeadingSource::Gyrocompass => {
+                    format!("gyrocompassing {:.0} s of IMU data", self.window_s)
+                }
+                HeadingSource::Magnetometer => format!(
+                    "magnetometer, {}",
+                    self.declination
+                        .as_ref()
+                        .map(declination)
+                        .unwrap_or_default()
+                ),
+                HeadingSource::Mission => "mission metadata initial_yaw_rad".to_string(),
+                HeadingSource::Given => "--initial-yaw".to_string(),
+                _ => c.source.name().to_string(),
+            };
+            writeln!(
+                f,
+                "  source   {:.2} deg   {detail} (1-sigma {:.2} deg){}",
+                c.heading_deg,
+                c.sigma_deg,
+                if c.used { "" } else { "   not used" }
+            )?;
+        }
         write!(
             f,
-            "heading    {:.2} deg   from {heading} (1-sigma {:.2} deg)",
+            "heading    {:.2} deg   from {} (1-sigma {:.2} deg)",
             crate::angle::wrap_pi(yaw).to_degrees().rem_euclid(360.0),
+            match self.heading {
+                HeadingSource::Combined => "the sources above, combined by their sigmas",
+                HeadingSource::Unknown => "no source: the in-motion alignment finds it",
+                HeadingSource::InMotion => "the in-motion alignment over the log",
+                _ => "the source above",
+            },
             self.heading_sigma_deg
         )
-    }
-}
-
-impl HeadingSource {
-    pub fn name(&self) -> &'static str {
-        match self {
-            HeadingSource::Gyrocompass => "gyrocompass",
-            HeadingSource::Magnetometer { .. } => "magnetometer",
-            HeadingSource::Mission => "mission",
-            HeadingSource::Given => "given",
-        }
     }
 }
 

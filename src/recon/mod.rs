@@ -8,14 +8,17 @@
 
 pub mod clock;
 pub mod config;
+pub mod heading;
+pub mod in_motion;
 pub mod init;
+pub mod magnetometer;
 pub mod score;
 pub mod stats;
 
 use crate::contract::{
     Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, SpeedLog, Truth,
 };
-use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs};
+use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs, MagAiding};
 use crate::filters::ins::record::Solution;
 use crate::ingest::{Log, Mission};
 use crate::smooth::rts::{smooth, SmoothError};
@@ -57,6 +60,8 @@ impl From<SmoothError> for ReconError {
 #[derive(Debug, Clone)]
 pub struct Reconstruction {
     pub init: Initialisation,
+    /// The magnetometer's readings as used (saturation, calibration).
+    pub mag: magnetometer::PreparedMag,
     /// Residuals, counts and gaps of the forward pass (its records are turned into
     /// `forward` once smoothed, to free their memory).
     pub run: ForwardRun,
@@ -137,13 +142,27 @@ fn used<T>(stream: &[T], enabled: bool) -> &[T] {
     }
 }
 
+/// What the forward pass started from and produced.
+#[derive(Debug, Clone)]
+pub struct ForwardPass {
+    pub init: Initialisation,
+    pub mag: magnetometer::PreparedMag,
+    pub run: ForwardRun,
+    pub time: Duration,
+}
+
 /// Initialises from the log and runs the forward filter.
 pub fn forward(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
-) -> Result<(Initialisation, ForwardRun, Duration), ReconError> {
-    let settings = config.settings();
+) -> Result<ForwardPass, ReconError> {
+    let mut settings = config.settings();
+    let mag = if config.mag.enabled {
+        magnetometer::prepare(streams.mag, &config.mag)
+    } else {
+        magnetometer::PreparedMag::default()
+    };
     // A sensor the configuration leaves out is an empty stream from here on.
     let streams = Streams {
         dvl: used(streams.dvl, config.dvl.enabled),
@@ -151,9 +170,10 @@ pub fn forward(
         eml: used(streams.eml, config.eml.enabled),
         gnss: used(streams.gnss, config.gnss.enabled),
         fixes: used(streams.fixes, config.position_fix.enabled),
+        mag: &mag.readings,
         ..*streams
     };
-    let init = init::initialise(
+    let mut init = init::initialise(
         &streams,
         mission,
         &InitSettings {
@@ -166,6 +186,16 @@ pub fn forward(
         },
     )?;
 
+    settings.aiding.mag = init
+        .declination
+        .filter(|_| !mag.readings.is_empty())
+        .map(|d| MagAiding {
+            declination_rad: d.declination_deg.to_radians(),
+            sigma_rad: config.mag.update_sigma_rad(),
+            min_interval_s: config.mag.min_interval_s,
+            reference_norm_t: mag.reference_norm_t,
+            max_norm_deviation: config.mag.max_field_deviation,
+        });
     let stamps = output_stamps(streams.imu, config.output.rate_hz);
     let inputs = Inputs {
         imu: streams.imu,
@@ -173,6 +203,7 @@ pub fn forward(
         altimeter: streams.altimeter,
         depth: streams.depth,
         eml: streams.eml,
+        mag: streams.mag,
         gnss: streams.gnss,
         fixes: streams.fixes,
         origin_rad: (
@@ -182,8 +213,68 @@ pub fn forward(
         output_stamps_ns: &stamps,
     };
     let started = Instant::now();
+    if config.alignment.enabled {
+        align_in_motion(&settings, &inputs, &mut init, config)?;
+    } else if init.heading == heading::HeadingSource::Unknown {
+        return Err(InitError::NoHeading(init.heading_unavailable.join("; ")).into());
+    }
     let run = run_forward(&settings, &inputs, init.estimate)?;
-    Ok((init, run, started.elapsed()))
+    Ok(ForwardPass {
+        init,
+        mag,
+        run,
+        time: started.elapsed(),
+    })
+}
+
+/// The in-motion alignment: a decisive heading other than the initial one replaces it (with a
+/// warning when a source had given one); without a source and without a decisive heading,
+/// no reconstruction.
+fn align_in_motion(
+    settings: &crate::filters::ins::driver::Settings,
+    inputs: &Inputs<'_>,
+    init: &mut Initialisation,
+    config: &Config,
+) -> Result<(), ReconError> {
+    let found = in_motion::align(settings, inputs, init, &config.alignment)?;
+    let known = init.heading != heading::HeadingSource::Unknown;
+    if let Some((yaw, sigma_deg)) = found.as_ref().and_then(|f| f.found) {
+        if known {
+            let (_, _, before) = init.estimate.nav.ned_from_body.euler_angles();
+            init.heading_disagreements.push(format!(
+                "the initial heading {:.1} deg ({}, 1-sigma {:.1}) is contradicted by the log: \
+                 the in-motion alignment found {:.1} deg (1-sigma {:.2}), used instead",
+                before.to_degrees().rem_euclid(360.0),
+                init.heading.name(),
+                init.heading_sigma_deg,
+                yaw.to_degrees().rem_euclid(360.0),
+                sigma_deg
+            ));
+        }
+        init.estimate = init.estimate_with_heading(yaw, sigma_deg);
+        init.heading = heading::HeadingSource::InMotion;
+        init.heading_sigma_deg = sigma_deg;
+    } else if !known {
+        init.in_motion = found;
+        return Err(InitError::NoHeading(init.heading_unavailable.join("; ")).into());
+    }
+    init.in_motion = found;
+    Ok(())
+}
+
+/// What a user should know of the magnetometer's readings: saturated spans left out.
+pub fn magnetometer_warnings(mag: &magnetometer::PreparedMag) -> Vec<String> {
+    mag.saturated
+        .iter()
+        .map(|s| {
+            format!(
+                "mag: saturated from {} to {} ({} readings: an axis stuck at its extreme), left out",
+                crate::time::format_utc(s.from_ns),
+                crate::time::format_utc(s.to_ns),
+                s.readings
+            )
+        })
+        .collect()
 }
 
 /// Runs the whole reconstruction: initialisation, forward filter, smoother.
@@ -192,20 +283,24 @@ pub fn reconstruct(
     mission: &Mission,
     config: &Config,
 ) -> Result<Reconstruction, ReconError> {
-    let (init, run, forward_time) = forward(streams, mission, config)?;
+    let pass = forward(streams, mission, config)?;
     let depth_used = config.depth.enabled && !streams.depth.is_empty();
-    finish(init, run, forward_time, config, depth_used)
+    finish(pass, config, depth_used)
 }
 
 /// Smooths a forward run and turns its records into solutions (freeing the records).
 /// `depth_used`: the run had depth updates (their offset is then added to the depth sigma).
 pub fn finish(
-    init: Initialisation,
-    mut run: ForwardRun,
-    forward_time: Duration,
+    pass: ForwardPass,
     config: &Config,
     depth_used: bool,
 ) -> Result<Reconstruction, ReconError> {
+    let ForwardPass {
+        init,
+        mag,
+        mut run,
+        time: forward_time,
+    } = pass;
     let started = Instant::now();
     let mut smoothed = smooth(&run.records)?;
     let smoother_time = started.elapsed();
@@ -218,6 +313,7 @@ pub fn finish(
     run.records = Vec::new();
     Ok(Reconstruction {
         init,
+        mag,
         run,
         forward,
         smoothed,

@@ -93,12 +93,22 @@ pub fn warnings(run: &ForwardRun, init: &Initialisation, sensors: &[SensorStats]
             crate::time::format_utc(g.from_ns)
         ));
     }
-    if let crate::recon::init::HeadingSource::Magnetometer {
-        declination: crate::recon::init::DeclinationSource::Unknown,
-        ..
-    } = init.heading
-    {
-        out.push("magnetic declination unknown, taken as 0: pass --declination DEG".into());
+    if let Some(d) = init.declination {
+        if d.source == crate::recon::heading::DeclinationSource::Unknown {
+            out.push(
+                "magnetic declination unknown (the World Magnetic Model has no value for the \
+                 log's date), taken as 0 with a 20 deg sigma: pass --declination DEG"
+                    .into(),
+            );
+        }
+    }
+    out.extend(init.heading_disagreements.iter().cloned());
+    if run.mag_disturbed > 0 {
+        out.push(format!(
+            "mag: {} readings left out, their field magnitude off the log's median by more \
+             than mag.max_field_deviation (a disturbed field)",
+            run.mag_disturbed
+        ));
     }
     out
 }

@@ -21,7 +21,7 @@ use super::forward::{measure, DvlMounting, Estimate, Filter, ImuNoise};
 use super::mechanization::{ImuSample, NavState};
 use super::record::EpochRecord;
 use crate::align::latest_at;
-use crate::contract::{Altimeter, Depth, Dvl, GnssFix, Imu, PositionFix, SpeedLog};
+use crate::contract::{Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, SpeedLog};
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
 use crate::geodesy;
 use nalgebra::{SMatrix, SVector, Vector3};
@@ -47,12 +47,31 @@ pub struct Aiding {
     pub depth_min_interval_s: f64,
     /// EM-log speed 1-sigma, m/s (`None`: the EM log is not used).
     pub eml_sigma_m_s: Option<f64>,
+    /// Magnetic heading updates (`None`: the magnetometer is not used).
+    pub mag: Option<MagAiding>,
     /// Probability of the chi-square gate (a consistent measurement passes it with this
     /// probability); `None` disables gating.
     pub gate_probability: Option<f64>,
     /// After this many rejections in a row of one sensor, its next measurement is applied
     /// ungated (a filter that has drifted must not lock its aiding out); 0: never.
     pub gate_reset_after: usize,
+}
+
+/// The magnetometer as a heading sensor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MagAiding {
+    /// Declination at the site, rad, east positive.
+    pub declination_rad: f64,
+    /// 1-sigma of one heading update, rad (the heading error's sigma, spread over the
+    /// updates within its correlation time).
+    pub sigma_rad: f64,
+    /// Readings closer than this to the last one used are skipped, s.
+    pub min_interval_s: f64,
+    /// The undisturbed field's magnitude (of the calibrated readings), T.
+    pub reference_norm_t: f64,
+    /// A reading whose magnitude differs from the reference by more than this fraction is a
+    /// disturbed field and is not used.
+    pub max_norm_deviation: f64,
 }
 
 /// How the covariance is carried between epochs and across IMU gaps.
@@ -83,6 +102,8 @@ pub struct Inputs<'a> {
     pub altimeter: &'a [Altimeter],
     pub depth: &'a [Depth],
     pub eml: &'a [SpeedLog],
+    /// Magnetometer readings, calibrated, saturated readings taken out.
+    pub mag: &'a [MagneticField],
     pub gnss: &'a [GnssFix],
     /// Known positions in the mission frame (USBL fixes, surveyed marks).
     pub fixes: &'a [PositionFix],
@@ -101,15 +122,17 @@ pub enum Sensor {
     Gnss,
     SpeedLog,
     PositionFix,
+    Magnetometer,
 }
 
 impl Sensor {
-    pub const ALL: [Sensor; 5] = [
+    pub const ALL: [Sensor; 6] = [
         Sensor::Dvl,
         Sensor::Depth,
         Sensor::Gnss,
         Sensor::SpeedLog,
         Sensor::PositionFix,
+        Sensor::Magnetometer,
     ];
 
     /// Name used in tables and summaries.
@@ -120,6 +143,7 @@ impl Sensor {
             Sensor::Gnss => "gnss",
             Sensor::SpeedLog => "eml",
             Sensor::PositionFix => "position_fix",
+            Sensor::Magnetometer => "mag",
         }
     }
 
@@ -127,7 +151,7 @@ impl Sensor {
     pub fn dims(self) -> usize {
         match self {
             Sensor::Dvl => 3,
-            Sensor::Depth | Sensor::SpeedLog => 1,
+            Sensor::Depth | Sensor::SpeedLog | Sensor::Magnetometer => 1,
             Sensor::Gnss | Sensor::PositionFix => 2,
         }
     }
@@ -188,6 +212,10 @@ pub struct ForwardRun {
     pub gate_resets: usize,
     /// EM-log readings not used (speed below 0.1 m/s, where its direction is undefined).
     pub eml_too_slow: usize,
+    /// Magnetometer readings skipped by the minimum interval.
+    pub mag_skipped: usize,
+    /// Magnetometer readings not used: the field's magnitude was disturbed.
+    pub mag_disturbed: usize,
     pub imu_gaps: Vec<ImuGap>,
 }
 
@@ -229,6 +257,7 @@ struct Cursor {
     gnss: usize,
     eml: usize,
     fix: usize,
+    mag: usize,
     out: usize,
 }
 
@@ -278,8 +307,10 @@ pub fn run_forward(
         }
     }
     let depth_skipped = inputs.depth.len() - depth.len();
+    let (mag, mag_skipped, mag_disturbed) = usable_mag(inputs.mag, settings.aiding.mag);
     let inputs = &Inputs {
         depth: &depth,
+        mag: &mag,
         ..*inputs
     };
     let t0 = first.stamp_ns;
@@ -293,6 +324,7 @@ pub fn run_forward(
         gnss: inputs.gnss.partition_point(|m| m.stamp_ns <= t0),
         eml: inputs.eml.partition_point(|m| m.stamp_ns <= t0),
         fix: inputs.fixes.partition_point(|m| m.stamp_ns <= t0),
+        mag: inputs.mag.partition_point(|m| m.stamp_ns <= t0),
         out: inputs.output_stamps_ns.partition_point(|&s| s <= t0),
     };
     let mut pass = Pass {
@@ -351,7 +383,39 @@ pub fn run_forward(
         }
     }
     pass.run.depth_skipped = depth_skipped;
+    pass.run.mag_skipped = mag_skipped;
+    pass.run.mag_disturbed = mag_disturbed;
     Ok(pass.run)
+}
+
+/// The magnetometer readings the filter uses: none without [`MagAiding`]; otherwise those
+/// with an undisturbed magnitude, at most one per `min_interval_s`. Also returns how many
+/// were skipped by the interval and how many were disturbed.
+fn usable_mag(
+    mag: &[MagneticField],
+    aiding: Option<MagAiding>,
+) -> (Vec<MagneticField>, usize, usize) {
+    let Some(a) = aiding else {
+        return (Vec::new(), 0, 0);
+    };
+    let min_ns = (a.min_interval_s * 1e9) as i64;
+    let (mut kept, mut skipped, mut disturbed) = (Vec::<MagneticField>::new(), 0, 0);
+    for m in mag {
+        if kept
+            .last()
+            .is_some_and(|last| m.stamp_ns - last.stamp_ns < min_ns)
+        {
+            skipped += 1;
+            continue;
+        }
+        let norm = Vector3::from(m.magnetic_field).norm();
+        if (norm / a.reference_norm_t - 1.0).abs() > a.max_norm_deviation {
+            disturbed += 1;
+            continue;
+        }
+        kept.push(m.clone());
+    }
+    (kept, skipped, disturbed)
 }
 
 impl Pass<'_> {
@@ -416,6 +480,7 @@ impl Pass<'_> {
             || next(i.gnss.get(at.gnss).map(|m| m.stamp_ns))
             || next(i.eml.get(at.eml).map(|m| m.stamp_ns))
             || next(i.fixes.get(at.fix).map(|m| m.stamp_ns))
+            || next(i.mag.get(at.mag).map(|m| m.stamp_ns))
             || next(i.output_stamps_ns.get(at.out).copied())
     }
 
@@ -557,6 +622,20 @@ impl Pass<'_> {
                     self.apply(e.stamp_ns, Sensor::SpeedLog, &y, &h, &r)?;
                 }
                 None => self.run.eml_too_slow += 1,
+            }
+        }
+        while let Some(m) = inputs.mag.get(self.at.mag).filter(|m| m.stamp_ns <= t) {
+            self.at.mag += 1;
+            let Some(a) = aiding.mag else {
+                continue;
+            };
+            if let Some((y, h)) = measure::magnetic_heading(
+                &self.est,
+                &Vector3::from(m.magnetic_field),
+                a.declination_rad,
+            ) {
+                let r = SMatrix::<f64, 1, 1>::new(a.sigma_rad * a.sigma_rad);
+                self.apply(m.stamp_ns, Sensor::Magnetometer, &y, &h, &r)?;
             }
         }
         while self

@@ -282,6 +282,23 @@ pub mod measure {
         Some((SVector::<f64, 1>::new(speed_m_s - norm), h))
     }
 
+    /// Magnetic heading: the body field reading (calibrated) turned into NED by the attitude
+    /// has the heading of the site's declination (rad). `y = declination - heading(C m)`, the
+    /// row from [`crate::filters::heading::field_heading`] on the attitude block. `None` when
+    /// the field has no horizontal part.
+    pub fn magnetic_heading(
+        est: &Estimate,
+        field_body: &Vector3<f64>,
+        declination_rad: f64,
+    ) -> Option<(SVector<f64, 1>, SMatrix<f64, 1, N>)> {
+        let (heading, row) =
+            crate::filters::heading::field_heading(&(est.nav.ned_from_body * field_body))?;
+        let y = SVector::<f64, 1>::new(crate::angle::wrap_pi(declination_rad - heading));
+        let mut h = SMatrix::<f64, 1, N>::zeros();
+        h.fixed_view_mut::<1, 3>(0, idx::ATT).copy_from(&row);
+        Some((y, h))
+    }
+
     /// Horizontal position (latitude, longitude in radians), e.g. a GNSS fix.
     pub fn horizontal_position(
         est: &Estimate,
@@ -385,6 +402,21 @@ mod tests {
             assert!(
                 ((s0 - s1)[0] / 1e-6 - hs[(0, i)]).abs() < 1e-6,
                 "speed column {i}"
+            );
+        }
+        let field = Vector3::new(2.1e-5, 0.3e-5, 3.9e-5);
+        let (m0, hm) = measure::magnetic_heading(&est, &field, -0.13).unwrap();
+        for i in 0..N {
+            let mut dx = ErrorState::zeros();
+            dx[i] = 1e-7;
+            let moved = Estimate {
+                nav: error_state::inject(&est.nav, &dx),
+                ..est
+            };
+            let (m1, _) = measure::magnetic_heading(&moved, &field, -0.13).unwrap();
+            assert!(
+                ((m0 - m1)[0] / 1e-7 - hm[(0, i)]).abs() < 1e-6,
+                "magnetic heading column {i}"
             );
         }
         let slow = Estimate {

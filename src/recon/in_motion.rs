@@ -1,0 +1,217 @@
+//! In-motion alignment: the heading the log's aiding supports, found from any start and
+//! carried back to the start.
+//!
+//! A bank of heading hypotheses, as a Gaussian sum: the full forward filter is run over the
+//! first `span_s` of the mission from `hypotheses` headings spread evenly over 360 deg (the
+//! first at the initial heading with its own sigma, the others with half their spacing as
+//! sigma, so that each filter's linearisation holds), each scored by the likelihood of its
+//! innovations (every measurement counted, a gated-out one at the gate's value, so a filter
+//! cannot win by rejecting what contradicts it). The prior weights trust the initial heading
+//! except with `hint_outlier_probability`; without any heading source they are equal.
+//!
+//! When one hypothesis and its two neighbours hold at least `decisive_weight` of the
+//! posterior (the neighbours of the right heading converge to it too): if the initial heading
+//! is among them, nothing changes; otherwise the winner's run over the span is smoothed (the RTS
+//! smoother, a backward pass) and the start gets the smoothed heading and its sigma. When no
+//! hypothesis is decisive, the span grows (three times, up to the whole log) before the
+//! initial heading is kept (or, without one, the run is refused).
+//!
+//! The forward pass then starts from that heading: it is no longer strictly causal at its
+//! start (the heading was found later in the log), which is what a post-processor wants and
+//! what commercial ones do (forward and backward passes, or the log processed several times).
+
+use super::config::AlignmentConfig;
+use super::init::Initialisation;
+use crate::angle::wrap_pi;
+use crate::filters::ins::driver::{run_forward, ForwardError, Inputs, Residual, Settings};
+use crate::filters::ins::error_state::idx;
+use crate::filters::kalman::chi_square_quantile;
+use crate::smooth::rts::smooth;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// One heading hypothesis and its score.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Hypothesis {
+    /// Start heading, degrees in [0, 360).
+    pub heading_deg: f64,
+    pub sigma_deg: f64,
+    pub log_likelihood: f64,
+    /// Posterior weight (prior times likelihood, normalised).
+    pub weight: f64,
+}
+
+/// What the alignment found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct InMotion {
+    /// Seconds of the mission the deciding bank ran over.
+    pub span_s: f64,
+    pub hypotheses: Vec<Hypothesis>,
+    /// Whether one hypothesis and its neighbours held `decisive_weight` of the posterior.
+    pub decisive: bool,
+    /// The winning hypothesis (index into `hypotheses`; 0 is the initial heading).
+    pub best: usize,
+    /// The start heading found (rad) and its 1-sigma (deg), when it replaces the initial one.
+    #[serde(skip)]
+    pub found: Option<(f64, f64)>,
+    /// Found heading, degrees in [0, 360), for the summary.
+    pub heading_deg: Option<f64>,
+    pub sigma_deg: Option<f64>,
+}
+
+/// The inputs up to `end_ns` (the output stamps left out: the bank needs no output rows).
+fn inputs_until<'a>(inputs: &Inputs<'a>, end_ns: i64) -> Inputs<'a> {
+    fn cut<'b, T, F: Fn(&T) -> i64>(s: &'b [T], end: i64, stamp: F) -> &'b [T] {
+        &s[..s.partition_point(|m| stamp(m) <= end)]
+    }
+    Inputs {
+        imu: cut(inputs.imu, end_ns, |m| m.stamp_ns),
+        dvl: cut(inputs.dvl, end_ns, |m| m.stamp_ns),
+        altimeter: cut(inputs.altimeter, end_ns, |m| m.stamp_ns),
+        depth: cut(inputs.depth, end_ns, |m| m.stamp_ns),
+        eml: cut(inputs.eml, end_ns, |m| m.stamp_ns),
+        mag: cut(inputs.mag, end_ns, |m| m.stamp_ns),
+        gnss: cut(inputs.gnss, end_ns, |m| m.stamp_ns),
+        fixes: cut(inputs.fixes, end_ns, |m| m.stamp_ns),
+        origin_rad: inputs.origin_rad,
+        output_stamps_ns: &[],
+    }
+}
+
+/// Log-likelihood of a run's innovations: `-0.5 (min(NIS, cap) + ln det S)` per measurement
+/// (`S` taken as its diagonal), the cap being the gate's quantile of the measurement's size.
+fn log_likelihood(residuals: &[Residual], gate_probability: f64) -> f64 {
+    let caps: Vec<f64> = (1..=3)
+        .map(|m| chi_square_quantile(m, gate_probability))
+        .collect();
+    residuals
+        .iter()
+        .map(|r| {
+            let ln_det: f64 = r.sigma[..r.dims]
+                .iter()
+                .map(|s| (s * s).max(1e-300).ln())
+                .sum();
+            -0.5 * (r.nis.min(caps[r.dims - 1]) + ln_det)
+        })
+        .sum()
+}
+
+/// Runs the bank over growing spans until it is decisive or covers the log.
+pub fn align(
+    settings: &Settings,
+    inputs: &Inputs<'_>,
+    init: &Initialisation,
+    cfg: &AlignmentConfig,
+) -> Result<Option<InMotion>, ForwardError> {
+    let (Some(first), Some(last)) = (inputs.imu.first(), inputs.imu.last()) else {
+        return Ok(None);
+    };
+    let k = cfg.hypotheses.max(2);
+    let spacing_deg = 360.0 / k as f64;
+    let known = init.heading != super::heading::HeadingSource::Unknown;
+    let (_, _, yaw0) = init.estimate.nav.ned_from_body.euler_angles();
+    let hypotheses: Vec<(f64, f64, f64)> = (0..k)
+        .map(|i| {
+            let yaw = wrap_pi(yaw0 + (i as f64 * spacing_deg).to_radians());
+            let (sigma, prior) = match (known, i) {
+                (true, 0) => (
+                    init.heading_sigma_deg.min(spacing_deg * 0.5),
+                    1.0 - cfg.hint_outlier_probability + cfg.hint_outlier_probability / k as f64,
+                ),
+                (true, _) => (spacing_deg * 0.5, cfg.hint_outlier_probability / k as f64),
+                (false, _) => (spacing_deg * 0.5, 1.0 / k as f64),
+            };
+            (yaw, sigma, prior)
+        })
+        .collect();
+    let gate_p = settings.aiding.gate_probability.unwrap_or(0.999);
+    let whole_s = (last.stamp_ns - first.stamp_ns) as f64 * 1e-9;
+    let mut span_s = cfg.first_span_s.min(whole_s);
+    loop {
+        let end_ns = first.stamp_ns + (span_s * 1e9) as i64;
+        let cut = inputs_until(inputs, end_ns);
+        let scores: Vec<Result<f64, ForwardError>> = hypotheses
+            .par_iter()
+            .map(|&(yaw, sigma, _)| {
+                let run = run_forward(settings, &cut, init.estimate_with_heading(yaw, sigma))?;
+                Ok(log_likelihood(&run.residuals, gate_p))
+            })
+            .collect();
+        let scores = scores.into_iter().collect::<Result<Vec<f64>, _>>()?;
+        let ln_post: Vec<f64> = scores
+            .iter()
+            .zip(&hypotheses)
+            .map(|(ll, h)| ll + h.2.ln())
+            .collect();
+        let top = ln_post.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let total: f64 = ln_post.iter().map(|l| (l - top).exp()).sum();
+        let weights: Vec<f64> = ln_post.iter().map(|l| (l - top).exp() / total).collect();
+        let best = (0..k)
+            .max_by(|&a, &b| weights[a].total_cmp(&weights[b]))
+            .unwrap_or(0);
+        // Neighbours of the right heading converge to it as well: the decision is the
+        // weight of the best and its two neighbours.
+        let cluster = [(best + k - 1) % k, best, (best + 1) % k];
+        let decisive = cluster.iter().map(|&i| weights[i]).sum::<f64>() >= cfg.decisive_weight;
+        if decisive || span_s >= whole_s {
+            let found = if decisive && (!cluster.contains(&0) || !known) {
+                let (yaw, sigma, _) = hypotheses[best];
+                Some(refine(
+                    settings,
+                    &cut,
+                    init,
+                    yaw,
+                    sigma,
+                    cfg.found_sigma_floor_deg,
+                )?)
+            } else {
+                None
+            };
+            return Ok(Some(InMotion {
+                span_s,
+                hypotheses: hypotheses
+                    .iter()
+                    .zip(scores.iter().zip(&weights))
+                    .map(|(h, (ll, w))| Hypothesis {
+                        heading_deg: h.0.to_degrees().rem_euclid(360.0),
+                        sigma_deg: h.1,
+                        log_likelihood: *ll,
+                        weight: *w,
+                    })
+                    .collect(),
+                decisive,
+                best,
+                heading_deg: found.map(|f| f.0.to_degrees().rem_euclid(360.0)),
+                sigma_deg: found.map(|f| f.1),
+                found,
+            }));
+        }
+        span_s = (span_s * 3.0).min(whole_s);
+    }
+}
+
+/// The winner's run over the span, smoothed: its start heading (rad) and 1-sigma (deg). Twice,
+/// the second from the first's heading, so that the linearisation is about the answer.
+fn refine(
+    settings: &Settings,
+    inputs: &Inputs<'_>,
+    init: &Initialisation,
+    mut yaw: f64,
+    mut sigma_deg: f64,
+    floor_deg: f64,
+) -> Result<(f64, f64), ForwardError> {
+    for _ in 0..2 {
+        let run = run_forward(settings, inputs, init.estimate_with_heading(yaw, sigma_deg))?;
+        let Ok(smoothed) = smooth(&run.records) else {
+            break;
+        };
+        let Some(start) = smoothed.first() else {
+            break;
+        };
+        yaw = start.euler_rad()[2];
+        sigma_deg = start.sigma[idx::ATT + 2].to_degrees();
+    }
+    // The forward pass will use the span's data again: its start sigma is kept at
+    // `found_sigma_floor_deg` at least, so that they are not counted twice with full weight.
+    Ok((yaw, sigma_deg.max(floor_deg)))
+}

@@ -1,0 +1,56 @@
+//! The log's magnetometer readings made ready for the heading: saturated readings taken out,
+//! and hard and soft iron fitted to the log's own readings when the vehicle turned through
+//! enough headings (`attitude::mag_calibration`); the field's median magnitude, the reference
+//! against which a disturbed reading is recognised.
+
+use super::config::MagConfig;
+use crate::attitude::mag_calibration::{self, MagCalibration};
+use crate::attitude::mag_checks::{self, SaturatedSpan};
+use crate::contract::MagneticField;
+use nalgebra::Vector3;
+
+/// Readings ready for use, with what was done to them.
+#[derive(Debug, Clone, Default)]
+pub struct PreparedMag {
+    pub readings: Vec<MagneticField>,
+    pub saturated: Vec<SaturatedSpan>,
+    /// The calibration applied, or why none was.
+    pub calibration: Option<MagCalibration>,
+    pub calibration_skipped: Option<String>,
+    /// Median magnitude of the readings used, T (0 without readings).
+    pub reference_norm_t: f64,
+}
+
+/// Saturation check, then the calibration (when asked and the turns allow), then the
+/// reference magnitude.
+pub fn prepare(mag: &[MagneticField], cfg: &MagConfig) -> PreparedMag {
+    if mag.is_empty() {
+        return PreparedMag::default();
+    }
+    let (clean, saturated) = mag_checks::without_saturation(mag, cfg.saturation_repeats);
+    let (readings, calibration, calibration_skipped) = if cfg.calibrate {
+        match mag_calibration::fit(&clean) {
+            Ok(c) => (c.applied(&clean), Some(c), None),
+            Err(e) => (clean, None, Some(e.to_string())),
+        }
+    } else {
+        (
+            clean,
+            None,
+            Some("not asked for (mag.calibrate = false)".to_string()),
+        )
+    };
+    let mut norms: Vec<f64> = readings
+        .iter()
+        .map(|m| Vector3::from(m.magnetic_field).norm())
+        .collect();
+    norms.sort_by(f64::total_cmp);
+    let reference_norm_t = norms.get(norms.len() / 2).copied().unwrap_or(0.0);
+    PreparedMag {
+        readings,
+        saturated,
+        calibration,
+        calibration_skipped,
+        reference_norm_t,
+    }
+}
