@@ -389,39 +389,49 @@ fn reconstruct(scenario: &Scenario, tag: &str, extra: &[&str]) -> (Option<i32>, 
 /// of a degree in the first 30 s: enough to spoil gyrocompassing a navigation-grade IMU (on
 /// `long-dive-dynamic` it gave 45.47 deg for 45.00 and claimed 0.03 deg; the Schuler
 /// velocity error that followed reached 1.6 m/s). The reconstruction refuses it, says why,
-/// and takes the heading it is given; a steady kinematic start still gyrocompasses.
+/// and takes the heading it is given (or, given none, finds it in motion); a steady
+/// kinematic start still gyrocompasses.
 #[test]
 fn gyrocompass_is_refused_while_the_vehicle_settles() {
     let table_2 = Scenario::built_in("long-dive").unwrap();
     let mut dynamic = Scenario::built_in("turning-circle").unwrap();
     dynamic.imu = table_2.imu.clone();
     dynamic.mag = None;
+    // No other source: the in-motion alignment finds the heading (issue 13), and the output
+    // still says why the gyrocompass was refused.
     let (code, text) = reconstruct(&dynamic, "dynamic", &[]);
     println!("{}", text.lines().last().unwrap_or(""));
-    assert_eq!(code, Some(3), "{text}");
+    assert_eq!(code, Some(0), "{text}");
     assert!(
         text.contains("gyrocompass: the vehicle's tilt changed"),
         "{text}"
     );
+    assert!(text.contains("from the in-motion alignment"), "{text}");
     let (code, text) = reconstruct(&dynamic, "dynamic-given", &["--initial-yaw", "90"]);
     assert_eq!(code, Some(0), "{text}");
-    assert!(text.contains("from --initial-yaw"), "{text}");
+    assert!(text.contains("   --initial-yaw (1-sigma"), "{text}");
 
     let mut steady = table_2;
     steady.segments.truncate(1);
     steady.segments[0] = hindsight::sim::scenario::Segment::Cruise { duration_s: 120.0 };
     let (code, text) = reconstruct(&steady, "steady", &[]);
     assert_eq!(code, Some(0), "{text}");
-    let heading = text.lines().find(|l| l.contains("heading")).unwrap_or("");
+    let heading = text
+        .lines()
+        .find(|l| l.contains("gyrocompassing"))
+        .unwrap_or("");
     println!("steady kinematic start: {}", heading.trim());
-    assert!(heading.contains("from gyrocompassing"), "{text}");
+    assert!(
+        heading.contains("source") && !heading.contains("not used"),
+        "{text}"
+    );
 }
 
-/// Seed 002's dropped entry through `hindsight reconstruct`: levelling 30 s of a vehicle
-/// still rolling from the drop cannot give its attitude at the start. The initial sigmas
-/// now say so (tilt moved by degrees over the window; the magnetometer's heading inherits it
-/// through the field's inclination) instead of claiming 0.1 and 3 deg; the rest is seed
-/// 002's in-run alignment, still to come.
+/// Seed 002's dropped entry through `hindsight reconstruct`: the vehicle still rolls from the
+/// drop during the levelling window, so each sample is carried to the start by the gyro
+/// (levelling and magnetometer alike): the start's roll, pitch and heading within 3 sigma of
+/// the truth. (Until issue 13 the window's mean was levelled and the error only admitted in
+/// the sigmas.)
 #[test]
 fn a_dropped_entry_gets_honest_initial_sigmas() {
     let (o, log, path) = simulated("drop-entry", &[]);
@@ -458,5 +468,5 @@ fn a_dropped_entry_gets_honest_initial_sigmas() {
     );
     assert!(tilt_error < 3.0 * f("tilt_sigma_deg"));
     assert!(heading_error < 3.0 * f("heading_sigma_deg"));
-    assert!(forward["nees_horizontal_inside_95"].as_f64().unwrap() > 0.5);
+    assert!(tilt_error < 0.3 && heading_error < 1.0);
 }

@@ -46,7 +46,7 @@ fn survey_accuracy_and_consistency() {
     let config = Config::from_toml(SURVEY_CONFIG).unwrap();
     let r = run(&log, &streams, &config);
     assert!(matches!(r.init.position, PositionSource::Gnss { .. }));
-    assert!(matches!(r.init.heading, HeadingSource::Magnetometer { .. }));
+    assert_eq!(r.init.heading, HeadingSource::Magnetometer);
 
     let (fwd_err, _) = errors(streams.truth, &r);
     let (fwd, smo) = score(streams.truth, &r);

@@ -21,7 +21,11 @@ fn reconstruct_writes_trajectory_residuals_errors_and_summary() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read(SAMPLE).unwrap(), before, "input untouched");
     let err = stderr(&o);
-    for source in ["from first GNSS fix", "from magnetometer", "from levelling"] {
+    for source in [
+        "from first GNSS fix",
+        "   magnetometer, declination",
+        "from levelling",
+    ] {
         assert!(err.contains(source), "`{source}` not in: {err}");
     }
     let summary: serde_json::Value =

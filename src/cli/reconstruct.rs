@@ -54,20 +54,28 @@ pub struct ReconstructArgs {
     #[arg(long, value_enum, value_name = "GRADE")]
     pub imu_grade: Option<ImuGrade>,
 
-    /// Where the initial heading comes from [default: auto: gyrocompass if the IMU is good
-    /// enough, then magnetometer, then the mission's initial_yaw_rad, then --initial-yaw].
+    /// Where the initial heading comes from [default: auto: every source available
+    /// (gyrocompass if the IMU is good enough, magnetometer, the mission's initial_yaw_rad,
+    /// --initial-yaw) combined by their sigmas]. A forced source is used alone. Either way the
+    /// in-motion alignment checks it against the log and replaces it when the log decides
+    /// otherwise (a warning says so); without any source it finds the heading itself.
     #[arg(long, value_enum, value_name = "SOURCE")]
     pub heading: Option<HeadingChoice>,
 
-    /// Initial heading, degrees from north (used when no better source is available, or
-    /// always with --heading given).
+    /// Initial heading, degrees from north (combined with the other sources, or alone with
+    /// --heading given).
     #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     pub initial_yaw: Option<f64>,
 
-    /// Magnetic declination at the site, degrees, east positive [default: the mission's
-    /// magnetic_declination_deg, else 0 with a warning].
+    /// Magnetic declination at the site, degrees, east positive, -180 to 180 [default: the
+    /// mission's magnetic_declination_deg, else the World Magnetic Model at the start's place
+    /// and date].
     #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     pub declination: Option<f64>,
+
+    /// Do not use the magnetometer (neither for the initial heading nor as an aid).
+    #[arg(long)]
+    pub no_mag: bool,
 
     /// Trajectory rows per second, per solution [default: 10].
     #[arg(long, value_name = "HZ")]
@@ -110,6 +118,9 @@ impl ReconstructArgs {
         if let Some(d) = self.declination {
             config.initial.declination_deg = Some(d);
         }
+        if self.no_mag {
+            config.mag.enabled = false;
+        }
         if let Some(r) = self.output_rate {
             config.output.rate_hz = r;
         }
@@ -125,6 +136,7 @@ struct Summary {
     log: String,
     inputs: Vec<InputCount>,
     initialisation: InitSummary,
+    magnetometer: MagSummary,
     epochs: usize,
     trajectory_rows_per_solution: usize,
     residuals: usize,
@@ -166,6 +178,23 @@ struct InitSummary {
     roll_deg: f64,
     pitch_deg: f64,
     yaw_deg: f64,
+    /// Every heading source: value, sigma, whether it was used.
+    heading_sources: Vec<hindsight::recon::heading::HeadingCandidate>,
+    heading_unavailable: Vec<String>,
+    declination: Option<hindsight::recon::heading::DeclinationUsed>,
+    in_motion_alignment: Option<hindsight::recon::in_motion::InMotion>,
+}
+
+/// What was done with the magnetometer's readings.
+#[derive(Debug, Serialize)]
+struct MagSummary {
+    readings_used: usize,
+    saturated_spans: Vec<hindsight::attitude::mag_checks::SaturatedSpan>,
+    calibrated: bool,
+    calibration_skipped: Option<String>,
+    reference_field_nt: f64,
+    skipped_by_interval: usize,
+    disturbed: usize,
 }
 
 #[derive(Debug, Serialize)]
@@ -363,6 +392,19 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             roll_deg: roll.to_degrees(),
             pitch_deg: pitch.to_degrees(),
             yaw_deg: yaw.to_degrees(),
+            heading_sources: r.init.heading_sources.clone(),
+            heading_unavailable: r.init.heading_unavailable.clone(),
+            declination: r.init.declination,
+            in_motion_alignment: r.init.in_motion.clone(),
+        },
+        magnetometer: MagSummary {
+            readings_used: r.mag.readings.len(),
+            saturated_spans: r.mag.saturated.clone(),
+            calibrated: r.mag.calibration.is_some(),
+            calibration_skipped: r.mag.calibration_skipped.clone(),
+            reference_field_nt: r.mag.reference_norm_t * 1e9,
+            skipped_by_interval: r.run.mag_skipped,
+            disturbed: r.run.mag_disturbed,
         },
         epochs: r.forward.len(),
         trajectory_rows_per_solution: keep.len(),

@@ -49,7 +49,8 @@ use = true
 sigma_m_s = 0.05           # speed through water taken as speed over ground
 
 [mag]
-use = true                 # heading updates from /mag when the log has it
+use = true                 # the magnetometer (/mag) for the initial heading and as an aid
+use_as_aid = true          # false: the initial heading only, no heading updates
 sigma_deg = 2.0            # heading error of the calibrated magnetometer (deviation, field,
                            # declination), 1-sigma
 correlation_s = 60.0       # that error's correlation time: the updates within it share one
@@ -110,7 +111,8 @@ hypotheses = 12
 first_span_s = 300.0
 hint_outlier_probability = 0.01   # prior probability that the initial heading is wrong
 decisive_weight = 0.99            # posterior weight a hypothesis needs to decide
-found_sigma_floor_deg = 1.0       # least start sigma of a heading found this way
+found_sigma_floor_deg = 5.0       # least start sigma of a heading found this way (the
+                                  # forward pass uses the span's data again)
 
 [output]
 rate_hz = 10.0             # trajectory rows per second (per solution)
@@ -298,6 +300,7 @@ impl Default for DepthConfig {
 pub struct MagConfig {
     #[serde(rename = "use")]
     pub enabled: bool,
+    pub use_as_aid: bool,
     pub sigma_deg: f64,
     pub correlation_s: f64,
     pub min_interval_s: f64,
@@ -310,6 +313,7 @@ impl Default for MagConfig {
     fn default() -> Self {
         MagConfig {
             enabled: true,
+            use_as_aid: true,
             sigma_deg: 2.0,
             correlation_s: 60.0,
             min_interval_s: 1.0,
@@ -459,7 +463,7 @@ impl Default for AlignmentConfig {
             first_span_s: 300.0,
             hint_outlier_probability: 0.01,
             decisive_weight: 0.99,
-            found_sigma_floor_deg: 1.0,
+            found_sigma_floor_deg: 5.0,
         }
     }
 }

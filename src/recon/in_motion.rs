@@ -154,7 +154,7 @@ pub fn align(
         let cluster = [(best + k - 1) % k, best, (best + 1) % k];
         let decisive = cluster.iter().map(|&i| weights[i]).sum::<f64>() >= cfg.decisive_weight;
         if decisive || span_s >= whole_s {
-            let found = if decisive && (!cluster.contains(&0) || !known) {
+            let found = if decisive && (best != 0 || !known) {
                 let (yaw, sigma, _) = hypotheses[best];
                 Some(refine(
                     settings,

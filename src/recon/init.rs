@@ -801,6 +801,9 @@ impl fmt::Display for Initialisation {
                 if c.used { "" } else { "   not used" }
             )?;
         }
+        for reason in &self.heading_unavailable {
+            writeln!(f, "  no source {reason}")?;
+        }
         write!(
             f,
             "heading    {:.2} deg   from {} (1-sigma {:.2} deg)",

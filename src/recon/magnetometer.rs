@@ -54,3 +54,38 @@ pub fn prepare(mag: &[MagneticField], cfg: &MagConfig) -> PreparedMag {
         reference_norm_t,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn reading(k: usize, field: [f64; 3]) -> MagneticField {
+        MagneticField {
+            stamp_ns: k as i64 * 100_000_000,
+            magnetic_field: field,
+        }
+    }
+
+    /// A saturated stretch (an axis stuck at its extreme) is taken out and reported; a run
+    /// without turns is not calibrated, and says why.
+    #[test]
+    fn saturated_readings_are_left_out_and_reported() {
+        let mut mag: Vec<MagneticField> = (0..200)
+            .map(|k| {
+                let a = k as f64 * 0.01;
+                reading(k, [2.0e-5 * a.cos(), 2.0e-5 * a.sin(), 4.0e-5])
+            })
+            .collect();
+        for m in &mut mag[50..60] {
+            m.magnetic_field[0] = 6.0e-5;
+        }
+        let p = prepare(&mag, &MagConfig::default());
+        assert_eq!(p.saturated.len(), 1);
+        assert_eq!(p.saturated[0].readings, 10);
+        assert_eq!(p.readings.len(), 190);
+        assert!(p.calibration.is_none());
+        assert!(p.calibration_skipped.unwrap().contains("sectors"));
+        assert!((p.reference_norm_t - 2.0e-5f64.hypot(4.0e-5)).abs() < 1e-9);
+        assert!(prepare(&[], &MagConfig::default()).readings.is_empty());
+    }
+}

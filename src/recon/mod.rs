@@ -188,7 +188,7 @@ pub fn forward(
 
     settings.aiding.mag = init
         .declination
-        .filter(|_| !mag.readings.is_empty())
+        .filter(|_| config.mag.use_as_aid && !mag.readings.is_empty())
         .map(|d| MagAiding {
             declination_rad: d.declination_deg.to_radians(),
             sigma_rad: config.mag.update_sigma_rad(),

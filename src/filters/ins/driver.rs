@@ -649,3 +649,36 @@ impl Pass<'_> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The magnetometer readings the filter takes: one per interval, none whose magnitude is
+    /// off the reference by more than the allowed fraction (a disturbed field), none at all
+    /// without the aid.
+    #[test]
+    fn disturbed_and_too_frequent_mag_readings_are_skipped() {
+        let mag: Vec<MagneticField> = (0..20)
+            .map(|k| MagneticField {
+                stamp_ns: k * 500_000_000,
+                magnetic_field: if k == 4 {
+                    [9e-5, 0.0, 0.0]
+                } else {
+                    [2e-5, 0.0, 4e-5]
+                },
+            })
+            .collect();
+        let aiding = MagAiding {
+            declination_rad: 0.0,
+            sigma_rad: 0.1,
+            min_interval_s: 1.0,
+            reference_norm_t: 2e-5f64.hypot(4e-5),
+            max_norm_deviation: 0.15,
+        };
+        let (kept, skipped, disturbed) = usable_mag(&mag, Some(aiding));
+        assert_eq!((kept.len(), skipped, disturbed), (10, 9, 1));
+        assert!(kept.iter().all(|m| m.stamp_ns != 2_000_000_000));
+        assert_eq!(usable_mag(&mag, None).0.len(), 0);
+    }
+}
