@@ -61,7 +61,7 @@ pub struct InMotion {
 
 /// The inputs up to `end_ns` (the output stamps left out: the bank needs no output rows).
 fn inputs_until<'a>(inputs: &Inputs<'a>, end_ns: i64) -> Inputs<'a> {
-    fn cut<'b, T, F: Fn(&T) -> i64>(s: &'b [T], end: i64, stamp: F) -> &'b [T] {
+    fn cut<T, F: Fn(&T) -> i64>(s: &[T], end: i64, stamp: F) -> &[T] {
         &s[..s.partition_point(|m| stamp(m) <= end)]
     }
     Inputs {

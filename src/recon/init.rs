@@ -551,6 +551,9 @@ struct HeadingInputs<'c> {
     carry: &'c Carry,
 }
 
+/// A source's heading (rad) and 1-sigma (deg), or why it has none.
+type Found = Result<(f64, f64), String>;
+
 /// The heading sources found, their combination, and why the others gave none.
 struct Headings {
     source: HeadingSource,
@@ -571,7 +574,7 @@ fn headings(
     h: &HeadingInputs<'_>,
 ) -> Result<Headings, InitError> {
     let cfg = set.initial;
-    let sources: [(HeadingSource, Result<(f64, f64), String>); 4] = [
+    let sources: [(HeadingSource, Found); 4] = [
         (HeadingSource::Gyrocompass, gyrocompass(set, h)),
         (HeadingSource::Magnetometer, magnetometer(src, set, h)),
         (
