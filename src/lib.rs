@@ -19,5 +19,6 @@ pub mod output;
 pub mod recon;
 pub mod sim;
 pub mod smooth;
+pub mod study;
 pub mod time;
 pub mod vehicle;

@@ -8,20 +8,11 @@ use hindsight::contract::Truth;
 use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, HeadingChoice};
 use hindsight::recon::heading::HeadingSource;
-use hindsight::recon::score::{epoch_error, scores, EpochError, Scores};
+use hindsight::recon::score::{scores, Scores};
 use hindsight::recon::{reconstruct, Reconstruction, Streams};
 use hindsight::sim::scenario::Scenario;
 
-fn errors(truth: &[Truth], r: &Reconstruction) -> (Vec<EpochError>, Vec<EpochError>) {
-    let pick = |sol: &[hindsight::filters::ins::record::Solution]| {
-        sol.iter()
-            .zip(&r.output)
-            .filter(|(_, &out)| out)
-            .filter_map(|(s, _)| epoch_error(truth, s))
-            .collect::<Vec<_>>()
-    };
-    (pick(&r.forward), pick(&r.smoothed))
-}
+use common::output_errors as errors;
 
 fn run(log: &Log, config: &Config) -> (Reconstruction, Scores, Scores) {
     let streams = Streams::of(log);
@@ -171,7 +162,7 @@ fn long_dynamic_dive_without_a_heading_source() {
 
 /// Bad input: a declination out of range is exit 2 naming the key, nothing written.
 #[test]
-fn bad_declination_and_no_heading_are_refused() {
+fn a_declination_out_of_range_is_refused() {
     let sample = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/sample-logs/survey-short-seed1.mcap"

@@ -10,7 +10,7 @@ use hindsight::ingest::Log;
 use hindsight::recon::clock::suggest_dvl_offset;
 use hindsight::recon::config::Config;
 use hindsight::recon::init::{HeadingSource, PositionSource};
-use hindsight::recon::score::{epoch_error, scores, EpochError, Scores};
+use hindsight::recon::score::{scores, Scores};
 use hindsight::recon::stats::{sensor_stats, warnings};
 use hindsight::recon::{reconstruct, Reconstruction, Streams};
 use hindsight::sim::scenario::Scenario;
@@ -19,16 +19,7 @@ fn run(log: &Log, streams: &Streams<'_>, config: &Config) -> Reconstruction {
     reconstruct(streams, &log.mission().unwrap(), config).unwrap()
 }
 
-fn errors(truth: &[Truth], r: &Reconstruction) -> (Vec<EpochError>, Vec<EpochError>) {
-    let pick = |sol: &[hindsight::filters::ins::record::Solution]| {
-        sol.iter()
-            .zip(&r.output)
-            .filter(|(_, &out)| out)
-            .filter_map(|(s, _)| epoch_error(truth, s))
-            .collect::<Vec<_>>()
-    };
-    (pick(&r.forward), pick(&r.smoothed))
-}
+use common::output_errors as errors;
 
 fn score(truth: &[Truth], r: &Reconstruction) -> (Scores, Scores) {
     let (f, s) = errors(truth, r);

@@ -14,6 +14,7 @@ mod identify;
 mod info;
 mod reconstruct;
 mod simulate;
+mod study;
 mod vehicle;
 
 use anyhow::Result;
@@ -59,6 +60,7 @@ pub enum Command {
     Info(info::InfoArgs),
     Export(export::ExportArgs),
     Simulate(simulate::SimulateArgs),
+    Study(study::StudyArgs),
     Bench(bench::BenchArgs),
 }
 
@@ -144,6 +146,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Info(a) => info::run(a),
         Command::Export(a) => export::run(a),
         Command::Simulate(a) => simulate::run(a),
+        Command::Study(a) => study::run(a),
         Command::Bench(a) => bench::run(a),
     }
 }

@@ -10,4 +10,5 @@ pub mod identify_tables;
 pub mod parquet;
 pub mod plots;
 pub mod recon_tables;
+pub mod study_tables;
 pub mod tables;

@@ -98,6 +98,13 @@ gyrocompass_max_sigma_deg = 1.0   # gyrocompass only when its predicted error is
 magnetometer_sigma_deg = 3.0      # heading error of a magnetometer (deviation, field)
 mission_yaw_sigma_deg = 10.0      # of the mission's initial_yaw_rad
 given_yaw_sigma_deg = 5.0         # of yaw_deg / --initial-yaw
+in_run = true                # without DVL readings at the start but with /rpm: seed 002's
+                             # in-run alignment of roll and pitch once the vehicle is stable
+# set_depth_m = 30.0         # the depth the vehicle is sent to (its stability test);
+                             # else the median depth of the first two minutes
+in_run_sigma_deg = 0.2       # roll/pitch 1-sigma of the in-run alignment
+# rpm_speed_m_s_per_rpm = 0.0015  # forward speed per propeller rev/min; else the mission
+                             # vehicle's steady speed at that rpm (built-in vehicles)
 gnss_window_s = 10.0          # a GNSS fix this soon after the start sets the position
 origin_sigma_m = 20.0         # position sigma when starting at the mission origin
 
@@ -422,6 +429,10 @@ pub struct InitialConfig {
     pub magnetometer_sigma_deg: f64,
     pub mission_yaw_sigma_deg: f64,
     pub given_yaw_sigma_deg: f64,
+    pub in_run: bool,
+    pub set_depth_m: Option<f64>,
+    pub in_run_sigma_deg: f64,
+    pub rpm_speed_m_s_per_rpm: Option<f64>,
     pub gnss_window_s: f64,
     pub origin_sigma_m: f64,
 }
@@ -437,6 +448,10 @@ impl Default for InitialConfig {
             magnetometer_sigma_deg: 3.0,
             mission_yaw_sigma_deg: 10.0,
             given_yaw_sigma_deg: 5.0,
+            in_run: true,
+            set_depth_m: None,
+            in_run_sigma_deg: 0.2,
+            rpm_speed_m_s_per_rpm: None,
             gnss_window_s: 10.0,
             origin_sigma_m: 20.0,
         }

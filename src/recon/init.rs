@@ -18,6 +18,7 @@
 //!   axis, else at rest.
 //! - Biases: zero, with the IMU grade's turn-on sigma.
 //!
+use super::carry::Carry;
 use super::config::{HeadingChoice, ImuSpec, InitialConfig};
 use super::heading::combine;
 pub use super::heading::{DeclinationSource, DeclinationUsed, HeadingCandidate, HeadingSource};
@@ -33,7 +34,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use std::fmt;
 
 /// What the initialisation needs to know besides the log.
-#[derive(Debug, Clone, Copy)]
+#[derive(Clone, Copy)]
 pub struct InitSettings<'a> {
     pub initial: &'a InitialConfig,
     pub imu: ImuSpec,
@@ -41,6 +42,9 @@ pub struct InitSettings<'a> {
     pub dvl_sigma_m_s: f64,
     pub dvl_mounting: DvlMounting,
     pub depth_sigma_m: f64,
+    /// Forward speed (m/s) for a propeller reading (rev/min), when known: seed 002's in-run
+    /// alignment needs it.
+    pub speed_of_rpm: Option<&'a dyn Fn(f64) -> f64>,
 }
 
 /// Where the initial position came from.
@@ -81,11 +85,15 @@ pub struct Initialisation {
     pub heading_unavailable: Vec<String>,
     /// Sources that disagree beyond their sigmas (warnings).
     pub heading_disagreements: Vec<String>,
+    /// Seed 002's in-run alignment, when it set the roll and pitch.
+    pub in_run: Option<super::in_run::InRun>,
     /// The in-motion alignment's bank, when it ran.
     pub in_motion: Option<super::in_motion::InMotion>,
     /// The declination for the magnetometer (`None` without magnetometer readings).
     pub declination: Option<DeclinationUsed>,
     pub tilt_sigma_deg: f64,
+    /// Stamp of the first IMU sample (the estimate's time), ns.
+    pub estimate_stamp_ns: i64,
     /// Seconds of IMU data levelled (and gyrocompassed).
     pub window_s: f64,
 }
@@ -188,7 +196,7 @@ pub fn initialise(
             _ => Vector3::zeros(),
         }
     };
-    let (roll, pitch) = alignment::level(&(f_carried - carried_accel));
+    let (mut roll, mut pitch) = alignment::level(&(f_carried - carried_accel));
     // How fast the level axes turned during the window: the tilt of its first third against
     // its last (a rate there enters the gyrocompass's mean like the Earth rate does). A
     // change of acceleration between the thirds also tilts the levelled vector: the DVL's is
@@ -232,10 +240,26 @@ pub fn initialise(
     let motion_tilt_deg = if dvl.len() >= 2 { 0.1 } else { 0.5 };
     // The gyro's bias over the window turns the carried samples: half of it on average.
     let carry_deg = (set.imu.gyro_bias_rad_s() * window_s * 0.5).to_degrees();
-    let tilt_sigma_deg = (set.imu.accel_bias_m_s2() / g)
+    let mut tilt_sigma_deg = (set.imu.accel_bias_m_s2() / g)
         .to_degrees()
         .hypot(motion_tilt_deg)
         .hypot(carry_deg);
+    // Without the DVL, the window's accelerations cannot be removed from the levelling: a
+    // moving vehicle with a propeller is aligned in run (seed 002) once it is stable.
+    let in_run = match (set.speed_of_rpm, dvl.is_empty() && !src.rpm.is_empty()) {
+        (Some(speed), true) if cfg.in_run => {
+            let set_depth_m = cfg.set_depth_m.unwrap_or_else(|| median_depth(src, t0));
+            super::in_run::align(imu, src.depth, src.rpm, set_depth_m, speed, 1.0, g)
+        }
+        _ => None,
+    };
+    if let Some(a) = in_run {
+        roll = a.start_roll_rad;
+        pitch = a.start_pitch_rad;
+        tilt_sigma_deg = (set.imu.accel_bias_m_s2() / g)
+            .to_degrees()
+            .hypot(cfg.in_run_sigma_deg);
+    }
 
     // Position.
     let origin = (
@@ -397,8 +421,10 @@ pub fn initialise(
         heading_unavailable: found.unavailable,
         heading_disagreements: found.disagreements,
         in_motion: None,
+        in_run,
         declination,
         tilt_sigma_deg,
+        estimate_stamp_ns: t0,
         window_s,
     })
 }
@@ -444,53 +470,18 @@ impl Initialisation {
     }
 }
 
-/// The body's attitude at each IMU sample of the window relative to the first sample's (start
-/// body from body), the gyro integrated. The Earth's rate is not removed: 0.13 deg over 30 s
-/// at most.
-struct Carry {
-    stamps: Vec<i64>,
-    q: Vec<UnitQuaternion<f64>>,
-}
-
-impl Carry {
-    fn new(window: &[crate::contract::Imu]) -> Carry {
-        let mut q = Vec::with_capacity(window.len());
-        let mut at = UnitQuaternion::identity();
-        q.push(at);
-        for w in window.windows(2) {
-            let dt = (w[1].stamp_ns - w[0].stamp_ns) as f64 * 1e-9;
-            let omega =
-                (Vector3::from(w[0].angular_velocity) + Vector3::from(w[1].angular_velocity)) * 0.5;
-            at *= UnitQuaternion::from_scaled_axis(omega * dt);
-            q.push(at);
-        }
-        Carry {
-            stamps: window.iter().map(|m| m.stamp_ns).collect(),
-            q,
-        }
-    }
-
-    /// The rotation at a stamp (interpolated between samples; held beyond the window).
-    fn at(&self, stamp_ns: i64) -> UnitQuaternion<f64> {
-        let k = self.stamps.partition_point(|&s| s <= stamp_ns);
-        match (k.checked_sub(1), self.q.get(k)) {
-            (Some(i), Some(next)) => {
-                let span = (self.stamps[k] - self.stamps[i]) as f64;
-                let s = if span > 0.0 {
-                    (stamp_ns - self.stamps[i]) as f64 / span
-                } else {
-                    0.0
-                };
-                self.q[i].slerp(next, s)
-            }
-            (Some(i), None) => self.q[i],
-            (None, _) => self
-                .q
-                .first()
-                .copied()
-                .unwrap_or_else(UnitQuaternion::identity),
-        }
-    }
+/// The set depth seed 002's stability test needs, when none is given: the median depth over
+/// the first two minutes.
+fn median_depth(src: &Streams<'_>, t0: i64) -> f64 {
+    let end = t0 + 120_000_000_000;
+    let mut d: Vec<f64> = src
+        .depth
+        .iter()
+        .filter(|m| m.stamp_ns <= end)
+        .map(|m| m.depth)
+        .collect();
+    d.sort_by(f64::total_cmp);
+    d.get(d.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// The declination: given, else the mission's, else the World Magnetic Model's at the start.
@@ -759,12 +750,22 @@ impl fmt::Display for Initialisation {
             "velocity   N {:.2} E {:.2} D {:.2} m/s   from {velocity} (1-sigma {:.2} m/s)",
             v.x, v.y, v.z, self.velocity_sigma_m_s
         )?;
+        let tilt_from = match self.in_run {
+            Some(a) => format!(
+                "in-run alignment (seed 002) stable at {:.1} s, aligned at {:.1} s ({:.2} / {:.2} \
+                 deg then), carried back by the gyro",
+                (a.stable_at_ns - self.estimate_stamp_ns) as f64 * 1e-9,
+                a.aligned_after_s,
+                a.roll_rad.to_degrees(),
+                a.pitch_rad.to_degrees()
+            ),
+            None => format!("levelling {:.0} s of IMU data", self.window_s),
+        };
         writeln!(
             f,
-            "roll/pitch {:.2} / {:.2} deg   from levelling {:.0} s of IMU data (1-sigma {:.2} deg)",
+            "roll/pitch {:.2} / {:.2} deg   from {tilt_from} (1-sigma {:.2} deg)",
             roll.to_degrees(),
             pitch.to_degrees(),
-            self.window_s,
             self.tilt_sigma_deg
         )?;
         let declination = |d: &DeclinationUsed| {

@@ -6,17 +6,19 @@
 //! `filters::ins::driver` (forward pass) -> `smooth::rts` -> `stats` (NIS per sensor,
 //! distance) and, when the log carries `/truth`, `score`.
 
+pub mod carry;
 pub mod clock;
 pub mod config;
 pub mod heading;
 pub mod in_motion;
+pub mod in_run;
 pub mod init;
 pub mod magnetometer;
 pub mod score;
 pub mod stats;
 
 use crate::contract::{
-    Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, SpeedLog, Truth,
+    Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, Propeller, SpeedLog, Truth,
 };
 use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs, MagAiding};
 use crate::filters::ins::record::Solution;
@@ -90,6 +92,7 @@ pub struct Streams<'a> {
     pub depth: &'a [Depth],
     pub gnss: &'a [GnssFix],
     pub fixes: &'a [PositionFix],
+    pub rpm: &'a [Propeller],
     pub truth: &'a [Truth],
 }
 
@@ -104,6 +107,7 @@ impl<'a> Streams<'a> {
             depth: log.messages("/depth").unwrap_or_default(),
             gnss: log.messages("/gnss").unwrap_or_default(),
             fixes: log.messages("/position_fix").unwrap_or_default(),
+            rpm: log.messages("/rpm").unwrap_or_default(),
             truth: log.messages("/truth").unwrap_or_default(),
         }
     }
@@ -173,6 +177,7 @@ pub fn forward(
         mag: &mag.readings,
         ..*streams
     };
+    let speed_of_rpm = rpm_speed(mission, config);
     let mut init = init::initialise(
         &streams,
         mission,
@@ -183,6 +188,7 @@ pub fn forward(
             dvl_sigma_m_s: config.dvl.sigma_m_s,
             dvl_mounting: config.dvl.mounting(),
             depth_sigma_m: config.depth.sigma_m,
+            speed_of_rpm: speed_of_rpm.as_ref().map(|f| f as &dyn Fn(f64) -> f64),
         },
     )?;
 
@@ -260,6 +266,21 @@ fn align_in_motion(
     }
     init.in_motion = found;
     Ok(())
+}
+
+/// Forward speed for a propeller reading (rev/min): the configured gain, else the mission
+/// vehicle's steady speed (built-in vehicles), else none.
+fn rpm_speed(mission: &Mission, config: &Config) -> Option<Box<dyn Fn(f64) -> f64>> {
+    if let Some(k) = config.initial.rpm_speed_m_s_per_rpm {
+        return Some(Box::new(move |rpm| k * rpm));
+    }
+    let vehicle =
+        crate::vehicle::six_dof::description::Vehicle::built_in(&mission.vehicle)?.ok()?;
+    let model = crate::vehicle::six_dof::model::SixDof::new(vehicle)?;
+    Some(Box::new(move |rpm: f64| {
+        let n = rpm * std::f64::consts::TAU / 60.0;
+        crate::vehicle::six_dof::properties::steady_speed(&model, n).unwrap_or(0.0)
+    }))
 }
 
 /// What a user should know of the magnetometer's readings: saturated spans left out.

@@ -52,6 +52,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         "drop-entry",
         include_str!("../../scenarios/drop-entry.toml"),
     ),
+    (
+        "drop-no-dvl",
+        include_str!("../../scenarios/drop-no-dvl.toml"),
+    ),
 ];
 
 /// Why a scenario cannot be used.

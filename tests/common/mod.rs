@@ -136,3 +136,21 @@ pub fn shared_dir(sub: &str, marker: &str) -> std::path::PathBuf {
             panic!("shared {sub} not found (tried {tried:?}); set HINDSIGHT_SHARED_DIR")
         })
 }
+
+/// A reconstruction's forward and smoothed errors against the truth at its output epochs.
+pub fn output_errors(
+    truth: &[hindsight::contract::Truth],
+    r: &hindsight::recon::Reconstruction,
+) -> (
+    Vec<hindsight::recon::score::EpochError>,
+    Vec<hindsight::recon::score::EpochError>,
+) {
+    let pick = |sol: &[hindsight::filters::ins::record::Solution]| {
+        sol.iter()
+            .zip(&r.output)
+            .filter(|(_, &out)| out)
+            .filter_map(|(s, _)| hindsight::recon::score::epoch_error(truth, s))
+            .collect::<Vec<_>>()
+    };
+    (pick(&r.forward), pick(&r.smoothed))
+}

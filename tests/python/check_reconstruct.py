@@ -52,7 +52,7 @@ def main(out_dir):
                 assert pc.min(rows.column(name)).as_py() > 0.0, f"{solution}: {name}"
     residuals = open_everywhere(con, os.path.join(out_dir, "residuals.parquet"))
     assert residuals.num_rows == summary["residuals"]
-    assert set(residuals.column("sensor").to_pylist()) <= {"dvl", "depth", "gnss", "eml", "position_fix"}
+    assert set(residuals.column("sensor").to_pylist()) <= {"dvl", "depth", "gnss", "eml", "position_fix", "mag"}
     assert pc.min(residuals.column("nis")).as_py() >= 0.0
     rejected = residuals.num_rows - pc.sum(residuals.column("accepted").cast(pa.int64())).as_py()
     assert rejected == summary["rejected"]
