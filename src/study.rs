@@ -122,11 +122,8 @@ pub fn run_one(
     if let Some(a) = r.init.in_run {
         let middle = a.stable_at_ns + (t0 + (a.aligned_after_s * 1e9) as i64 - a.stable_at_ns) / 2;
         at_align = tilt_error(latest_at(streams.truth, middle), a.roll_rad, a.pitch_rad);
-        at_start = tilt_error(
-            latest_at(streams.truth, t0),
-            a.start_roll_rad,
-            a.start_pitch_rad,
-        );
+        let (roll, pitch, _) = r.init.estimate.nav.ned_from_body.euler_angles();
+        at_start = tilt_error(latest_at(streams.truth, t0), roll, pitch);
     }
     Ok(RunResult {
         case,

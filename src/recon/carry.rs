@@ -5,8 +5,8 @@ use crate::contract::Imu;
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// The body's attitude at each IMU sample of the window relative to the first sample's (start
-/// body from body), the gyro integrated. The Earth's rate is not removed: 0.13 deg over 30 s
-/// at most.
+/// body from body), the gyro integrated. The Earth's rate is not removed: 0.13 deg over the
+/// 30 s levelling window at most (the in-run alignment, carried further, removes it itself).
 pub struct Carry {
     stamps: Vec<i64>,
     pub q: Vec<UnitQuaternion<f64>>,

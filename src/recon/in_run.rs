@@ -36,7 +36,8 @@ pub struct InRun {
     /// Roll and pitch at the alignment, rad.
     pub roll_rad: f64,
     pub pitch_rad: f64,
-    /// Roll and pitch carried to the first IMU sample, rad.
+    /// Roll and pitch carried to the first IMU sample by the gyro alone, rad ([`start_tilt`]
+    /// also removes the Earth's rotation once the heading is known).
     pub start_roll_rad: f64,
     pub start_pitch_rad: f64,
 }
@@ -76,7 +77,8 @@ pub fn align(
 ) -> Option<InRun> {
     let t0 = imu.first()?.stamp_ns;
     let block_ns = (BLOCK_S * 1e9) as i64;
-    let blocks: Vec<Block> = imu
+    // The blocks are made as the search goes: a long log is not averaged past the alignment.
+    let mut blocks = imu
         .chunk_by(|a, b| (a.stamp_ns - t0) / block_ns == (b.stamp_ns - t0) / block_ns)
         .map(|c| {
             let n = c.len() as f64;
@@ -94,13 +96,12 @@ pub fn align(
                 speed_m_s: latest(rpm, |p| p.stamp_ns, end_ns).map_or(0.0, |p| speed_of_rpm(p.rpm)),
                 depth_m: latest(depth, |d| d.stamp_ns, end_ns).map(|d| d.depth),
             }
-        })
-        .collect();
+        });
     // Since when each condition has held (ns), if it holds now.
     let mut since: [Option<i64>; 4] = [None; 4];
     let holds = [ROLL_HOLD_S, HOLD_S, HOLD_S, HOLD_S].map(|s| (s * 1e9) as i64);
     let mut stable_at = None;
-    for b in &blocks {
+    for b in blocks.by_ref() {
         let (roll, pitch) = tilt(&b.f, b.w.z, b.speed_m_s, g);
         let now = [
             roll.to_degrees().abs() <= MAX_ROLL_DEG,
@@ -128,10 +129,7 @@ pub fn align(
     }
     let stable_at = stable_at?;
     let end = stable_at + (align_s * 1e9) as i64;
-    let inside: Vec<&Block> = blocks
-        .iter()
-        .filter(|b| b.end_ns > stable_at && b.end_ns <= end)
-        .collect();
+    let inside: Vec<Block> = blocks.take_while(|b| b.end_ns <= end).collect();
     if inside.is_empty() {
         return None;
     }
@@ -153,6 +151,30 @@ pub fn align(
         start_roll_rad: start_roll,
         start_pitch_rad: start_pitch,
     })
+}
+
+/// Roll and pitch at the first IMU sample from the alignment's, with the Earth's rotation
+/// over the carry removed: the local level frame turned by `omega_ie t` while the gyro
+/// measured the body's inertial turn (over 77 s that is 0.26 deg of tilt, more than the
+/// alignment's own error). Needs the heading (rad at the first sample, from the heading
+/// sources) and the latitude.
+pub fn start_tilt(imu: &[Imu], a: &InRun, start_yaw_rad: f64, lat_rad: f64) -> (f64, f64) {
+    let Some(t0) = imu.first().map(|m| m.stamp_ns) else {
+        return (a.start_roll_rad, a.start_pitch_rad);
+    };
+    let end = t0 + (a.aligned_after_s * 1e9) as i64;
+    let middle = a.stable_at_ns + (end - a.stable_at_ns) / 2;
+    let carry = Carry::new(&imu[..imu.partition_point(|m| m.stamp_ns <= end)]);
+    let q = carry.at(middle);
+    // The heading at the alignment, from the start heading and the gyro's turn.
+    let start =
+        UnitQuaternion::from_euler_angles(a.start_roll_rad, a.start_pitch_rad, start_yaw_rad);
+    let (_, _, yaw_at) = (start * q).euler_angles();
+    let at = UnitQuaternion::from_euler_angles(a.roll_rad, a.pitch_rad, yaw_at);
+    let dt = (middle - t0) as f64 * 1e-9;
+    let level_turn = UnitQuaternion::from_scaled_axis(crate::geodesy::earth_rate_ned(lat_rad) * dt);
+    let (roll, pitch, _) = (level_turn * at * q.inverse()).euler_angles();
+    (roll, pitch)
 }
 
 #[cfg(test)]

@@ -368,6 +368,11 @@ pub fn initialise(
         },
     )?;
     let (heading, yaw, heading_sigma_deg) = (found.source, found.yaw_rad, found.sigma_deg);
+    // The in-run alignment's carry back to the start, with the Earth's rotation removed now
+    // that the heading is known.
+    if let (Some(a), true) = (in_run, heading != HeadingSource::Unknown) {
+        (roll, pitch) = super::in_run::start_tilt(imu, &a, yaw, lat);
+    }
 
     let ned_from_body = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
     let deg2 = |d: f64| d.to_radians().powi(2);
