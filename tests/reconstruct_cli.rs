@@ -109,8 +109,23 @@ fn reconstruct_writes_trajectory_residuals_errors_and_summary() {
             "errors.parquet",
             "residuals.parquet",
             "summary.json",
-            "trajectory.parquet"
+            "trajectory.parquet",
+            "tuned.toml"
         ]
+    );
+    // Self-tuning's figures are reported and reusable as a configuration that fixes them.
+    let tuning = &summary["tuning"];
+    assert_eq!(tuning["imu"]["source"], "estimated", "{tuning}");
+    let tuned = hindsight::recon::config::Config::from_toml(
+        &std::fs::read_to_string(out.join("tuned.toml")).unwrap(),
+    )
+    .unwrap();
+    assert!(tuned.fixed.contains("imu.gyro_arw_deg_rt_h") && tuned.fixed.contains("dvl.sigma_m_s"));
+    assert_eq!(
+        tuned.imu.spec().gyro_arw_deg_rt_h,
+        tuning["imu"]["figures"]["gyro_arw_deg_rt_h"]
+            .as_f64()
+            .unwrap()
     );
 }
 

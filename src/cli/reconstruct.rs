@@ -10,6 +10,7 @@ use hindsight::output::recon_tables;
 use hindsight::recon::config::{Config, HeadingChoice, ImuGrade};
 use hindsight::recon::score::{self, EpochError, Scores};
 use hindsight::recon::stats::{self, SensorStats};
+use hindsight::recon::tune::{self, Tuning};
 use hindsight::recon::{self, Reconstruction, Streams};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -77,6 +78,14 @@ pub struct ReconstructArgs {
     #[arg(long)]
     pub no_mag: bool,
 
+    /// Self-tuning: estimate from the log the noise figures the configuration does not give
+    /// (the IMU's by the likelihood of the filter's innovations, the DVL's, depth sensor's
+    /// and EM log's from the scatter of their readings). The estimates are printed, kept in
+    /// summary.json and written to tuned.toml for reuse with --config. `off` uses the
+    /// configuration's figures and the built-in defaults [default: the config's, else on].
+    #[arg(long, value_enum, value_name = "ON_OFF")]
+    pub tune: Option<Toggle>,
+
     /// Trajectory rows per second, per solution [default: 10].
     #[arg(long, value_name = "HZ")]
     pub output_rate: Option<f64>,
@@ -84,6 +93,13 @@ pub struct ReconstructArgs {
     /// Also write a trajectory row at every aiding measurement's epoch.
     #[arg(long)]
     pub aiding_epochs: bool,
+}
+
+/// On or off.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Toggle {
+    On,
+    Off,
 }
 
 /// Print the default `reconstruct` configuration (TOML, every key explained).
@@ -108,6 +124,10 @@ impl ReconstructArgs {
         };
         if let Some(g) = self.imu_grade {
             config.imu.grade = g;
+            config.fixed.insert("imu.grade".into());
+        }
+        if let Some(t) = self.tune {
+            config.tune.enabled = t == Toggle::On;
         }
         if let Some(h) = self.heading {
             config.initial.heading = h;
@@ -136,6 +156,8 @@ struct Summary {
     log: String,
     inputs: Vec<InputCount>,
     initialisation: InitSummary,
+    /// Self-tuning's estimates (absent with tuning off).
+    tuning: Option<Tuning>,
     magnetometer: MagSummary,
     epochs: usize,
     trajectory_rows_per_solution: usize,
@@ -242,6 +264,28 @@ fn final_sigma(s: Option<&Solution>) -> Option<Sigma> {
     })
 }
 
+/// Self-tuning, timed and printed.
+fn tune_noise(
+    streams: &Streams<'_>,
+    mission: &hindsight::ingest::Mission,
+    config: &Config,
+) -> (Config, Option<Tuning>) {
+    if !config.tune.enabled {
+        return (config.clone(), None);
+    }
+    let started = Instant::now();
+    eprintln!("self-tuning the noise figures ...");
+    let (tuned, tuning) = tune::tune(streams, mission, config);
+    if let Some(t) = &tuning {
+        eprintln!(
+            "self-tuning {:.1} s:\n{}",
+            started.elapsed().as_secs_f64(),
+            indent(&t.to_string())
+        );
+    }
+    (tuned, tuning)
+}
+
 pub fn run(args: ReconstructArgs) -> Result<()> {
     let started = Instant::now();
     let config = args.config()?;
@@ -264,6 +308,11 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             _ => 0.0,
         }
     );
+    let (config, tuning) = tune_noise(&streams, &mission, &config);
+    let mut warnings_from_tuning = Vec::new();
+    if let Some(t) = &tuning {
+        warnings_from_tuning = t.warnings.clone();
+    }
     let pass = recon::forward(&streams, &mission, &config)
         .with_context(|| format!("reconstructing {}", args.log.log.display()))?;
     eprintln!("initial state:\n{}", indent(&pass.init.to_string()));
@@ -276,6 +325,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     let sensors = stats::sensor_stats(&pass.run.residuals);
     let mut warnings = stats::warnings(&pass.run, &pass.init, &sensors);
     warnings.extend(recon::magnetometer_warnings(&pass.mag));
+    warnings.extend(warnings_from_tuning);
     if warnings.iter().any(|w| w.starts_with("dvl: mean NIS")) {
         eprintln!("the DVL's innovations are too large: searching for a clock offset ...");
         if let Some(s) = recon::clock::suggest_dvl_offset(&streams, &mission, &config) {
@@ -378,6 +428,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         hindsight_version: env!("CARGO_PKG_VERSION"),
         log: args.log.log.display().to_string(),
         inputs,
+        tuning,
         initialisation: InitSummary {
             position_source: r.init.position.name(),
             position_sigma_m: r.init.position_sigma_m,
@@ -445,6 +496,15 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         },
         config,
     };
+    if let Some(t) = &summary.tuning {
+        let path = args.out.join("tuned.toml");
+        let mut file = staging
+            .create(&path)
+            .with_context(|| OutputFailed { path: path.clone() })?;
+        std::io::Write::write_all(&mut file, t.as_toml().as_bytes())
+            .with_context(|| OutputFailed { path: path.clone() })?;
+        written.push(path);
+    }
     let path = args.out.join("summary.json");
     super::write_json(&mut staging, &path, &summary)?;
     written.push(path);

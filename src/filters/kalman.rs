@@ -34,6 +34,8 @@ pub struct UpdateRecord<const M: usize> {
     pub innovation_cov: SMatrix<f64, M, M>,
     /// Normalised innovation squared.
     pub nis: f64,
+    /// `ln det S`.
+    pub log_det_innovation_cov: f64,
     /// False when the gate rejected the measurement (the estimate is then unchanged).
     pub accepted: bool,
 }
@@ -70,10 +72,18 @@ pub fn update<const N: usize, const M: usize>(
     let s_inv_y = chol.solve(y);
     let nis = y.dot(&s_inv_y);
     let accepted = gate.is_none_or(|g| nis <= g);
+    let log_det_innovation_cov = 2.0
+        * chol
+            .l_dirty()
+            .diagonal()
+            .iter()
+            .map(|d| d.ln())
+            .sum::<f64>();
     let record = UpdateRecord {
         innovation: *y,
         innovation_cov: s,
         nis,
+        log_det_innovation_cov,
         accepted,
     };
     if !accepted {

@@ -15,7 +15,8 @@ pub const DEFAULT_TOML: &str = r#"# hindsight reconstruct: configuration (every 
 [imu]
 # Grade of the IMU: "navigation" (0.01 deg/h gyro), "intermediate" (0.1 deg/h),
 # "tactical" (1 deg/h) or "mems" (10 deg/h). Sets the values below that are not given.
-grade = "tactical"
+# Not given (and [tune] on), the IMU's noise is estimated from the log; given, it is kept.
+# grade = "tactical"
 # Any of these overrides the grade's value (1-sigma):
 # gyro_bias_deg_h = 1.0               # turn-on bias (initial uncertainty of the estimate)
 # gyro_bias_instability_deg_h = 0.1   # bias wander over bias_correlation_s
@@ -27,7 +28,8 @@ grade = "tactical"
 
 [dvl]
 use = true
-sigma_m_s = 0.015          # per axis, white noise plus what scale and bias errors add
+# sigma_m_s = 0.015        # per axis, white noise plus what scale and bias errors add
+                           # (not given: estimated from the log, see [tune])
 max_altitude_m = 100.0     # readings above this altitude are out of range and not used
 altimeter_max_age_s = 2.0  # a reading without altitude is checked against the echo
                            # sounder's (/altimeter) latest altitude of at most this age
@@ -38,7 +40,7 @@ rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z
 
 [depth]
 use = true
-sigma_m = 0.1              # white noise of a reading
+# sigma_m = 0.1            # white noise of a reading (not given: estimated, see [tune])
 bias_sigma_m = 0.1         # constant offset of the sensor (zero point, water density): with
                            # depth the only vertical reference it cannot be estimated, so it
                            # is added to the reported depth uncertainty (a "consider" term)
@@ -46,7 +48,8 @@ min_interval_s = 0.1       # a faster depth sensor is decimated to this interval
 
 [eml]
 use = true
-sigma_m_s = 0.05           # speed through water taken as speed over ground
+# sigma_m_s = 0.05         # speed through water taken as speed over ground (not given:
+                           # estimated, see [tune])
 
 [mag]
 use = true                 # the magnetometer (/mag) for the initial heading and as an aid
@@ -121,6 +124,15 @@ decisive_weight = 0.99            # posterior weight a hypothesis needs to decid
 found_sigma_floor_deg = 5.0       # least start sigma of a heading found this way (the
                                   # forward pass uses the span's data again)
 
+[tune]
+# Self-tuning: the noise figures the configuration does not give are estimated from the
+# log. The white noise of the DVL, depth sensor and EM log from the scatter of consecutive
+# readings; the IMU's noise by maximum likelihood of the filter's innovations over the
+# first span_s of the mission (candidate grades, then each of gyro and accelerometer scaled
+# by 3 while the likelihood improves). Figures the configuration gives are kept.
+use = true
+span_s = 1800.0            # the IMU is tuned on the mission's first span_s seconds
+
 [output]
 rate_hz = 10.0             # trajectory rows per second (per solution)
 aiding_epochs = false      # also a row at every aiding measurement's epoch
@@ -141,7 +153,7 @@ pub enum ImuGrade {
 }
 
 /// The noise of an IMU, data-sheet units.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ImuSpec {
     pub gyro_bias_deg_h: f64,
     pub gyro_bias_instability_deg_h: f64,
@@ -499,6 +511,39 @@ impl Default for OutputConfig {
     }
 }
 
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TuneConfig {
+    #[serde(rename = "use")]
+    pub enabled: bool,
+    pub span_s: f64,
+}
+
+impl Default for TuneConfig {
+    fn default() -> Self {
+        TuneConfig {
+            enabled: true,
+            span_s: 1800.0,
+        }
+    }
+}
+
+/// The settings self-tuning may estimate (dotted keys). A configuration that gives one keeps
+/// it (see [`Config::fixed`]).
+pub const TUNABLE_KEYS: [&str; 11] = [
+    "imu.grade",
+    "imu.gyro_bias_deg_h",
+    "imu.gyro_bias_instability_deg_h",
+    "imu.gyro_arw_deg_rt_h",
+    "imu.accel_bias_ug",
+    "imu.accel_bias_instability_ug",
+    "imu.accel_vrw_ug_rt_hz",
+    "imu.bias_correlation_s",
+    "dvl.sigma_m_s",
+    "depth.sigma_m",
+    "eml.sigma_m_s",
+];
+
 /// Everything a reconstruction can be told.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -514,7 +559,11 @@ pub struct Config {
     pub propagation: PropagationConfig,
     pub initial: InitialConfig,
     pub alignment: AlignmentConfig,
+    pub tune: TuneConfig,
     pub output: OutputConfig,
+    /// The tunable keys ([`TUNABLE_KEYS`]) the configuration gave: kept as given.
+    #[serde(skip)]
+    pub fixed: std::collections::BTreeSet<String>,
 }
 
 /// Why a configuration is unusable.
@@ -533,7 +582,21 @@ pub enum ConfigError {
 impl Config {
     /// Parses a TOML configuration (unknown keys are errors, naming the key).
     pub fn from_toml(text: &str) -> Result<Config, ConfigError> {
-        let config: Config = toml::from_str(text).map_err(|e| ConfigError::Toml(e.to_string()))?;
+        let mut config: Config =
+            toml::from_str(text).map_err(|e| ConfigError::Toml(e.to_string()))?;
+        let table: toml::Table =
+            toml::from_str(text).map_err(|e| ConfigError::Toml(e.to_string()))?;
+        config.fixed = TUNABLE_KEYS
+            .iter()
+            .filter(|key| {
+                let (section, name) = key.split_once('.').unwrap_or((key, ""));
+                table
+                    .get(section)
+                    .and_then(|t| t.as_table())
+                    .is_some_and(|t| t.contains_key(name))
+            })
+            .map(|key| key.to_string())
+            .collect();
         config.check()?;
         Ok(config)
     }
@@ -541,7 +604,7 @@ impl Config {
     /// Checks ranges (positive sigmas and intervals, a probability in (0, 1]).
     pub fn check(&self) -> Result<(), ConfigError> {
         let spec = self.imu.spec();
-        let positive: [(&'static str, f64); 22] = [
+        let positive: [(&'static str, f64); 23] = [
             ("alignment.first_span_s", self.alignment.first_span_s),
             (
                 "alignment.found_sigma_floor_deg",
@@ -576,6 +639,7 @@ impl Config {
             ),
             ("initial.origin_sigma_m", self.initial.origin_sigma_m),
             ("output.rate_hz", self.output.rate_hz),
+            ("tune.span_s", self.tune.span_s),
         ];
         for (key, value) in positive {
             if !(value.is_finite() && value > 0.0) {
@@ -739,6 +803,16 @@ mod tests {
         assert!(e.to_string().contains("grade"), "{e}");
         let e = Config::from_toml("[gate]\nprobability = 1.5\n").unwrap_err();
         assert!(e.to_string().contains("gate.probability"), "{e}");
+    }
+
+    #[test]
+    fn the_figures_a_configuration_gives_are_fixed() {
+        assert!(Config::from_toml(DEFAULT_TOML).unwrap().fixed.is_empty());
+        let c =
+            Config::from_toml("[imu]\naccel_bias_ug = 50.0\n[dvl]\nsigma_m_s = 0.02\nuse = true\n")
+                .unwrap();
+        let fixed: Vec<&str> = c.fixed.iter().map(String::as_str).collect();
+        assert_eq!(fixed, ["dvl.sigma_m_s", "imu.accel_bias_ug"]);
     }
 
     #[test]

@@ -16,6 +16,7 @@ pub mod init;
 pub mod magnetometer;
 pub mod score;
 pub mod stats;
+pub mod tune;
 
 use crate::contract::{
     Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, Propeller, SpeedLog, Truth,

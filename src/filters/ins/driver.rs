@@ -217,6 +217,10 @@ pub struct ForwardRun {
     /// Magnetometer readings not used: the field's magnitude was disturbed.
     pub mag_disturbed: usize,
     pub imu_gaps: Vec<ImuGap>,
+    /// Log-likelihood of the innovations, `-1/2 sum (NIS + ln det S + m ln 2 pi)`, with each
+    /// NIS capped at the gate's bound (so that an outlier counts as a rejection, not as a
+    /// verdict on the noise): the score of the noise settings when they are tuned.
+    pub log_likelihood: f64,
 }
 
 /// Why the forward pass stopped.
@@ -265,6 +269,8 @@ struct Pass<'a> {
     settings: &'a Settings,
     inputs: &'a Inputs<'a>,
     gate: [Option<f64>; 4],
+    /// Largest NIS a measurement adds to the log-likelihood, by dimension.
+    nis_cap: [f64; 4],
     est: Estimate,
     /// Nominal state when the covariance was last propagated, and what has accumulated
     /// since: the sum of bias-corrected specific force times dt, and the time.
@@ -316,6 +322,7 @@ pub fn run_forward(
     let t0 = first.stamp_ns;
     let aiding = &settings.aiding;
     let gate = |m: usize| aiding.gate_probability.map(|p| chi_square_quantile(m, p));
+    let cap = |m: usize| gate(m).unwrap_or_else(|| chi_square_quantile(m, 0.999));
     let origin_lat = inputs.origin_rad.0;
     // Measurements at or before the first IMU sample predate the initial estimate.
     let at = Cursor {
@@ -332,6 +339,7 @@ pub fn run_forward(
         settings,
         inputs,
         gate: [None, gate(1), gate(2), gate(3)],
+        nis_cap: [0.0, cap(1), cap(2), cap(3)],
         est: initial,
         cov_nav: initial.nav,
         f_dt_sum: Vector3::zeros(),
@@ -550,6 +558,10 @@ impl Pass<'_> {
         } else {
             self.consecutive_rejections[slot] + 1
         };
+        self.run.log_likelihood -= 0.5
+            * (rec.nis.min(self.nis_cap[M])
+                + rec.log_det_innovation_cov
+                + M as f64 * (2.0 * std::f64::consts::PI).ln());
         self.run
             .residuals
             .push(Residual::from_record(stamp_ns, sensor, &rec));

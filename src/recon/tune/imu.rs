@@ -1,0 +1,267 @@
+//! The IMU's noise by maximum likelihood of the filter's innovations.
+//!
+//! Each candidate noise model runs the forward filter over the same span of the log; its
+//! score is the log-likelihood of the innovations (`ForwardRun::log_likelihood`). The
+//! candidates are first the grades (navigation to MEMS, and MEMS 10 and 100 times worse),
+//! then, from the best, the gyro's and the accelerometer's figures each scaled by 3 up and
+//! down while the likelihood improves. An IMU whose data sheet nobody gave is thus learnt
+//! from how well each noise model predicts the aiding sensors.
+
+use crate::ingest::Mission;
+use crate::recon::config::{Config, ImuConfig, ImuGrade, ImuSpec};
+use crate::recon::init::InitError;
+use crate::recon::{forward, ReconError, Streams};
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// Scale of one refinement step.
+const STEP: f64 = 3.0;
+/// Refinement rounds at most.
+const MAX_ROUNDS: usize = 3;
+/// Least log-likelihood gain for a refinement step to be taken (below it the data cannot
+/// tell the two apart).
+const MIN_GAIN: f64 = 0.5;
+
+/// A noise model: a grade's figures with the gyro's and the accelerometer's scaled.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Candidate {
+    pub grade: ImuGrade,
+    pub gyro_factor: f64,
+    pub accel_factor: f64,
+}
+
+impl Candidate {
+    fn of(grade: ImuGrade, factor: f64) -> Self {
+        Candidate {
+            grade,
+            gyro_factor: factor,
+            accel_factor: factor,
+        }
+    }
+
+    /// The figures of this model.
+    pub fn spec(&self) -> ImuSpec {
+        let g = self.grade.spec();
+        ImuSpec {
+            gyro_bias_deg_h: g.gyro_bias_deg_h * self.gyro_factor,
+            gyro_bias_instability_deg_h: g.gyro_bias_instability_deg_h * self.gyro_factor,
+            gyro_arw_deg_rt_h: g.gyro_arw_deg_rt_h * self.gyro_factor,
+            accel_bias_ug: g.accel_bias_ug * self.accel_factor,
+            accel_bias_instability_ug: g.accel_bias_instability_ug * self.accel_factor,
+            accel_vrw_ug_rt_hz: g.accel_vrw_ug_rt_hz * self.accel_factor,
+            bias_correlation_s: g.bias_correlation_s,
+        }
+    }
+
+    /// "tactical", "mems x100", "navigation, gyro x3, accel x0.33".
+    pub fn label(&self) -> String {
+        let grade = serde_json::to_value(self.grade)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_owned))
+            .unwrap_or_default();
+        let factor = |f: f64| {
+            if f >= 1.0 {
+                format!("x{f:.0}")
+            } else {
+                format!("x{f:.2}")
+            }
+        };
+        if self.gyro_factor == self.accel_factor {
+            if self.gyro_factor == 1.0 {
+                grade
+            } else {
+                format!("{grade} {}", factor(self.gyro_factor))
+            }
+        } else {
+            format!(
+                "{grade}, gyro {}, accel {}",
+                factor(self.gyro_factor),
+                factor(self.accel_factor)
+            )
+        }
+    }
+
+    /// The same model (factors equal to rounding).
+    fn same_as(&self, other: &Candidate) -> bool {
+        let close = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-6;
+        self.grade == other.grade
+            && close(self.gyro_factor, other.gyro_factor)
+            && close(self.accel_factor, other.accel_factor)
+    }
+
+    fn scaled(&self, gyro: f64, accel: f64) -> Self {
+        Candidate {
+            gyro_factor: self.gyro_factor * gyro,
+            accel_factor: self.accel_factor * accel,
+            ..*self
+        }
+    }
+}
+
+/// A candidate with its score.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Scored {
+    pub label: String,
+    #[serde(flatten)]
+    pub candidate: Candidate,
+    /// `None` when its forward pass failed.
+    pub log_likelihood: Option<f64>,
+}
+
+/// The outcome of the search.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Search {
+    /// The most likely model; `None` when no pass succeeded or the search did not settle.
+    pub best: Option<Candidate>,
+    /// Every model tried, in the order tried.
+    pub tried: Vec<Scored>,
+    pub warning: Option<String>,
+}
+
+/// The grades first tried.
+fn ladder() -> Vec<Candidate> {
+    vec![
+        Candidate::of(ImuGrade::Navigation, 1.0),
+        Candidate::of(ImuGrade::Intermediate, 1.0),
+        Candidate::of(ImuGrade::Tactical, 1.0),
+        Candidate::of(ImuGrade::Mems, 1.0),
+        Candidate::of(ImuGrade::Mems, 10.0),
+        Candidate::of(ImuGrade::Mems, 100.0),
+    ]
+}
+
+/// The configuration with a candidate's figures, every one given.
+pub fn with_candidate(config: &Config, c: &Candidate) -> Config {
+    let s = c.spec();
+    Config {
+        imu: ImuConfig {
+            grade: c.grade,
+            gyro_bias_deg_h: Some(s.gyro_bias_deg_h),
+            gyro_bias_instability_deg_h: Some(s.gyro_bias_instability_deg_h),
+            gyro_arw_deg_rt_h: Some(s.gyro_arw_deg_rt_h),
+            accel_bias_ug: Some(s.accel_bias_ug),
+            accel_bias_instability_ug: Some(s.accel_bias_instability_ug),
+            accel_vrw_ug_rt_hz: Some(s.accel_vrw_ug_rt_hz),
+            bias_correlation_s: Some(s.bias_correlation_s),
+        },
+        ..config.clone()
+    }
+}
+
+/// The log-likelihood of one model over the span; `None` when the pass fails. The in-motion
+/// alignment is skipped while the log has a heading source (every candidate then starts
+/// from the same heading), and used only when it has none.
+fn score(streams: &Streams<'_>, mission: &Mission, config: &Config, c: &Candidate) -> Option<f64> {
+    let mut cfg = with_candidate(config, c);
+    cfg.alignment.enabled = false;
+    let pass = match forward(streams, mission, &cfg) {
+        Err(ReconError::Init(InitError::NoHeading(_))) if config.alignment.enabled => {
+            cfg.alignment.enabled = true;
+            forward(streams, mission, &cfg)
+        }
+        other => other,
+    };
+    pass.ok()
+        .map(|p| p.run.log_likelihood)
+        .filter(|l| l.is_finite())
+}
+
+/// Scores the candidates in parallel.
+fn score_all(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    candidates: &[Candidate],
+) -> Vec<Scored> {
+    candidates
+        .par_iter()
+        .map(|c| Scored {
+            label: c.label(),
+            candidate: *c,
+            log_likelihood: score(streams, mission, config, c),
+        })
+        .collect()
+}
+
+fn best_of(scored: &[Scored]) -> Option<(Candidate, f64)> {
+    scored
+        .iter()
+        .filter_map(|s| s.log_likelihood.map(|l| (s.candidate, l)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// The most likely IMU noise model for the streams (already cut to the tuning span).
+pub fn search(streams: &Streams<'_>, mission: &Mission, config: &Config) -> Search {
+    let mut tried = score_all(streams, mission, config, &ladder());
+    let Some((mut best, mut best_ll)) = best_of(&tried) else {
+        return Search {
+            best: None,
+            tried,
+            warning: Some(
+                "imu: no candidate noise model could run over the tuning span; the \
+                 configuration's figures are used"
+                    .into(),
+            ),
+        };
+    };
+    let mut settled = false;
+    for _ in 0..MAX_ROUNDS {
+        let steps: Vec<Candidate> = [
+            best.scaled(STEP, 1.0),
+            best.scaled(1.0 / STEP, 1.0),
+            best.scaled(1.0, STEP),
+            best.scaled(1.0, 1.0 / STEP),
+        ]
+        .into_iter()
+        .filter(|c| !tried.iter().any(|t| t.candidate.same_as(c)))
+        .collect();
+        let round = score_all(streams, mission, config, &steps);
+        let next = best_of(&round);
+        tried.extend(round);
+        match next {
+            Some((c, ll)) if ll > best_ll + MIN_GAIN => {
+                best = c;
+                best_ll = ll;
+            }
+            _ => {
+                settled = true;
+                break;
+            }
+        }
+    }
+    if settled {
+        Search {
+            best: Some(best),
+            tried,
+            warning: None,
+        }
+    } else {
+        Search {
+            best: None,
+            warning: Some(format!(
+                "imu: the noise estimate did not settle in {MAX_ROUNDS} refinement rounds \
+                 (last: {}); the configuration's figures are used",
+                best.label()
+            )),
+            tried,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn candidates_scale_their_grade() {
+        let c = Candidate::of(ImuGrade::Mems, 100.0).scaled(1.0, 1.0 / 3.0);
+        let s = c.spec();
+        let m = ImuGrade::Mems.spec();
+        assert!((s.gyro_arw_deg_rt_h / m.gyro_arw_deg_rt_h - 100.0).abs() < 1e-9);
+        assert!((s.accel_vrw_ug_rt_hz / m.accel_vrw_ug_rt_hz - 100.0 / 3.0).abs() < 1e-9);
+        assert_eq!(c.label(), "mems, gyro x100, accel x33");
+        assert_eq!(Candidate::of(ImuGrade::Tactical, 1.0).label(), "tactical");
+        let cfg = with_candidate(&Config::default(), &c);
+        assert_eq!(cfg.imu.spec(), s);
+    }
+}

@@ -1,0 +1,281 @@
+//! Self-tuning: the noise figures a configuration does not give, estimated from the log.
+//!
+//! - `white`: the white noise of the DVL, depth sensor and EM log from the scatter of
+//!   consecutive readings;
+//! - `imu`: the IMU's noise by maximum likelihood of the forward filter's innovations over
+//!   the mission's first span.
+//!
+//! A figure the configuration gives is kept ([`Config::fixed`]) and reported as kept.
+
+pub mod imu;
+pub mod white;
+
+use crate::ingest::Mission;
+use crate::recon::config::{Config, ImuSpec};
+use crate::recon::Streams;
+use serde::Serialize;
+use std::fmt;
+use white::WhiteNoise;
+
+/// Where a figure came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Source {
+    /// Estimated from the log.
+    Estimated,
+    /// Given by the configuration, kept.
+    Configured,
+    /// The built-in default: nothing to estimate it from, or the estimate failed.
+    Default,
+}
+
+/// One aiding sensor's white noise.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SensorNoise {
+    /// The configuration key it sets.
+    pub key: &'static str,
+    pub value: f64,
+    pub source: Source,
+    /// Second differences the estimate rests on (when estimated).
+    pub differences: Option<usize>,
+}
+
+/// The IMU's noise.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ImuNoiseTuning {
+    pub source: Source,
+    /// The model used ("tactical", "mems x100", ...; "configured").
+    pub model: String,
+    pub figures: ImuSpec,
+    /// Every model tried, with its log-likelihood.
+    pub candidates: Vec<imu::Scored>,
+}
+
+/// What self-tuning did.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Tuning {
+    /// The span the IMU was tuned on, s.
+    pub span_s: f64,
+    pub imu: ImuNoiseTuning,
+    pub sensors: Vec<SensorNoise>,
+    pub warnings: Vec<String>,
+}
+
+/// The streams cut to their first `span_s` seconds from the first IMU sample.
+pub fn first_span<'a>(streams: &Streams<'a>, span_s: f64) -> Streams<'a> {
+    let Some(t0) = streams.imu.first().map(|m| m.stamp_ns) else {
+        return *streams;
+    };
+    let end = t0.saturating_add((span_s * 1e9) as i64);
+    fn cut<T: crate::contract::Message>(v: &[T], end: i64) -> &[T] {
+        &v[..v.partition_point(|m| m.stamp_ns() <= end)]
+    }
+    Streams {
+        imu: cut(streams.imu, end),
+        mag: cut(streams.mag, end),
+        dvl: cut(streams.dvl, end),
+        altimeter: cut(streams.altimeter, end),
+        eml: cut(streams.eml, end),
+        depth: cut(streams.depth, end),
+        gnss: cut(streams.gnss, end),
+        fixes: cut(streams.fixes, end),
+        rpm: cut(streams.rpm, end),
+        truth: cut(streams.truth, end),
+    }
+}
+
+/// The white noise of the aiding sensors: DVL (the three axes pooled, bottom-locked readings
+/// only), depth, EM log.
+fn sensor_noise(streams: &Streams<'_>) -> [(&'static str, Option<WhiteNoise>); 3] {
+    let dvl: Vec<f64> = (0..3)
+        .flat_map(|axis| {
+            let readings: Vec<(i64, f64)> = streams
+                .dvl
+                .iter()
+                .filter(|d| d.valid)
+                .map(|d| (d.stamp_ns, d.velocity[axis]))
+                .collect();
+            white::second_differences(&readings)
+        })
+        .collect();
+    let depth: Vec<(i64, f64)> = streams
+        .depth
+        .iter()
+        .map(|d| (d.stamp_ns, d.depth))
+        .collect();
+    let eml: Vec<(i64, f64)> = streams.eml.iter().map(|e| (e.stamp_ns, e.speed)).collect();
+    [
+        ("dvl.sigma_m_s", white::white_noise_of_differences(dvl)),
+        ("depth.sigma_m", white::white_noise(&depth)),
+        ("eml.sigma_m_s", white::white_noise(&eml)),
+    ]
+}
+
+/// Least sigma taken from an estimate, per key: below it a reading's error is dominated by
+/// what the white noise does not show (resolution, scale and bias).
+fn floor(key: &str) -> f64 {
+    match key {
+        "depth.sigma_m" => 0.005,
+        _ => 0.002,
+    }
+}
+
+fn slot<'c>(config: &'c mut Config, key: &str) -> &'c mut f64 {
+    match key {
+        "dvl.sigma_m_s" => &mut config.dvl.sigma_m_s,
+        "depth.sigma_m" => &mut config.depth.sigma_m,
+        _ => &mut config.eml.sigma_m_s,
+    }
+}
+
+/// Estimates what the configuration does not give; returns the configuration to run with
+/// and the report. With `[tune] use = false`, the configuration unchanged and no report.
+pub fn tune(streams: &Streams<'_>, mission: &Mission, config: &Config) -> (Config, Option<Tuning>) {
+    if !config.tune.enabled {
+        return (config.clone(), None);
+    }
+    let mut tuned = config.clone();
+    let mut warnings = Vec::new();
+    let sensors: Vec<SensorNoise> = sensor_noise(streams)
+        .into_iter()
+        .map(|(key, estimate)| {
+            if config.fixed.contains(key) {
+                return SensorNoise {
+                    key,
+                    value: *slot(&mut tuned, key),
+                    source: Source::Configured,
+                    differences: None,
+                };
+            }
+            match estimate {
+                Some(w) => {
+                    let value = w.sigma.max(floor(key));
+                    *slot(&mut tuned, key) = value;
+                    SensorNoise {
+                        key,
+                        value,
+                        source: Source::Estimated,
+                        differences: Some(w.differences),
+                    }
+                }
+                None => SensorNoise {
+                    key,
+                    value: *slot(&mut tuned, key),
+                    source: Source::Default,
+                    differences: None,
+                },
+            }
+        })
+        .collect();
+
+    let imu_fixed = config.fixed.iter().any(|k| k.starts_with("imu."));
+    let imu = if imu_fixed {
+        ImuNoiseTuning {
+            source: Source::Configured,
+            model: "configured".into(),
+            figures: config.imu.spec(),
+            candidates: Vec::new(),
+        }
+    } else {
+        let span = first_span(streams, config.tune.span_s);
+        let search = imu::search(&span, mission, &tuned);
+        warnings.extend(search.warning);
+        match search.best {
+            Some(best) => {
+                tuned = imu::with_candidate(&tuned, &best);
+                ImuNoiseTuning {
+                    source: Source::Estimated,
+                    model: best.label(),
+                    figures: best.spec(),
+                    candidates: search.tried,
+                }
+            }
+            None => ImuNoiseTuning {
+                source: Source::Default,
+                model: "configured".into(),
+                figures: config.imu.spec(),
+                candidates: search.tried,
+            },
+        }
+    };
+    let span_s = config.tune.span_s;
+    (
+        tuned,
+        Some(Tuning {
+            span_s,
+            imu,
+            sensors,
+            warnings,
+        }),
+    )
+}
+
+impl Tuning {
+    /// The tuned figures as a configuration file (`--config` reuses them; a figure given
+    /// there is kept, so a rerun with it does not tune again).
+    pub fn as_toml(&self) -> String {
+        let f = &self.imu.figures;
+        let mut out = format!(
+            "# Noise figures estimated by hindsight reconstruct (self-tuning); reuse with --config.\n\
+             [imu]\n\
+             # model: {}\n\
+             gyro_bias_deg_h = {}\n\
+             gyro_bias_instability_deg_h = {}\n\
+             gyro_arw_deg_rt_h = {}\n\
+             accel_bias_ug = {}\n\
+             accel_bias_instability_ug = {}\n\
+             accel_vrw_ug_rt_hz = {}\n\
+             bias_correlation_s = {}\n",
+            self.imu.model,
+            f.gyro_bias_deg_h,
+            f.gyro_bias_instability_deg_h,
+            f.gyro_arw_deg_rt_h,
+            f.accel_bias_ug,
+            f.accel_bias_instability_ug,
+            f.accel_vrw_ug_rt_hz,
+            f.bias_correlation_s
+        );
+        for s in &self.sensors {
+            let (section, key) = s.key.split_once('.').unwrap_or(("", s.key));
+            out.push_str(&format!("\n[{section}]\n{key} = {:.6}\n", s.value));
+        }
+        out
+    }
+}
+
+impl fmt::Display for Tuning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let source = |s: Source| match s {
+            Source::Estimated => "estimated",
+            Source::Configured => "configured, kept",
+            Source::Default => "default",
+        };
+        let s = &self.imu.figures;
+        writeln!(
+            f,
+            "IMU        {} ({}): gyro {:.3} deg/h, ARW {:.4} deg/sqrt(h); accel {:.0} ug, VRW {:.1} ug/sqrt(Hz)",
+            self.imu.model,
+            source(self.imu.source),
+            s.gyro_bias_deg_h,
+            s.gyro_arw_deg_rt_h,
+            s.accel_bias_ug,
+            s.accel_vrw_ug_rt_hz
+        )?;
+        if !self.imu.candidates.is_empty() {
+            writeln!(
+                f,
+                "           {} models scored on the first {:.0} s",
+                self.imu.candidates.len(),
+                self.span_s
+            )?;
+        }
+        for n in &self.sensors {
+            write!(f, "{:<10} {:.4} ({})", n.key, n.value, source(n.source))?;
+            if let Some(d) = n.differences {
+                write!(f, " from {d} differences")?;
+            }
+            writeln!(f)?;
+        }
+        Ok(())
+    }
+}
