@@ -148,12 +148,12 @@ fn given_figures_are_kept() {
 /// The pool scenarios flown with an IMU 100 times noisier than the `mems` grade and
 /// reconstructed with no configuration: the tuned run does not diverge (smoothed track length
 /// within 10 % of the truth's, under 5 % of the DVL readings rejected), where the built-in
-/// defaults do.
+/// defaults diverge and their warning says that the IMU is noisier than assumed.
 #[test]
 fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
     use hindsight::contract::Truth;
     use hindsight::filters::ins::driver::Sensor;
-    use hindsight::recon::stats::distance_travelled_m;
+    use hindsight::recon::stats::{distance_travelled_m, sensor_stats, warnings};
     let m = ImuGrade::Mems.spec();
     for name in ["pool-rectangle", "pool-circle"] {
         let mut scenario = Scenario::built_in(name).unwrap();
@@ -188,10 +188,14 @@ fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
                 .collect();
             let rejected = dvl.iter().filter(|a| !**a).count() as f64 / dvl.len() as f64;
             let length = distance_travelled_m(&r.smoothed) / truth_length_m;
-            Some((length, rejected))
+            let imu_blamed = warnings(&r.run, &r.init, &sensor_stats(&r.run.residuals))
+                .iter()
+                .any(|w| w.contains("the IMU is probably much noisier"));
+            Some((length, rejected, imu_blamed))
         };
         let (tuned, _) = tune::tune(&streams, &mission, &Config::default());
-        let (length, rejected) = verdict(&tuned).unwrap();
+        let (length, rejected, blamed) = verdict(&tuned).unwrap();
+        assert!(!blamed);
         eprintln!(
             "{name}: tuned length ratio {length:.3}, DVL rejected {:.1} %",
             100.0 * rejected
@@ -203,9 +207,12 @@ fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
         assert!(rejected < 0.05, "{name}: {rejected}");
         let untuned = verdict(&Config::default());
         eprintln!("{name}: untuned {untuned:?}");
+        // The defaults diverge there, and the warning names the IMU, not a sensor.
+        let (l, r, blamed) = untuned.unwrap();
         assert!(
-            untuned.is_none_or(|(l, r)| (l - 1.0).abs() > 0.10 || r >= 0.05),
+            (l - 1.0).abs() > 0.10 || r >= 0.05,
             "{name}: the defaults should fail here"
         );
+        assert!(blamed, "{name}: the warning should name the IMU");
     }
 }

@@ -8,6 +8,7 @@ use hindsight::output::atomic::Staging;
 use hindsight::output::parquet::{write_batches, ROWS_PER_BATCH};
 use hindsight::output::recon_tables;
 use hindsight::recon::config::{Config, HeadingChoice, ImuGrade};
+use hindsight::recon::consistency::{self, Consistency};
 use hindsight::recon::score::{self, EpochError, Scores};
 use hindsight::recon::stats::{self, SensorStats};
 use hindsight::recon::tune::{self, Tuning};
@@ -173,6 +174,8 @@ struct Summary {
     distance_travelled_m: f64,
     final_sigma: FinalSigma,
     truth: Option<TruthSummary>,
+    /// Whether the innovations and (with truth) the NEES look consistent.
+    consistency: Consistency,
     warnings: Vec<String>,
     run_time_s: RunTime,
     config: Config,
@@ -328,12 +331,23 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     warnings.extend(warnings_from_tuning);
     if warnings.iter().any(|w| w.starts_with("dvl: mean NIS")) {
         eprintln!("the DVL's innovations are too large: searching for a clock offset ...");
-        if let Some(s) = recon::clock::suggest_dvl_offset(&streams, &mission, &config) {
-            warnings.push(format!(
-                "dvl: its innovations are smallest with --offset /dvl={:.1} (mean NIS {:.1} \
-                 against {:.1} without, first 10 min): rerun with it if the DVL's clock is off",
-                s.offset_s, s.mean_nis, s.mean_nis_unshifted
-            ));
+        match recon::clock::suggest_dvl_offset(&streams, &mission, &config) {
+            Some(s) => {
+                eprintln!(
+                    "... found: --offset /dvl={:.1} fits best (mean NIS {:.1} against {:.1})",
+                    s.offset_s, s.mean_nis, s.mean_nis_unshifted
+                );
+                warnings.push(format!(
+                    "dvl: its innovations are smallest with --offset /dvl={:.1} (mean NIS {:.1} \
+                     against {:.1} without, first 10 min): rerun with it if the DVL's clock is off",
+                    s.offset_s, s.mean_nis, s.mean_nis_unshifted
+                ));
+            }
+            None => eprintln!(
+                "... none: no offset within +-{:.0} s fits clearly better, so the DVL's clock is \
+                 not the cause",
+                recon::clock::COARSE_SPAN_S
+            ),
         }
     }
     // What the outputs need from the log; the log itself is freed before smoothing.
@@ -421,6 +435,12 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         nees_horizontal_bounds_95: score::bounds_95(2),
         nees_position_bounds_95: score::bounds_95(3),
     });
+    let consistency = consistency::assess(
+        &sensors,
+        truth.as_ref().and_then(|t| t.forward.as_ref()),
+        truth.as_ref().and_then(|t| t.smoothed.as_ref()),
+    );
+    warnings.extend(consistency.warnings());
     let nav = r.init.estimate.nav;
     let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
     let outputs_s = outputs_started.elapsed().as_secs_f64();
@@ -486,6 +506,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             smoothed: final_sigma(r.smoothed.last()),
         },
         truth,
+        consistency,
         warnings,
         run_time_s: RunTime {
             ingest: ingest_s,
@@ -581,6 +602,26 @@ fn print_report(s: &Summary) {
             }
         }
     }
+    let c = &s.consistency;
+    let judged: Vec<String> = c
+        .innovations
+        .iter()
+        .map(|i| format!("{} {}", i.sensor, i.verdict))
+        .chain(
+            c.nees
+                .iter()
+                .map(|n| format!("NEES {} {}", n.solution, n.verdict)),
+        )
+        .collect();
+    println!(
+        "uncertainty {}: {}",
+        if c.consistent {
+            "consistent"
+        } else {
+            "NOT consistent"
+        },
+        judged.join(", ")
+    );
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }

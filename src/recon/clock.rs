@@ -12,7 +12,7 @@ use crate::ingest::Mission;
 const SEARCH_WINDOW_S: f64 = 600.0;
 /// Coarse candidates: -5 s to +5 s in 0.5 s steps; then 0.1 s steps around the best.
 const COARSE_STEP_S: f64 = 0.5;
-const COARSE_SPAN_S: f64 = 5.0;
+pub const COARSE_SPAN_S: f64 = 5.0;
 const FINE_STEP_S: f64 = 0.1;
 
 /// A suggested offset for the DVL's stamps and how well it fits.

@@ -81,6 +81,8 @@ pub struct Scores {
     /// Fraction of epochs whose horizontal-position NEES (2 dof) lies inside the two-sided
     /// 95 % chi-square bounds.
     pub nees_horizontal_inside_95: f64,
+    /// Fraction above the upper bound (the filter claims less uncertainty than it has).
+    pub nees_horizontal_above_95: f64,
     /// The same for the 3-D position NEES (3 dof).
     pub nees_position_inside_95: f64,
     pub yaw_rms_deg: f64,
@@ -111,6 +113,11 @@ pub fn scores(errors: &[EpochError]) -> Option<Scores> {
             .fold(0.0, f64::max),
         horizontal_final_m: last.horizontal_m(),
         nees_horizontal_inside_95: inside(2, &|e| e.nees_horizontal),
+        nees_horizontal_above_95: errors
+            .iter()
+            .filter(|e| e.nees_horizontal > bounds_95(2).1)
+            .count() as f64
+            / n,
         nees_position_inside_95: inside(3, &|e| e.nees_position),
         yaw_rms_deg: (errors.iter().map(|e| e.euler_rad[2].powi(2)).sum::<f64>() / n)
             .sqrt()

@@ -60,9 +60,38 @@ pub fn sensor_stats(residuals: &[Residual]) -> Vec<SensorStats> {
 /// their noise settings, IMU gaps, an unknown declination.
 pub fn warnings(run: &ForwardRun, init: &Initialisation, sensors: &[SensorStats]) -> Vec<String> {
     let mut out = Vec::new();
+    let too_large = |s: &SensorStats| {
+        s.count >= 20
+            && (s.mean_nis > 2.0 * s.dims as f64 || s.rejected as f64 / s.count as f64 > 0.05)
+    };
+    let flagged: Vec<&SensorStats> = sensors.iter().filter(|s| too_large(s)).collect();
+    // Every judged sensor off at once points at the one thing they share: the IMU.
+    let judged = sensors.iter().filter(|s| s.count >= 20).count();
+    let blame_imu = flagged.len() >= 2 && flagged.len() == judged;
+    if blame_imu {
+        out.push(format!(
+            "the innovations of every aiding sensor are too large ({}): the IMU is probably much \
+             noisier than its figures ([imu]); let self-tuning estimate them, or give the data \
+             sheet's",
+            flagged
+                .iter()
+                .map(|s| format!(
+                    "{} mean NIS {:.1} for {}, {:.0} % rejected",
+                    s.sensor,
+                    s.mean_nis,
+                    s.dims,
+                    100.0 * s.rejected as f64 / s.count as f64
+                ))
+                .collect::<Vec<_>>()
+                .join("; ")
+        ));
+    }
     for s in sensors {
         let rejected = s.rejected as f64 / s.count as f64;
-        if s.count >= 20 && (s.mean_nis > 2.0 * s.dims as f64 || rejected > 0.05) {
+        if too_large(s) && blame_imu {
+            continue;
+        }
+        if too_large(s) {
             out.push(format!(
                 "{}: mean NIS {:.1} for {} expected, {:.1} % rejected: its noise setting may be too \
                  small, its clock offset (--offset /{}=SECONDS), or its mounting wrong",
