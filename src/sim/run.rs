@@ -39,10 +39,21 @@ struct Schedule {
 
 impl Schedule {
     fn new(rate_hz: f64) -> Self {
+        Self::with_phase(rate_hz, 0.0)
+    }
+
+    /// Samples due at `phase_s + k / rate_hz`.
+    fn with_phase(rate_hz: f64, phase_s: f64) -> Self {
         Schedule {
             period_ns: (1e9 / rate_hz).round() as i64,
-            next_ns: 0,
+            next_ns: secs_ns(phase_s),
         }
+    }
+
+    /// The scheduled time of the sample due at tick `t_ns`, if one is.
+    fn due_at(&mut self, t_ns: i64) -> Option<i64> {
+        let at = self.next_ns;
+        self.due(t_ns).then_some(at)
     }
 
     /// Whether a sample is due at `t_ns` (each IMU tick; a due sample is taken on the first
@@ -142,6 +153,12 @@ pub fn run_with_progress<W: Write + Seek>(
         })
     };
     let mut eml = scalar(scenario.eml, stream::EML);
+    let eml_phase_s = scenario.eml.map_or(0.0, |s| s.phase_s);
+    if let Some((_, sched, _)) = eml.as_mut() {
+        *sched = Schedule::with_phase(scenario.eml.map_or(1.0, |s| s.rate_hz), eml_phase_s);
+    }
+    // The previous tick's time and speed through water, for readings between ticks.
+    let mut previous_speed: Option<(i64, f64)> = None;
     let mut depth = scalar(scenario.depth, stream::DEPTH);
     let mut altimeter = scalar(scenario.altimeter, stream::ALTIMETER);
     let mut rpm = scenario.rpm.map(|s| {
@@ -219,12 +236,24 @@ pub fn run_with_progress<W: Write + Seek>(
             }
         }
         if let Some((s, sched, latency)) = eml.as_mut() {
-            if sched.due(t_ns) {
-                let speed = s.measure(sample.speed_m_s).max(0.0);
+            if let Some(at_ns) = sched.due_at(t_ns) {
+                // On the sensor's own clock: the truth between the last tick and this one.
+                let (stamp_ns, true_speed) = match previous_speed {
+                    Some((t0, v0)) if eml_phase_s != 0.0 && at_ns < t_ns => {
+                        let f = (at_ns - t0) as f64 / (t_ns - t0) as f64;
+                        (
+                            scenario.start_stamp_ns + at_ns,
+                            v0 + f * (sample.speed_m_s - v0),
+                        )
+                    }
+                    _ => (stamp_ns, sample.speed_m_s),
+                };
+                let speed = s.measure(true_speed).max(0.0);
                 w.write("/eml", &SpeedLog { stamp_ns, speed }, log_ns(*latency))?;
                 count += 1;
             }
         }
+        previous_speed = Some((t_ns, sample.speed_m_s));
         if let Some((s, sched, latency)) = depth.as_mut() {
             if sched.due(t_ns) {
                 w.write(

@@ -31,6 +31,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../../scenarios/dive-27min.toml"),
     ),
     ("long-dive", include_str!("../../scenarios/long-dive.toml")),
+    (
+        "trench-eml",
+        include_str!("../../scenarios/trench-eml.toml"),
+    ),
     // Flown by the 6-DOF vehicle model and its autopilot.
     (
         "long-dive-dynamic",
@@ -316,6 +320,11 @@ pub struct RatedScalar {
     pub rate_hz: f64,
     #[serde(default)]
     pub latency_s: f64,
+    /// Stamps on the sensor's own clock (EM log only): readings at `phase_s + k / rate_hz`,
+    /// between IMU ticks (the truth interpolated), instead of on the first tick at or after
+    /// each period. 0: on the ticks.
+    #[serde(default)]
+    pub phase_s: f64,
     #[serde(flatten)]
     pub errors: ScalarSpec,
 }

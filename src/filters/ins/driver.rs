@@ -210,7 +210,7 @@ pub struct ForwardRun {
     pub depth_skipped: usize,
     /// Times the gate was reopened for a sensor after `gate_reset_after` rejections in a row.
     pub gate_resets: usize,
-    /// EM-log readings not used (speed below 0.1 m/s, where its direction is undefined).
+    /// EM-log readings not used (forward speed below 0.1 m/s, where an EM log reads nothing useful).
     pub eml_too_slow: usize,
     /// Magnetometer readings skipped by the minimum interval.
     pub mag_skipped: usize,
@@ -629,8 +629,8 @@ impl Pass<'_> {
                 continue;
             };
             match measure::speed(&self.est, e.speed) {
-                Some((y, h)) => {
-                    let r = SMatrix::<f64, 1, 1>::new(sigma * sigma);
+                Some((y, h, attitude_variance)) => {
+                    let r = SMatrix::<f64, 1, 1>::new(sigma * sigma + attitude_variance);
                     self.apply(e.stamp_ns, Sensor::SpeedLog, &y, &h, &r)?;
                 }
                 None => self.run.eml_too_slow += 1,
