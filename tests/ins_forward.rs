@@ -9,7 +9,7 @@ mod common;
 
 use hindsight::contract::{Depth, Dvl, GnssFix, Imu, SpeedLog, Truth};
 use hindsight::filters::ins::driver::{run_forward, Aiding, Inputs, Propagation, Sensor, Settings};
-use hindsight::filters::ins::error_state::ErrorMatrix;
+use hindsight::filters::ins::error_state::{ErrorMatrix, N};
 use hindsight::filters::ins::forward::{DvlMounting, Estimate, Filter, ImuNoise};
 use hindsight::filters::ins::mechanization::NavState;
 use hindsight::filters::ins::record::NavPoint;
@@ -57,6 +57,7 @@ fn settings_for(scenario: &Scenario, aiding: Aiding) -> Settings {
             accel_bias_walk: a.bias_instability * (2.0 / a.bias_correlation_s).sqrt(),
         },
         height_damping: None,
+        current_walk: 0.0,
     };
     Settings {
         filter,
@@ -103,23 +104,37 @@ fn initial_from_truth(
         },
         gyro_bias: Vector3::zeros(),
         accel_bias: Vector3::zeros(),
-        cov: ErrorMatrix::from_diagonal(&SVector::<f64, 15>::from_column_slice(&[
-            horizontal_var_m2,
-            horizontal_var_m2,
-            1.0,
-            0.01,
-            0.01,
-            0.01,
-            deg2(0.5),
-            deg2(0.5),
-            deg2(3.0),
-            gb,
-            gb,
-            gb,
-            ab,
-            ab,
-            ab,
-        ])),
+        // The DVL's calibration (0.5 %, 1 deg, 2 mm/s) and the water (2 %, 0.2 m/s).
+        dvl: Default::default(),
+        water: Default::default(),
+        cov: ErrorMatrix::from_diagonal(&SVector::<f64, N>::from_fn(|i, _| {
+            [
+                horizontal_var_m2,
+                horizontal_var_m2,
+                1.0,
+                0.01,
+                0.01,
+                0.01,
+                deg2(0.5),
+                deg2(0.5),
+                deg2(3.0),
+                gb,
+                gb,
+                gb,
+                ab,
+                ab,
+                ab,
+                0.005f64.powi(2),
+                deg2(1.0),
+                deg2(1.0),
+                0.002f64.powi(2),
+                0.002f64.powi(2),
+                0.002f64.powi(2),
+                0.02f64.powi(2),
+                0.04,
+                0.04,
+            ][i]
+        })),
     }
 }
 

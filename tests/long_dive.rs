@@ -79,6 +79,8 @@ fn initial(t0: &Truth, config: &Config, seed: u64) -> Estimate {
         nav: error_state::inject(&truth, &(-dx)),
         gyro_bias: Vector3::zeros(),
         accel_bias: Vector3::zeros(),
+        dvl: Default::default(),
+        water: Default::default(),
         cov: ErrorMatrix::from_diagonal(&diag),
     }
 }
@@ -126,6 +128,8 @@ fn free_inertial(streams: &Streams<'_>, start: &NavState) -> Vec<(f64, Vector3<f
                     nav,
                     gyro_bias: Vector3::zeros(),
                     accel_bias: Vector3::zeros(),
+                    dvl: Default::default(),
+                    water: Default::default(),
                 },
                 sigma: ErrorState::repeat(1.0),
                 position_cov: nalgebra::Matrix3::identity(),

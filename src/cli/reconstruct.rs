@@ -3,10 +3,12 @@
 use super::{LogArgs, OutputFailed, PolicyArgs};
 use anyhow::{Context, Result};
 use hindsight::contract::Truth;
+use hindsight::filters::ins::driver::Sensor;
 use hindsight::filters::ins::record::Solution;
 use hindsight::output::atomic::Staging;
 use hindsight::output::parquet::{write_batches, ROWS_PER_BATCH};
 use hindsight::output::recon_tables;
+use hindsight::recon::calibration::{self, DvlCalibrationReport, WaterReport};
 use hindsight::recon::config::{Config, HeadingChoice, ImuGrade};
 use hindsight::recon::consistency::{self, Consistency};
 use hindsight::recon::score::{self, EpochError, Scores};
@@ -165,6 +167,10 @@ struct Summary {
     residuals: usize,
     rejected: usize,
     dvl_out_of_range: usize,
+    /// The DVL's scale factor, bias and misalignment as estimated (absent without DVL).
+    dvl_calibration: Option<DvlCalibrationReport>,
+    /// The EM log's scale factor and the water current (absent without EM log).
+    water: Option<WaterReport>,
     depth_skipped_by_interval: usize,
     eml_too_slow: usize,
     gate_resets: usize,
@@ -380,6 +386,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     })
     .collect();
     let depth_used = config.depth.enabled && !streams.depth.is_empty();
+    let dvl_used = config.dvl.enabled && !streams.dvl.is_empty();
     drop(log);
     let r = recon::finish(pass, &config, depth_used)?;
     eprintln!("smoother {:.1} s", r.timing.smoother.as_secs_f64());
@@ -482,6 +489,24 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         residuals: r.run.residuals.len(),
         rejected: r.run.residuals.iter().filter(|x| !x.accepted).count(),
         dvl_out_of_range: r.run.dvl_out_of_range,
+        dvl_calibration: dvl_used
+            .then(|| r.forward.last())
+            .flatten()
+            .map(|last| calibration::report(last, &config.dvl.calibration_sigma())),
+        water: (config.eml.enabled
+            && !r.run.residuals.iter().all(|x| x.sensor != Sensor::SpeedLog))
+        .then(|| r.forward.last())
+        .flatten()
+        .map(|last| {
+            calibration::water_report(
+                last,
+                &[
+                    config.eml.scale_sigma,
+                    config.eml.current_sigma_m_s,
+                    config.eml.current_sigma_m_s,
+                ],
+            )
+        }),
         depth_skipped_by_interval: r.run.depth_skipped,
         eml_too_slow: r.run.eml_too_slow,
         gate_resets: r.run.gate_resets,
@@ -601,6 +626,21 @@ fn print_report(s: &Summary) {
                 );
             }
         }
+    }
+    if let Some(d) = &s.dvl_calibration {
+        let told = |e: &calibration::Estimated| if e.determined { "" } else { " (prior)" };
+        println!(
+            "DVL calibration: scale factor {:.4} +- {:.4}{}; misalignment heading {:.2} +- {:.2} deg{}, pitch {:.2} +- {:.2} deg{}",
+            d.scale_factor.value,
+            d.scale_factor.sigma,
+            told(&d.scale_factor),
+            d.misalignment_deg.heading.value,
+            d.misalignment_deg.heading.sigma,
+            told(&d.misalignment_deg.heading),
+            d.misalignment_deg.pitch.value,
+            d.misalignment_deg.pitch.sigma,
+            told(&d.misalignment_deg.pitch),
+        );
     }
     let c = &s.consistency;
     let judged: Vec<String> = c

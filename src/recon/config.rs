@@ -37,6 +37,15 @@ check_range = true         # false: use every reading, even without bottom lock 
                            # range (to see what trusting a bad DVL costs; not for real use)
 lever_arm_m = [0.0, 0.0, 0.0]     # DVL position from the reference point, body FRD
 rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z-Y-X)
+# The DVL's calibration estimated with the trajectory (summary.json `dvl_calibration`):
+# scale factor, misalignment in pitch and heading beyond rotation_deg, and a bias along each
+# of its axes, from these prior sigmas. Where the log cannot tell them (no GNSS or fixes)
+# they stay near their priors, and the position's uncertainty grows with them. 0 holds one
+# at zero (the default, for now: sigma_m_s then covers them). A DVL survey with GNSS and
+# fixes, for instance: scale_sigma 0.005, misalignment_sigma_deg 1.0, bias_sigma_m_s 0.002.
+scale_sigma = 0.0                 # 1-sigma of the scale factor error (0.005 = 0.5 %)
+misalignment_sigma_deg = 0.0      # 1-sigma of the mounting's pitch and heading error
+bias_sigma_m_s = 0.0              # 1-sigma of the bias, per axis
 
 [depth]
 use = true
@@ -48,8 +57,14 @@ min_interval_s = 0.1       # a faster depth sensor is decimated to this interval
 
 [eml]
 use = true
-# sigma_m_s = 0.05         # speed through water taken as speed over ground (not given:
+# sigma_m_s = 0.05         # white noise of a reading (not given:
                            # estimated, see [tune])
+# The EM log reads the speed through the water, the DVL over the ground: the EM log's scale
+# error and the water current (north, east) are estimated with the trajectory where both
+# are present (summary.json `water`); without the DVL they stay near these priors.
+scale_sigma = 0.02         # 1-sigma of the EM log's scale factor error (2 %)
+current_sigma_m_s = 0.2    # 1-sigma of the water current, per horizontal axis
+current_walk_m_s_rt_h = 0.05  # how fast the current changes (random walk), m/s/sqrt(h)
 
 [mag]
 use = true                 # the magnetometer (/mag) for the initial heading and as an aid
@@ -271,6 +286,9 @@ pub struct DvlConfig {
     pub check_range: bool,
     pub lever_arm_m: [f64; 3],
     pub rotation_deg: [f64; 3],
+    pub scale_sigma: f64,
+    pub misalignment_sigma_deg: f64,
+    pub bias_sigma_m_s: f64,
 }
 
 impl Default for DvlConfig {
@@ -283,6 +301,9 @@ impl Default for DvlConfig {
             check_range: true,
             lever_arm_m: [0.0; 3],
             rotation_deg: [0.0; 3],
+            scale_sigma: 0.0,
+            misalignment_sigma_deg: 0.0,
+            bias_sigma_m_s: 0.0,
         }
     }
 }
@@ -290,6 +311,14 @@ impl Default for DvlConfig {
 impl DvlConfig {
     pub fn mounting(&self) -> DvlMounting {
         DvlMounting::from_config(self.lever_arm_m, self.rotation_deg)
+    }
+
+    /// Prior 1-sigma of the calibration states: scale, misalignment pitch and heading (rad),
+    /// bias along the DVL's three axes (m/s).
+    pub fn calibration_sigma(&self) -> [f64; 6] {
+        let m = self.misalignment_sigma_deg.to_radians();
+        let b = self.bias_sigma_m_s;
+        [self.scale_sigma, m, m, b, b, b]
     }
 }
 
@@ -358,6 +387,9 @@ pub struct EmlConfig {
     #[serde(rename = "use")]
     pub enabled: bool,
     pub sigma_m_s: f64,
+    pub scale_sigma: f64,
+    pub current_sigma_m_s: f64,
+    pub current_walk_m_s_rt_h: f64,
 }
 
 impl Default for EmlConfig {
@@ -365,6 +397,9 @@ impl Default for EmlConfig {
         EmlConfig {
             enabled: true,
             sigma_m_s: 0.05,
+            scale_sigma: 0.02,
+            current_sigma_m_s: 0.2,
+            current_walk_m_s_rt_h: 0.05,
         }
     }
 }
@@ -650,8 +685,17 @@ impl Config {
                 });
             }
         }
-        let non_negative: [(&'static str, f64); 7] = [
+        let non_negative: [(&'static str, f64); 13] = [
+            ("eml.scale_sigma", self.eml.scale_sigma),
+            ("eml.current_sigma_m_s", self.eml.current_sigma_m_s),
+            ("eml.current_walk_m_s_rt_h", self.eml.current_walk_m_s_rt_h),
             ("dvl.altimeter_max_age_s", self.dvl.altimeter_max_age_s),
+            ("dvl.scale_sigma", self.dvl.scale_sigma),
+            (
+                "dvl.misalignment_sigma_deg",
+                self.dvl.misalignment_sigma_deg,
+            ),
+            ("dvl.bias_sigma_m_s", self.dvl.bias_sigma_m_s),
             (
                 "imu.gyro_bias_instability_deg_h",
                 spec.gyro_bias_instability_deg_h,
@@ -737,6 +781,7 @@ impl Config {
             filter: Filter {
                 noise,
                 height_damping: None,
+                current_walk: self.eml.current_walk_m_s_rt_h / 60.0,
             },
             propagation: Propagation {
                 covariance_interval_s: p.covariance_interval_s,

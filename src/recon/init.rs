@@ -41,6 +41,11 @@ pub struct InitSettings<'a> {
     pub dvl_max_altitude_m: f64,
     pub dvl_sigma_m_s: f64,
     pub dvl_mounting: DvlMounting,
+    /// Prior 1-sigma of the DVL's calibration states (scale, misalignment pitch and heading
+    /// rad, bias m/s).
+    pub dvl_calibration_sigma: [f64; 6],
+    /// Prior 1-sigma of the EM log's scale error and of the current north and east (m/s).
+    pub water_sigma: [f64; 3],
     pub depth_sigma_m: f64,
     /// Forward speed (m/s) for a propeller reading (rev/min), when known: seed 002's in-run
     /// alignment needs it.
@@ -397,6 +402,15 @@ pub fn initialise(
         ab,
         ab,
         ab,
+        set.dvl_calibration_sigma[0].powi(2),
+        set.dvl_calibration_sigma[1].powi(2),
+        set.dvl_calibration_sigma[2].powi(2),
+        set.dvl_calibration_sigma[3].powi(2),
+        set.dvl_calibration_sigma[4].powi(2),
+        set.dvl_calibration_sigma[5].powi(2),
+        set.water_sigma[0].powi(2),
+        set.water_sigma[1].powi(2),
+        set.water_sigma[2].powi(2),
     ]);
     let body_velocity = !matches!(velocity, VelocitySource::AtRest);
     let vel_ned = ned_from_body * v_body;
@@ -414,6 +428,8 @@ pub fn initialise(
             },
             gyro_bias: Vector3::zeros(),
             accel_bias: Vector3::zeros(),
+            dvl: Default::default(),
+            water: Default::default(),
             cov,
         },
         position,

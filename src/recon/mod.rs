@@ -6,6 +6,7 @@
 //! `filters::ins::driver` (forward pass) -> `smooth::rts` -> `stats` (NIS per sensor,
 //! distance) and, when the log carries `/truth`, `score`.
 
+pub mod calibration;
 pub mod carry;
 pub mod clock;
 pub mod config;
@@ -189,6 +190,12 @@ pub fn forward(
             dvl_max_altitude_m: config.dvl.max_altitude_m,
             dvl_sigma_m_s: config.dvl.sigma_m_s,
             dvl_mounting: config.dvl.mounting(),
+            dvl_calibration_sigma: config.dvl.calibration_sigma(),
+            water_sigma: [
+                config.eml.scale_sigma,
+                config.eml.current_sigma_m_s,
+                config.eml.current_sigma_m_s,
+            ],
             depth_sigma_m: config.depth.sigma_m,
             speed_of_rpm: speed_of_rpm.as_ref().map(|f| f as &dyn Fn(f64) -> f64),
         },

@@ -32,6 +32,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
     ),
     ("long-dive", include_str!("../../scenarios/long-dive.toml")),
     (
+        "survey-dvl-calibration",
+        include_str!("../../scenarios/survey-dvl-calibration.toml"),
+    ),
+    (
         "trench-eml",
         include_str!("../../scenarios/trench-eml.toml"),
     ),

@@ -22,6 +22,20 @@ pub trait ForwardEpoch<const N: usize> {
 
 /// Runs the backward pass, calling `emit(k, dx_k|N, P_k|N)` for k from the last epoch down
 /// to 0.
+/// `cov` with a unit variance in place of each exactly zero one. A state held at its value
+/// (zero prior variance, no process noise) has a zero row and column, which would make the
+/// covariance singular; its gain row, `P Phi^T` times the inverse, is zero either way, so the
+/// unit stands in for the inverse of nothing.
+fn held_states_unit<const N: usize>(cov: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
+    let mut c = *cov;
+    for i in 0..N {
+        if c[(i, i)] == 0.0 && c.row(i).iter().all(|v| *v == 0.0) {
+            c[(i, i)] = 1.0;
+        }
+    }
+    c
+}
+
 pub fn backward<const N: usize, E: ForwardEpoch<N>>(
     epochs: &[E],
     mut emit: impl FnMut(usize, &SVector<f64, N>, &SMatrix<f64, N, N>),
@@ -37,7 +51,7 @@ pub fn backward<const N: usize, E: ForwardEpoch<N>>(
         let next = &epochs[k + 1];
         let p = epochs[k].posterior_cov();
         let prior_cov = next.prior_cov(&p);
-        let chol = prior_cov
+        let chol = held_states_unit(&prior_cov)
             .cholesky()
             .ok_or(SmoothError::SingularPrior { epoch: k + 1 })?;
         // C = P Phi^T Pp^-1  =>  C^T = Pp^-1 Phi P.

@@ -58,6 +58,8 @@ pub fn smooth(records: &[EpochRecord]) -> Result<Vec<Solution>, SmoothError> {
             nav: error_state::inject(&post.nav, dx),
             gyro_bias: post.gyro_bias + dx.fixed_rows::<3>(idx::GYRO_BIAS),
             accel_bias: post.accel_bias + dx.fixed_rows::<3>(idx::ACCEL_BIAS),
+            dvl: post.dvl + dx.fixed_rows::<{ error_state::DVL_STATES }>(idx::DVL),
+            water: post.water + dx.fixed_rows::<{ error_state::WATER_STATES }>(idx::WATER),
         };
         out.push(Solution::new(rec.stamp_ns, point, &PackedCov::pack(p)));
     })?;

@@ -1,10 +1,17 @@
-//! The 15-state error model of the strapdown mechanization (seed 000 eq. 13-15).
+//! The 24-state error model of the strapdown mechanization (seed 000 eq. 13-15) with the
+//! DVL's calibration and the water's.
 //!
-//! Error state `dx = [dp, dv, psi, dbg, dba]`:
+//! Error state `dx = [dp, dv, psi, dbg, dba, dvl, water]`:
 //! - `dp`: position correction in metres along local north, east, down;
 //! - `dv`: NED velocity correction, m/s;
 //! - `psi`: attitude correction, a small rotation of the NED frame, rad;
-//! - `dbg`, `dba`: gyro and accelerometer bias corrections, rad/s and m/s^2.
+//! - `dbg`, `dba`: gyro and accelerometer bias corrections, rad/s and m/s^2;
+//! - `dvl`: the DVL's calibration corrections ([`DvlCalibration`]): scale factor error,
+//!   mounting misalignment about the DVL's y and z axes (pitch, heading), rad, and bias in
+//!   the DVL's axes, m/s. Constants: zero rows in `F`, no process noise;
+//! - `water` ([`WaterState`]): the EM log's scale factor error, and the water current north
+//!   and east, m/s (the EM log reads speed through the water, the DVL over the ground). The
+//!   current is a random walk.
 //!
 //! Corrections are what to add to the nominal (mechanized) solution to get the truth:
 //! `truth = nominal (+) dx` ([`inject`]), with `C_b^n(true) = exp([psi x]) C_b^n(nominal)`,
@@ -19,13 +26,14 @@
 //! dv'  = F_vp dp + F_vv dv - [f^n x] psi - C dba
 //! psi' = F_ψp dp - B dv - [omega_in^n x] psi - C dbg
 //! dbg' = dba' = 0 (random walks through Q)
+//! dvl' = 0, water' = 0 (the current a random walk through Q)
 
 use super::mechanization::NavState;
 use crate::geodesy;
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Size of the error state.
-pub const N: usize = 15;
+pub const N: usize = 24;
 /// Error state vector.
 pub type ErrorState = SVector<f64, N>;
 /// Error-state matrix.
@@ -38,7 +46,31 @@ pub mod idx {
     pub const ATT: usize = 6;
     pub const GYRO_BIAS: usize = 9;
     pub const ACCEL_BIAS: usize = 12;
+    /// DVL scale factor error (1), misalignment pitch and heading (2), bias (3).
+    pub const DVL: usize = 15;
+    pub const DVL_SCALE: usize = 15;
+    pub const DVL_MISALIGNMENT: usize = 16;
+    pub const DVL_BIAS: usize = 18;
+    /// EM-log scale factor error (1), water current north and east (2).
+    pub const WATER: usize = 21;
+    pub const EML_SCALE: usize = 21;
+    pub const CURRENT: usize = 22;
 }
+
+/// Number of water states.
+pub const WATER_STATES: usize = 3;
+
+/// `[EM-log scale error, current north, current east (m/s)]`: the EM log reads
+/// `(1 + k) e_x^T C^T (v - c)`.
+pub type WaterState = SVector<f64, WATER_STATES>;
+
+/// Number of DVL calibration states.
+pub const DVL_STATES: usize = 6;
+
+/// The DVL's calibration, as estimated: `[scale error, misalignment pitch, misalignment
+/// heading (rad), bias x, y, z (m/s)]`. The DVL reads `(1 + s) (I - [m x]) d + b`, with `d`
+/// the velocity its nominal mounting predicts and `m = (0, pitch, heading)`.
+pub type DvlCalibration = SVector<f64, DVL_STATES>;
 
 fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     v.cross_matrix()
@@ -273,11 +305,8 @@ mod tests {
     #[test]
     fn inject_and_difference_are_inverse() {
         let (nav, _) = nominal();
-        let dx = ErrorState::from_fn(|i, _| {
-            [
-                3.0, -2.0, 1.5, 0.1, -0.2, 0.05, 1e-3, -2e-3, 5e-3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-            ][i]
-        });
+        let nav_part = [3.0, -2.0, 1.5, 0.1, -0.2, 0.05, 1e-3, -2e-3, 5e-3];
+        let dx = ErrorState::from_fn(|i, _| nav_part.get(i).copied().unwrap_or(0.0));
         let back = difference(&inject(&nav, &dx), &nav);
         assert!((back - dx.fixed_rows::<9>(0)).amax() < 1e-9, "{back}");
     }

@@ -8,7 +8,9 @@
 //! estimates, and the error mean is reset to zero. The reset's Jacobian is taken as the
 //! identity (first order: the attitude correction is small), so the covariance carries over.
 
-use super::error_state::{self, idx, ErrorMatrix, ErrorState, N};
+use super::error_state::{
+    self, idx, DvlCalibration, ErrorMatrix, ErrorState, WaterState, DVL_STATES, N, WATER_STATES,
+};
 use super::mechanization::{propagate, HeightDamping, ImuSample, NavState};
 use crate::filters::kalman::{self, Gaussian, KalmanError, UpdateRecord};
 use crate::geodesy;
@@ -35,6 +37,10 @@ pub struct Estimate {
     pub gyro_bias: Vector3<f64>,
     /// Estimated accelerometer bias, m/s^2.
     pub accel_bias: Vector3<f64>,
+    /// Estimated DVL calibration (zero: the nominal mounting, no scale or bias error).
+    pub dvl: DvlCalibration,
+    /// Estimated EM-log scale error and water current.
+    pub water: WaterState,
     /// Covariance of the error state.
     pub cov: ErrorMatrix,
 }
@@ -76,9 +82,24 @@ pub struct Filter {
     pub noise: ImuNoise,
     /// Vertical-channel damping on the depth, when aided by depth.
     pub height_damping: Option<HeightDamping>,
+    /// Random walk of the water current, per horizontal axis, m/s/sqrt(s).
+    pub current_walk: f64,
 }
 
 impl Estimate {
+    /// The estimate with the correction `dx` injected (the covariance unchanged).
+    pub fn corrected_by(&self, dx: &ErrorState) -> Estimate {
+        Estimate {
+            nav: error_state::inject(&self.nav, dx),
+            // dbg = true bias - estimate: the estimate moves by the correction.
+            gyro_bias: self.gyro_bias + dx.fixed_rows::<3>(idx::GYRO_BIAS),
+            accel_bias: self.accel_bias + dx.fixed_rows::<3>(idx::ACCEL_BIAS),
+            dvl: self.dvl + dx.fixed_rows::<DVL_STATES>(idx::DVL),
+            water: self.water + dx.fixed_rows::<WATER_STATES>(idx::WATER),
+            ..*self
+        }
+    }
+
     fn corrected(&self, imu: &ImuSample) -> ImuSample {
         ImuSample {
             omega_ib_body: imu.omega_ib_body - self.gyro_bias,
@@ -164,7 +185,7 @@ impl Filter {
             + error_state::continuous_matrix(nav_to, f_mean_body))
             * 0.5;
         let phi = error_state::transition(&f, dt_s);
-        let q = process_noise(noise, dt_s);
+        let q = process_noise(noise, self.current_walk, dt_s);
         let prior = Gaussian {
             mean: ErrorState::zeros(),
             cov: *cov,
@@ -187,13 +208,9 @@ impl Filter {
             cov: est.cov,
         };
         let (post, record) = kalman::update(&prior, y, h, r, gate)?;
-        let dx = post.mean;
         let next = Estimate {
-            nav: error_state::inject(&est.nav, &dx),
-            // dbg = true bias - estimate: the estimate moves by the correction.
-            gyro_bias: est.gyro_bias + dx.fixed_rows::<3>(idx::GYRO_BIAS),
-            accel_bias: est.accel_bias + dx.fixed_rows::<3>(idx::ACCEL_BIAS),
             cov: post.cov,
+            ..est.corrected_by(&post.mean)
         };
         Ok((next, record))
     }
@@ -202,7 +219,7 @@ impl Filter {
 /// Discrete process noise over `dt_s` (white noise integrated over the step). The noise
 /// enters along body axes, but `C C^T = I`, so in the NED frame it is isotropic: `Q` is
 /// diagonal (the smoother's records keep only its diagonal).
-fn process_noise(n: &ImuNoise, dt_s: f64) -> ErrorMatrix {
+fn process_noise(n: &ImuNoise, current_walk: f64, dt_s: f64) -> ErrorMatrix {
     let mut q = ErrorMatrix::zeros();
     let mut block = |at: usize, density: f64| {
         q.fixed_view_mut::<3, 3>(at, at)
@@ -212,6 +229,9 @@ fn process_noise(n: &ImuNoise, dt_s: f64) -> ErrorMatrix {
     block(idx::ATT, n.gyro_noise_density);
     block(idx::GYRO_BIAS, n.gyro_bias_walk);
     block(idx::ACCEL_BIAS, n.accel_bias_walk);
+    for k in 0..2 {
+        q[(idx::CURRENT + k, idx::CURRENT + k)] = current_walk.powi(2) * dt_s;
+    }
     q
 }
 
@@ -220,10 +240,13 @@ pub mod measure {
     use super::*;
 
     /// DVL velocity over ground, measured in the DVL's axes at the DVL's position:
-    /// `z = R (C^T v + omega_nb x l)` with `R` the DVL-from-body rotation, `l` the lever arm
-    /// (body frame) and `omega_nb` the bias-corrected body rate relative to NED. Then
-    /// `H_v = R C^T`, `H_psi = R C^T [v x]`, and, as the true rate is the corrected rate
-    /// minus the gyro bias correction, `H_bg = R [l x]`.
+    /// `z = A d + b` with `d = R (C^T v + omega_nb x l)` what the nominal mounting predicts
+    /// (`R` the DVL-from-body rotation, `l` the lever arm in the body frame, `omega_nb` the
+    /// bias-corrected body rate relative to NED), `A = (1 + s)(I - [m x])` the calibration's
+    /// scale and misalignment `m = (0, pitch, heading)`, and `b` its bias. Then
+    /// `H_v = A R C^T`, `H_psi = A R C^T [v x]`, and, as the true rate is the corrected rate
+    /// minus the gyro bias correction, `H_bg = A R [l x]`; for the calibration,
+    /// `H_s = (I - [m x]) d`, `H_m = (1 + s) [d x]` (its y and z columns), `H_b = I`.
     pub fn dvl_velocity(
         est: &Estimate,
         v_measured: &Vector3<f64>,
@@ -239,14 +262,27 @@ pub mod measure {
         let r = mounting.dvl_from_body.matrix();
         let l = mounting.lever_arm_body_m;
         let v = est.nav.vel_ned_m_s;
-        let predicted = r * (c_t * v + omega_nb_body.cross(&l));
-        let y = v_measured - predicted;
+        let cal = &est.dvl;
+        let scale = 1.0 + cal[0];
+        let m = Vector3::new(0.0, cal[1], cal[2]);
+        let bias = Vector3::new(cal[3], cal[4], cal[5]);
+        let turn = Matrix3::identity() - m.cross_matrix();
+        let a = turn * scale;
+        let d = r * (c_t * v + omega_nb_body.cross(&l));
+        let y = v_measured - (a * d + bias);
         let mut h = SMatrix::<f64, 3, N>::zeros();
-        h.fixed_view_mut::<3, 3>(0, idx::VEL).copy_from(&(r * c_t));
+        h.fixed_view_mut::<3, 3>(0, idx::VEL)
+            .copy_from(&(a * r * c_t));
         h.fixed_view_mut::<3, 3>(0, idx::ATT)
-            .copy_from(&(r * c_t * v.cross_matrix()));
+            .copy_from(&(a * r * c_t * v.cross_matrix()));
         h.fixed_view_mut::<3, 3>(0, idx::GYRO_BIAS)
-            .copy_from(&(r * l.cross_matrix()));
+            .copy_from(&(a * r * l.cross_matrix()));
+        h.fixed_view_mut::<3, 1>(0, idx::DVL_SCALE)
+            .copy_from(&(turn * d));
+        h.fixed_view_mut::<3, 2>(0, idx::DVL_MISALIGNMENT)
+            .copy_from(&(d.cross_matrix() * scale).fixed_view::<3, 2>(0, 1));
+        h.fixed_view_mut::<3, 3>(0, idx::DVL_BIAS)
+            .copy_from(&Matrix3::identity());
         (y, h)
     }
 
@@ -267,8 +303,10 @@ pub mod measure {
         (y, h)
     }
 
-    /// Speed through water from an EM log, taken as the speed over ground (no current), along
-    /// the log's axis, the body's x axis: `z = u = e_x^T C^T v`, so `H_v = e_x^T C^T`.
+    /// Speed through water from an EM log along the log's axis, the body's x axis, with its
+    /// scale error `k` and the water current `c` (north, east): `z = (1 + k) u`, `u = e_x^T
+    /// C^T (v - c)`, so `H_v = (1 + k) e_x^T C^T`, `H_k = u`, `H_c = -(1 + k) e_x^T C^T` (its
+    /// north and east columns).
     /// Returns the innovation, the row, and the variance the attitude's uncertainty adds,
     /// `h_psi P_psi h_psi^T` with `h_psi = e_x^T C^T [v x]`: the attitude is considered, not
     /// corrected, by a speed. `None` below 0.1 m/s forward, where an EM log reads nothing
@@ -297,18 +335,28 @@ pub mod measure {
             .inverse()
             .to_rotation_matrix()
             .into_inner();
-        let v = est.nav.vel_ned_m_s;
+        let current = Vector3::new(est.water[1], est.water[2], 0.0);
+        let through_water = est.nav.vel_ned_m_s - current;
         let forward = c_t.row(0);
-        let u = (forward * v)[0];
+        let u = (forward * through_water)[0];
         if u < 0.1 {
             return None;
         }
+        let scale = 1.0 + est.water[0];
         let mut h = SMatrix::<f64, 1, N>::zeros();
-        h.fixed_view_mut::<1, 3>(0, idx::VEL).copy_from(&forward);
-        let h_att = forward * v.cross_matrix();
+        h.fixed_view_mut::<1, 3>(0, idx::VEL)
+            .copy_from(&(forward * scale));
+        h[(0, idx::EML_SCALE)] = u;
+        h.fixed_view_mut::<1, 2>(0, idx::CURRENT)
+            .copy_from(&(-forward.fixed_view::<1, 2>(0, 0) * scale));
+        let h_att = forward * through_water.cross_matrix() * scale;
         let p_att = est.cov.fixed_view::<3, 3>(idx::ATT, idx::ATT);
         let attitude_variance = (h_att * p_att * h_att.transpose())[0];
-        Some((SVector::<f64, 1>::new(speed_m_s - u), h, attitude_variance))
+        Some((
+            SVector::<f64, 1>::new(speed_m_s - scale * u),
+            h,
+            attitude_variance,
+        ))
     }
 
     /// Magnetic heading: the body field reading (calibrated) turned into NED by the attitude
@@ -364,6 +412,8 @@ mod tests {
             },
             gyro_bias: Vector3::zeros(),
             accel_bias: Vector3::zeros(),
+            dvl: DvlCalibration::from_column_slice(&[0.003, 0.01, -0.02, 0.01, -0.005, 0.002]),
+            water: WaterState::new(0.01, 0.1, -0.05),
             cov: ErrorMatrix::identity() * 1e-4,
         }
     }
@@ -379,10 +429,7 @@ mod tests {
             let eps = 1e-6;
             let mut dx = ErrorState::zeros();
             dx[i] = eps;
-            let moved = Estimate {
-                nav: error_state::inject(&est.nav, &dx),
-                ..est
-            };
+            let moved = est.corrected_by(&dx);
             let (y1, _) = measure::body_velocity(&moved, &v_body);
             // y = z - predicted, so the predicted measurement moves by y0 - y1.
             let numeric = (y0 - y1) / eps;
@@ -402,10 +449,7 @@ mod tests {
             let eps = 1e-6;
             let mut dx = ErrorState::zeros();
             dx[i] = eps;
-            let moved = Estimate {
-                nav: error_state::inject(&est.nav, &dx),
-                ..est
-            };
+            let moved = est.corrected_by(&dx);
             // A gyro-bias correction changes the true body rate by -dbg.
             let mut w_moved = w_nb;
             if (idx::GYRO_BIAS..idx::GYRO_BIAS + 3).contains(&i) {
@@ -426,10 +470,7 @@ mod tests {
         for i in 0..N {
             let mut dx = ErrorState::zeros();
             dx[i] = 1e-6;
-            let moved = Estimate {
-                nav: error_state::inject(&est.nav, &dx),
-                ..est
-            };
+            let moved = est.corrected_by(&dx);
             let (s1, _, _) = measure::speed(&moved, 1.5).unwrap();
             let numeric = (s0 - s1)[0] / 1e-6;
             if (idx::ATT..idx::ATT + 3).contains(&i) {
@@ -450,10 +491,7 @@ mod tests {
         for i in 0..N {
             let mut dx = ErrorState::zeros();
             dx[i] = 1e-7;
-            let moved = Estimate {
-                nav: error_state::inject(&est.nav, &dx),
-                ..est
-            };
+            let moved = est.corrected_by(&dx);
             let (m1, _) = measure::magnetic_heading(&moved, &field, -0.13).unwrap();
             assert!(
                 ((m0 - m1)[0] / 1e-7 - hm[(0, i)]).abs() < 1e-6,
@@ -471,26 +509,14 @@ mod tests {
         let (d0, hd) = measure::depth(&est, 21.0);
         let mut dx = ErrorState::zeros();
         dx[idx::POS + 2] = 0.5;
-        let (d1, _) = measure::depth(
-            &Estimate {
-                nav: error_state::inject(&est.nav, &dx),
-                ..est
-            },
-            21.0,
-        );
+        let (d1, _) = measure::depth(&est.corrected_by(&dx), 21.0);
         assert!(((d0 - d1)[0] / 0.5 - hd[(0, idx::POS + 2)]).abs() < 1e-9);
         let (p0, hp) = measure::horizontal_position(&est, 0.6 + 1e-6, 0.1 - 1e-6);
         for i in [idx::POS, idx::POS + 1] {
             let mut dx = ErrorState::zeros();
             dx[i] = 1.0;
-            let (p1, _) = measure::horizontal_position(
-                &Estimate {
-                    nav: error_state::inject(&est.nav, &dx),
-                    ..est
-                },
-                0.6 + 1e-6,
-                0.1 - 1e-6,
-            );
+            let (p1, _) =
+                measure::horizontal_position(&est.corrected_by(&dx), 0.6 + 1e-6, 0.1 - 1e-6);
             assert!(((p0 - p1) - hp.column(i)).amax() < 1e-6);
         }
     }
@@ -505,6 +531,7 @@ mod tests {
                 accel_bias_walk: 1e-6,
             },
             height_damping: None,
+            current_walk: 0.0,
         };
         let est = Estimate {
             cov: ErrorMatrix::identity() * 4.0,

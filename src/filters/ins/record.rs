@@ -9,7 +9,9 @@
 //!   the rows of `F` for them are zero and every power of `F` keeps them so): only the top
 //!   nine rows are kept (135 of 225).
 
-use super::error_state::{idx, ErrorMatrix, ErrorState, N};
+use super::error_state::{
+    idx, DvlCalibration, ErrorMatrix, ErrorState, WaterState, DVL_STATES, N, WATER_STATES,
+};
 use super::forward::Estimate;
 use super::mechanization::NavState;
 use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3};
@@ -78,8 +80,8 @@ impl PackedTransition {
     /// Packs `phi`; its bias rows must be `[0 I]` (true of every transition of the model).
     pub fn pack(phi: &ErrorMatrix) -> Self {
         debug_assert!(
-            (phi.fixed_view::<6, N>(NAV_ROWS, 0)
-                - ErrorMatrix::identity().fixed_view::<6, N>(NAV_ROWS, 0))
+            (phi.fixed_view::<{ N - NAV_ROWS }, N>(NAV_ROWS, 0)
+                - ErrorMatrix::identity().fixed_view::<{ N - NAV_ROWS }, N>(NAV_ROWS, 0))
             .amax()
                 == 0.0,
             "transition's bias rows are not [0 I]"
@@ -104,6 +106,8 @@ pub struct NavPoint {
     pub nav: NavState,
     pub gyro_bias: Vector3<f64>,
     pub accel_bias: Vector3<f64>,
+    pub dvl: DvlCalibration,
+    pub water: WaterState,
 }
 
 /// What the forward pass keeps at one epoch (an IMU tick with a measurement or an output
@@ -169,6 +173,8 @@ impl From<&Estimate> for NavPoint {
             nav: e.nav,
             gyro_bias: e.gyro_bias,
             accel_bias: e.accel_bias,
+            dvl: e.dvl,
+            water: e.water,
         }
     }
 }
@@ -179,6 +185,8 @@ impl NavPoint {
             nav: self.nav,
             gyro_bias: self.gyro_bias,
             accel_bias: self.accel_bias,
+            dvl: self.dvl,
+            water: self.water,
             cov,
         }
     }
@@ -252,6 +260,10 @@ pub fn correction_between(prior: &Estimate, posterior: &Estimate) -> ErrorState 
         .copy_from(&(posterior.gyro_bias - prior.gyro_bias));
     d.fixed_rows_mut::<3>(idx::ACCEL_BIAS)
         .copy_from(&(posterior.accel_bias - prior.accel_bias));
+    d.fixed_rows_mut::<DVL_STATES>(idx::DVL)
+        .copy_from(&(posterior.dvl - prior.dvl));
+    d.fixed_rows_mut::<WATER_STATES>(idx::WATER)
+        .copy_from(&(posterior.water - prior.water));
     d
 }
 

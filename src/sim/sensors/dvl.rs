@@ -33,6 +33,13 @@ pub struct DvlSpec {
     /// The DVL logs nothing after this time from the start, s (switched off or failed).
     #[serde(default)]
     pub until_s: Option<f64>,
+    /// A known scale-factor error added to the drawn one, fraction (0.005 = 0.5 %).
+    #[serde(default)]
+    pub scale_error: f64,
+    /// Mounting misalignment about the DVL's y and z axes (pitch, heading), deg: it reads
+    /// `(1 + s)(I - [m x]) v + b` with `m = (0, pitch, heading)`.
+    #[serde(default)]
+    pub misalignment_deg: [f64; 2],
 }
 
 fn default_max_altitude() -> f64 {
@@ -60,7 +67,7 @@ pub struct DvlSensor {
 
 impl DvlSensor {
     pub fn new(spec: DvlSpec, mut rng: ChaCha8Rng) -> Self {
-        let scale = spec.scale * normal(&mut rng);
+        let scale = spec.scale * normal(&mut rng) + spec.scale_error;
         let bias_m_s = Vector3::from_fn(|_, _| spec.bias_m_s * normal(&mut rng));
         DvlSensor {
             spec,
@@ -75,8 +82,11 @@ impl DvlSensor {
         let mut noise = |sigma: f64| Vector3::from_fn(|_, _| sigma * normal(&mut self.rng));
         if in_range {
             let n = noise(self.spec.noise_m_s);
+            let [pitch, heading] = self.spec.misalignment_deg.map(f64::to_radians);
+            let turned =
+                velocity_body_m_s - Vector3::new(0.0, pitch, heading).cross(velocity_body_m_s);
             DvlReading {
-                velocity_body_m_s: (1.0 + self.scale) * velocity_body_m_s + self.bias_m_s + n,
+                velocity_body_m_s: (1.0 + self.scale) * turned + self.bias_m_s + n,
                 valid: true,
                 altitude_m: Some(altitude_m),
             }
@@ -112,6 +122,8 @@ mod tests {
             out_of_range_noise_m_s: 0.0,
             latency_s: 0.0,
             until_s: None,
+            scale_error: 0.0,
+            misalignment_deg: [0.0; 2],
         }
     }
 

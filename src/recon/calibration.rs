@@ -1,0 +1,87 @@
+//! The DVL's calibration as the reconstruction estimated it: scale factor, bias and mounting
+//! misalignment; the EM log's scale and the water current; with their sigmas, and whether the
+//! log told them (the sigma well under its prior) or they were only carried (considered) at
+//! their prior.
+//!
+//! They are constants in the filter, so the forward pass's last estimate is the smoothed one.
+
+use crate::filters::ins::error_state::idx;
+use crate::filters::ins::record::Solution;
+use serde::Serialize;
+
+/// A sigma below this fraction of its prior counts as determined by the log.
+const DETERMINED_BELOW: f64 = 0.5;
+
+/// One estimated quantity.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Estimated {
+    pub value: f64,
+    pub sigma: f64,
+    /// The log determined it (else it was carried at its prior, as a consider term).
+    pub determined: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Misalignment {
+    pub heading: Estimated,
+    pub pitch: Estimated,
+}
+
+/// The DVL's calibration (summary.json `dvl_calibration`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DvlCalibrationReport {
+    /// About 1.0: the DVL reads `scale_factor` times the true velocity.
+    pub scale_factor: Estimated,
+    /// Bias along the DVL's x, y, z axes, m/s.
+    pub bias_m_s: [Estimated; 3],
+    /// Mounting misalignment beyond the configured rotation, deg.
+    pub misalignment_deg: Misalignment,
+}
+
+/// The EM log's scale and the water current (summary.json `water`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WaterReport {
+    /// About 1.0: the EM log reads `eml_scale_factor` times the speed through the water.
+    pub eml_scale_factor: Estimated,
+    /// Current (water over ground) north and east at the end of the mission, m/s.
+    pub current_m_s: [Estimated; 2],
+}
+
+/// The water report from the last forward solution, with the prior sigmas (EM-log scale,
+/// current per axis m/s).
+pub fn water_report(last: &Solution, prior_sigma: &[f64; 3]) -> WaterReport {
+    let w = &last.point.water;
+    let est = |k: usize, offset: f64| {
+        let sigma = last.sigma[idx::WATER + k];
+        Estimated {
+            value: offset + w[k],
+            sigma,
+            determined: sigma < DETERMINED_BELOW * prior_sigma[k],
+        }
+    };
+    WaterReport {
+        eml_scale_factor: est(0, 1.0),
+        current_m_s: [est(1, 0.0), est(2, 0.0)],
+    }
+}
+
+/// The report from the last forward solution, with the prior sigmas (scale, pitch and heading
+/// rad, bias m/s per axis).
+pub fn report(last: &Solution, prior_sigma: &[f64; 6]) -> DvlCalibrationReport {
+    let cal = &last.point.dvl;
+    let sigma = |k: usize| last.sigma[idx::DVL + k];
+    let est = |k: usize, unit: f64, offset: f64| Estimated {
+        value: offset + cal[k] * unit,
+        sigma: sigma(k) * unit,
+        determined: sigma(k) < DETERMINED_BELOW * prior_sigma[k],
+    };
+    let deg = 1f64.to_degrees();
+    DvlCalibrationReport {
+        scale_factor: est(0, 1.0, 1.0),
+        bias_m_s: [est(3, 1.0, 0.0), est(4, 1.0, 0.0), est(5, 1.0, 0.0)],
+        misalignment_deg: Misalignment {
+            pitch: est(1, deg, 0.0),
+            heading: est(2, deg, 0.0),
+        },
+    }
+}
