@@ -19,7 +19,7 @@ use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// Reconstruct the trajectory: strapdown INS, 15-state error-state filter, RTS smoother.
+/// Reconstruct the trajectory: strapdown INS, 24-state error-state filter (with self-tuned noise), RTS smoother.
 ///
 /// Reads the log, initialises from it (position from GNSS, a `start` fix or the mission
 /// origin; levelling; heading by gyrocompass, magnetometer, the mission's initial_yaw_rad or

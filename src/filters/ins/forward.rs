@@ -1,5 +1,5 @@
 //! Forward error-state filter: the mechanization at IMU rate, the error covariance carried
-//! along with the 15-state model, and aiding updates that correct the state (with reset).
+//! along with the 24-state model, and aiding updates that correct the state (with reset).
 //!
 //! Pure: `predict` and `update` take an [`Estimate`] and return a new one with what the step
 //! did, so a smoother can replay the forward pass from its records.
