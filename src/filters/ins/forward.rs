@@ -239,6 +239,15 @@ fn process_noise(n: &ImuNoise, current_walk: f64, dt_s: f64) -> ErrorMatrix {
 pub mod measure {
     use super::*;
 
+    /// `C^T`, the body-from-NED rotation of the estimate's attitude.
+    fn body_from_ned(est: &Estimate) -> Matrix3<f64> {
+        est.nav
+            .ned_from_body
+            .inverse()
+            .to_rotation_matrix()
+            .into_inner()
+    }
+
     /// DVL velocity over ground, measured in the DVL's axes at the DVL's position:
     /// `z = A d + b` with `d = R (C^T v + omega_nb x l)` what the nominal mounting predicts
     /// (`R` the DVL-from-body rotation, `l` the lever arm in the body frame, `omega_nb` the
@@ -253,12 +262,7 @@ pub mod measure {
         mounting: &DvlMounting,
         omega_nb_body: &Vector3<f64>,
     ) -> (SVector<f64, 3>, SMatrix<f64, 3, N>) {
-        let c_t = est
-            .nav
-            .ned_from_body
-            .inverse()
-            .to_rotation_matrix()
-            .into_inner();
+        let c_t = body_from_ned(est);
         let r = mounting.dvl_from_body.matrix();
         let l = mounting.lever_arm_body_m;
         let v = est.nav.vel_ned_m_s;
@@ -329,12 +333,7 @@ pub mod measure {
         est: &Estimate,
         speed_m_s: f64,
     ) -> Option<(SVector<f64, 1>, SMatrix<f64, 1, N>, f64)> {
-        let c_t = est
-            .nav
-            .ned_from_body
-            .inverse()
-            .to_rotation_matrix()
-            .into_inner();
+        let c_t = body_from_ned(est);
         let current = Vector3::new(est.water[1], est.water[2], 0.0);
         let through_water = est.nav.vel_ned_m_s - current;
         let forward = c_t.row(0);
