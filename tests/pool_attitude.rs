@@ -49,6 +49,7 @@ fn pool(name: &str) -> Pool {
     let reference = Reference {
         dvl,
         mounting: &mounting,
+        max_gap_s: 5.0,
         start_ned_m: Some(start),
         end_ned_m: Some(end),
         truth: &reference_attitude,
@@ -72,7 +73,7 @@ fn pool(name: &str) -> Pool {
     };
     let recorded = scores(mag);
     let calibrated = scores(&calibrated_mag);
-    let truth_track = dead_reckon(&reference_attitude, dvl, &mounting, start);
+    let truth_track = dead_reckon(&reference_attitude, dvl, &mounting, start, 5.0);
     Pool {
         truth_end_m: (truth_track.last().unwrap().ned_m - end).xy().norm(),
         recorded,

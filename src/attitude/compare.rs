@@ -1,6 +1,10 @@
 //! The comparison `hindsight attitude` makes: every method on the same inputs (in parallel,
 //! each a pure function), each attitude through the same DVL dead reckoning, each scored
 //! against the `end` mark and, when the log has it, `/truth`.
+//!
+//! Without them the methods are still compared: with each other, against the smoothed MEKF
+//! (the best attitude the log itself gives, [`attitude_reference`]), and by how close each
+//! track comes back to its start when the run returns ([`closest_return_m`]).
 
 use super::config::Filters;
 use super::dead_reckoning::{attitude_at, dead_reckon, TrackPoint};
@@ -153,14 +157,24 @@ pub struct MethodScore {
     pub euler: Option<EulerErrors>,
     /// BROAD's total / heading / inclination RMS against the truth.
     pub broad: Option<AttitudeRms>,
+    /// How close the track comes back to its start, m, when it returns.
+    pub closest_return_m: Option<f64>,
 }
 
 impl MethodScore {
     pub fn end_error_percent(&self) -> Option<f64> {
-        match (self.end_error_m, self.path_m) {
-            (Some(e), Some(p)) if p > 0.0 => Some(100.0 * e / p),
-            _ => None,
-        }
+        percent_of(self.end_error_m, self.path_m)
+    }
+
+    pub fn closest_return_percent(&self) -> Option<f64> {
+        percent_of(self.closest_return_m, self.path_m)
+    }
+}
+
+fn percent_of(distance_m: Option<f64>, path_m: Option<f64>) -> Option<f64> {
+    match (distance_m, path_m) {
+        (Some(e), Some(p)) if p > 0.0 => Some(100.0 * e / p),
+        _ => None,
     }
 }
 
@@ -168,10 +182,13 @@ impl MethodScore {
 pub struct Reference<'a> {
     pub dvl: &'a [Dvl],
     pub mounting: &'a DvlMounting,
+    /// The longest stretch without a valid reading that the dead reckoning bridges, s.
+    pub max_gap_s: f64,
     /// Where the dead reckoning starts (the `start` mark), NED m.
     pub start_ned_m: Option<Vector3<f64>>,
     pub end_ned_m: Option<Vector3<f64>>,
-    /// The true attitude (empty without `/truth`) and the stamps to score it at.
+    /// The reference attitude (`/truth`, or without it another method's; empty for none)
+    /// and the stamps to score it at.
     pub truth: &'a [AttitudeSample],
     pub scored: &'a (dyn Fn(i64) -> bool + Sync),
 }
@@ -179,9 +196,13 @@ pub struct Reference<'a> {
 /// Scores one method's attitude.
 pub fn score(run: &MethodRun, reference: &Reference<'_>) -> MethodScore {
     let track = match reference.start_ned_m {
-        Some(start) if !reference.dvl.is_empty() => {
-            dead_reckon(&run.attitude, reference.dvl, reference.mounting, start)
-        }
+        Some(start) if !reference.dvl.is_empty() => dead_reckon(
+            &run.attitude,
+            reference.dvl,
+            reference.mounting,
+            start,
+            reference.max_gap_s,
+        ),
         _ => Vec::new(),
     };
     let path_m = (!track.is_empty()).then(|| {
@@ -197,12 +218,48 @@ pub fn score(run: &MethodRun, reference: &Reference<'_>) -> MethodScore {
     let (euler, broad) = truth_errors(&run.attitude, reference);
     MethodScore {
         method: run.method,
+        closest_return_m: closest_return_m(&track),
         track,
         end_error_m,
         path_m,
         euler,
         broad,
     }
+}
+
+/// A track must go this far from its start to be said to come back (m).
+pub const MIN_EXCURSION_M: f64 = 2.0;
+/// ... and come back within this fraction of its farthest distance.
+pub const RETURN_FRACTION: f64 = 0.25;
+
+/// The horizontal distance from the start of the closest point of the track after its
+/// farthest one, m: how well a run that returns to where it began closes. `None` when the
+/// track never goes [`MIN_EXCURSION_M`] away, or does not come back within
+/// [`RETURN_FRACTION`] of its farthest distance.
+pub fn closest_return_m(track: &[TrackPoint]) -> Option<f64> {
+    let start = track.first()?.ned_m;
+    let distance = |p: &TrackPoint| (p.ned_m - start).xy().norm();
+    let (farthest, d_max) = track
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (i, distance(p)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    if d_max < MIN_EXCURSION_M {
+        return None;
+    }
+    let closest = track[farthest..]
+        .iter()
+        .map(distance)
+        .fold(f64::INFINITY, f64::min);
+    (closest <= RETURN_FRACTION * d_max).then_some(closest)
+}
+
+/// The method the others are compared with when the log has no truth: the smoothed MEKF,
+/// else the forward one, if it ran.
+pub fn attitude_reference(runs: &[MethodRun]) -> Option<&MethodRun> {
+    [Method::MekfSmoothed, Method::Mekf]
+        .into_iter()
+        .find_map(|m| runs.iter().find(|r| r.method == m))
 }
 
 /// Errors against the truth at its scored stamps (the estimate interpolated there).
@@ -252,4 +309,37 @@ fn truth_errors(
             inclination_deg: rms(sums[5]),
         }),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn track(points: &[(f64, f64)]) -> Vec<TrackPoint> {
+        points
+            .iter()
+            .enumerate()
+            .map(|(i, &(n, e))| TrackPoint {
+                stamp_ns: i as i64,
+                ned_m: Vector3::new(n, e, 0.0),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_run_that_comes_back_has_a_closest_return() {
+        // Out 10 m, across, back to within 0.5 m, then away again.
+        let t = track(&[(0.0, 0.0), (10.0, 0.0), (10.0, 5.0), (0.3, 0.4), (3.0, 0.0)]);
+        assert!((closest_return_m(&t).unwrap() - 0.5).abs() < 1e-12);
+        // A straight run does not come back; a run that never leaves has nothing to close.
+        assert_eq!(
+            closest_return_m(&track(&[(0.0, 0.0), (10.0, 0.0), (20.0, 0.0)])),
+            None
+        );
+        assert_eq!(
+            closest_return_m(&track(&[(0.0, 0.0), (1.0, 0.0), (0.0, 0.0)])),
+            None
+        );
+        assert_eq!(closest_return_m(&[]), None);
+    }
 }

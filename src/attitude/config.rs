@@ -2,6 +2,10 @@
 //! key: seed 001's parameters for its three filters, hindsight's MEKF densities, the DVL's
 //! mounting and the magnetometer checks. `hindsight attitude --print-config` prints
 //! [`DEFAULT_TOML`].
+//!
+//! A [`Preset`] is the base a configuration file is laid over: hindsight's defaults, or
+//! seed 001's matrices as printed (`Preset::Seed001`, for reproducing the paper; its
+//! measurement covariances are indefinite and are raised to a floor, with a message).
 
 use super::cf::CfSettings;
 use super::ekf::{matrix, Ekf, EkfSettings};
@@ -19,17 +23,21 @@ pub const DEFAULT_TOML: &str = r#"# hindsight attitude: configuration (every key
 # step per IMU sample), as seed 001 gives them. NOTE: seed 001 calls the process noise R
 # and the measurement noise Q, the reverse of the usual convention. Here process_noise is
 # the paper's R and measurement_noise the paper's Q.
+#
+# The paper's printed measurement covariances are not positive definite; these defaults
+# keep their diagonals. `--preset seed001` takes the paper's matrices as printed (raised to
+# checks.covariance_floor_rad2 where they must be, with a note), for reproducing it.
 
 [ekf]                  # seed 001 Table 1, parameters of its Table 6
 initial_cov = [[0.15, 0.0, 0.0], [0.0, 0.15, 0.0], [0.0, 0.0, 0.15]]
 process_noise = [[0.1, 0.08, 0.08], [0.08, 0.1, 0.08], [0.08, 0.08, 0.1]]
-measurement_noise = [[0.1, 0.08, 0.15], [0.08, 0.1, 0.15], [0.15, 0.15, 0.2]]
+measurement_noise = [[0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.2]]
 
 [ukf]                  # seed 001 Table 2, parameters of its Table 7
 kappa = 1.7
 initial_cov = [[0.15, 0.0, 0.0], [0.0, 0.15, 0.0], [0.0, 0.0, 0.15]]
 process_noise = [[0.2, 0.02, 0.02], [0.02, 0.2, 0.02], [0.02, 0.02, 0.15]]
-measurement_noise = [[0.07, 0.07, 0.07], [0.07, 0.1, 0.07], [0.07, 0.07, 0.02]]
+measurement_noise = [[0.07, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.02]]
 
 [cf]                   # seed 001 Table 3, gains of its Table 8
 kp = 6.151828996322964 # 4.35 sqrt(2), 1/s
@@ -54,6 +62,10 @@ covariance_floor_rad2 = 1e-4
 [dvl]
 lever_arm_m = [0.0, 0.0, 0.0]     # DVL position from the AHRS, body FRD
 rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z-Y-X)
+# A stretch without a valid reading (no bottom lock, or no readings) up to this long is
+# bridged with the last velocity; a longer one is not (the track holds its position
+# through it) and is reported.
+max_gap_s = 5.0
 
 [magnetometer]
 # A reading with an axis at that axis's extreme value of the whole log, repeated in at
@@ -70,7 +82,7 @@ pub struct AttitudeConfig {
     pub cf: CfSettings,
     pub mekf: MekfSettings,
     pub checks: Checks,
-    pub dvl: Mounting,
+    pub dvl: DvlSettings,
     pub magnetometer: MagnetometerChecks,
 }
 
@@ -88,17 +100,40 @@ impl Default for Checks {
     }
 }
 
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+/// The DVL's mounting and how long a stretch without it the dead reckoning bridges.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct Mounting {
+pub struct DvlSettings {
     pub lever_arm_m: [f64; 3],
     pub rotation_deg: [f64; 3],
+    pub max_gap_s: f64,
 }
 
-impl Mounting {
+impl Default for DvlSettings {
+    fn default() -> Self {
+        DvlSettings {
+            lever_arm_m: [0.0; 3],
+            rotation_deg: [0.0; 3],
+            max_gap_s: 5.0,
+        }
+    }
+}
+
+impl DvlSettings {
     pub fn mounting(&self) -> DvlMounting {
         DvlMounting::from_config(self.lever_arm_m, self.rotation_deg)
     }
+}
+
+/// The base a configuration file is laid over.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Preset {
+    /// hindsight's defaults (every covariance positive definite).
+    #[default]
+    Hindsight,
+    /// Seed 001's EKF and UKF matrices exactly as printed (Tables 6-7), for reproducing
+    /// the paper.
+    Seed001,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -155,10 +190,35 @@ pub struct Filters {
 }
 
 impl AttitudeConfig {
-    /// Parses a TOML configuration (unknown keys are errors, naming the key) and checks it.
+    /// A preset's settings.
+    pub fn preset(preset: Preset) -> AttitudeConfig {
+        match preset {
+            Preset::Hindsight => AttitudeConfig::default(),
+            Preset::Seed001 => AttitudeConfig {
+                ekf: EkfSettings::seed001(),
+                ukf: UkfSettings::seed001(),
+                ..AttitudeConfig::default()
+            },
+        }
+    }
+
+    /// Parses a TOML configuration (unknown keys are errors, naming the key) over the
+    /// defaults, and checks it.
     pub fn from_toml(text: &str) -> Result<AttitudeConfig, AttitudeConfigError> {
-        let config: AttitudeConfig =
-            toml::from_str(text).map_err(|e| AttitudeConfigError::Toml(e.to_string()))?;
+        AttitudeConfig::from_toml_over(Preset::Hindsight, text)
+    }
+
+    /// Parses a TOML configuration over a preset: the keys it gives replace the preset's.
+    pub fn from_toml_over(
+        preset: Preset,
+        text: &str,
+    ) -> Result<AttitudeConfig, AttitudeConfigError> {
+        let toml_error = |e: &dyn std::fmt::Display| AttitudeConfigError::Toml(e.to_string());
+        let given: toml::Table = toml::from_str(text).map_err(|e| toml_error(&e))?;
+        let mut base =
+            toml::Table::try_from(AttitudeConfig::preset(preset)).map_err(|e| toml_error(&e))?;
+        merge(&mut base, given);
+        let config: AttitudeConfig = base.try_into().map_err(|e| toml_error(&e))?;
         config.filters()?;
         Ok(config)
     }
@@ -230,6 +290,12 @@ impl AttitudeConfig {
                 "must be a probability in (0, 1)",
             ));
         }
+        if !(self.dvl.max_gap_s.is_finite() && self.dvl.max_gap_s >= 0.0) {
+            return Err(bad(
+                "dvl.max_gap_s",
+                "must be zero or a positive number of seconds",
+            ));
+        }
         if self.magnetometer.saturation_repeats < 2 {
             return Err(bad("magnetometer.saturation_repeats", "must be 2 or more"));
         }
@@ -240,6 +306,18 @@ impl AttitudeConfig {
             mekf: self.mekf,
             adjustments,
         })
+    }
+}
+
+/// Lays `given` over `base`, table by table.
+fn merge(base: &mut toml::Table, given: toml::Table) {
+    for (key, value) in given {
+        match (base.get_mut(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(g)) => merge(b, g),
+            (_, value) => {
+                base.insert(key, value);
+            }
+        }
     }
 }
 
@@ -266,11 +344,39 @@ mod tests {
         );
     }
 
+    /// The defaults need no adjustment.
+    #[test]
+    fn the_defaults_are_positive_definite() {
+        let filters = AttitudeConfig::default().filters().unwrap();
+        assert!(filters.adjustments.is_empty(), "{:?}", filters.adjustments);
+    }
+
+    /// A file laid over the seed 001 preset keeps the preset's other keys.
+    #[test]
+    fn a_file_is_laid_over_the_preset() {
+        let c = AttitudeConfig::from_toml_over(
+            Preset::Seed001,
+            "[ekf]\nprocess_noise = \
+            [[0.2, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 0.2]]\n[dvl]\nmax_gap_s = 1.0",
+        )
+        .unwrap();
+        assert_eq!(c.ekf.process_noise[0][0], 0.2);
+        assert_eq!(
+            c.ekf.measurement_noise,
+            EkfSettings::seed001().measurement_noise
+        );
+        assert_eq!(c.ukf, UkfSettings::seed001());
+        assert_eq!(c.dvl.max_gap_s, 1.0);
+        let e =
+            AttitudeConfig::from_toml_over(Preset::Seed001, "[dvl]\nmax_gap = 1.0").unwrap_err();
+        assert!(e.to_string().contains("max_gap"), "{e}");
+    }
+
     /// Seed 001's printed measurement covariances are indefinite: both are adjusted and
     /// reported, nothing else is.
     #[test]
     fn the_papers_measurement_covariances_are_adjusted() {
-        let filters = AttitudeConfig::default().filters().unwrap();
+        let filters = AttitudeConfig::preset(Preset::Seed001).filters().unwrap();
         let keys: Vec<_> = filters.adjustments.iter().map(|a| a.key).collect();
         assert_eq!(keys, ["ekf.measurement_noise", "ukf.measurement_noise"]);
         for a in &filters.adjustments {

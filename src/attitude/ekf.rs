@@ -34,8 +34,20 @@ pub struct EkfSettings {
     pub measurement_noise: [[f64; 3]; 3],
 }
 
+/// hindsight's defaults: seed 001's matrices with the measurement covariance made positive
+/// definite by keeping its diagonal (the paper's printed one is indefinite).
 impl Default for EkfSettings {
     fn default() -> Self {
+        EkfSettings {
+            measurement_noise: [[0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.2]],
+            ..EkfSettings::seed001()
+        }
+    }
+}
+
+impl EkfSettings {
+    /// Seed 001 Table 1 with the parameters of its Table 6, as printed.
+    pub fn seed001() -> Self {
         EkfSettings {
             initial_cov: diagonal(0.15),
             process_noise: [[0.1, 0.08, 0.08], [0.08, 0.1, 0.08], [0.08, 0.08, 0.1]],

@@ -24,6 +24,15 @@ use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, SymmetricEigen, Vector2, Vect
 pub const MIN_SPREAD_RATIO: f64 = 0.25;
 /// The in-plane directions must cover at least this many of 36 ten-degree sectors.
 pub const MIN_SECTORS: usize = 27;
+/// A calibration is applied by default only if it takes the magnitude scatter to at most
+/// this fraction of what it was (a sensor already calibrated gains nothing worth the risk)...
+pub const MAX_SCATTER_RATIO: f64 = 0.8;
+/// ... to at most this scatter (more means readings a fixed hard and soft iron do not
+/// explain: a field disturbed by magnets or steel near the sensor)...
+pub const MAX_SCATTER_AFTER: f64 = 0.05;
+/// ... and with a hard iron no larger than this many times the readings' mean magnitude (a
+/// larger centre is a fit to a small cap of the sphere, not a calibration).
+pub const MAX_HARD_IRON_RATIO: f64 = 1.0;
 
 /// Which fit was made.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -48,11 +57,32 @@ pub struct MagCalibration {
     /// Ten-degree sectors of in-plane direction the readings cover (of 36).
     pub sectors_covered: usize,
     pub readings: usize,
+    /// The readings' mean magnitude, T.
+    pub mean_magnitude_t: f64,
 }
 
 impl MagCalibration {
     pub fn apply(&self, field: &Vector3<f64>) -> Vector3<f64> {
         self.correction * (field - self.hard_iron)
+    }
+
+    /// Whether the calibration can be trusted to be applied without being asked for: it
+    /// clearly lowers the magnitude scatter, to a small one, with a plausible hard iron.
+    pub fn trusted(&self) -> Result<(), Untrusted> {
+        if self.scatter_after > MAX_SCATTER_RATIO * self.scatter_before {
+            return Err(Untrusted::LittleGain {
+                before: self.scatter_before,
+                after: self.scatter_after,
+            });
+        }
+        if self.scatter_after > MAX_SCATTER_AFTER {
+            return Err(Untrusted::Disturbed(self.scatter_after));
+        }
+        let ratio = self.hard_iron.norm() / self.mean_magnitude_t;
+        if ratio > MAX_HARD_IRON_RATIO {
+            return Err(Untrusted::ImplausibleHardIron(ratio));
+        }
+        Ok(())
     }
 
     /// The readings calibrated (stamps kept).
@@ -78,6 +108,26 @@ pub enum CalibrationError {
     NotEnoughTurning(usize),
     #[error("the readings do not fit an ellipsoid (the fitted quadric is not one)")]
     NotAnEllipsoid,
+}
+
+/// Why a calibration is not applied by default.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Untrusted {
+    #[error(
+        "it lowers the field magnitude scatter only from {:.2} % to {:.2} % (the readings look \
+         calibrated already)",
+        before * 100.0,
+        after * 100.0
+    )]
+    LittleGain { before: f64, after: f64 },
+    #[error(
+        "the field magnitude still scatters by {:.1} % after it: the field is disturbed \
+         (magnets or steel near the sensor), not just offset",
+        .0 * 100.0
+    )]
+    Disturbed(f64),
+    #[error("its hard iron is {0:.1} times the field's magnitude: not a plausible fit")]
+    ImplausibleHardIron(f64),
 }
 
 /// Fits the calibration to the readings.
@@ -139,6 +189,7 @@ pub fn fit(mag: &[MagneticField]) -> Result<MagCalibration, CalibrationError> {
         scatter_after: relative_scatter(&after),
         sectors_covered: sectors,
         readings: points.len(),
+        mean_magnitude_t: scale,
     })
 }
 
@@ -286,6 +337,58 @@ mod tests {
             cal.scatter_before > 0.01 && cal.scatter_after < 0.003,
             "{cal:?}"
         );
+        assert_eq!(cal.trusted(), Ok(()));
+    }
+
+    /// Readings from all over the sphere with the given distortion and noise, and every
+    /// 7th reading (from `disturbed_from`) pulled by a magnet near the sensor.
+    fn tumbling(
+        d: Matrix3<f64>,
+        h: Vector3<f64>,
+        noise_t: f64,
+        magnet_t: f64,
+    ) -> Vec<MagneticField> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(63);
+        let field = Vector3::from(FIELD_NED);
+        (0..3000)
+            .map(|k| {
+                let q: UnitQuaternion<f64> =
+                    UnitQuaternion::from_scaled_axis(Vector3::from_fn(|_, _| {
+                        rng.random_range(-3.0..3.0)
+                    }));
+                let noise = Vector3::from_fn(|_, _| {
+                    let n: f64 = StandardNormal.sample(&mut rng);
+                    n * noise_t
+                });
+                let magnet = if k % 7 == 0 {
+                    Vector3::new(magnet_t, 0.5 * magnet_t, 0.0)
+                } else {
+                    Vector3::zeros()
+                };
+                reading(k, d * (q.inverse() * field) + h + noise + magnet)
+            })
+            .collect()
+    }
+
+    /// What is applied without being asked for: a real hard iron, yes; a sensor already
+    /// calibrated, or a field disturbed by a magnet, no.
+    #[test]
+    fn only_a_clear_gain_is_trusted() {
+        let five_ut = Vector3::new(4000e-9, -3000e-9, 0.0);
+        let cal = fit(&tumbling(Matrix3::identity(), five_ut, 300e-9, 0.0)).unwrap();
+        assert_eq!(cal.trusted(), Ok(()), "{cal:?}");
+        let calibrated = fit(&tumbling(
+            Matrix3::identity(),
+            Vector3::zeros(),
+            300e-9,
+            0.0,
+        ));
+        assert!(matches!(
+            calibrated.unwrap().trusted(),
+            Err(Untrusted::LittleGain { .. })
+        ),);
+        let disturbed = fit(&tumbling(Matrix3::identity(), five_ut, 300e-9, 30e-6)).unwrap();
+        assert!(disturbed.trusted().is_err(), "{disturbed:?}");
     }
 
     /// A level vehicle turning about the vertical: an ellipse, the horizontal hard iron

@@ -3,7 +3,8 @@
 use super::{OutputFailed, PolicyArgs};
 use anyhow::{Context, Result};
 use hindsight::attitude::compare::{self, Method, MethodRun, MethodScore, Reference};
-use hindsight::attitude::config::{AttitudeConfig, DEFAULT_TOML};
+use hindsight::attitude::config::{AttitudeConfig, Preset, DEFAULT_TOML};
+use hindsight::attitude::dead_reckoning::gaps_longer_than;
 use hindsight::attitude::mag_calibration;
 use hindsight::attitude::mag_checks::without_saturation;
 use hindsight::attitude::score::reference_from_truth;
@@ -35,11 +36,19 @@ use std::time::Instant;
 /// names (process_noise = the paper's R). Its printed measurement covariances are not
 /// positive definite: they are raised to a floor, with a message.
 ///
-/// Scores: the horizontal distance from each track's end to the `end` mark (N/A without
-/// one), in m and in % of the path; with /truth, roll/pitch/yaw RMS and max errors and
-/// BROAD's total/heading/inclination RMS (over the log's `broad.movement_intervals_ns` when
-/// it has them). Without a magnetometer, raw, ekf, ukf and cf are skipped and the MEKF runs
-/// on gravity alone (yaw from the gyro, from the mission's initial_yaw_rad).
+/// Scores: the horizontal distance from each track's end to the `end` mark, in m and in % of
+/// the path; with /truth, roll/pitch/yaw RMS and max errors and BROAD's
+/// total/heading/inclination RMS (over the log's `broad.movement_intervals_ns` when it has
+/// them). Without an `end` mark, the closest return of each track to its start when the run
+/// comes back; without /truth, the angles are compared with the smoothed MEKF's. The table
+/// says which. Without a magnetometer, raw, ekf, ukf and cf are skipped and the MEKF runs on
+/// gravity alone (yaw from the gyro, from the mission's initial_yaw_rad).
+///
+/// The magnetometer is calibrated on the log itself (hard and soft iron) when the run turns
+/// through enough headings; the declination is the mission's, else the World Magnetic
+/// Model's at the mission origin and the log's date. A stretch without a valid DVL reading
+/// longer than dvl.max_gap_s (5 s) is not bridged: the track holds its position, with a
+/// warning.
 ///
 /// Writes to DIR, atomically: attitude.parquet (stamp, method, roll/pitch/yaw, dead-reckoned
 /// north/east/down), attitude_summary.parquet (one row per method), tracks_xy.png and
@@ -74,22 +83,30 @@ pub struct AttitudeArgs {
     #[arg(long)]
     pub print_config: bool,
 
+    /// The settings a config file is laid over: hindsight's defaults, or seed 001's EKF and
+    /// UKF matrices exactly as printed (for reproducing the paper; its measurement
+    /// covariances are not positive definite and are raised to a floor, with a note).
+    #[arg(long, value_enum, default_value_t = Preset::Hindsight, value_name = "PRESET")]
+    pub preset: Preset,
+
     /// Magnetometer calibration: `auto` fits hard and soft iron to the log's own readings
     /// (an ellipsoid, or an ellipse when the run turns only about the vertical) and applies
-    /// it to every method; `off` uses the readings as they are.
-    #[arg(long, value_enum, default_value_t = MagCalibration::Off, value_name = "MODE")]
+    /// it to every method, when the readings cover enough headings (else a warning and the
+    /// readings as they are); `none` uses the readings as they are.
+    #[arg(long, value_enum, default_value_t = MagCalibration::Auto, value_name = "MODE")]
     pub mag_calibration: MagCalibration,
 
     /// Magnetic declination, deg east [default: the mission's magnetic_declination_deg,
-    /// else 0].
+    /// else the World Magnetic Model's at the mission origin on the log's date].
     #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub declination: Option<f64>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum MagCalibration {
-    Off,
     Auto,
+    #[value(alias = "off")]
+    None,
 }
 
 pub fn run(args: AttitudeArgs) -> Result<()> {
@@ -104,9 +121,10 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("reading {}", path.display()))?;
-            AttitudeConfig::from_toml(&text).with_context(|| format!("in {}", path.display()))?
+            AttitudeConfig::from_toml_over(args.preset, &text)
+                .with_context(|| format!("in {}", path.display()))?
         }
-        None => AttitudeConfig::default(),
+        None => AttitudeConfig::preset(args.preset),
     };
     let filters = config.filters()?;
     for a in &filters.adjustments {
@@ -150,10 +168,9 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         match mag_calibration::fit(&mag) {
             Ok(cal) => {
                 let h = cal.hard_iron * 1e9;
-                eprintln!(
-                    "magnetometer calibration ({:?} fit, {} readings, {} of 36 heading \
-                     sectors): hard iron [{:.0}, {:.0}, {:.0}] nT; field magnitude scatter \
-                     {:.2} % -> {:.2} %",
+                let fitted = format!(
+                    "magnetometer calibration ({:?} fit, {} readings, {} of 36 heading sectors): \
+                     hard iron [{:.0}, {:.0}, {:.0}] nT; field magnitude scatter {:.2} % -> {:.2} %",
                     cal.kind,
                     cal.readings,
                     cal.sectors_covered,
@@ -163,7 +180,13 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
                     cal.scatter_before * 100.0,
                     cal.scatter_after * 100.0
                 );
-                mag = cal.applied(&mag);
+                match cal.trusted() {
+                    Ok(()) => {
+                        eprintln!("{fitted}");
+                        mag = cal.applied(&mag);
+                    }
+                    Err(why) => eprintln!("note: {fitted}; not applied: {why}"),
+                }
             }
             Err(e) => eprintln!("warning: magnetometer calibration not applied: {e}"),
         }
@@ -194,11 +217,7 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         return Err(compare::InputError::NoMagnetometer)
             .with_context(|| format!("attitude from {}", log_path.display()));
     }
-    let declination_rad = args
-        .declination
-        .or(mission.magnetic_declination_deg)
-        .unwrap_or(0.0)
-        .to_radians();
+    let declination_rad = declination_deg(args.declination, &mission, imu[0].stamp_ns).to_radians();
     let inputs = AhrsInputs {
         imu,
         mag: &mag,
@@ -226,7 +245,32 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     } else if end.is_none() {
         eprintln!("note: no `end` mark on /position_fix: end-point errors not available");
     }
-    let reference_attitude = reference_from_truth(truth);
+    let gaps = gaps_longer_than(dvl, config.dvl.max_gap_s);
+    if let Some(longest) = gaps
+        .iter()
+        .max_by(|a, b| a.duration_s().total_cmp(&b.duration_s()))
+    {
+        eprintln!(
+            "warning: {} stretch(es) without a valid DVL reading longer than dvl.max_gap_s = \
+             {} s (longest {:.1} s from log time {:.3} s, {:.1} s in all): not bridged, the \
+             dead reckoning holds its position through them",
+            gaps.len(),
+            config.dvl.max_gap_s,
+            longest.duration_s(),
+            longest.from_ns as f64 * 1e-9,
+            gaps.iter().map(|g| g.duration_s()).sum::<f64>()
+        );
+    }
+    // The angles' reference: the truth, else the smoothed MEKF (every 10th sample).
+    let truth_attitude = reference_from_truth(truth);
+    let (reference_attitude, attitude_against) = if !truth_attitude.is_empty() {
+        (truth_attitude, Some("/truth".to_string()))
+    } else if let Some(r) = compare::attitude_reference(&runs) {
+        let decimated = r.attitude.iter().step_by(10).copied().collect();
+        (decimated, Some(r.method.name().to_string()))
+    } else {
+        (Vec::new(), None)
+    };
     let intervals: Vec<[i64; 2]> = log
         .metadata
         .get("broad")
@@ -239,6 +283,7 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     let reference = Reference {
         dvl,
         mounting: &mounting,
+        max_gap_s: config.dvl.max_gap_s,
         start_ned_m: start.or(Some(Vector3::zeros())),
         end_ned_m: end,
         truth: &reference_attitude,
@@ -249,15 +294,43 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         .map(|r| compare::score(r, &reference))
         .collect();
 
-    write_outputs(&out, &runs, &scores, start, end)?;
-    print_table(&runs, &scores, filters_s);
+    let attitude_against = attitude_against.as_deref();
+    write_outputs(&out, &runs, &scores, attitude_against, start, end)?;
+    print_table(&runs, &scores, attitude_against, end.is_some(), filters_s);
     Ok(())
+}
+
+/// The declination, deg east: given, else the mission's, else the World Magnetic Model's at
+/// the mission origin on the log's date (0 with a warning when the model has none).
+fn declination_deg(given: Option<f64>, mission: &hindsight::ingest::Mission, t0_ns: i64) -> f64 {
+    if let Some(d) = given.or(mission.magnetic_declination_deg) {
+        return d;
+    }
+    let (lat, lon) = (mission.origin_latitude_deg, mission.origin_longitude_deg);
+    match hindsight::geomag::declination(lat, lon, 0.0, t0_ns) {
+        Ok(d) => {
+            eprintln!(
+                "declination {:.2} deg (+-{:.2}) from the World Magnetic Model at {lat:.4}, \
+             {lon:.4} on the log's date",
+                d.declination_deg, d.sigma_deg
+            );
+            d.declination_deg
+        }
+        Err(e) => {
+            eprintln!(
+                "warning: no declination: the mission gives none and {e}; 0 used (give one \
+             with --declination)"
+            );
+            0.0
+        }
+    }
 }
 
 fn write_outputs(
     out: &std::path::Path,
     runs: &[MethodRun],
     scores: &[MethodScore],
+    attitude_against: Option<&str>,
     start: Option<Vector3<f64>>,
     end: Option<Vector3<f64>>,
 ) -> Result<()> {
@@ -282,7 +355,7 @@ fn write_outputs(
     super::write_parquet(
         &mut staging,
         &path,
-        attitude_tables::summary_batch(runs, scores)?,
+        attitude_tables::summary_batch(runs, scores, attitude_against)?,
         || None,
     )?;
     written.push(path);
@@ -333,28 +406,76 @@ fn write_outputs(
     super::commit_and_list(staging, &written, out)
 }
 
-/// The console table (seed 001's Tables 9-10, with the truth errors when there are some).
-fn print_table(runs: &[MethodRun], scores: &[MethodScore], filters_s: f64) {
+/// The console table (seed 001's Tables 9-10, with the truth errors when there are some), and
+/// what its columns are measured against.
+fn print_table(
+    runs: &[MethodRun],
+    scores: &[MethodScore],
+    attitude_against: Option<&str>,
+    has_end_mark: bool,
+    filters_s: f64,
+) {
     let na =
         |v: Option<f64>, digits: usize| v.map_or("N/A".to_string(), |v| format!("{v:.digits$}"));
+    let returns = !has_end_mark && scores.iter().any(|s| s.closest_return_m.is_some());
+    let (distance_header, distance_caption) = if has_end_mark {
+        (
+            "end err m",
+            "end err: distance of the track's end from the `end` mark",
+        )
+    } else if returns {
+        (
+            "return m",
+            "return: closest return of the track to its start (no `end` mark; the run comes back)",
+        )
+    } else {
+        (
+            "end err m",
+            "end err: N/A (no `end` mark, and the run does not come back to its start)",
+        )
+    };
     println!(
         "\n{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   notes",
-        "method", "end err m", "path m", "% path", "roll rms", "pitch rms", "yaw rms", "total rms"
+        "method",
+        distance_header,
+        "path m",
+        "% path",
+        "roll rms",
+        "pitch rms",
+        "yaw rms",
+        "total rms"
     );
     for (r, s) in runs.iter().zip(scores) {
         let e = s.euler.as_ref();
+        let (distance, percent) = if returns {
+            (s.closest_return_m, s.closest_return_percent())
+        } else {
+            (s.end_error_m, s.end_error_percent())
+        };
+        let mut notes = r.notes.clone();
+        if attitude_against == Some(s.method.name()) {
+            notes.insert(0, "the angles' reference".to_string());
+        }
         println!(
             "{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   {}",
             s.method.name(),
-            na(s.end_error_m, 3),
+            na(distance, 3),
             na(s.path_m, 1),
-            na(s.end_error_percent(), 2),
+            na(percent, 2),
             na(e.map(|e| e.roll_rms_deg), 2),
             na(e.map(|e| e.pitch_rms_deg), 2),
             na(e.map(|e| e.yaw_rms_deg), 2),
             na(s.broad.map(|b| b.total_deg), 2),
-            r.notes.join("; ")
+            notes.join("; ")
         );
     }
-    println!("(angles in deg; RMS against /truth; {filters_s:.2} s for all methods)\n");
+    let angles_caption = match attitude_against {
+        Some("/truth") => "angles: RMS error against /truth, deg".to_string(),
+        Some(method) => format!(
+            "angles: RMS difference from {method}, deg (no /truth in the log: the methods are \
+             compared with each other, not with the truth)"
+        ),
+        None => "angles: N/A (no /truth, and no MEKF to compare with)".to_string(),
+    };
+    println!("({distance_caption}; {angles_caption}; {filters_s:.2} s for all methods)\n");
 }

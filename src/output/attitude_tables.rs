@@ -59,15 +59,33 @@ fn position_at(track: &[TrackPoint], stamp_ns: i64) -> Option<Vector3<f64>> {
 pub fn summary_batch(
     runs: &[MethodRun],
     scores: &[MethodScore],
+    attitude_against: Option<&str>,
 ) -> Result<RecordBatch, ArrowError> {
     let mut c = Columns::default();
     c.text("method", scores.iter().map(|s| s.method.name()).collect());
+    c.text(
+        "angles_against",
+        scores
+            .iter()
+            .map(|_| attitude_against.unwrap_or(""))
+            .collect(),
+    );
     c.optional(
         "end_error_m",
         "m",
         scores.iter().map(|s| s.end_error_m).collect(),
     );
     c.optional("path_m", "m", scores.iter().map(|s| s.path_m).collect());
+    c.optional(
+        "closest_return_m",
+        "m",
+        scores.iter().map(|s| s.closest_return_m).collect(),
+    );
+    c.optional(
+        "closest_return_percent_of_path",
+        "%",
+        scores.iter().map(|s| s.closest_return_percent()).collect(),
+    );
     c.optional(
         "end_error_percent_of_path",
         "%",

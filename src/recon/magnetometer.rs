@@ -1,6 +1,6 @@
 //! The log's magnetometer readings made ready for the heading: saturated readings taken out,
 //! and hard and soft iron fitted to the log's own readings when the vehicle turned through
-//! enough headings (`attitude::mag_calibration`); the field's median magnitude, the reference
+//! enough headings and the fit is a clear gain (`attitude::mag_calibration`); the field's median magnitude, the reference
 //! against which a disturbed reading is recognised.
 
 use super::config::MagConfig;
@@ -30,7 +30,10 @@ pub fn prepare(mag: &[MagneticField], cfg: &MagConfig) -> PreparedMag {
     let (clean, saturated) = mag_checks::without_saturation(mag, cfg.saturation_repeats);
     let (readings, calibration, calibration_skipped) = if cfg.calibrate {
         match mag_calibration::fit(&clean) {
-            Ok(c) => (c.applied(&clean), Some(c), None),
+            Ok(c) => match c.trusted() {
+                Ok(()) => (c.applied(&clean), Some(c), None),
+                Err(why) => (clean, None, Some(format!("fitted, but not applied: {why}"))),
+            },
             Err(e) => (clean, None, Some(e.to_string())),
         }
     } else {

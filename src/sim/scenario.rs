@@ -39,6 +39,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         "trench-eml",
         include_str!("../../scenarios/trench-eml.toml"),
     ),
+    (
+        "survey-27h",
+        include_str!("../../scenarios/survey-27h.toml"),
+    ),
     // Flown by the 6-DOF vehicle model and its autopilot.
     (
         "long-dive-dynamic",
