@@ -68,24 +68,34 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
     let mut ingest_t = vec![ingest_once];
     let mut forward_t = vec![forward_once];
     let mut smoother_t = vec![smoother_once];
-    for _ in 1..repeat {
+    let mut tune_t = Vec::new();
+    for k in 0..repeat {
         let t = Instant::now();
         let log = ingest::read_log(path, &opts)?;
-        ingest_t.push(t.elapsed());
+        if k > 0 {
+            ingest_t.push(t.elapsed());
+        }
         let mission = log.mission()?;
         let streams = Streams::of(&log);
-        let r = recon::reconstruct(&streams, &mission, &config)?;
-        forward_t.push(r.timing.forward);
-        smoother_t.push(r.timing.smoother);
+        // Self-tuning as `reconstruct` runs it by default (its candidates in parallel).
+        let t = Instant::now();
+        let (tuned, _) = recon::tune::tune(&streams, &mission, &config);
+        tune_t.push(t.elapsed());
+        if k > 0 {
+            let r = recon::reconstruct(&streams, &mission, &tuned)?;
+            forward_t.push(r.timing.forward);
+            smoother_t.push(r.timing.smoother);
+        }
     }
     let median = |v: &mut Vec<Duration>| {
         v.sort();
         v[v.len() / 2].as_secs_f64()
     };
-    let (ingest, forward, smoother) = (
+    let (ingest, forward, smoother, tuning) = (
         median(&mut ingest_t),
         median(&mut forward_t),
         median(&mut smoother_t),
+        median(&mut tune_t),
     );
     println!(
         "log: {scenario} (seed 0), {file_mb:.1} MB; {epochs} filter epochs; medians of {repeat} runs, one thread"
@@ -103,6 +113,14 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
     ] {
         println!("{name:<22} {s:>9.2} {:>16.2}", s / ingest);
     }
+    let untuned = ingest + forward + smoother;
+    println!(
+        "self-tuning {tuning:.2} s ({} threads): a reconstruction with it takes {:.2}x the time \
+         of one without ({:.2} s against {untuned:.2} s)",
+        rayon::current_num_threads(),
+        (untuned + tuning) / untuned,
+        untuned + tuning
+    );
     match peak {
         Some(bytes) => println!(
             "peak memory of one reconstruction (ingest, forward, smoother): {:.0} MB",

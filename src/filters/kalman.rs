@@ -64,6 +64,23 @@ pub fn update<const N: usize, const M: usize>(
     r: &SMatrix<f64, M, M>,
     gate: Option<f64>,
 ) -> Result<(Gaussian<N>, UpdateRecord<M>), KalmanError> {
+    update_considering(prior, y, h, r, gate, None)
+}
+
+/// [`update`] with consider states (a Schmidt-Kalman update): the gain's rows for the states
+/// where `considered[i]` is true are zero, so their estimates never move, while their
+/// uncertainty still enters the innovation covariance and the other states' gains. The Joseph
+/// form is the right covariance for any gain, so `P` stays honest: a parameter the data
+/// cannot tell (a DVL scale factor without fixes) widens the uncertainty it causes instead
+/// of being fitted to whatever else is mis-modelled.
+pub fn update_considering<const N: usize, const M: usize>(
+    prior: &Gaussian<N>,
+    y: &SVector<f64, M>,
+    h: &SMatrix<f64, M, N>,
+    r: &SMatrix<f64, M, M>,
+    gate: Option<f64>,
+    considered: Option<&[bool; N]>,
+) -> Result<(Gaussian<N>, UpdateRecord<M>), KalmanError> {
     let pht = prior.cov * h.transpose();
     let s = symmetrised(&(h * pht + r));
     let chol = s
@@ -90,7 +107,12 @@ pub fn update<const N: usize, const M: usize>(
         return Ok((*prior, record));
     }
     // K = P H^T S^-1 = (S^-1 H P)^T, S symmetric.
-    let k: SMatrix<f64, N, M> = chol.solve(&pht.transpose()).transpose();
+    let mut k: SMatrix<f64, N, M> = chol.solve(&pht.transpose()).transpose();
+    if let Some(considered) = considered {
+        for (i, _) in considered.iter().enumerate().filter(|(_, &c)| c) {
+            k.row_mut(i).fill(0.0);
+        }
+    }
     let i_kh = SMatrix::<f64, N, N>::identity() - k * h;
     let cov = i_kh * prior.cov * i_kh.transpose() + k * r * k.transpose();
     Ok((
@@ -291,6 +313,31 @@ mod tests {
         }
         let mean_nis = nis_sum / n as f64;
         assert!((mean_nis - 2.0).abs() < 0.1, "{mean_nis}");
+    }
+
+    /// A consider state keeps its estimate; its uncertainty is kept too (only the cross terms
+    /// move), and the other state's variance falls less than with the state estimated.
+    #[test]
+    fn a_consider_state_is_carried_not_corrected() {
+        // x0 measured directly; x1 a bias on the same measurement (y = x0 + x1 + v).
+        let prior = Gaussian::<2> {
+            mean: Vector2::new(0.0, 0.0),
+            cov: Matrix2::new(4.0, 0.0, 0.0, 1.0),
+        };
+        let h = SMatrix::<f64, 1, 2>::new(1.0, 1.0);
+        let r = SMatrix::<f64, 1, 1>::new(0.5);
+        let y = SVector::<f64, 1>::new(2.0);
+        let (estimated, _) = update(&prior, &y, &h, &r, None).unwrap();
+        let (considered, rec) =
+            update_considering(&prior, &y, &h, &r, None, Some(&[false, true])).unwrap();
+        assert_eq!(considered.mean[1], 0.0);
+        assert!((considered.cov[(1, 1)] - 1.0).abs() < 1e-12);
+        assert!(estimated.mean[1] != 0.0 && estimated.cov[(1, 1)] < 1.0);
+        // x0's gain is the optimal one (S includes x1's variance): 4 / 5.5.
+        assert!((considered.mean[0] - 2.0 * 4.0 / 5.5).abs() < 1e-12);
+        assert!(considered.cov[(0, 0)] >= estimated.cov[(0, 0)] - 1e-12);
+        assert!(considered.cov.cholesky().is_some());
+        assert!((rec.innovation_cov[(0, 0)] - 5.5).abs() < 1e-12);
     }
 
     #[test]

@@ -31,7 +31,7 @@ impl std::fmt::Display for MessageIssue {
 /// Why a log could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum IngestError {
-    #[error("read failed: {0}")]
+    #[error("read failed")]
     Io(#[from] std::io::Error),
 
     #[error("the file is empty (0 bytes), not an MCAP log")]

@@ -46,6 +46,10 @@ rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z
 scale_sigma = 0.0                 # 1-sigma of the scale factor error (0.005 = 0.5 %)
 misalignment_sigma_deg = 0.0      # 1-sigma of the mounting's pitch and heading error
 bias_sigma_m_s = 0.0              # 1-sigma of the bias, per axis
+# "estimate": the forward filter estimates them. "consider": carried as consider states
+# (Schmidt-Kalman), never corrected, so the uncertainty they cause grows honestly where
+# nothing can tell them; it costs accuracy (the other states' gains allow for them).
+calibration = "estimate"
 
 [depth]
 use = true
@@ -289,6 +293,19 @@ pub struct DvlConfig {
     pub scale_sigma: f64,
     pub misalignment_sigma_deg: f64,
     pub bias_sigma_m_s: f64,
+    pub calibration: CalibrationMode,
+}
+
+/// How the DVL's calibration states with a non-zero prior are used.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CalibrationMode {
+    /// Estimated by the forward filter (needs fixes to be observable).
+    #[default]
+    Estimate,
+    /// Consider states: carried in the covariance (the uncertainty they cause grows
+    /// honestly) but never corrected by the forward filter.
+    Consider,
 }
 
 impl Default for DvlConfig {
@@ -304,6 +321,7 @@ impl Default for DvlConfig {
             scale_sigma: 0.0,
             misalignment_sigma_deg: 0.0,
             bias_sigma_m_s: 0.0,
+            calibration: CalibrationMode::Estimate,
         }
     }
 }
@@ -319,6 +337,18 @@ impl DvlConfig {
         let m = self.misalignment_sigma_deg.to_radians();
         let b = self.bias_sigma_m_s;
         [self.scale_sigma, m, m, b, b, b]
+    }
+
+    /// The error states carried as consider states.
+    pub fn considered(&self) -> [bool; crate::filters::ins::error_state::N] {
+        let mut considered = [false; crate::filters::ins::error_state::N];
+        if self.calibration == CalibrationMode::Consider {
+            let at = crate::filters::ins::error_state::idx::DVL;
+            for (k, sigma) in self.calibration_sigma().iter().enumerate() {
+                considered[at + k] = *sigma > 0.0;
+            }
+        }
+        considered
     }
 }
 
@@ -782,6 +812,7 @@ impl Config {
                 noise,
                 height_damping: None,
                 current_walk: self.eml.current_walk_m_s_rt_h / 60.0,
+                considered: self.dvl.considered(),
             },
             propagation: Propagation {
                 covariance_interval_s: p.covariance_interval_s,

@@ -84,6 +84,8 @@ pub struct Filter {
     pub height_damping: Option<HeightDamping>,
     /// Random walk of the water current, per horizontal axis, m/s/sqrt(s).
     pub current_walk: f64,
+    /// Error states carried as consider states: in the covariance, never corrected.
+    pub considered: [bool; N],
 }
 
 impl Estimate {
@@ -207,7 +209,12 @@ impl Filter {
             mean: ErrorState::zeros(),
             cov: est.cov,
         };
-        let (post, record) = kalman::update(&prior, y, h, r, gate)?;
+        let considered = self
+            .considered
+            .iter()
+            .any(|&c| c)
+            .then_some(&self.considered);
+        let (post, record) = kalman::update_considering(&prior, y, h, r, gate, considered)?;
         let next = Estimate {
             cov: post.cov,
             ..est.corrected_by(&post.mean)
@@ -531,6 +538,7 @@ mod tests {
             },
             height_damping: None,
             current_walk: 0.0,
+            considered: [false; N],
         };
         let est = Estimate {
             cov: ErrorMatrix::identity() * 4.0,
