@@ -216,3 +216,66 @@ fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
         assert!(blamed, "{name}: the warning should name the IMU");
     }
 }
+
+/// A log that starts with the vehicle still for 5 min (held before the launch): the angle and
+/// velocity random walks are measured there (Allan deviation at 1 s) within 15 % of the
+/// simulator's figures, for a tactical and a MEMS IMU, and the run stays as good as the
+/// configured one. The plain survey has no still stretch, and says nothing of one.
+#[test]
+fn a_still_start_gives_the_random_walks() {
+    use hindsight::sim::scenario::Segment;
+    for grade in [ImuGrade::Tactical, ImuGrade::Mems] {
+        let mut scenario = survey_with(grade);
+        scenario
+            .segments
+            .insert(0, Segment::Cruise { duration_s: 300.0 });
+        let log = common::simulated_log(&scenario, 2);
+        let streams = Streams::of(&log);
+        let (tuned, tuning) = tune::tune(&streams, &log.mission().unwrap(), &Config::default());
+        let tuning = tuning.unwrap();
+        eprintln!("{grade:?}:\n{tuning}");
+        let still = tuning.imu.still.expect("a still stretch");
+        assert!(still.duration_s() > 250.0, "{still:?}");
+        let g = grade.spec();
+        let arw = still.gyro_arw_deg_rt_h / g.gyro_arw_deg_rt_h;
+        let vrw = still.accel_vrw_ug_rt_hz / g.accel_vrw_ug_rt_hz;
+        assert!((arw - 1.0).abs() < 0.15, "ARW ratio {arw}");
+        assert!((vrw - 1.0).abs() < 0.15, "VRW ratio {vrw}");
+        assert_eq!(tuned.imu.spec().gyro_arw_deg_rt_h, still.gyro_arw_deg_rt_h);
+        let (fwd_c, smo_c) = run(&log, &configured(grade));
+        let (fwd_t, smo_t) = run(&log, &tuned);
+        eprintln!(
+            "  forward {:.3} m (configured {:.3}), smoothed {:.3} m (configured {:.3})",
+            fwd_t.horizontal_rms_m,
+            fwd_c.horizontal_rms_m,
+            smo_t.horizontal_rms_m,
+            smo_c.horizontal_rms_m
+        );
+        assert!(fwd_t.horizontal_rms_m <= 1.15 * fwd_c.horizontal_rms_m);
+        assert!(smo_t.horizontal_rms_m <= 1.15 * smo_c.horizontal_rms_m);
+    }
+    let log = common::simulated_log(&survey_with(ImuGrade::Tactical), 2);
+    let streams = Streams::of(&log);
+    let (_, tuning) = tune::tune(&streams, &log.mission().unwrap(), &Config::default());
+    assert_eq!(tuning.unwrap().imu.still, None);
+}
+
+/// Bad input: a log with no still stretch and no fixes (the 27 min dive: DVL, no GNSS), and
+/// one with neither DVL nor fixes (the dropped entry without a DVL): self-tuning runs, finds
+/// no still stretch, and returns figures without panicking.
+#[test]
+fn no_still_stretch_and_no_fixes() {
+    for name in ["dive-27min", "drop-no-dvl"] {
+        let log = common::simulated_log(&Scenario::built_in(name).unwrap(), 1);
+        let streams = Streams::of(&log);
+        assert!(
+            streams.gnss.is_empty() && streams.fixes.is_empty(),
+            "{name}"
+        );
+        let (tuned, tuning) = tune::tune(&streams, &log.mission().unwrap(), &Config::default());
+        let tuning = tuning.unwrap();
+        eprintln!("{name}:\n{tuning}");
+        assert_eq!(tuning.imu.still, None, "{name}");
+        assert!(tuned.imu.spec().gyro_arw_deg_rt_h > 0.0, "{name}");
+    }
+}

@@ -7,6 +7,7 @@
 //! down while the likelihood improves. An IMU whose data sheet nobody gave is thus learnt
 //! from how well each noise model predicts the aiding sensors.
 
+use super::stationary::StillNoise;
 use crate::ingest::Mission;
 use crate::recon::config::{Config, ImuConfig, ImuGrade, ImuSpec};
 use crate::recon::init::InitError;
@@ -51,6 +52,16 @@ impl Candidate {
             accel_vrw_ug_rt_hz: g.accel_vrw_ug_rt_hz * self.accel_factor,
             bias_correlation_s: g.bias_correlation_s,
         }
+    }
+
+    /// The figures with the white noise measured where the vehicle was still, when it was.
+    pub fn spec_with(&self, still: Option<&StillNoise>) -> ImuSpec {
+        let mut s = self.spec();
+        if let Some(w) = still {
+            s.gyro_arw_deg_rt_h = w.gyro_arw_deg_rt_h;
+            s.accel_vrw_ug_rt_hz = w.accel_vrw_ug_rt_hz;
+        }
+        s
     }
 
     /// "tactical", "mems x100", "navigation, gyro x3, accel x0.33".
@@ -131,8 +142,8 @@ fn ladder() -> Vec<Candidate> {
 }
 
 /// The configuration with a candidate's figures, every one given.
-pub fn with_candidate(config: &Config, c: &Candidate) -> Config {
-    let s = c.spec();
+pub fn with_candidate(config: &Config, c: &Candidate, still: Option<&StillNoise>) -> Config {
+    let s = c.spec_with(still);
     Config {
         imu: ImuConfig {
             grade: c.grade,
@@ -151,8 +162,14 @@ pub fn with_candidate(config: &Config, c: &Candidate) -> Config {
 /// The log-likelihood of one model over the span; `None` when the pass fails. The in-motion
 /// alignment is skipped while the log has a heading source (every candidate then starts
 /// from the same heading), and used only when it has none.
-fn score(streams: &Streams<'_>, mission: &Mission, config: &Config, c: &Candidate) -> Option<f64> {
-    let mut cfg = with_candidate(config, c);
+fn score(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    c: &Candidate,
+    still: Option<&StillNoise>,
+) -> Option<f64> {
+    let mut cfg = with_candidate(config, c, still);
     cfg.alignment.enabled = false;
     let pass = match forward(streams, mission, &cfg) {
         Err(ReconError::Init(InitError::NoHeading(_))) if config.alignment.enabled => {
@@ -172,13 +189,14 @@ fn score_all(
     mission: &Mission,
     config: &Config,
     candidates: &[Candidate],
+    still: Option<&StillNoise>,
 ) -> Vec<Scored> {
     candidates
         .par_iter()
         .map(|c| Scored {
             label: c.label(),
             candidate: *c,
-            log_likelihood: score(streams, mission, config, c),
+            log_likelihood: score(streams, mission, config, c, still),
         })
         .collect()
 }
@@ -191,8 +209,16 @@ fn best_of(scored: &[Scored]) -> Option<(Candidate, f64)> {
 }
 
 /// The most likely IMU noise model for the streams (already cut to the tuning span).
-pub fn search(streams: &Streams<'_>, mission: &Mission, config: &Config) -> Search {
-    let mut tried = score_all(streams, mission, config, &ladder());
+///
+/// With `still` (the white noise measured where the vehicle was still), every model takes
+/// its angle and velocity random walks from it: the search then finds the biases alone.
+pub fn search(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    still: Option<&StillNoise>,
+) -> Search {
+    let mut tried = score_all(streams, mission, config, &ladder(), still);
     let Some((mut best, mut best_ll)) = best_of(&tried) else {
         return Search {
             best: None,
@@ -215,7 +241,7 @@ pub fn search(streams: &Streams<'_>, mission: &Mission, config: &Config) -> Sear
         .into_iter()
         .filter(|c| !tried.iter().any(|t| t.candidate.same_as(c)))
         .collect();
-        let round = score_all(streams, mission, config, &steps);
+        let round = score_all(streams, mission, config, &steps, still);
         let next = best_of(&round);
         tried.extend(round);
         match next {
@@ -261,7 +287,7 @@ mod tests {
         assert!((s.accel_vrw_ug_rt_hz / m.accel_vrw_ug_rt_hz - 100.0 / 3.0).abs() < 1e-9);
         assert_eq!(c.label(), "mems, gyro x100, accel x33");
         assert_eq!(Candidate::of(ImuGrade::Tactical, 1.0).label(), "tactical");
-        let cfg = with_candidate(&Config::default(), &c);
+        let cfg = with_candidate(&Config::default(), &c, None);
         assert_eq!(cfg.imu.spec(), s);
     }
 }

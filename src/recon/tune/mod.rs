@@ -2,12 +2,15 @@
 //!
 //! - `white`: the white noise of the DVL, depth sensor and EM log from the scatter of
 //!   consecutive readings;
+//! - `stationary`: the IMU's angle and velocity random walks from the Allan deviation where
+//!   the vehicle was still, when it was for a minute or more;
 //! - `imu`: the IMU's noise by maximum likelihood of the forward filter's innovations over
-//!   the mission's first span.
+//!   the mission's first span (the biases alone, when `stationary` found the white noise).
 //!
 //! A figure the configuration gives is kept ([`Config::fixed`]) and reported as kept.
 
 pub mod imu;
+pub mod stationary;
 pub mod white;
 
 use crate::ingest::Mission;
@@ -49,6 +52,8 @@ pub struct ImuNoiseTuning {
     pub figures: ImuSpec,
     /// Every model tried, with its log-likelihood.
     pub candidates: Vec<imu::Scored>,
+    /// The white noise measured where the vehicle was still (used by every model).
+    pub still: Option<stationary::StillNoise>,
 }
 
 /// What self-tuning did.
@@ -56,6 +61,8 @@ pub struct ImuNoiseTuning {
 pub struct Tuning {
     /// The span the IMU was tuned on, s.
     pub span_s: f64,
+    /// The log's first IMU stamp (for times in the report).
+    pub log_start_ns: i64,
     pub imu: ImuNoiseTuning,
     pub sensors: Vec<SensorNoise>,
     pub warnings: Vec<String>,
@@ -175,19 +182,22 @@ pub fn tune(streams: &Streams<'_>, mission: &Mission, config: &Config) -> (Confi
             model: "configured".into(),
             figures: config.imu.spec(),
             candidates: Vec::new(),
+            still: None,
         }
     } else {
+        let still = stationary::still_noise(streams.imu, streams.dvl);
         let span = first_span(streams, config.tune.span_s);
-        let search = imu::search(&span, mission, &tuned);
+        let search = imu::search(&span, mission, &tuned, still.as_ref());
         warnings.extend(search.warning);
         match search.best {
             Some(best) => {
-                tuned = imu::with_candidate(&tuned, &best);
+                tuned = imu::with_candidate(&tuned, &best, still.as_ref());
                 ImuNoiseTuning {
                     source: Source::Estimated,
                     model: best.label(),
-                    figures: best.spec(),
+                    figures: best.spec_with(still.as_ref()),
                     candidates: search.tried,
+                    still,
                 }
             }
             None => ImuNoiseTuning {
@@ -195,6 +205,7 @@ pub fn tune(streams: &Streams<'_>, mission: &Mission, config: &Config) -> (Confi
                 model: "configured".into(),
                 figures: config.imu.spec(),
                 candidates: search.tried,
+                still,
             },
         }
     };
@@ -203,6 +214,7 @@ pub fn tune(streams: &Streams<'_>, mission: &Mission, config: &Config) -> (Confi
         tuned,
         Some(Tuning {
             span_s,
+            log_start_ns: streams.imu.first().map_or(0, |m| m.stamp_ns),
             imu,
             sensors,
             warnings,
@@ -218,7 +230,7 @@ impl Tuning {
         let mut out = format!(
             "# Noise figures estimated by hindsight reconstruct (self-tuning); reuse with --config.\n\
              [imu]\n\
-             # model: {}\n\
+             # model: {}{}\n\
              gyro_bias_deg_h = {}\n\
              gyro_bias_instability_deg_h = {}\n\
              gyro_arw_deg_rt_h = {}\n\
@@ -227,6 +239,11 @@ impl Tuning {
              accel_vrw_ug_rt_hz = {}\n\
              bias_correlation_s = {}\n",
             self.imu.model,
+            if self.imu.still.is_some() {
+                "; ARW and VRW from a still stretch (Allan deviation)"
+            } else {
+                ""
+            },
             f.gyro_bias_deg_h,
             f.gyro_bias_instability_deg_h,
             f.gyro_arw_deg_rt_h,
@@ -261,6 +278,15 @@ impl fmt::Display for Tuning {
             s.accel_bias_ug,
             s.accel_vrw_ug_rt_hz
         )?;
+        if let Some(w) = &self.imu.still {
+            writeln!(
+                f,
+                "           ARW and VRW from the Allan deviation at 1 s over a {:.0} s still \
+                 stretch ({} s into the log)",
+                w.duration_s(),
+                (w.from_ns - self.log_start_ns) / 1_000_000_000
+            )?;
+        }
         if !self.imu.candidates.is_empty() {
             writeln!(
                 f,
