@@ -66,6 +66,11 @@ fn reconstruct_writes_trajectory_residuals_errors_and_summary() {
         "yaw_sigma_rad",
         "gyro_bias_z_rad_s",
         "accel_bias_x_m_s2",
+        "dvl_scale_factor",
+        "dvl_misalignment_heading_rad",
+        "dvl_bias_z_m_s",
+        "eml_scale_factor",
+        "current_north_m_s",
     ] {
         assert!(
             schema.field_with_name(column).is_ok(),

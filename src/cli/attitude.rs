@@ -153,14 +153,16 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         dvl.len()
     );
 
+    // Times in messages: seconds into the log (from its first IMU sample).
+    let into_log_s = |stamp_ns: i64| (stamp_ns - imu[0].stamp_ns) as f64 * 1e-9;
     // The magnetometer: saturation, then calibration.
     let (mut mag, spans) = without_saturation(raw_mag, config.magnetometer.saturation_repeats);
     for s in &spans {
         eprintln!(
             "warning: magnetometer saturated (an axis stuck at its extreme) for {:.1} s from \
-             log time {:.3} s ({} readings): not used",
+             {:.3} s into the log ({} readings): not used",
             (s.to_ns - s.from_ns) as f64 * 1e-9,
-            s.from_ns as f64 * 1e-9,
+            into_log_s(s.from_ns),
             s.readings
         );
     }
@@ -252,12 +254,12 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     {
         eprintln!(
             "warning: {} stretch(es) without a valid DVL reading longer than dvl.max_gap_s = \
-             {} s (longest {:.1} s from log time {:.3} s, {:.1} s in all): not bridged, the \
+             {} s (longest {:.1} s from {:.1} s into the log, {:.1} s in all): not bridged, the \
              dead reckoning holds its position through them",
             gaps.len(),
             config.dvl.max_gap_s,
             longest.duration_s(),
-            longest.from_ns as f64 * 1e-9,
+            into_log_s(longest.from_ns),
             gaps.iter().map(|g| g.duration_s()).sum::<f64>()
         );
     }

@@ -17,8 +17,8 @@ fn column<T>(rows: &[T], f: impl Fn(&T) -> f64) -> Vec<f64> {
 }
 
 /// Rows of `trajectory.parquet` for one solution (`forward` or `smoothed`): position
-/// (geodetic and in the mission frame), NED velocity, Euler angles, their 1-sigma, and the
-/// bias estimates.
+/// (geodetic and in the mission frame), NED velocity, Euler angles, their 1-sigma, the bias
+/// estimates, the DVL's calibration and the water states.
 pub fn trajectory_batch(
     solution: &str,
     rows: &[Solution],
@@ -94,6 +94,38 @@ pub fn trajectory_batch(
             &format!("accel_bias_{axis}_m_s2"),
             "m/s^2",
             column(rows, |s| s.point.accel_bias[i]),
+        );
+    }
+    // The DVL's calibration and the water states (constant where they are held).
+    c.number(
+        "dvl_scale_factor",
+        "1",
+        column(rows, |s| 1.0 + s.point.dvl[0]),
+    );
+    for (i, name) in ["pitch", "heading"].iter().enumerate() {
+        c.number(
+            &format!("dvl_misalignment_{name}_rad"),
+            "rad",
+            column(rows, |s| s.point.dvl[1 + i]),
+        );
+    }
+    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+        c.number(
+            &format!("dvl_bias_{axis}_m_s"),
+            "m/s",
+            column(rows, |s| s.point.dvl[3 + i]),
+        );
+    }
+    c.number(
+        "eml_scale_factor",
+        "1",
+        column(rows, |s| 1.0 + s.point.water[0]),
+    );
+    for (i, axis) in ["north", "east"].iter().enumerate() {
+        c.number(
+            &format!("current_{axis}_m_s"),
+            "m/s",
+            column(rows, |s| s.point.water[1 + i]),
         );
     }
     c.finish()
