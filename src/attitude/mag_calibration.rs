@@ -308,22 +308,8 @@ mod tests {
     /// iron to the noise and makes the magnitude constant.
     #[test]
     fn an_ellipsoid_from_tumbling_readings() {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(61);
         let (d, h) = distortion();
-        let field = Vector3::from(FIELD_NED);
-        let mag: Vec<MagneticField> = (0..2000)
-            .map(|k| {
-                let q: UnitQuaternion<f64> =
-                    UnitQuaternion::from_scaled_axis(Vector3::from_fn(|_, _| {
-                        rng.random_range(-3.0..3.0)
-                    }));
-                let noise = Vector3::from_fn(|_, _| {
-                    let n: f64 = StandardNormal.sample(&mut rng);
-                    n * 50e-9
-                });
-                reading(k, d * (q.inverse() * field) + h + noise)
-            })
-            .collect();
+        let mag = tumbling(d, h, 50e-9, 0.0);
         let cal = fit(&mag).unwrap();
         assert_eq!(cal.kind, FitKind::Ellipsoid);
         assert!((cal.hard_iron - h).norm() < 10e-9, "{:?}", cal.hard_iron);
@@ -341,7 +327,7 @@ mod tests {
     }
 
     /// Readings from all over the sphere with the given distortion and noise, and every
-    /// 7th reading (from `disturbed_from`) pulled by a magnet near the sensor.
+    /// 7th reading pulled by a magnet near the sensor (`magnet_t`, 0 for none).
     fn tumbling(
         d: Matrix3<f64>,
         h: Vector3<f64>,
