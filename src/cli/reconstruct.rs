@@ -628,19 +628,7 @@ fn print_report(s: &Summary) {
         }
     }
     if let Some(d) = &s.dvl_calibration {
-        let told = |e: &calibration::Estimated| if e.determined { "" } else { " (prior)" };
-        println!(
-            "DVL calibration: scale factor {:.4} +- {:.4}{}; misalignment heading {:.2} +- {:.2} deg{}, pitch {:.2} +- {:.2} deg{}",
-            d.scale_factor.value,
-            d.scale_factor.sigma,
-            told(&d.scale_factor),
-            d.misalignment_deg.heading.value,
-            d.misalignment_deg.heading.sigma,
-            told(&d.misalignment_deg.heading),
-            d.misalignment_deg.pitch.value,
-            d.misalignment_deg.pitch.sigma,
-            told(&d.misalignment_deg.pitch),
-        );
+        println!("DVL calibration: {}", dvl_calibration_line(d));
     }
     let c = &s.consistency;
     let judged: Vec<String> = c
@@ -705,4 +693,32 @@ fn write_errors(file: std::fs::File, fwd: &[EpochError], smo: &[EpochError]) -> 
     let first = batch(chunks.next().unwrap_or(("forward", &[])))?;
     write_batches(file, first, || chunks.next().map(batch))?;
     Ok(())
+}
+
+/// One line of the DVL's calibration: each quantity's estimate and sigma, "(prior)" where the
+/// log did not tell it, "held" where it was not estimated (a zero prior).
+fn dvl_calibration_line(d: &DvlCalibrationReport) -> String {
+    let show = |e: &calibration::Estimated, scale: f64, digits: usize, unit: &str| {
+        if e.sigma == 0.0 {
+            format!("{:.digits$}{unit} held", e.value * scale)
+        } else {
+            let told = if e.determined { "" } else { " (prior)" };
+            format!(
+                "{:.digits$} +- {:.digits$}{unit}{told}",
+                e.value * scale,
+                e.sigma * scale
+            )
+        }
+    };
+    let m = &d.misalignment_deg;
+    let b = &d.bias_m_s;
+    format!(
+        "scale factor {}; misalignment heading {}, pitch {}; bias x {}, y {}, z {}",
+        show(&d.scale_factor, 1.0, 4, ""),
+        show(&m.heading, 1.0, 2, " deg"),
+        show(&m.pitch, 1.0, 2, " deg"),
+        show(&b[0], 1e3, 2, " mm/s"),
+        show(&b[1], 1e3, 2, " mm/s"),
+        show(&b[2], 1e3, 2, " mm/s"),
+    )
 }

@@ -41,11 +41,13 @@ rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z
 # scale factor, misalignment in pitch and heading beyond rotation_deg, and a bias along each
 # of its axes, from these prior sigmas. Where the log cannot tell them (no GNSS or fixes)
 # they stay near their priors, and the position's uncertainty grows with them. 0 holds one
-# at zero (the default, for now: sigma_m_s then covers them). A DVL survey with GNSS and
-# fixes, for instance: scale_sigma 0.005, misalignment_sigma_deg 1.0, bias_sigma_m_s 0.002.
+# at zero. By default only the bias is estimated: at one speed a scale error is a bias along
+# the DVL's x axis, and the bias absorbs it (scale and bias together drift along the
+# direction one speed cannot separate). A DVL survey with GNSS, fixes and lanes at more
+# than one speed can add: scale_sigma 0.005, misalignment_sigma_deg 1.0.
 scale_sigma = 0.0                 # 1-sigma of the scale factor error (0.005 = 0.5 %)
 misalignment_sigma_deg = 0.0      # 1-sigma of the mounting's pitch and heading error
-bias_sigma_m_s = 0.0              # 1-sigma of the bias, per axis
+bias_sigma_m_s = 0.001            # 1-sigma of the bias, per axis (data sheets: +-0.1 cm/s)
 # "estimate": the forward filter estimates them. "consider": carried as consider states
 # (Schmidt-Kalman), never corrected, so the uncertainty they cause grows honestly where
 # nothing can tell them; it costs accuracy (the other states' gains allow for them).
@@ -320,7 +322,7 @@ impl Default for DvlConfig {
             rotation_deg: [0.0; 3],
             scale_sigma: 0.0,
             misalignment_sigma_deg: 0.0,
-            bias_sigma_m_s: 0.0,
+            bias_sigma_m_s: 0.001,
             calibration: CalibrationMode::Estimate,
         }
     }

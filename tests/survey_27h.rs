@@ -1,0 +1,54 @@
+//! Issue 14's long survey: `scenarios/survey-27h.toml` (the `survey` sensors: tactical IMU,
+//! DVL with 0.2 % scale and 2 mm/s bias, magnetometer; 172 lanes, GNSS at both ends only),
+//! reconstructed as a user would, with no configuration. The reported uncertainty must tell
+//! the truth over the whole day: the horizontal NEES inside its 95 % bounds for at least
+//! 70 % of the epochs, forward and smoothed (scored against the log's `/truth`).
+//!
+//! Too long for CI (a 1.4 GB log; about 4 minutes and 6 GB of memory on 2 cores):
+//! `cargo test --release --test survey_27h -- --ignored --nocapture`
+
+mod common;
+
+use serde_json::Value;
+
+#[test]
+#[ignore = "27 h mission: about 4 minutes and 6 GB; run before resolving issue 14"]
+fn a_27_hour_survey_reports_honest_uncertainty() {
+    let dir = common::scratch_dir("survey-27h");
+    let log = dir.join("survey-27h.mcap");
+    let out = dir.join("run");
+    let log_s = log.to_str().unwrap();
+    let sim = common::hindsight(&[
+        "simulate",
+        "--scenario",
+        "survey-27h",
+        "--seed",
+        "1",
+        "--out",
+        log_s,
+    ]);
+    assert!(sim.status.success(), "{}", common::stderr(&sim));
+    let run = common::hindsight(&["reconstruct", log_s, "--out", out.to_str().unwrap()]);
+    assert!(run.status.success(), "{}", common::stderr(&run));
+    eprintln!("{}", String::from_utf8_lossy(&run.stdout));
+
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let truth = &summary["truth"];
+    for solution in ["forward", "smoothed"] {
+        let inside = truth[solution]["nees_horizontal_inside_95"]
+            .as_f64()
+            .unwrap();
+        let rms = truth[solution]["horizontal_rms_m"].as_f64().unwrap();
+        eprintln!(
+            "{solution}: horizontal RMS {rms:.2} m, NEES inside its 95 % bounds {:.1} %",
+            100.0 * inside
+        );
+        assert!(
+            inside >= 0.70,
+            "{solution} horizontal NEES inside its bounds {:.1} % < 70 %",
+            100.0 * inside
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
