@@ -108,6 +108,8 @@ fn initial_from_truth(
         // The DVL's calibration (0.5 %, 1 deg, 2 mm/s) and the water (2 %, 0.2 m/s).
         dvl: Default::default(),
         water: Default::default(),
+        // The z gyro's scale factor (the scenario's, 1.5 times, as the biases).
+        gyro_scale_z: 0.0,
         cov: ErrorMatrix::from_diagonal(&SVector::<f64, N>::from_fn(|i, _| {
             [
                 horizontal_var_m2,
@@ -134,6 +136,7 @@ fn initial_from_truth(
                 0.02f64.powi(2),
                 0.04,
                 0.04,
+                (1.5e-6 * scenario.imu.gyro.scale_ppm).powi(2),
             ][i]
         })),
     }

@@ -81,6 +81,7 @@ fn initial(t0: &Truth, config: &Config, seed: u64) -> Estimate {
         accel_bias: Vector3::zeros(),
         dvl: Default::default(),
         water: Default::default(),
+        gyro_scale_z: 0.0,
         cov: ErrorMatrix::from_diagonal(&diag),
     }
 }
@@ -130,6 +131,7 @@ fn free_inertial(streams: &Streams<'_>, start: &NavState) -> Vec<(f64, Vector3<f
                     accel_bias: Vector3::zeros(),
                     dvl: Default::default(),
                     water: Default::default(),
+                    gyro_scale_z: 0.0,
                 },
                 sigma: ErrorState::repeat(1.0),
                 position_cov: nalgebra::Matrix3::identity(),

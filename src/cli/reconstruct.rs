@@ -19,7 +19,7 @@ use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// Reconstruct the trajectory: strapdown INS, 24-state error-state filter (with self-tuned noise), RTS smoother.
+/// Reconstruct the trajectory: strapdown INS, 25-state error-state filter (with self-tuned noise), RTS smoother.
 ///
 /// Reads the log, initialises from it (position from GNSS, a `start` fix or the mission
 /// origin; levelling; heading by gyrocompass, magnetometer, the mission's initial_yaw_rad or
@@ -171,6 +171,8 @@ struct Summary {
     dvl_calibration: Option<DvlCalibrationReport>,
     /// The EM log's scale factor and the water current (absent without EM log).
     water: Option<WaterReport>,
+    /// The z gyro's scale factor as estimated (it reads this times the true rate).
+    gyro_scale_factor_z: Option<calibration::Estimated>,
     depth_skipped_by_interval: usize,
     eml_too_slow: usize,
     gate_resets: usize,
@@ -507,6 +509,10 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
                 ],
             )
         }),
+        gyro_scale_factor_z: r
+            .forward
+            .last()
+            .map(|last| calibration::gyro_scale_report(last, config.imu.spec().gyro_scale())),
         depth_skipped_by_interval: r.run.depth_skipped,
         eml_too_slow: r.run.eml_too_slow,
         gate_resets: r.run.gate_resets,
@@ -629,6 +635,13 @@ fn print_report(s: &Summary) {
     }
     if let Some(d) = &s.dvl_calibration {
         println!("DVL calibration: {}", dvl_calibration_line(d));
+    }
+    if let Some(g) = &s.gyro_scale_factor_z {
+        let told = if g.determined { "" } else { " (prior)" };
+        println!(
+            "z gyro scale factor: {:.6} +- {:.6}{told}",
+            g.value, g.sigma
+        );
     }
     let c = &s.consistency;
     let judged: Vec<String> = c

@@ -96,6 +96,11 @@ pub fn trajectory_batch(
             column(rows, |s| s.point.accel_bias[i]),
         );
     }
+    c.number(
+        "gyro_scale_factor_z",
+        "1",
+        column(rows, |s| 1.0 + s.point.gyro_scale_z),
+    );
     // The DVL's calibration and the water states (constant where they are held).
     c.number(
         "dvl_scale_factor",

@@ -1,5 +1,6 @@
 //! The DVL's calibration as the reconstruction estimated it: scale factor, bias and mounting
-//! misalignment; the EM log's scale and the water current; with their sigmas, and whether the
+//! misalignment; the EM log's scale and the water current; the z gyro's scale factor; with
+//! their sigmas, and whether the
 //! log told them (the sigma well under its prior) or they were only carried (considered) at
 //! their prior.
 //!
@@ -62,6 +63,17 @@ pub fn water_report(last: &Solution, prior_sigma: &[f64; 3]) -> WaterReport {
     WaterReport {
         eml_scale_factor: est(0, 1.0),
         current_m_s: [est(1, 0.0), est(2, 0.0)],
+    }
+}
+
+/// The z gyro's scale factor (about 1: it reads this times the true rate) from the last
+/// forward solution, with its prior sigma.
+pub fn gyro_scale_report(last: &Solution, prior_sigma: f64) -> Estimated {
+    let sigma = last.sigma[idx::GYRO_SCALE_Z];
+    Estimated {
+        value: 1.0 + last.point.gyro_scale_z,
+        sigma,
+        determined: sigma < DETERMINED_BELOW * prior_sigma,
     }
 }
 

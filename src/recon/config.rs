@@ -25,6 +25,9 @@ pub const DEFAULT_TOML: &str = r#"# hindsight reconstruct: configuration (every 
 # accel_bias_instability_ug = 20.0
 # accel_vrw_ug_rt_hz = 30.0           # velocity random walk
 # bias_correlation_s = 3600.0
+# gyro_scale_ppm = 100.0              # z gyro's scale factor error (estimated: a turn leaves
+                                      # this times the angle turned in the heading); grades:
+                                      # navigation 5, intermediate 30, tactical 100, MEMS 3000
 
 [dvl]
 use = true
@@ -183,16 +186,19 @@ pub struct ImuSpec {
     pub accel_bias_instability_ug: f64,
     pub accel_vrw_ug_rt_hz: f64,
     pub bias_correlation_s: f64,
+    /// 1-sigma of the z gyro's scale factor error, ppm (an error state: each turn leaves a
+    /// heading error of this times the angle turned).
+    pub gyro_scale_ppm: f64,
 }
 
 impl ImuGrade {
     /// Typical data-sheet figures of the class.
     pub fn spec(self) -> ImuSpec {
-        let (gb, gbi, arw, ab, abi, vrw) = match self {
-            ImuGrade::Navigation => (0.01, 0.003, 0.002, 25.0, 5.0, 5.0),
-            ImuGrade::Intermediate => (0.1, 0.01, 0.0125, 100.0, 10.0, 6.5),
-            ImuGrade::Tactical => (1.0, 0.1, 0.05, 100.0, 20.0, 30.0),
-            ImuGrade::Mems => (10.0, 3.0, 0.3, 1000.0, 100.0, 100.0),
+        let (gb, gbi, arw, ab, abi, vrw, scale) = match self {
+            ImuGrade::Navigation => (0.01, 0.003, 0.002, 25.0, 5.0, 5.0, 5.0),
+            ImuGrade::Intermediate => (0.1, 0.01, 0.0125, 100.0, 10.0, 6.5, 30.0),
+            ImuGrade::Tactical => (1.0, 0.1, 0.05, 100.0, 20.0, 30.0, 100.0),
+            ImuGrade::Mems => (10.0, 3.0, 0.3, 1000.0, 100.0, 100.0, 3000.0),
         };
         ImuSpec {
             gyro_bias_deg_h: gb,
@@ -202,6 +208,7 @@ impl ImuGrade {
             accel_bias_instability_ug: abi,
             accel_vrw_ug_rt_hz: vrw,
             bias_correlation_s: 3600.0,
+            gyro_scale_ppm: scale,
         }
     }
 }
@@ -227,6 +234,11 @@ impl ImuSpec {
         self.gyro_bias_deg_h * DEG_H
     }
 
+    /// Initial 1-sigma of the z gyro's scale factor error (a fraction).
+    pub fn gyro_scale(&self) -> f64 {
+        self.gyro_scale_ppm * 1e-6
+    }
+
     /// Initial 1-sigma of the accelerometer bias, m/s^2.
     pub fn accel_bias_m_s2(&self) -> f64 {
         self.accel_bias_ug * UG
@@ -244,6 +256,7 @@ pub struct ImuConfig {
     pub accel_bias_instability_ug: Option<f64>,
     pub accel_vrw_ug_rt_hz: Option<f64>,
     pub bias_correlation_s: Option<f64>,
+    pub gyro_scale_ppm: Option<f64>,
 }
 
 impl Default for ImuConfig {
@@ -257,6 +270,7 @@ impl Default for ImuConfig {
             accel_bias_instability_ug: None,
             accel_vrw_ug_rt_hz: None,
             bias_correlation_s: None,
+            gyro_scale_ppm: None,
         }
     }
 }
@@ -277,6 +291,7 @@ impl ImuConfig {
                 .unwrap_or(g.accel_bias_instability_ug),
             accel_vrw_ug_rt_hz: self.accel_vrw_ug_rt_hz.unwrap_or(g.accel_vrw_ug_rt_hz),
             bias_correlation_s: self.bias_correlation_s.unwrap_or(g.bias_correlation_s),
+            gyro_scale_ppm: self.gyro_scale_ppm.unwrap_or(g.gyro_scale_ppm),
         }
     }
 }
@@ -717,7 +732,8 @@ impl Config {
                 });
             }
         }
-        let non_negative: [(&'static str, f64); 13] = [
+        let non_negative: [(&'static str, f64); 14] = [
+            ("imu.gyro_scale_ppm", spec.gyro_scale_ppm),
             ("eml.scale_sigma", self.eml.scale_sigma),
             ("eml.current_sigma_m_s", self.eml.current_sigma_m_s),
             ("eml.current_walk_m_s_rt_h", self.eml.current_walk_m_s_rt_h),

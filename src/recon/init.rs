@@ -411,6 +411,7 @@ pub fn initialise(
         set.water_sigma[0].powi(2),
         set.water_sigma[1].powi(2),
         set.water_sigma[2].powi(2),
+        set.imu.gyro_scale().powi(2),
     ]);
     let body_velocity = !matches!(velocity, VelocitySource::AtRest);
     let vel_ned = ned_from_body * v_body;
@@ -430,6 +431,7 @@ pub fn initialise(
             accel_bias: Vector3::zeros(),
             dvl: Default::default(),
             water: Default::default(),
+            gyro_scale_z: 0.0,
             cov,
         },
         position,

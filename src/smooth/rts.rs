@@ -60,6 +60,7 @@ pub fn smooth(records: &[EpochRecord]) -> Result<Vec<Solution>, SmoothError> {
             accel_bias: post.accel_bias + dx.fixed_rows::<3>(idx::ACCEL_BIAS),
             dvl: post.dvl + dx.fixed_rows::<{ error_state::DVL_STATES }>(idx::DVL),
             water: post.water + dx.fixed_rows::<{ error_state::WATER_STATES }>(idx::WATER),
+            gyro_scale_z: post.gyro_scale_z + dx[idx::GYRO_SCALE_Z],
         };
         out.push(Solution::new(rec.stamp_ns, point, &PackedCov::pack(p)));
     })?;

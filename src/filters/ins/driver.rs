@@ -273,9 +273,10 @@ struct Pass<'a> {
     nis_cap: [f64; 4],
     est: Estimate,
     /// Nominal state when the covariance was last propagated, and what has accumulated
-    /// since: the sum of bias-corrected specific force times dt, and the time.
+    /// since: the sums of corrected specific force and body rate times dt, and the time.
     cov_nav: NavState,
     f_dt_sum: Vector3<f64>,
+    w_dt_sum: Vector3<f64>,
     cov_dt_s: f64,
     gap_since_cov: bool,
     /// Transition and process-noise diagonal of the last covariance step (one per epoch).
@@ -343,6 +344,7 @@ pub fn run_forward(
         est: initial,
         cov_nav: initial.nav,
         f_dt_sum: Vector3::zeros(),
+        w_dt_sum: Vector3::zeros(),
         cov_dt_s: 0.0,
         gap_since_cov: false,
         step_phi: ErrorMatrix::identity(),
@@ -439,9 +441,9 @@ impl Pass<'_> {
     ) -> Result<(), ForwardError> {
         let filter = &self.settings.filter;
         self.est.nav = filter.propagate_nominal(&self.est, a, b, dt, None);
-        let corrected_f =
-            (a.specific_force_body + b.specific_force_body) * 0.5 - self.est.accel_bias;
-        self.f_dt_sum += corrected_f * dt;
+        let corrected = self.est.corrected(&ImuSample::mean(a, b));
+        self.f_dt_sum += corrected.specific_force_body * dt;
+        self.w_dt_sum += corrected.omega_ib_body * dt;
         self.cov_dt_s += dt;
         self.gap_since_cov |= in_gap;
         self.omega_nb_body = self.omega_nb(b);
@@ -471,12 +473,13 @@ impl Pass<'_> {
         Ok(())
     }
 
-    /// The corrected body rate relative to NED, `omega_ib - b_g - C^T (omega_ie + omega_en)`.
+    /// The corrected body rate relative to NED, `omega_ib (corrected) - C^T (omega_ie +
+    /// omega_en)`.
     fn omega_nb(&self, imu: &ImuSample) -> Vector3<f64> {
         let nav = &self.est.nav;
         let w_in = geodesy::earth_rate_ned(nav.lat_rad)
             + geodesy::transport_rate_ned(nav.lat_rad, nav.height_m, &nav.vel_ned_m_s);
-        imu.omega_ib_body - self.est.gyro_bias - nav.ned_from_body.inverse() * w_in
+        self.est.corrected(imu).omega_ib_body - nav.ned_from_body.inverse() * w_in
     }
 
     /// Whether any measurement or output is due at or before `t`.
@@ -497,7 +500,10 @@ impl Pass<'_> {
             return;
         }
         let filter = &self.settings.filter;
-        let f_mean = self.f_dt_sum / self.cov_dt_s;
+        let mean = ImuSample {
+            omega_ib_body: self.w_dt_sum / self.cov_dt_s,
+            specific_force_body: self.f_dt_sum / self.cov_dt_s,
+        };
         let noise = if self.gap_since_cov {
             let (n, g) = (filter.noise, self.settings.propagation.gap_noise);
             ImuNoise {
@@ -513,7 +519,7 @@ impl Pass<'_> {
             &self.est.cov,
             &self.cov_nav,
             &self.est.nav,
-            &f_mean,
+            &mean,
             self.cov_dt_s,
             &noise,
         );
@@ -522,6 +528,7 @@ impl Pass<'_> {
         self.step_q = q;
         self.cov_nav = self.est.nav;
         self.f_dt_sum = Vector3::zeros();
+        self.w_dt_sum = Vector3::zeros();
         self.cov_dt_s = 0.0;
         self.gap_since_cov = false;
     }

@@ -1,7 +1,7 @@
-//! The 24-state error model of the strapdown mechanization (seed 000 eq. 13-15) with the
-//! DVL's calibration and the water's.
+//! The 25-state error model of the strapdown mechanization (seed 000 eq. 13-15) with the
+//! DVL's calibration, the water's, and the z gyro's scale factor.
 //!
-//! Error state `dx = [dp, dv, psi, dbg, dba, dvl, water]`:
+//! Error state `dx = [dp, dv, psi, dbg, dba, dvl, water, sgz]`:
 //! - `dp`: position correction in metres along local north, east, down;
 //! - `dv`: NED velocity correction, m/s;
 //! - `psi`: attitude correction, a small rotation of the NED frame, rad;
@@ -12,6 +12,10 @@
 //! - `water` ([`WaterState`]): the EM log's scale factor error, and the water current north
 //!   and east, m/s (the EM log reads speed through the water, the DVL over the ground). The
 //!   current is a random walk.
+//! - `sgz`: the z (yaw) gyro's scale factor correction, a constant: true rate about body z
+//!   = the mechanization's `(1 - sgz)`. Each turn leaves a heading error of the scale error
+//!   times the angle turned; on a survey whose turns alternate left and right, the lanes
+//!   alternate their heading errors and the cross-track errors add up lane after lane.
 //!
 //! Corrections are what to add to the nominal (mechanized) solution to get the truth:
 //! `truth = nominal (+) dx` ([`inject`]), with `C_b^n(true) = exp([psi x]) C_b^n(nominal)`,
@@ -24,8 +28,8 @@
 //!
 //! dp'  = F_pp dp + dv
 //! dv'  = F_vp dp + F_vv dv - [f^n x] psi - C dba
-//! psi' = F_ψp dp - B dv - [omega_in^n x] psi - C dbg
-//! dbg' = dba' = 0 (random walks through Q)
+//! psi' = F_ψp dp - B dv - [omega_in^n x] psi - C dbg - C e_z omega_z sgz
+//! dbg' = dba' = 0 (random walks through Q), sgz' = 0
 //! dvl' = 0, water' = 0 (the current a random walk through Q)
 
 use super::mechanization::NavState;
@@ -33,7 +37,7 @@ use crate::geodesy;
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Size of the error state.
-pub const N: usize = 24;
+pub const N: usize = 25;
 /// Error state vector.
 pub type ErrorState = SVector<f64, N>;
 /// Error-state matrix.
@@ -55,6 +59,8 @@ pub mod idx {
     pub const WATER: usize = 21;
     pub const EML_SCALE: usize = 21;
     pub const CURRENT: usize = 22;
+    /// The z gyro's scale factor correction (1).
+    pub const GYRO_SCALE_Z: usize = 24;
 }
 
 /// Number of water states.
@@ -76,9 +82,13 @@ fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     v.cross_matrix()
 }
 
-/// Continuous-time error dynamics `F` at a nominal state, for the bias-corrected specific
-/// force `f_body` the mechanization is using.
-pub fn continuous_matrix(nav: &NavState, f_body: &Vector3<f64>) -> ErrorMatrix {
+/// Continuous-time error dynamics `F` at a nominal state, for the corrected specific force
+/// `f_body` and body rate `omega_body` (inertial) the mechanization is using.
+pub fn continuous_matrix(
+    nav: &NavState,
+    f_body: &Vector3<f64>,
+    omega_body: &Vector3<f64>,
+) -> ErrorMatrix {
     use idx::*;
     let (lat, h) = (nav.lat_rad, nav.height_m);
     let v = nav.vel_ned_m_s;
@@ -148,6 +158,8 @@ pub fn continuous_matrix(nav: &NavState, f_body: &Vector3<f64>) -> ErrorMatrix {
         .copy_from(&(-skew(&(w_ie + w_en))));
     f.fixed_view_mut::<3, 3>(ATT, GYRO_BIAS)
         .copy_from(&(-ned_from_body));
+    f.fixed_view_mut::<3, 1>(ATT, GYRO_SCALE_Z)
+        .copy_from(&(-ned_from_body.column(2) * omega_body.z));
     f
 }
 
@@ -246,15 +258,20 @@ mod tests {
         let dt = 2e-3;
         let nominal_end = propagate(&nav, &imu, &imu, dt, None);
         // F along the step: the mean of its ends (second-order Magnus), as a filter uses it.
-        let f = (continuous_matrix(&nav, &imu.specific_force_body)
-            + continuous_matrix(&nominal_end, &imu.specific_force_body))
-            * 0.5;
+        let (fb, wb) = (imu.specific_force_body, imu.omega_ib_body);
+        let f =
+            (continuous_matrix(&nav, &fb, &wb) + continuous_matrix(&nominal_end, &fb, &wb)) * 0.5;
         let phi = transition(&f, dt);
         let f2 = f * f;
         let steps = [
             1e4, 1e4, 1e4, 1.0, 1.0, 1.0, 1e-2, 1e-2, 1e-2, 1e-3, 1e-3, 1e-3, 0.1, 0.1, 0.1,
         ];
-        for (i, &eps) in steps.iter().enumerate() {
+        let columns = steps
+            .iter()
+            .copied()
+            .enumerate()
+            .chain([(idx::GYRO_SCALE_Z, 0.1)]);
+        for (i, eps) in columns {
             let column = |sign: f64| {
                 let mut dx = ErrorState::zeros();
                 dx[i] = sign * eps;
@@ -262,8 +279,9 @@ mod tests {
                 // True IMU = mechanization input minus the bias corrections.
                 let bg = Vector3::new(dx[9], dx[10], dx[11]);
                 let ba = Vector3::new(dx[12], dx[13], dx[14]);
+                let sgz = Vector3::new(0.0, 0.0, dx[idx::GYRO_SCALE_Z] * imu.omega_ib_body.z);
                 let true_imu = ImuSample {
-                    omega_ib_body: imu.omega_ib_body - bg,
+                    omega_ib_body: imu.omega_ib_body - bg - sgz,
                     specific_force_body: imu.specific_force_body - ba,
                 };
                 let end = propagate(&start, &true_imu, &true_imu, dt, None);
@@ -271,6 +289,7 @@ mod tests {
                 out.fixed_rows_mut::<9>(0)
                     .copy_from(&difference(&end, &nominal_end));
                 out.fixed_rows_mut::<6>(9).copy_from(&dx.fixed_rows::<6>(9));
+                out[idx::GYRO_SCALE_Z] = dx[idx::GYRO_SCALE_Z];
                 out
             };
             let numeric = (column(1.0) - column(-1.0)) / (2.0 * eps);

@@ -1,5 +1,5 @@
 //! Forward error-state filter: the mechanization at IMU rate, the error covariance carried
-//! along with the 24-state model, and aiding updates that correct the state (with reset).
+//! along with the 25-state model, and aiding updates that correct the state (with reset).
 //!
 //! Pure: `predict` and `update` take an [`Estimate`] and return a new one with what the step
 //! did, so a smoother can replay the forward pass from its records.
@@ -41,6 +41,9 @@ pub struct Estimate {
     pub dvl: DvlCalibration,
     /// Estimated EM-log scale error and water current.
     pub water: WaterState,
+    /// Estimated scale factor error of the z gyro: its bias-corrected rate is multiplied by
+    /// `1 - gyro_scale_z`.
+    pub gyro_scale_z: f64,
     /// Covariance of the error state.
     pub cov: ErrorMatrix,
 }
@@ -98,13 +101,18 @@ impl Estimate {
             accel_bias: self.accel_bias + dx.fixed_rows::<3>(idx::ACCEL_BIAS),
             dvl: self.dvl + dx.fixed_rows::<DVL_STATES>(idx::DVL),
             water: self.water + dx.fixed_rows::<WATER_STATES>(idx::WATER),
+            gyro_scale_z: self.gyro_scale_z + dx[idx::GYRO_SCALE_Z],
             ..*self
         }
     }
 
-    fn corrected(&self, imu: &ImuSample) -> ImuSample {
+    /// The IMU sample with the bias and scale estimates removed: what the mechanization
+    /// integrates.
+    pub fn corrected(&self, imu: &ImuSample) -> ImuSample {
+        let mut omega = imu.omega_ib_body - self.gyro_bias;
+        omega.z *= 1.0 - self.gyro_scale_z;
         ImuSample {
-            omega_ib_body: imu.omega_ib_body - self.gyro_bias,
+            omega_ib_body: omega,
             specific_force_body: imu.specific_force_body - self.accel_bias,
         }
     }
@@ -128,10 +136,8 @@ impl Filter {
         height_ref_m: Option<f64>,
     ) -> (Estimate, ErrorMatrix) {
         let nav = self.propagate_nominal(est, imu0, imu1, dt_s, height_ref_m);
-        let f_mid = est
-            .corrected(&ImuSample::mean(imu0, imu1))
-            .specific_force_body;
-        let (cov, phi, _) = self.propagate_covariance(&est.cov, &est.nav, &nav, &f_mid, dt_s);
+        let mid = est.corrected(&ImuSample::mean(imu0, imu1));
+        let (cov, phi, _) = self.propagate_covariance(&est.cov, &est.nav, &nav, &mid, dt_s);
         (Estimate { nav, cov, ..*est }, phi)
     }
 
@@ -156,7 +162,7 @@ impl Filter {
     }
 
     /// The error covariance over an interval of `dt_s` in which the nominal state went from
-    /// `nav_from` to `nav_to` under the mean bias-corrected specific force `f_mean_body`:
+    /// `nav_from` to `nav_to` under the mean corrected specific force and rate `imu_mean`:
     /// `F` averaged over the two ends (trapezoid), `Phi = exp(F dt)`, white process noise.
     /// The interval may span many IMU samples (the driver propagates the covariance at its
     /// epochs, at most `covariance_interval_s` apart); returns the covariance, `Phi` and the
@@ -166,10 +172,10 @@ impl Filter {
         cov: &ErrorMatrix,
         nav_from: &NavState,
         nav_to: &NavState,
-        f_mean_body: &Vector3<f64>,
+        imu_mean: &ImuSample,
         dt_s: f64,
     ) -> (ErrorMatrix, ErrorMatrix, ErrorState) {
-        self.propagate_covariance_with(cov, nav_from, nav_to, f_mean_body, dt_s, &self.noise)
+        self.propagate_covariance_with(cov, nav_from, nav_to, imu_mean, dt_s, &self.noise)
     }
 
     /// [`Filter::propagate_covariance`] with other noise densities (an IMU gap adds the
@@ -179,12 +185,13 @@ impl Filter {
         cov: &ErrorMatrix,
         nav_from: &NavState,
         nav_to: &NavState,
-        f_mean_body: &Vector3<f64>,
+        imu_mean: &ImuSample,
         dt_s: f64,
         noise: &ImuNoise,
     ) -> (ErrorMatrix, ErrorMatrix, ErrorState) {
-        let f = (error_state::continuous_matrix(nav_from, f_mean_body)
-            + error_state::continuous_matrix(nav_to, f_mean_body))
+        let (f_body, w_body) = (&imu_mean.specific_force_body, &imu_mean.omega_ib_body);
+        let f = (error_state::continuous_matrix(nav_from, f_body, w_body)
+            + error_state::continuous_matrix(nav_to, f_body, w_body))
             * 0.5;
         let phi = error_state::transition(&f, dt_s);
         let q = process_noise(noise, self.current_walk, dt_s);
@@ -261,7 +268,9 @@ pub mod measure {
     /// bias-corrected body rate relative to NED), `A = (1 + s)(I - [m x])` the calibration's
     /// scale and misalignment `m = (0, pitch, heading)`, and `b` its bias. Then
     /// `H_v = A R C^T`, `H_psi = A R C^T [v x]`, and, as the true rate is the corrected rate
-    /// minus the gyro bias correction, `H_bg = A R [l x]`; for the calibration,
+    /// minus the gyro bias correction, `H_bg = A R [l x]` (and `H_sgz = A R [l x] e_z
+    /// omega_z`, the rate about z standing for the gyro's, which differs from it by the
+    /// Earth and transport rates, 1e-4 rad/s, in a lever-arm term); for the calibration,
     /// `H_s = (I - [m x]) d`, `H_m = (1 + s) [d x]` (its y and z columns), `H_b = I`.
     pub fn dvl_velocity(
         est: &Estimate,
@@ -286,8 +295,10 @@ pub mod measure {
             .copy_from(&(a * r * c_t));
         h.fixed_view_mut::<3, 3>(0, idx::ATT)
             .copy_from(&(a * r * c_t * v.cross_matrix()));
-        h.fixed_view_mut::<3, 3>(0, idx::GYRO_BIAS)
-            .copy_from(&(a * r * l.cross_matrix()));
+        let h_bg = a * r * l.cross_matrix();
+        h.fixed_view_mut::<3, 3>(0, idx::GYRO_BIAS).copy_from(&h_bg);
+        h.fixed_view_mut::<3, 1>(0, idx::GYRO_SCALE_Z)
+            .copy_from(&(h_bg.column(2) * omega_nb_body.z));
         h.fixed_view_mut::<3, 1>(0, idx::DVL_SCALE)
             .copy_from(&(turn * d));
         h.fixed_view_mut::<3, 2>(0, idx::DVL_MISALIGNMENT)
@@ -420,6 +431,7 @@ mod tests {
             accel_bias: Vector3::zeros(),
             dvl: DvlCalibration::from_column_slice(&[0.003, 0.01, -0.02, 0.01, -0.005, 0.002]),
             water: WaterState::new(0.01, 0.1, -0.05),
+            gyro_scale_z: 2e-4,
             cov: ErrorMatrix::identity() * 1e-4,
         }
     }
@@ -460,6 +472,9 @@ mod tests {
             let mut w_moved = w_nb;
             if (idx::GYRO_BIAS..idx::GYRO_BIAS + 3).contains(&i) {
                 w_moved[i - idx::GYRO_BIAS] -= eps;
+            }
+            if i == idx::GYRO_SCALE_Z {
+                w_moved.z -= eps * w_nb.z;
             }
             let (y1, _) = measure::dvl_velocity(&moved, &v_body, &mounting, &w_moved);
             let numeric = (y0 - y1) / eps;

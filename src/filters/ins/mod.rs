@@ -1,4 +1,4 @@
-//! Inertial navigation: strapdown mechanization, the 24-state error model, the forward
+//! Inertial navigation: strapdown mechanization, the 25-state error model, the forward
 //! filter and its driver over a mission, coarse alignment, and the records the smoother reads.
 
 pub mod alignment;

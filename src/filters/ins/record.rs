@@ -108,6 +108,7 @@ pub struct NavPoint {
     pub accel_bias: Vector3<f64>,
     pub dvl: DvlCalibration,
     pub water: WaterState,
+    pub gyro_scale_z: f64,
 }
 
 /// What the forward pass keeps at one epoch (an IMU tick with a measurement or an output
@@ -175,6 +176,7 @@ impl From<&Estimate> for NavPoint {
             accel_bias: e.accel_bias,
             dvl: e.dvl,
             water: e.water,
+            gyro_scale_z: e.gyro_scale_z,
         }
     }
 }
@@ -187,6 +189,7 @@ impl NavPoint {
             accel_bias: self.accel_bias,
             dvl: self.dvl,
             water: self.water,
+            gyro_scale_z: self.gyro_scale_z,
             cov,
         }
     }
@@ -264,6 +267,7 @@ pub fn correction_between(prior: &Estimate, posterior: &Estimate) -> ErrorState 
         .copy_from(&(posterior.dvl - prior.dvl));
     d.fixed_rows_mut::<WATER_STATES>(idx::WATER)
         .copy_from(&(posterior.water - prior.water));
+    d[idx::GYRO_SCALE_Z] = posterior.gyro_scale_z - prior.gyro_scale_z;
     d
 }
 

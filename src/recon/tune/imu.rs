@@ -51,6 +51,7 @@ impl Candidate {
             accel_bias_instability_ug: g.accel_bias_instability_ug * self.accel_factor,
             accel_vrw_ug_rt_hz: g.accel_vrw_ug_rt_hz * self.accel_factor,
             bias_correlation_s: g.bias_correlation_s,
+            gyro_scale_ppm: g.gyro_scale_ppm,
         }
     }
 
@@ -154,6 +155,7 @@ pub fn with_candidate(config: &Config, c: &Candidate, still: Option<&StillNoise>
             accel_bias_instability_ug: Some(s.accel_bias_instability_ug),
             accel_vrw_ug_rt_hz: Some(s.accel_vrw_ug_rt_hz),
             bias_correlation_s: Some(s.bias_correlation_s),
+            gyro_scale_ppm: config.imu.gyro_scale_ppm,
         },
         ..config.clone()
     }
