@@ -637,11 +637,7 @@ fn print_report(s: &Summary) {
         println!("DVL calibration: {}", dvl_calibration_line(d));
     }
     if let Some(g) = &s.gyro_scale_factor_z {
-        let told = if g.determined { "" } else { " (prior)" };
-        println!(
-            "z gyro scale factor: {:.6} +- {:.6}{told}",
-            g.value, g.sigma
-        );
+        println!("z gyro scale factor: {}", estimated_text(g, 1.0, 6, ""));
     }
     let c = &s.consistency;
     let judged: Vec<String> = c
@@ -708,21 +704,24 @@ fn write_errors(file: std::fs::File, fwd: &[EpochError], smo: &[EpochError]) -> 
     Ok(())
 }
 
-/// One line of the DVL's calibration: each quantity's estimate and sigma, "(prior)" where the
-/// log did not tell it, "held" where it was not estimated (a zero prior).
+/// An estimate and its sigma (times `scale`), "(prior)" where the log did not tell it, "held"
+/// where it was not estimated (a zero prior).
+fn estimated_text(e: &calibration::Estimated, scale: f64, digits: usize, unit: &str) -> String {
+    if e.sigma == 0.0 {
+        format!("{:.digits$}{unit} held", e.value * scale)
+    } else {
+        let told = if e.determined { "" } else { " (prior)" };
+        format!(
+            "{:.digits$} +- {:.digits$}{unit}{told}",
+            e.value * scale,
+            e.sigma * scale
+        )
+    }
+}
+
+/// One line of the DVL's calibration, each quantity as [`estimated_text`].
 fn dvl_calibration_line(d: &DvlCalibrationReport) -> String {
-    let show = |e: &calibration::Estimated, scale: f64, digits: usize, unit: &str| {
-        if e.sigma == 0.0 {
-            format!("{:.digits$}{unit} held", e.value * scale)
-        } else {
-            let told = if e.determined { "" } else { " (prior)" };
-            format!(
-                "{:.digits$} +- {:.digits$}{unit}{told}",
-                e.value * scale,
-                e.sigma * scale
-            )
-        }
-    };
+    let show = estimated_text;
     let m = &d.misalignment_deg;
     let b = &d.bias_m_s;
     format!(

@@ -13,6 +13,17 @@ use serde::Serialize;
 /// A sigma below this fraction of its prior counts as determined by the log.
 const DETERMINED_BELOW: f64 = 0.5;
 
+impl Estimated {
+    /// An estimate with its sigma, determined when the sigma fell well under the prior's.
+    fn new(value: f64, sigma: f64, prior_sigma: f64) -> Self {
+        Estimated {
+            value,
+            sigma,
+            determined: sigma < DETERMINED_BELOW * prior_sigma,
+        }
+    }
+}
+
 /// One estimated quantity.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Estimated {
@@ -53,12 +64,7 @@ pub struct WaterReport {
 pub fn water_report(last: &Solution, prior_sigma: &[f64; 3]) -> WaterReport {
     let w = &last.point.water;
     let est = |k: usize, offset: f64| {
-        let sigma = last.sigma[idx::WATER + k];
-        Estimated {
-            value: offset + w[k],
-            sigma,
-            determined: sigma < DETERMINED_BELOW * prior_sigma[k],
-        }
+        Estimated::new(offset + w[k], last.sigma[idx::WATER + k], prior_sigma[k])
     };
     WaterReport {
         eml_scale_factor: est(0, 1.0),
@@ -69,12 +75,11 @@ pub fn water_report(last: &Solution, prior_sigma: &[f64; 3]) -> WaterReport {
 /// The z gyro's scale factor (about 1: it reads this times the true rate) from the last
 /// forward solution, with its prior sigma.
 pub fn gyro_scale_report(last: &Solution, prior_sigma: f64) -> Estimated {
-    let sigma = last.sigma[idx::GYRO_SCALE_Z];
-    Estimated {
-        value: 1.0 + last.point.gyro_scale_z,
-        sigma,
-        determined: sigma < DETERMINED_BELOW * prior_sigma,
-    }
+    Estimated::new(
+        1.0 + last.point.gyro_scale_z,
+        last.sigma[idx::GYRO_SCALE_Z],
+        prior_sigma,
+    )
 }
 
 /// The report from the last forward solution, with the prior sigmas (scale, pitch and heading
@@ -82,10 +87,12 @@ pub fn gyro_scale_report(last: &Solution, prior_sigma: f64) -> Estimated {
 pub fn report(last: &Solution, prior_sigma: &[f64; 6]) -> DvlCalibrationReport {
     let cal = &last.point.dvl;
     let sigma = |k: usize| last.sigma[idx::DVL + k];
-    let est = |k: usize, unit: f64, offset: f64| Estimated {
-        value: offset + cal[k] * unit,
-        sigma: sigma(k) * unit,
-        determined: sigma(k) < DETERMINED_BELOW * prior_sigma[k],
+    let est = |k: usize, unit: f64, offset: f64| {
+        Estimated::new(
+            offset + cal[k] * unit,
+            sigma(k) * unit,
+            prior_sigma[k] * unit,
+        )
     };
     let deg = 1f64.to_degrees();
     DvlCalibrationReport {
