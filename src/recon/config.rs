@@ -83,6 +83,9 @@ sigma_deg = 2.0            # heading error of the calibrated magnetometer (devia
 correlation_s = 60.0       # that error's correlation time: the updates within it share one
                            # sigma (each update's sigma is sigma_deg sqrt(correlation_s /
                            # min_interval_s)), so a slow error is not averaged away
+uncalibrated_correlation_s = 600.0  # the correlation when the readings could not be
+                           # calibrated (too few headings): their deviation depends on the
+                           # heading and holds as long as the heading does (a survey lane)
 min_interval_s = 1.0       # at most one heading update per interval
 max_field_deviation = 0.15 # a reading whose magnitude is off the log's median by more than
                            # this fraction is a disturbed field and is not used
@@ -398,6 +401,7 @@ pub struct MagConfig {
     pub use_as_aid: bool,
     pub sigma_deg: f64,
     pub correlation_s: f64,
+    pub uncalibrated_correlation_s: f64,
     pub min_interval_s: f64,
     pub max_field_deviation: f64,
     pub calibrate: bool,
@@ -411,6 +415,7 @@ impl Default for MagConfig {
             use_as_aid: true,
             sigma_deg: 2.0,
             correlation_s: 60.0,
+            uncalibrated_correlation_s: 600.0,
             min_interval_s: 1.0,
             max_field_deviation: 0.15,
             calibrate: true,
@@ -421,9 +426,14 @@ impl Default for MagConfig {
 
 impl MagConfig {
     /// 1-sigma of one heading update, rad: the error's sigma spread over the updates within
-    /// its correlation time.
-    pub fn update_sigma_rad(&self) -> f64 {
-        let per_correlation = (self.correlation_s / self.min_interval_s).max(1.0);
+    /// its correlation time (the longer one when the readings' deviation is unknown).
+    pub fn update_sigma_rad(&self, deviation_unknown: bool) -> f64 {
+        let correlation_s = if deviation_unknown {
+            self.uncalibrated_correlation_s
+        } else {
+            self.correlation_s
+        };
+        let per_correlation = (correlation_s / self.min_interval_s).max(1.0);
         self.sigma_deg.to_radians() * per_correlation.sqrt()
     }
 }
@@ -686,7 +696,7 @@ impl Config {
     /// Checks ranges (positive sigmas and intervals, a probability in (0, 1]).
     pub fn check(&self) -> Result<(), ConfigError> {
         let spec = self.imu.spec();
-        let positive: [(&'static str, f64); 23] = [
+        let positive: [(&'static str, f64); 24] = [
             ("alignment.first_span_s", self.alignment.first_span_s),
             (
                 "alignment.found_sigma_floor_deg",
@@ -694,6 +704,10 @@ impl Config {
             ),
             ("mag.sigma_deg", self.mag.sigma_deg),
             ("mag.correlation_s", self.mag.correlation_s),
+            (
+                "mag.uncalibrated_correlation_s",
+                self.mag.uncalibrated_correlation_s,
+            ),
             ("mag.min_interval_s", self.mag.min_interval_s),
             ("mag.max_field_deviation", self.mag.max_field_deviation),
             ("imu.gyro_bias_deg_h", spec.gyro_bias_deg_h),

@@ -4,7 +4,7 @@
 //! against which a disturbed reading is recognised.
 
 use super::config::MagConfig;
-use crate::attitude::mag_calibration::{self, MagCalibration};
+use crate::attitude::mag_calibration::{self, MagCalibration, Untrusted};
 use crate::attitude::mag_checks::{self, SaturatedSpan};
 use crate::contract::MagneticField;
 use nalgebra::Vector3;
@@ -17,6 +17,11 @@ pub struct PreparedMag {
     /// The calibration applied, or why none was.
     pub calibration: Option<MagCalibration>,
     pub calibration_skipped: Option<String>,
+    /// The readings' deviation is unknown: a calibration was asked for but could not be
+    /// fitted (too few headings) or was not trusted for a reason other than the readings
+    /// looking calibrated already. Their heading error then depends on the heading and holds
+    /// as long as the heading does.
+    pub deviation_unknown: bool,
     /// Median magnitude of the readings used, T (0 without readings).
     pub reference_norm_t: f64,
 }
@@ -28,20 +33,21 @@ pub fn prepare(mag: &[MagneticField], cfg: &MagConfig) -> PreparedMag {
         return PreparedMag::default();
     }
     let (clean, saturated) = mag_checks::without_saturation(mag, cfg.saturation_repeats);
-    let (readings, calibration, calibration_skipped) = if cfg.calibrate {
+    let (readings, calibration, calibration_skipped, deviation_unknown) = if cfg.calibrate {
         match mag_calibration::fit(&clean) {
             Ok(c) => match c.trusted() {
-                Ok(()) => (c.applied(&clean), Some(c), None),
-                Err(why) => (clean, None, Some(format!("fitted, but not applied: {why}"))),
+                Ok(()) => (c.applied(&clean), Some(c), None, false),
+                Err(why) => {
+                    let unknown = !matches!(why, Untrusted::LittleGain { .. });
+                    let skipped = format!("fitted, but not applied: {why}");
+                    (clean, None, Some(skipped), unknown)
+                }
             },
-            Err(e) => (clean, None, Some(e.to_string())),
+            Err(e) => (clean, None, Some(e.to_string()), true),
         }
     } else {
-        (
-            clean,
-            None,
-            Some("not asked for (mag.calibrate = false)".to_string()),
-        )
+        let skipped = "not asked for (mag.calibrate = false)".to_string();
+        (clean, None, Some(skipped), false)
     };
     let mut norms: Vec<f64> = readings
         .iter()
@@ -54,6 +60,7 @@ pub fn prepare(mag: &[MagneticField], cfg: &MagConfig) -> PreparedMag {
         saturated,
         calibration,
         calibration_skipped,
+        deviation_unknown,
         reference_norm_t,
     }
 }
@@ -88,6 +95,7 @@ mod tests {
         assert_eq!(p.readings.len(), 190);
         assert!(p.calibration.is_none());
         assert!(p.calibration_skipped.unwrap().contains("sectors"));
+        assert!(p.deviation_unknown);
         assert!((p.reference_norm_t - 2.0e-5f64.hypot(4.0e-5)).abs() < 1e-9);
         assert!(prepare(&[], &MagConfig::default()).readings.is_empty());
     }

@@ -206,7 +206,7 @@ pub fn forward(
         .filter(|_| config.mag.use_as_aid && !mag.readings.is_empty())
         .map(|d| MagAiding {
             declination_rad: d.declination_deg.to_radians(),
-            sigma_rad: config.mag.update_sigma_rad(),
+            sigma_rad: config.mag.update_sigma_rad(mag.deviation_unknown),
             min_interval_s: config.mag.min_interval_s,
             reference_norm_t: mag.reference_norm_t,
             max_norm_deviation: config.mag.max_field_deviation,
