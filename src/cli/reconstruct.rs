@@ -225,6 +225,10 @@ struct MagSummary {
     saturated_spans: Vec<hindsight::attitude::mag_checks::SaturatedSpan>,
     calibrated: bool,
     calibration_skipped: Option<String>,
+    /// The field magnitude's rms variation beyond the noise, percent of the magnitude.
+    magnitude_variation_pct: f64,
+    /// Not calibrated, with a varying magnitude: heading updates held correlated longer.
+    deviation_unknown: bool,
     reference_field_nt: f64,
     skipped_by_interval: usize,
     disturbed: usize,
@@ -335,7 +339,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     );
     let sensors = stats::sensor_stats(&pass.run.residuals);
     let mut warnings = stats::warnings(&pass.run, &pass.init, &sensors);
-    warnings.extend(recon::magnetometer_warnings(&pass.mag));
+    warnings.extend(recon::magnetometer_warnings(&pass.mag, &config.mag));
     warnings.extend(warnings_from_tuning);
     if warnings.iter().any(|w| w.starts_with("dvl: mean NIS")) {
         eprintln!("the DVL's innovations are too large: searching for a clock offset ...");
@@ -482,6 +486,8 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             saturated_spans: r.mag.saturated.clone(),
             calibrated: r.mag.calibration.is_some(),
             calibration_skipped: r.mag.calibration_skipped.clone(),
+            magnitude_variation_pct: r.mag.magnitude_variation * 100.0,
+            deviation_unknown: r.mag.deviation_unknown,
             reference_field_nt: r.mag.reference_norm_t * 1e9,
             skipped_by_interval: r.run.mag_skipped,
             disturbed: r.run.mag_disturbed,

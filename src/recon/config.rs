@@ -84,8 +84,9 @@ correlation_s = 60.0       # that error's correlation time: the updates within i
                            # sigma (each update's sigma is sigma_deg sqrt(correlation_s /
                            # min_interval_s)), so a slow error is not averaged away
 uncalibrated_correlation_s = 600.0  # the correlation when the readings could not be
-                           # calibrated (too few headings): their deviation depends on the
-                           # heading and holds as long as the heading does (a survey lane)
+                           # calibrated (too few headings) yet their magnitude varies with
+                           # the heading (a hard iron): their deviation then holds as long as
+                           # the heading does (a survey lane)
 min_interval_s = 1.0       # at most one heading update per interval
 max_field_deviation = 0.15 # a reading whose magnitude is off the log's median by more than
                            # this fraction is a disturbed field and is not used

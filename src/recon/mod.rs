@@ -292,19 +292,34 @@ fn rpm_speed(mission: &Mission, config: &Config) -> Option<Box<dyn Fn(f64) -> f6
     }))
 }
 
-/// What a user should know of the magnetometer's readings: saturated spans left out.
-pub fn magnetometer_warnings(mag: &magnetometer::PreparedMag) -> Vec<String> {
-    mag.saturated
-        .iter()
-        .map(|s| {
-            format!(
-                "mag: saturated from {} to {} ({} readings: an axis stuck at its extreme), left out",
-                crate::time::format_utc(s.from_ns),
-                crate::time::format_utc(s.to_ns),
-                s.readings
-            )
-        })
-        .collect()
+/// What a user should know of the magnetometer's readings: saturated spans left out, and a
+/// deviation that could not be calibrated.
+pub fn magnetometer_warnings(
+    mag: &magnetometer::PreparedMag,
+    cfg: &config::MagConfig,
+) -> Vec<String> {
+    let saturated = mag.saturated.iter().map(|s| {
+        format!(
+            "mag: saturated from {} to {} ({} readings: an axis stuck at its extreme), left out",
+            crate::time::format_utc(s.from_ns),
+            crate::time::format_utc(s.to_ns),
+            s.readings
+        )
+    });
+    let deviation = mag.deviation_unknown.then(|| {
+        format!(
+            "mag: not calibrated ({}), and the field magnitude varies by {:.1} % over the \
+             headings flown: the heading carries a deviation of a few degrees that changes \
+             with the heading, so its updates are taken as correlated over {:.0} s (a full \
+             circle in the dive would let it be calibrated)",
+            mag.calibration_skipped
+                .as_deref()
+                .unwrap_or("no reason recorded"),
+            mag.magnitude_variation * 100.0,
+            cfg.uncalibrated_correlation_s
+        )
+    });
+    saturated.chain(deviation).collect()
 }
 
 /// Runs the whole reconstruction: initialisation, forward filter, smoother.
