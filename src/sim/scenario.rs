@@ -43,6 +43,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         "survey-27h",
         include_str!("../../scenarios/survey-27h.toml"),
     ),
+    (
+        "survey-hard-iron",
+        include_str!("../../scenarios/survey-hard-iron.toml"),
+    ),
     // Flown by the 6-DOF vehicle model and its autopilot.
     (
         "long-dive-dynamic",
