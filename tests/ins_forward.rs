@@ -7,8 +7,9 @@
 
 mod common;
 
-use hindsight::contract::{Depth, Dvl, GnssFix, Imu, SpeedLog, Truth};
-use hindsight::filters::ins::driver::{run_forward, Aiding, Inputs, Propagation, Sensor, Settings};
+use hindsight::contract::{Depth, Imu, Streams, Truth};
+use hindsight::filters::ins::aiding::{Aiding, Sensor};
+use hindsight::filters::ins::driver::{run_forward, Inputs, Propagation, Settings};
 use hindsight::filters::ins::error_state::{ErrorMatrix, N};
 use hindsight::filters::ins::forward::{DvlMounting, Estimate, Filter, ImuNoise};
 use hindsight::filters::ins::mechanization::NavState;
@@ -74,6 +75,14 @@ fn settings_for(scenario: &Scenario, aiding: Aiding) -> Settings {
         },
         aiding,
     }
+}
+
+/// The scenario's mission origin (latitude, longitude), rad.
+fn origin_rad(scenario: &Scenario) -> (f64, f64) {
+    (
+        scenario.mission.origin_latitude_deg.to_radians(),
+        scenario.mission.origin_longitude_deg.to_radians(),
+    )
 }
 
 /// The truth's first sample with set errors: `north_m` of position, `tilt_deg` added to roll
@@ -148,23 +157,19 @@ fn forward_filter_and_smoother_follow_the_survey() {
     let log = common::simulated_log(&scenario, 1);
     let truth = log.messages::<Truth>("/truth").unwrap();
     let output_stamps: Vec<i64> = truth.iter().map(|t| t.stamp_ns).collect();
-    let inputs = Inputs {
-        imu: log.messages::<Imu>("/imu").unwrap(),
-        dvl: log.messages::<Dvl>("/dvl").unwrap(),
+    let streams = Streams {
         altimeter: &[],
-        depth: log.messages::<Depth>("/depth").unwrap(),
-        gnss: log.messages::<GnssFix>("/gnss").unwrap(),
-        eml: log.messages::<SpeedLog>("/eml").unwrap(),
         mag: &[],
         fixes: &[],
-        origin_rad: (
-            scenario.mission.origin_latitude_deg.to_radians(),
-            scenario.mission.origin_longitude_deg.to_radians(),
-        ),
+        ..Streams::of(&log)
+    };
+    let settings = settings_for(&scenario, aiding(Some(0.05)));
+    let aids = settings.aiding.table(&streams, origin_rad(&scenario));
+    let inputs = Inputs {
+        imu: streams.imu,
+        aids: &aids,
         output_stamps_ns: &output_stamps,
     };
-
-    let settings = settings_for(&scenario, aiding(Some(0.05)));
 
     let initial = initial_from_truth(&truth[0], &scenario, 3.0, 0.2, 2.0, 25.0);
     let run = run_forward(&settings, &inputs, initial).unwrap();
@@ -195,7 +200,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
         .map(|w| (w[1].north_m - w[0].north_m).hypot(w[1].east_m - w[0].east_m))
         .sum();
     // The forward error just before the GNSS fixes of the final surfacing.
-    let gnss = inputs.gnss;
+    let gnss = streams.gnss;
     let mid = truth[truth.len() / 2].stamp_ns;
     let end_fix = gnss.iter().find(|g| g.stamp_ns > mid).unwrap().stamp_ns;
     let before_end_fix = fwd.iter().rev().find(|e| e.0 < end_fix).unwrap().1;
@@ -253,21 +258,17 @@ fn position_fixes_bound_the_error_without_dvl() {
     let settings = settings_for(&scenario, aiding(None));
     let initial = initial_from_truth(&truth[0], &scenario, 0.0, 0.0, 2.0, 4.0);
     let stamps: Vec<i64> = truth.iter().map(|t| t.stamp_ns).collect();
-    let origin_rad = (
-        scenario.mission.origin_latitude_deg.to_radians(),
-        scenario.mission.origin_longitude_deg.to_radians(),
-    );
     let run_with = |fixes: &[hindsight::contract::PositionFix]| {
-        let inputs = Inputs {
+        let streams = Streams {
             imu: log.messages::<Imu>("/imu").unwrap(),
-            dvl: &[],
-            altimeter: &[],
             depth: log.messages::<Depth>("/depth").unwrap(),
-            gnss: &[],
-            eml: &[],
-            mag: &[],
             fixes,
-            origin_rad,
+            ..Streams::default()
+        };
+        let aids = settings.aiding.table(&streams, origin_rad(&scenario));
+        let inputs = Inputs {
+            imu: streams.imu,
+            aids: &aids,
             output_stamps_ns: &stamps,
         };
         let run = run_forward(&settings, &inputs, initial).unwrap();

@@ -153,19 +153,22 @@ fn run_seed(scenario: &Scenario, config: &Config, seed: u64) -> Outcome {
     let stamps = output_stamps(streams.imu, 0.1);
     let start = initial(&streams.truth[0], config, seed);
     let final_error = |dvl| {
-        let inputs = Inputs {
-            imu: streams.imu,
-            dvl,
-            altimeter: streams.altimeter,
-            depth: streams.depth,
+        let used = Streams {
             eml: &[],
             mag: &[],
             gnss: &[],
             fixes: &[],
-            origin_rad: (
-                mission.origin_latitude_deg.to_radians(),
-                mission.origin_longitude_deg.to_radians(),
-            ),
+            dvl,
+            ..streams
+        };
+        let origin_rad = (
+            mission.origin_latitude_deg.to_radians(),
+            mission.origin_longitude_deg.to_radians(),
+        );
+        let aids = settings.aiding.table(&used, origin_rad);
+        let inputs = Inputs {
+            imu: streams.imu,
+            aids: &aids,
             output_stamps_ns: &stamps,
         };
         let run = run_forward(&settings, &inputs, start).unwrap();

@@ -5,7 +5,7 @@
 mod common;
 
 use hindsight::contract::{Dvl, GnssFix, Imu, Truth};
-use hindsight::filters::ins::driver::Sensor;
+use hindsight::filters::ins::aiding::Sensor;
 use hindsight::ingest::Log;
 use hindsight::recon::clock::suggest_dvl_offset;
 use hindsight::recon::config::Config;
@@ -117,15 +117,15 @@ fn dive_27min_out_of_range_dvl_is_detected() {
     println!(
         "dive-27min: {} DVL readings out of range, {} gated; hindsight forward RMS {:.1} m (smoothed {:.1} m), \
          trusting filter {:.1} m",
-        r.run.dvl_out_of_range, dvl.rejected, h_fwd.horizontal_rms_m, h_smo.horizontal_rms_m, n_fwd.horizontal_rms_m
+        r.run.unused[Sensor::Dvl], dvl.rejected, h_fwd.horizontal_rms_m, h_smo.horizontal_rms_m, n_fwd.horizontal_rms_m
     );
     // 4 minutes at 5 Hz out of range (and a few readings at the trench edges).
     assert!(
-        (1200..1260).contains(&r.run.dvl_out_of_range),
+        (1200..1260).contains(&r.run.unused[Sensor::Dvl]),
         "{}",
-        r.run.dvl_out_of_range
+        r.run.unused[Sensor::Dvl]
     );
-    assert_eq!(naive.run.dvl_out_of_range, 0);
+    assert_eq!(naive.run.unused[Sensor::Dvl], 0);
     assert!(h_fwd.horizontal_rms_m < 0.1 * n_fwd.horizontal_rms_m);
     // What is left: the heading error of gyrocompassing an intermediate IMU over 8 km.
     assert!(h_fwd.horizontal_rms_m < 50.0);

@@ -153,7 +153,7 @@ fn given_figures_are_kept() {
 #[test]
 fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
     use hindsight::contract::Truth;
-    use hindsight::filters::ins::driver::Sensor;
+    use hindsight::filters::ins::aiding::Sensor;
     use hindsight::recon::stats::{distance_travelled_m, sensor_stats, warnings};
     let m = ImuGrade::Mems.spec();
     for name in ["pool-rectangle", "pool-circle"] {

@@ -3,7 +3,7 @@
 use super::{LogArgs, OutputFailed, PolicyArgs};
 use anyhow::{Context, Result};
 use hindsight::contract::Truth;
-use hindsight::filters::ins::driver::Sensor;
+use hindsight::filters::ins::aiding::Sensor;
 use hindsight::filters::ins::record::Solution;
 use hindsight::output::atomic::Staging;
 use hindsight::output::parquet::{write_batches, ROWS_PER_BATCH};
@@ -364,33 +364,22 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     }
     // What the outputs need from the log; the log itself is freed before smoothing.
     let truth: Vec<Truth> = streams.truth.to_vec();
-    let used = |topic: &str| match topic {
-        "/dvl" => config.dvl.enabled,
-        "/depth" => config.depth.enabled,
-        "/eml" => config.eml.enabled,
-        "/gnss" => config.gnss.enabled,
-        "/position_fix" => config.position_fix.enabled,
-        "/truth" => false,
-        _ => true,
-    };
-    let inputs: Vec<InputCount> = [
-        ("/imu", streams.imu.len()),
-        ("/dvl", streams.dvl.len()),
-        ("/depth", streams.depth.len()),
-        ("/eml", streams.eml.len()),
-        ("/gnss", streams.gnss.len()),
-        ("/position_fix", streams.fixes.len()),
-        ("/mag", streams.mag.len()),
-        ("/altimeter", streams.altimeter.len()),
-        ("/truth", streams.truth.len()),
-    ]
-    .iter()
-    .map(|&(topic, messages)| InputCount {
+    let count = |topic, messages, used: bool| InputCount {
         topic,
         messages,
-        used: messages > 0 && used(topic),
-    })
-    .collect();
+        used: used && messages > 0,
+    };
+    let inputs: Vec<InputCount> = std::iter::once(count("/imu", streams.imu.len(), true))
+        .chain(
+            Sensor::ALL
+                .into_iter()
+                .map(|s| count(s.topic(), s.readings(&streams), config.uses(s))),
+        )
+        .chain([
+            count("/altimeter", streams.altimeter.len(), true),
+            count("/truth", streams.truth.len(), false),
+        ])
+        .collect();
     let depth_used = config.depth.enabled && !streams.depth.is_empty();
     let dvl_used = config.dvl.enabled && !streams.dvl.is_empty();
     drop(log);
@@ -489,14 +478,14 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             magnitude_variation_pct: r.mag.magnitude_variation * 100.0,
             deviation_unknown: r.mag.deviation_unknown,
             reference_field_nt: r.mag.reference_norm_t * 1e9,
-            skipped_by_interval: r.run.mag_skipped,
-            disturbed: r.run.mag_disturbed,
+            skipped_by_interval: r.run.by_interval[Sensor::Magnetometer],
+            disturbed: r.run.disturbed[Sensor::Magnetometer],
         },
         epochs: r.forward.len(),
         trajectory_rows_per_solution: keep.len(),
         residuals: r.run.residuals.len(),
         rejected: r.run.residuals.iter().filter(|x| !x.accepted).count(),
-        dvl_out_of_range: r.run.dvl_out_of_range,
+        dvl_out_of_range: r.run.unused[Sensor::Dvl],
         dvl_calibration: dvl_used
             .then(|| r.forward.last())
             .flatten()
@@ -519,8 +508,8 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             .forward
             .last()
             .map(|last| calibration::gyro_scale_report(last, config.imu.spec().gyro_scale())),
-        depth_skipped_by_interval: r.run.depth_skipped,
-        eml_too_slow: r.run.eml_too_slow,
+        depth_skipped_by_interval: r.run.by_interval[Sensor::Depth],
+        eml_too_slow: r.run.unused[Sensor::SpeedLog],
         gate_resets: r.run.gate_resets,
         imu_gaps: r
             .run

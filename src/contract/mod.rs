@@ -10,11 +10,13 @@
 mod kind;
 pub mod messages;
 mod property;
+mod streams;
 mod validate;
 
 pub use kind::{all_kinds, kind_by_schema, Kind, MessageKind};
 pub use messages::*;
 pub use property::{Component, PropKind, PropValue, Property};
+pub use streams::Streams;
 pub use validate::{validate, FieldIssue};
 
 use serde::{de::DeserializeOwned, Serialize};

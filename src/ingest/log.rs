@@ -5,7 +5,7 @@ use super::mission::{Mission, MissionError};
 use super::reader::Ending;
 use super::samples::Samples;
 use super::stats;
-use crate::contract::Message;
+use crate::contract::{Message, Streams};
 use std::collections::BTreeMap;
 
 /// What ingest tolerates.
@@ -144,6 +144,11 @@ impl Log {
         self.stream(topic)?.messages::<T>()
     }
 
+    /// The messages of type `T` at the contract's default topic (none when absent).
+    pub fn at_default_topic<T: Message>(&self) -> &[T] {
+        self.messages(T::DEFAULT_TOPIC).unwrap_or_default()
+    }
+
     /// Messages kept over all streams.
     pub fn message_count(&self) -> u64 {
         self.streams.iter().map(|s| s.samples.len() as u64).sum()
@@ -188,5 +193,23 @@ impl Log {
             ));
         }
         out
+    }
+}
+
+impl<'a> Streams<'a> {
+    /// The log's streams at the contract's default topics.
+    pub fn of(log: &'a Log) -> Self {
+        Streams {
+            imu: log.at_default_topic(),
+            mag: log.at_default_topic(),
+            dvl: log.at_default_topic(),
+            altimeter: log.at_default_topic(),
+            eml: log.at_default_topic(),
+            depth: log.at_default_topic(),
+            gnss: log.at_default_topic(),
+            fixes: log.at_default_topic(),
+            rpm: log.at_default_topic(),
+            truth: log.at_default_topic(),
+        }
     }
 }

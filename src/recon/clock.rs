@@ -5,7 +5,7 @@
 use super::config::Config;
 use super::{forward, Streams};
 use crate::contract::{Dvl, Imu};
-use crate::filters::ins::driver::Sensor;
+use crate::filters::ins::aiding::Sensor;
 use crate::ingest::Mission;
 
 /// Seconds of the mission searched (from the first IMU sample).

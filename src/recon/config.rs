@@ -5,7 +5,8 @@
 //! The IMU's noise comes from a grade (typical data-sheet figures of the class), any value
 //! of which a key overrides.
 
-use crate::filters::ins::driver::{Aiding, Propagation, Settings};
+use crate::filters::ins::aiding::{Aiding, Sensor};
+use crate::filters::ins::driver::{Propagation, Settings};
 use crate::filters::ins::forward::{DvlMounting, Filter, ImuNoise};
 use serde::{Deserialize, Serialize};
 
@@ -657,6 +658,20 @@ pub struct Config {
     /// The tunable keys ([`TUNABLE_KEYS`]) the configuration gave: kept as given.
     #[serde(skip)]
     pub fixed: std::collections::BTreeSet<String>,
+}
+
+impl Config {
+    /// Whether the configuration uses the sensor (its section's `use`).
+    pub fn uses(&self, sensor: Sensor) -> bool {
+        match sensor {
+            Sensor::Dvl => self.dvl.enabled,
+            Sensor::Depth => self.depth.enabled,
+            Sensor::Gnss => self.gnss.enabled,
+            Sensor::SpeedLog => self.eml.enabled,
+            Sensor::PositionFix => self.position_fix.enabled,
+            Sensor::Magnetometer => self.mag.enabled,
+        }
+    }
 }
 
 /// Why a configuration is unusable.

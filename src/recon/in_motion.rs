@@ -60,21 +60,12 @@ pub struct InMotion {
 }
 
 /// The inputs up to `end_ns` (the output stamps left out: the bank needs no output rows).
+/// Cutting the IMU is enough: a reading is applied at an IMU tick at or after its stamp.
 fn inputs_until<'a>(inputs: &Inputs<'a>, end_ns: i64) -> Inputs<'a> {
-    fn cut<T, F: Fn(&T) -> i64>(s: &[T], end: i64, stamp: F) -> &[T] {
-        &s[..s.partition_point(|m| stamp(m) <= end)]
-    }
     Inputs {
-        imu: cut(inputs.imu, end_ns, |m| m.stamp_ns),
-        dvl: cut(inputs.dvl, end_ns, |m| m.stamp_ns),
-        altimeter: cut(inputs.altimeter, end_ns, |m| m.stamp_ns),
-        depth: cut(inputs.depth, end_ns, |m| m.stamp_ns),
-        eml: cut(inputs.eml, end_ns, |m| m.stamp_ns),
-        mag: cut(inputs.mag, end_ns, |m| m.stamp_ns),
-        gnss: cut(inputs.gnss, end_ns, |m| m.stamp_ns),
-        fixes: cut(inputs.fixes, end_ns, |m| m.stamp_ns),
-        origin_rad: inputs.origin_rad,
+        imu: &inputs.imu[..inputs.imu.partition_point(|m| m.stamp_ns <= end_ns)],
         output_stamps_ns: &[],
+        ..*inputs
     }
 }
 

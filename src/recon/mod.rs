@@ -20,12 +20,11 @@ pub mod score;
 pub mod stats;
 pub mod tune;
 
-use crate::contract::{
-    Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, Propeller, SpeedLog, Truth,
-};
-use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs, MagAiding};
+use crate::contract::Imu;
+use crate::filters::ins::aiding::{MagAiding, Sensor};
+use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs};
 use crate::filters::ins::record::Solution;
-use crate::ingest::{Log, Mission};
+use crate::ingest::Mission;
 use crate::smooth::rts::{smooth, SmoothError};
 use config::Config;
 use init::{InitError, InitSettings, Initialisation};
@@ -84,37 +83,7 @@ pub struct Timing {
     pub smoother: Duration,
 }
 
-/// The streams a reconstruction reads, at their default topics (empty when absent).
-#[derive(Debug, Clone, Copy)]
-pub struct Streams<'a> {
-    pub imu: &'a [Imu],
-    pub mag: &'a [MagneticField],
-    pub dvl: &'a [Dvl],
-    pub altimeter: &'a [Altimeter],
-    pub eml: &'a [SpeedLog],
-    pub depth: &'a [Depth],
-    pub gnss: &'a [GnssFix],
-    pub fixes: &'a [PositionFix],
-    pub rpm: &'a [Propeller],
-    pub truth: &'a [Truth],
-}
-
-impl<'a> Streams<'a> {
-    pub fn of(log: &'a Log) -> Self {
-        Streams {
-            imu: log.messages("/imu").unwrap_or_default(),
-            mag: log.messages("/mag").unwrap_or_default(),
-            dvl: log.messages("/dvl").unwrap_or_default(),
-            altimeter: log.messages("/altimeter").unwrap_or_default(),
-            eml: log.messages("/eml").unwrap_or_default(),
-            depth: log.messages("/depth").unwrap_or_default(),
-            gnss: log.messages("/gnss").unwrap_or_default(),
-            fixes: log.messages("/position_fix").unwrap_or_default(),
-            rpm: log.messages("/rpm").unwrap_or_default(),
-            truth: log.messages("/truth").unwrap_or_default(),
-        }
-    }
-}
+pub use crate::contract::Streams;
 
 /// Output times: every `1 / rate_hz` from the first to the last IMU sample.
 pub fn output_stamps(imu: &[Imu], rate_hz: f64) -> Vec<i64> {
@@ -140,15 +109,6 @@ pub fn consider_depth_bias(solutions: &mut [Solution], bias_sigma_m: f64) {
     }
 }
 
-/// `stream` if the sensor is used, else nothing.
-fn used<T>(stream: &[T], enabled: bool) -> &[T] {
-    if enabled {
-        stream
-    } else {
-        &[]
-    }
-}
-
 /// What the forward pass started from and produced.
 #[derive(Debug, Clone)]
 pub struct ForwardPass {
@@ -170,15 +130,15 @@ pub fn forward(
     } else {
         magnetometer::PreparedMag::default()
     };
-    // A sensor the configuration leaves out is an empty stream from here on.
+    // A sensor the configuration leaves out is an empty stream from here on; the
+    // magnetometer's are its prepared readings.
+    let streams = Sensor::ALL
+        .into_iter()
+        .filter(|&s| !config.uses(s))
+        .fold(*streams, |kept, s| s.left_out_of(kept));
     let streams = Streams {
-        dvl: used(streams.dvl, config.dvl.enabled),
-        depth: used(streams.depth, config.depth.enabled),
-        eml: used(streams.eml, config.eml.enabled),
-        gnss: used(streams.gnss, config.gnss.enabled),
-        fixes: used(streams.fixes, config.position_fix.enabled),
         mag: &mag.readings,
-        ..*streams
+        ..streams
     };
     let speed_of_rpm = rpm_speed(mission, config);
     let mut init = init::initialise(
@@ -212,19 +172,14 @@ pub fn forward(
             max_norm_deviation: config.mag.max_field_deviation,
         });
     let stamps = output_stamps(streams.imu, config.output.rate_hz);
+    let origin_rad = (
+        mission.origin_latitude_deg.to_radians(),
+        mission.origin_longitude_deg.to_radians(),
+    );
+    let aids = settings.aiding.table(&streams, origin_rad);
     let inputs = Inputs {
         imu: streams.imu,
-        dvl: streams.dvl,
-        altimeter: streams.altimeter,
-        depth: streams.depth,
-        eml: streams.eml,
-        mag: streams.mag,
-        gnss: streams.gnss,
-        fixes: streams.fixes,
-        origin_rad: (
-            mission.origin_latitude_deg.to_radians(),
-            mission.origin_longitude_deg.to_radians(),
-        ),
+        aids: &aids,
         output_stamps_ns: &stamps,
     };
     let started = Instant::now();
@@ -234,6 +189,7 @@ pub fn forward(
         return Err(InitError::NoHeading(init.heading_unavailable.join("; ")).into());
     }
     let run = run_forward(&settings, &inputs, init.estimate)?;
+    drop(aids); // it borrows the magnetometer's readings
     Ok(ForwardPass {
         init,
         mag,

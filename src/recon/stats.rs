@@ -1,7 +1,8 @@
 //! Statistics of a run: per-sensor innovation statistics, distance travelled.
 
+use crate::filters::ins::aiding::Sensor;
 use crate::filters::ins::driver::ForwardRun;
-use crate::filters::ins::driver::{Residual, Sensor};
+use crate::filters::ins::driver::Residual;
 use crate::filters::ins::record::Solution;
 use crate::geodesy;
 use crate::recon::init::Initialisation;
@@ -132,11 +133,11 @@ pub fn warnings(run: &ForwardRun, init: &Initialisation, sensors: &[SensorStats]
         }
     }
     out.extend(init.heading_disagreements.iter().cloned());
-    if run.mag_disturbed > 0 {
+    if run.disturbed[Sensor::Magnetometer] > 0 {
         out.push(format!(
             "mag: {} readings left out, their field magnitude off the log's median by more \
              than mag.max_field_deviation (a disturbed field)",
-            run.mag_disturbed
+            run.disturbed[Sensor::Magnetometer]
         ));
     }
     out

@@ -13,66 +13,21 @@
 //!   covariance grows with extra noise for the motion nobody measured; measurements inside
 //!   the gap are applied at their times.
 //!
-//! Takes the contract's typed messages as time-sorted slices (what ingest and align hand
-//! over), so it imports no I/O.
+//! - The aiding sources are the rows of one table ([`super::aiding`]): at each epoch every
+//!   row's readings due are applied, row by row in the table's order, through one Kalman
+//!   update with gating, rejection counts and the innovations' log-likelihood.
+//!
+//! Takes the IMU's time-sorted messages and the aiding table, so it imports no I/O.
 
-use super::error_state::{ErrorMatrix, ErrorState, N};
-use super::forward::{measure, DvlMounting, Estimate, Filter, ImuNoise};
+use super::aiding::{first_after, Aid, Aiding, Epoch, Measurement, PerSensor, Sensor, Update};
+use super::error_state::{ErrorMatrix, ErrorState};
+use super::forward::{Estimate, Filter, ImuNoise};
 use super::mechanization::{ImuSample, NavState};
 use super::record::EpochRecord;
-use crate::align::latest_at;
-use crate::contract::{Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, SpeedLog};
+use crate::contract::Imu;
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
 use crate::geodesy;
-use nalgebra::{SMatrix, SVector, Vector3};
-
-/// Measurement noise, validity and gating of the aiding sensors.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Aiding {
-    /// DVL velocity 1-sigma per axis, m/s.
-    pub dvl_sigma_m_s: f64,
-    /// DVL readings above this altitude are not used (out of range), m.
-    pub dvl_max_altitude_m: f64,
-    /// False: every DVL reading is used, even without bottom lock or out of range (only to
-    /// show what trusting a bad DVL costs).
-    pub dvl_check_range: bool,
-    pub dvl_mounting: DvlMounting,
-    /// When a DVL reading carries no altitude, the echo sounder's latest altitude within this
-    /// age is used to check the range, s.
-    pub altimeter_max_age_s: f64,
-    /// Depth 1-sigma, m.
-    pub depth_sigma_m: f64,
-    /// Depth readings closer than this to the last one used are skipped (a 100 Hz depth
-    /// sensor adds nothing over 10 Hz but epochs), s.
-    pub depth_min_interval_s: f64,
-    /// EM-log speed 1-sigma, m/s (`None`: the EM log is not used).
-    pub eml_sigma_m_s: Option<f64>,
-    /// Magnetic heading updates (`None`: the magnetometer is not used).
-    pub mag: Option<MagAiding>,
-    /// Probability of the chi-square gate (a consistent measurement passes it with this
-    /// probability); `None` disables gating.
-    pub gate_probability: Option<f64>,
-    /// After this many rejections in a row of one sensor, its next measurement is applied
-    /// ungated (a filter that has drifted must not lock its aiding out); 0: never.
-    pub gate_reset_after: usize,
-}
-
-/// The magnetometer as a heading sensor.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MagAiding {
-    /// Declination at the site, rad, east positive.
-    pub declination_rad: f64,
-    /// 1-sigma of one heading update, rad (the heading error's sigma, spread over the
-    /// updates within its correlation time).
-    pub sigma_rad: f64,
-    /// Readings closer than this to the last one used are skipped, s.
-    pub min_interval_s: f64,
-    /// The undisturbed field's magnitude (of the calibrated readings), T.
-    pub reference_norm_t: f64,
-    /// A reading whose magnitude differs from the reference by more than this fraction is a
-    /// disturbed field and is not used.
-    pub max_norm_deviation: f64,
-}
+use nalgebra::Vector3;
 
 /// How the covariance is carried between epochs and across IMU gaps.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -94,67 +49,15 @@ pub struct Settings {
 }
 
 /// Time-sorted inputs of one mission.
-#[derive(Debug, Clone, Copy)]
+#[derive(Clone, Copy)]
 pub struct Inputs<'a> {
     pub imu: &'a [Imu],
-    pub dvl: &'a [Dvl],
-    /// Echo-sounder altitudes, to check the DVL's range when it reports none.
-    pub altimeter: &'a [Altimeter],
-    pub depth: &'a [Depth],
-    pub eml: &'a [SpeedLog],
-    /// Magnetometer readings, calibrated, saturated readings taken out.
-    pub mag: &'a [MagneticField],
-    pub gnss: &'a [GnssFix],
-    /// Known positions in the mission frame (USBL fixes, surveyed marks).
-    pub fixes: &'a [PositionFix],
-    /// Mission origin (latitude, longitude, rad): the frame of `fixes`.
-    pub origin_rad: (f64, f64),
+    /// The aiding table ([`Aiding::table`]), in the order its updates are applied within an
+    /// epoch.
+    pub aids: &'a [Box<dyn Aid + 'a>],
     /// Times at which the solution is wanted (an epoch is recorded at the first IMU sample at
     /// or after each).
     pub output_stamps_ns: &'a [i64],
-}
-
-/// Which sensor a residual belongs to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Sensor {
-    Dvl = 0,
-    Depth,
-    Gnss,
-    SpeedLog,
-    PositionFix,
-    Magnetometer,
-}
-
-impl Sensor {
-    pub const ALL: [Sensor; 6] = [
-        Sensor::Dvl,
-        Sensor::Depth,
-        Sensor::Gnss,
-        Sensor::SpeedLog,
-        Sensor::PositionFix,
-        Sensor::Magnetometer,
-    ];
-
-    /// Name used in tables and summaries.
-    pub fn name(self) -> &'static str {
-        match self {
-            Sensor::Dvl => "dvl",
-            Sensor::Depth => "depth",
-            Sensor::Gnss => "gnss",
-            Sensor::SpeedLog => "eml",
-            Sensor::PositionFix => "position_fix",
-            Sensor::Magnetometer => "mag",
-        }
-    }
-
-    /// Number of components of its innovation.
-    pub fn dims(self) -> usize {
-        match self {
-            Sensor::Dvl => 3,
-            Sensor::Depth | Sensor::SpeedLog | Sensor::Magnetometer => 1,
-            Sensor::Gnss | Sensor::PositionFix => 2,
-        }
-    }
 }
 
 /// One aiding measurement as the filter saw it.
@@ -203,19 +106,16 @@ pub struct ImuGap {
 pub struct ForwardRun {
     pub records: Vec<EpochRecord>,
     pub residuals: Vec<Residual>,
-    /// DVL readings not used: no bottom lock, or above the maximum altitude (the DVL's own
-    /// or the echo sounder's).
-    pub dvl_out_of_range: usize,
-    /// Depth readings skipped by the minimum interval.
-    pub depth_skipped: usize,
+    /// Readings the filter reached but did not use: a DVL without bottom lock or above its
+    /// maximum altitude (its own or the echo sounder's), an EM log below 0.1 m/s forward
+    /// (where it reads nothing useful), a field without a horizontal part.
+    pub unused: PerSensor,
+    /// Readings left out by a sensor's minimum interval (depth, magnetometer).
+    pub by_interval: PerSensor,
+    /// Magnetometer readings left out: the field's magnitude was disturbed.
+    pub disturbed: PerSensor,
     /// Times the gate was reopened for a sensor after `gate_reset_after` rejections in a row.
     pub gate_resets: usize,
-    /// EM-log readings not used (forward speed below 0.1 m/s, where an EM log reads nothing useful).
-    pub eml_too_slow: usize,
-    /// Magnetometer readings skipped by the minimum interval.
-    pub mag_skipped: usize,
-    /// Magnetometer readings not used: the field's magnitude was disturbed.
-    pub mag_disturbed: usize,
     pub imu_gaps: Vec<ImuGap>,
     /// Log-likelihood of the innovations, `-1/2 sum (NIS + ln det S + m ln 2 pi)`, with each
     /// NIS capped at the gate's bound (so that an outlier counts as a rejection, not as a
@@ -253,15 +153,10 @@ pub fn usual_imu_interval_s(imu: &[Imu]) -> Option<f64> {
     Some(dts[dts.len() / 2])
 }
 
-/// Next index of each input.
-#[derive(Debug, Clone, Copy)]
+/// Next reading of each row of the aiding table, and the next output time.
+#[derive(Debug, Clone)]
 struct Cursor {
-    dvl: usize,
-    depth: usize,
-    gnss: usize,
-    eml: usize,
-    fix: usize,
-    mag: usize,
+    aids: Vec<usize>,
     out: usize,
 }
 
@@ -286,10 +181,8 @@ struct Pass<'a> {
     omega_nb_body: Vector3<f64>,
     at: Cursor,
     run: ForwardRun,
-    /// Rejections in a row, per sensor (indexed as `Sensor::ALL`).
-    consecutive_rejections: [usize; Sensor::ALL.len()],
-    origin_rn: f64,
-    origin_re: f64,
+    /// Rejections in a row, per sensor.
+    consecutive_rejections: PerSensor,
 }
 
 /// Runs the forward filter from `initial` (the estimate at the first IMU sample).
@@ -301,42 +194,21 @@ pub fn run_forward(
     let Some(first) = inputs.imu.first() else {
         return Ok(ForwardRun::default());
     };
-    // Depth readings closer than the minimum interval to the last kept one are dropped here,
-    // so that they do not make epochs.
-    let min_ns = (settings.aiding.depth_min_interval_s * 1e9) as i64;
-    let mut depth: Vec<Depth> = Vec::with_capacity(inputs.depth.len());
-    for d in inputs.depth {
-        if depth
-            .last()
-            .is_none_or(|last: &Depth| d.stamp_ns - last.stamp_ns >= min_ns)
-        {
-            depth.push(d.clone());
-        }
-    }
-    let depth_skipped = inputs.depth.len() - depth.len();
-    let (mag, mag_skipped, mag_disturbed) = usable_mag(inputs.mag, settings.aiding.mag);
-    let inputs = &Inputs {
-        depth: &depth,
-        mag: &mag,
-        ..*inputs
-    };
     let t0 = first.stamp_ns;
     let aiding = &settings.aiding;
     let gate = |m: usize| aiding.gate_probability.map(|p| chi_square_quantile(m, p));
     let cap = |m: usize| gate(m).unwrap_or_else(|| chi_square_quantile(m, 0.999));
-    let origin_lat = inputs.origin_rad.0;
     // Measurements at or before the first IMU sample predate the initial estimate.
     let at = Cursor {
-        dvl: inputs.dvl.partition_point(|m| m.stamp_ns <= t0),
-        depth: inputs.depth.partition_point(|m| m.stamp_ns <= t0),
-        gnss: inputs.gnss.partition_point(|m| m.stamp_ns <= t0),
-        eml: inputs.eml.partition_point(|m| m.stamp_ns <= t0),
-        fix: inputs.fixes.partition_point(|m| m.stamp_ns <= t0),
-        mag: inputs.mag.partition_point(|m| m.stamp_ns <= t0),
+        aids: inputs
+            .aids
+            .iter()
+            .map(|aid| first_after(aid.as_ref(), t0))
+            .collect(),
         out: inputs.output_stamps_ns.partition_point(|&s| s <= t0),
     };
     let mut pass = Pass {
-        consecutive_rejections: [0; Sensor::ALL.len()],
+        consecutive_rejections: PerSensor::default(),
         settings,
         inputs,
         gate: [None, gate(1), gate(2), gate(3)],
@@ -352,9 +224,12 @@ pub fn run_forward(
         omega_nb_body: Vector3::zeros(),
         at,
         run: ForwardRun::default(),
-        origin_rn: geodesy::meridian_radius_m(origin_lat),
-        origin_re: geodesy::prime_vertical_radius_m(origin_lat) * origin_lat.cos(),
     };
+    for aid in inputs.aids {
+        let left = aid.left_out();
+        pass.run.by_interval[aid.sensor()] += left.by_interval;
+        pass.run.disturbed[aid.sensor()] += left.disturbed;
+    }
     pass.run.records.push(EpochRecord::new(
         t0,
         true,
@@ -392,40 +267,7 @@ pub fn run_forward(
             prev = next;
         }
     }
-    pass.run.depth_skipped = depth_skipped;
-    pass.run.mag_skipped = mag_skipped;
-    pass.run.mag_disturbed = mag_disturbed;
     Ok(pass.run)
-}
-
-/// The magnetometer readings the filter uses: none without [`MagAiding`]; otherwise those
-/// with an undisturbed magnitude, at most one per `min_interval_s`. Also returns how many
-/// were skipped by the interval and how many were disturbed.
-fn usable_mag(
-    mag: &[MagneticField],
-    aiding: Option<MagAiding>,
-) -> (Vec<MagneticField>, usize, usize) {
-    let Some(a) = aiding else {
-        return (Vec::new(), 0, 0);
-    };
-    let min_ns = (a.min_interval_s * 1e9) as i64;
-    let (mut kept, mut skipped, mut disturbed) = (Vec::<MagneticField>::new(), 0, 0);
-    for m in mag {
-        if kept
-            .last()
-            .is_some_and(|last| m.stamp_ns - last.stamp_ns < min_ns)
-        {
-            skipped += 1;
-            continue;
-        }
-        let norm = Vector3::from(m.magnetic_field).norm();
-        if (norm / a.reference_norm_t - 1.0).abs() > a.max_norm_deviation {
-            disturbed += 1;
-            continue;
-        }
-        kept.push(m.clone());
-    }
-    (kept, skipped, disturbed)
 }
 
 impl Pass<'_> {
@@ -484,15 +326,17 @@ impl Pass<'_> {
 
     /// Whether any measurement or output is due at or before `t`.
     fn due(&self, t: i64) -> bool {
-        let (i, at) = (self.inputs, &self.at);
-        let next = |stamp: Option<i64>| stamp.is_some_and(|s| s <= t);
-        next(i.dvl.get(at.dvl).map(|m| m.stamp_ns))
-            || next(i.depth.get(at.depth).map(|m| m.stamp_ns))
-            || next(i.gnss.get(at.gnss).map(|m| m.stamp_ns))
-            || next(i.eml.get(at.eml).map(|m| m.stamp_ns))
-            || next(i.fixes.get(at.fix).map(|m| m.stamp_ns))
-            || next(i.mag.get(at.mag).map(|m| m.stamp_ns))
-            || next(i.output_stamps_ns.get(at.out).copied())
+        let inputs = self.inputs;
+        let aid_due = inputs
+            .aids
+            .iter()
+            .zip(&self.at.aids)
+            .any(|(aid, &next)| next < aid.len() && aid.stamp_ns(next) <= t);
+        aid_due
+            || inputs
+                .output_stamps_ns
+                .get(self.at.out)
+                .is_some_and(|&s| s <= t)
     }
 
     fn propagate_covariance(&mut self) {
@@ -533,20 +377,26 @@ impl Pass<'_> {
         self.gap_since_cov = false;
     }
 
+    /// Applies an update of any size.
+    fn apply_any(&mut self, stamp_ns: i64, sensor: Sensor, u: &Update) -> Result<(), ForwardError> {
+        match u {
+            Update::One(m) => self.apply(stamp_ns, sensor, m),
+            Update::Two(m) => self.apply(stamp_ns, sensor, m),
+            Update::Three(m) => self.apply(stamp_ns, sensor, m),
+        }
+    }
+
     /// Applies an update and records its residual.
     fn apply<const M: usize>(
         &mut self,
         stamp_ns: i64,
         sensor: Sensor,
-        y: &SVector<f64, M>,
-        h: &SMatrix<f64, M, N>,
-        r: &SMatrix<f64, M, M>,
+        m: &Measurement<M>,
     ) -> Result<(), ForwardError> {
         // A sensor rejected this many times in a row is more likely right than the filter
         // (which has drifted away from it): reopen its gate for one measurement.
-        let slot = sensor as usize;
         let reset_after = self.settings.aiding.gate_reset_after;
-        let reopen = reset_after > 0 && self.consecutive_rejections[slot] >= reset_after;
+        let reopen = reset_after > 0 && self.consecutive_rejections[sensor] >= reset_after;
         let gate = if reopen { None } else { self.gate[M] };
         if reopen {
             self.run.gate_resets += 1;
@@ -554,16 +404,16 @@ impl Pass<'_> {
         let (next, rec) = self
             .settings
             .filter
-            .update(&self.est, y, h, r, gate)
+            .update(&self.est, &m.y, &m.h, &m.r, gate)
             .map_err(|source| ForwardError {
                 stamp_ns,
                 sensor,
                 source,
             })?;
-        self.consecutive_rejections[slot] = if rec.accepted {
+        self.consecutive_rejections[sensor] = if rec.accepted {
             0
         } else {
-            self.consecutive_rejections[slot] + 1
+            self.consecutive_rejections[sensor] + 1
         };
         self.run.log_likelihood -= 0.5
             * (rec.nis.min(self.nis_cap[M])
@@ -576,85 +426,21 @@ impl Pass<'_> {
         Ok(())
     }
 
+    /// Every reading due at `t`, row by row of the aiding table.
     fn apply_measurements(&mut self, t: i64) -> Result<(), ForwardError> {
-        let (inputs, aiding) = (self.inputs, self.settings.aiding);
-        while let Some(d) = inputs.dvl.get(self.at.dvl).filter(|m| m.stamp_ns <= t) {
-            self.at.dvl += 1;
-            let max_age_ns = (aiding.altimeter_max_age_s * 1e9) as i64;
-            let altitude = d.altitude.or_else(|| {
-                latest_at(inputs.altimeter, d.stamp_ns)
-                    .filter(|(_, age)| *age <= max_age_ns)
-                    .map(|(a, _)| a.altitude)
-            });
-            let in_range = !aiding.dvl_check_range
-                || (d.valid && altitude.is_none_or(|h| h <= aiding.dvl_max_altitude_m));
-            if !in_range {
-                self.run.dvl_out_of_range += 1;
-                continue;
-            }
-            let (y, h) = measure::dvl_velocity(
-                &self.est,
-                &Vector3::from(d.velocity),
-                &aiding.dvl_mounting,
-                &self.omega_nb_body,
-            );
-            let r = SMatrix::<f64, 3, 3>::identity() * aiding.dvl_sigma_m_s.powi(2);
-            self.apply(d.stamp_ns, Sensor::Dvl, &y, &h, &r)?;
-        }
-        while let Some(d) = inputs.depth.get(self.at.depth).filter(|m| m.stamp_ns <= t) {
-            self.at.depth += 1;
-            let (y, h) = measure::depth(&self.est, d.depth);
-            let r = SMatrix::<f64, 1, 1>::new(aiding.depth_sigma_m.powi(2));
-            self.apply(d.stamp_ns, Sensor::Depth, &y, &h, &r)?;
-        }
-        while let Some(g) = inputs.gnss.get(self.at.gnss).filter(|m| m.stamp_ns <= t) {
-            self.at.gnss += 1;
-            let (y, h) = measure::horizontal_position(
-                &self.est,
-                g.latitude_deg.to_radians(),
-                g.longitude_deg.to_radians(),
-            );
-            let r = SMatrix::<f64, 2, 2>::identity() * g.horizontal_sigma_m.powi(2);
-            self.apply(g.stamp_ns, Sensor::Gnss, &y, &h, &r)?;
-        }
-        while let Some(f) = inputs.fixes.get(self.at.fix).filter(|m| m.stamp_ns <= t) {
-            self.at.fix += 1;
-            // The mission frame's north/east back to latitude/longitude (the inverse of
-            // `geodesy::local_north_east_m`).
-            let (lat0, lon0) = inputs.origin_rad;
-            let (lat, lon) = (
-                lat0 + f.north_m / self.origin_rn,
-                lon0 + f.east_m / self.origin_re,
-            );
-            let (y, h) = measure::horizontal_position(&self.est, lat, lon);
-            let r = SMatrix::<f64, 2, 2>::identity() * f.sigma_m.powi(2);
-            self.apply(f.stamp_ns, Sensor::PositionFix, &y, &h, &r)?;
-        }
-        while let Some(e) = inputs.eml.get(self.at.eml).filter(|m| m.stamp_ns <= t) {
-            self.at.eml += 1;
-            let Some(sigma) = aiding.eml_sigma_m_s else {
-                continue;
-            };
-            match measure::speed(&self.est, e.speed) {
-                Some((y, h, attitude_variance)) => {
-                    let r = SMatrix::<f64, 1, 1>::new(sigma * sigma + attitude_variance);
-                    self.apply(e.stamp_ns, Sensor::SpeedLog, &y, &h, &r)?;
+        let inputs = self.inputs;
+        for (row, aid) in inputs.aids.iter().enumerate() {
+            while self.at.aids[row] < aid.len() && aid.stamp_ns(self.at.aids[row]) <= t {
+                let i = self.at.aids[row];
+                self.at.aids[row] += 1;
+                let at = Epoch {
+                    est: &self.est,
+                    omega_nb_body: self.omega_nb_body,
+                };
+                match aid.measure(i, &at) {
+                    Some(u) => self.apply_any(aid.stamp_ns(i), aid.sensor(), &u)?,
+                    None => self.run.unused[aid.sensor()] += 1,
                 }
-                None => self.run.eml_too_slow += 1,
-            }
-        }
-        while let Some(m) = inputs.mag.get(self.at.mag).filter(|m| m.stamp_ns <= t) {
-            self.at.mag += 1;
-            let Some(a) = aiding.mag else {
-                continue;
-            };
-            if let Some((y, h)) = measure::magnetic_heading(
-                &self.est,
-                &Vector3::from(m.magnetic_field),
-                a.declination_rad,
-            ) {
-                let r = SMatrix::<f64, 1, 1>::new(a.sigma_rad * a.sigma_rad);
-                self.apply(m.stamp_ns, Sensor::Magnetometer, &y, &h, &r)?;
             }
         }
         while self
@@ -666,38 +452,5 @@ impl Pass<'_> {
             self.at.out += 1;
         }
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The magnetometer readings the filter takes: one per interval, none whose magnitude is
-    /// off the reference by more than the allowed fraction (a disturbed field), none at all
-    /// without the aid.
-    #[test]
-    fn disturbed_and_too_frequent_mag_readings_are_skipped() {
-        let mag: Vec<MagneticField> = (0..20)
-            .map(|k| MagneticField {
-                stamp_ns: k * 500_000_000,
-                magnetic_field: if k == 4 {
-                    [9e-5, 0.0, 0.0]
-                } else {
-                    [2e-5, 0.0, 4e-5]
-                },
-            })
-            .collect();
-        let aiding = MagAiding {
-            declination_rad: 0.0,
-            sigma_rad: 0.1,
-            min_interval_s: 1.0,
-            reference_norm_t: 2e-5f64.hypot(4e-5),
-            max_norm_deviation: 0.15,
-        };
-        let (kept, skipped, disturbed) = usable_mag(&mag, Some(aiding));
-        assert_eq!((kept.len(), skipped, disturbed), (10, 9, 1));
-        assert!(kept.iter().all(|m| m.stamp_ns != 2_000_000_000));
-        assert_eq!(usable_mag(&mag, None).0.len(), 0);
     }
 }

@@ -1,0 +1,21 @@
+//! The streams of one log by role, each at the contract's default topic: the one place a
+//! reconstruction, its initialisation and its aiding table read the log from.
+
+use super::{
+    Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, Propeller, SpeedLog, Truth,
+};
+
+/// Time-sorted messages of each role (empty when the log has none).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Streams<'a> {
+    pub imu: &'a [Imu],
+    pub mag: &'a [MagneticField],
+    pub dvl: &'a [Dvl],
+    pub altimeter: &'a [Altimeter],
+    pub eml: &'a [SpeedLog],
+    pub depth: &'a [Depth],
+    pub gnss: &'a [GnssFix],
+    pub fixes: &'a [PositionFix],
+    pub rpm: &'a [Propeller],
+    pub truth: &'a [Truth],
+}

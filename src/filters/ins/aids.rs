@@ -1,0 +1,319 @@
+//! The aiding sources, one row each of the table in [`super::aiding`]: the readings, the
+//! settings, and the update of one reading from the measurement models of
+//! [`super::forward::measure`].
+
+use super::aiding::{Aid, Epoch, LeftOut, MagAiding, Measurement, Sensor, Update};
+use super::forward::{measure, DvlMounting};
+use crate::align::latest_at;
+use crate::contract::{Altimeter, Depth, Dvl, GnssFix, MagneticField, PositionFix, SpeedLog};
+use crate::geodesy;
+use nalgebra::{SMatrix, Vector3};
+
+/// Readings at least `min_interval_s` apart, the first one kept.
+fn thinned<T: Clone>(readings: &[T], min_interval_s: f64, stamp: impl Fn(&T) -> i64) -> Vec<T> {
+    let min_ns = (min_interval_s * 1e9) as i64;
+    let mut kept: Vec<T> = Vec::with_capacity(readings.len());
+    for r in readings {
+        if kept
+            .last()
+            .is_none_or(|last| stamp(r) - stamp(last) >= min_ns)
+        {
+            kept.push(r.clone());
+        }
+    }
+    kept
+}
+
+/// DVL velocity over ground, used with bottom lock within its altitude range.
+pub struct DvlAid<'a> {
+    pub readings: &'a [Dvl],
+    /// Echo-sounder altitudes, to check the range when a reading carries none.
+    pub altimeter: &'a [Altimeter],
+    pub sigma_m_s: f64,
+    pub max_altitude_m: f64,
+    /// False: every reading is used.
+    pub check_range: bool,
+    pub altimeter_max_age_s: f64,
+    pub mounting: DvlMounting,
+}
+
+impl DvlAid<'_> {
+    fn in_range(&self, d: &Dvl) -> bool {
+        let max_age_ns = (self.altimeter_max_age_s * 1e9) as i64;
+        let altitude = d.altitude.or_else(|| {
+            latest_at(self.altimeter, d.stamp_ns)
+                .filter(|(_, age)| *age <= max_age_ns)
+                .map(|(a, _)| a.altitude)
+        });
+        !self.check_range || (d.valid && altitude.is_none_or(|h| h <= self.max_altitude_m))
+    }
+}
+
+impl Aid for DvlAid<'_> {
+    fn sensor(&self) -> Sensor {
+        Sensor::Dvl
+    }
+    fn len(&self) -> usize {
+        self.readings.len()
+    }
+    fn stamp_ns(&self, i: usize) -> i64 {
+        self.readings[i].stamp_ns
+    }
+    fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
+        let d = &self.readings[i];
+        if !self.in_range(d) {
+            return None;
+        }
+        let (y, h) = measure::dvl_velocity(
+            at.est,
+            &Vector3::from(d.velocity),
+            &self.mounting,
+            &at.omega_nb_body,
+        );
+        let r = SMatrix::<f64, 3, 3>::identity() * self.sigma_m_s.powi(2);
+        Some(Update::Three(Measurement { y, h, r }))
+    }
+}
+
+/// Pressure depth, thinned to a minimum interval.
+pub struct DepthAid {
+    readings: Vec<Depth>,
+    sigma_m: f64,
+    left_out: LeftOut,
+}
+
+impl DepthAid {
+    pub fn new(readings: &[Depth], sigma_m: f64, min_interval_s: f64) -> Self {
+        let kept = thinned(readings, min_interval_s, |d| d.stamp_ns);
+        DepthAid {
+            left_out: LeftOut {
+                by_interval: readings.len() - kept.len(),
+                disturbed: 0,
+            },
+            readings: kept,
+            sigma_m,
+        }
+    }
+}
+
+impl Aid for DepthAid {
+    fn sensor(&self) -> Sensor {
+        Sensor::Depth
+    }
+    fn len(&self) -> usize {
+        self.readings.len()
+    }
+    fn stamp_ns(&self, i: usize) -> i64 {
+        self.readings[i].stamp_ns
+    }
+    fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
+        let (y, h) = measure::depth(at.est, self.readings[i].depth);
+        let r = SMatrix::<f64, 1, 1>::new(self.sigma_m.powi(2));
+        Some(Update::One(Measurement { y, h, r }))
+    }
+    fn left_out(&self) -> LeftOut {
+        self.left_out
+    }
+}
+
+/// GNSS horizontal position, with each fix's own sigma.
+pub struct GnssAid<'a> {
+    pub readings: &'a [GnssFix],
+}
+
+impl Aid for GnssAid<'_> {
+    fn sensor(&self) -> Sensor {
+        Sensor::Gnss
+    }
+    fn len(&self) -> usize {
+        self.readings.len()
+    }
+    fn stamp_ns(&self, i: usize) -> i64 {
+        self.readings[i].stamp_ns
+    }
+    fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
+        let g = &self.readings[i];
+        let (y, h) = measure::horizontal_position(
+            at.est,
+            g.latitude_deg.to_radians(),
+            g.longitude_deg.to_radians(),
+        );
+        let r = SMatrix::<f64, 2, 2>::identity() * g.horizontal_sigma_m.powi(2);
+        Some(Update::Two(Measurement { y, h, r }))
+    }
+}
+
+/// Known positions in the mission frame (USBL fixes, surveyed marks), with their sigmas.
+pub struct FixAid<'a> {
+    readings: &'a [PositionFix],
+    /// Mission origin, rad, and the radii that turn north and east metres into its latitude
+    /// and longitude (the inverse of `geodesy::local_north_east_m`).
+    origin_rad: (f64, f64),
+    origin_rn: f64,
+    origin_re: f64,
+}
+
+impl<'a> FixAid<'a> {
+    pub fn new(readings: &'a [PositionFix], origin_rad: (f64, f64)) -> Self {
+        let lat = origin_rad.0;
+        FixAid {
+            readings,
+            origin_rad,
+            origin_rn: geodesy::meridian_radius_m(lat),
+            origin_re: geodesy::prime_vertical_radius_m(lat) * lat.cos(),
+        }
+    }
+}
+
+impl Aid for FixAid<'_> {
+    fn sensor(&self) -> Sensor {
+        Sensor::PositionFix
+    }
+    fn len(&self) -> usize {
+        self.readings.len()
+    }
+    fn stamp_ns(&self, i: usize) -> i64 {
+        self.readings[i].stamp_ns
+    }
+    fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
+        let f = &self.readings[i];
+        let (lat0, lon0) = self.origin_rad;
+        let (lat, lon) = (
+            lat0 + f.north_m / self.origin_rn,
+            lon0 + f.east_m / self.origin_re,
+        );
+        let (y, h) = measure::horizontal_position(at.est, lat, lon);
+        let r = SMatrix::<f64, 2, 2>::identity() * f.sigma_m.powi(2);
+        Some(Update::Two(Measurement { y, h, r }))
+    }
+}
+
+/// EM-log speed through the water; not used below 0.1 m/s forward.
+pub struct SpeedLogAid<'a> {
+    pub readings: &'a [SpeedLog],
+    pub sigma_m_s: f64,
+}
+
+impl Aid for SpeedLogAid<'_> {
+    fn sensor(&self) -> Sensor {
+        Sensor::SpeedLog
+    }
+    fn len(&self) -> usize {
+        self.readings.len()
+    }
+    fn stamp_ns(&self, i: usize) -> i64 {
+        self.readings[i].stamp_ns
+    }
+    fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
+        let (y, h, attitude_variance) = measure::speed(at.est, self.readings[i].speed)?;
+        let r = SMatrix::<f64, 1, 1>::new(self.sigma_m_s.powi(2) + attitude_variance);
+        Some(Update::One(Measurement { y, h, r }))
+    }
+}
+
+/// Magnetic heading: at most one reading per interval, none whose magnitude is off the
+/// reference (a disturbed field).
+pub struct MagAid {
+    readings: Vec<MagneticField>,
+    declination_rad: f64,
+    sigma_rad: f64,
+    left_out: LeftOut,
+}
+
+impl MagAid {
+    pub fn new(mag: &[MagneticField], a: &MagAiding) -> Self {
+        let min_ns = (a.min_interval_s * 1e9) as i64;
+        let mut kept = Vec::<MagneticField>::new();
+        let mut left_out = LeftOut::default();
+        for m in mag {
+            if kept
+                .last()
+                .is_some_and(|last| m.stamp_ns - last.stamp_ns < min_ns)
+            {
+                left_out.by_interval += 1;
+                continue;
+            }
+            let norm = Vector3::from(m.magnetic_field).norm();
+            if (norm / a.reference_norm_t - 1.0).abs() > a.max_norm_deviation {
+                left_out.disturbed += 1;
+                continue;
+            }
+            kept.push(m.clone());
+        }
+        MagAid {
+            readings: kept,
+            declination_rad: a.declination_rad,
+            sigma_rad: a.sigma_rad,
+            left_out,
+        }
+    }
+}
+
+impl Aid for MagAid {
+    fn sensor(&self) -> Sensor {
+        Sensor::Magnetometer
+    }
+    fn len(&self) -> usize {
+        self.readings.len()
+    }
+    fn stamp_ns(&self, i: usize) -> i64 {
+        self.readings[i].stamp_ns
+    }
+    fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
+        let field = Vector3::from(self.readings[i].magnetic_field);
+        let (y, h) = measure::magnetic_heading(at.est, &field, self.declination_rad)?;
+        let r = SMatrix::<f64, 1, 1>::new(self.sigma_rad.powi(2));
+        Some(Update::One(Measurement { y, h, r }))
+    }
+    fn left_out(&self) -> LeftOut {
+        self.left_out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The magnetometer readings the filter takes: one per interval, none whose magnitude is
+    /// off the reference by more than the allowed fraction (a disturbed field).
+    #[test]
+    fn disturbed_and_too_frequent_mag_readings_are_skipped() {
+        let mag: Vec<MagneticField> = (0..20)
+            .map(|k| MagneticField {
+                stamp_ns: k * 500_000_000,
+                magnetic_field: if k == 4 {
+                    [9e-5, 0.0, 0.0]
+                } else {
+                    [2e-5, 0.0, 4e-5]
+                },
+            })
+            .collect();
+        let aiding = MagAiding {
+            declination_rad: 0.0,
+            sigma_rad: 0.1,
+            min_interval_s: 1.0,
+            reference_norm_t: 2e-5f64.hypot(4e-5),
+            max_norm_deviation: 0.15,
+        };
+        let aid = MagAid::new(&mag, &aiding);
+        let left = aid.left_out();
+        assert_eq!((aid.len(), left.by_interval, left.disturbed), (10, 9, 1));
+        assert!(aid.readings.iter().all(|m| m.stamp_ns != 2_000_000_000));
+    }
+
+    /// Depth thinned to its interval: the first reading kept, then each at least the
+    /// interval after the last kept.
+    #[test]
+    fn depth_is_thinned_to_its_interval() {
+        let depth: Vec<Depth> = (0..10)
+            .map(|k| Depth {
+                stamp_ns: k * 40_000_000,
+                depth: 1.0,
+            })
+            .collect();
+        let aid = DepthAid::new(&depth, 0.1, 0.1);
+        let stamps: Vec<i64> = (0..aid.len()).map(|i| aid.stamp_ns(i)).collect();
+        assert_eq!(stamps, [0, 120_000_000, 240_000_000, 360_000_000]);
+        assert_eq!(aid.left_out().by_interval, 6);
+    }
+}
