@@ -340,6 +340,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     let sensors = stats::sensor_stats(&pass.run.residuals);
     let mut warnings = stats::warnings(&pass.run, &pass.init, &sensors);
     warnings.extend(recon::magnetometer_warnings(&pass.mag, &config.mag));
+    warnings.extend(pass.aid_notes.iter().cloned());
     warnings.extend(warnings_from_tuning);
     if warnings.iter().any(|w| w.starts_with("dvl: mean NIS")) {
         eprintln!("the DVL's innovations are too large: searching for a clock offset ...");

@@ -5,3 +5,4 @@
 pub mod heading;
 pub mod ins;
 pub mod kalman;
+pub mod velocity;

@@ -5,9 +5,10 @@
 //! The IMU's noise comes from a grade (typical data-sheet figures of the class), any value
 //! of which a key overrides.
 
-use crate::filters::ins::aiding::{Aiding, Sensor};
+use crate::filters::ins::aiding::{Aiding, RpmVelocity, Sensor};
 use crate::filters::ins::driver::{Propagation, Settings};
 use crate::filters::ins::forward::{DvlMounting, Filter, ImuNoise};
+use crate::filters::velocity::rpm::RpmFilter;
 use serde::{Deserialize, Serialize};
 
 /// The default configuration, with the documentation of every key.
@@ -94,6 +95,20 @@ max_field_deviation = 0.15 # a reading whose magnitude is off the log's median b
 calibrate = true           # hard and soft iron fitted to the log's readings when it turns
                            # through enough headings (27 of 36 ten-degree sectors)
 saturation_repeats = 3     # an axis at its extreme this many readings in a row is saturated
+
+[rpm_velocity]
+# Seed 003's velocity filter: the forward speed from the propeller (/rpm), V = sf rpm + b,
+# sf and b learnt from the DVL's forward speed while it is in range; while it is out (no
+# reading in range for dvl_timeout_s), that speed is a body-velocity aid [V, 0, 0].
+# Off by default until it beats switching alone on seed 003's runs (README, issue 15).
+use = false
+speed_sigma_floor_m_s = 0.02  # least scatter of the speed about the relation (the scatter
+                              # itself is learnt from the log's DVL)
+max_speed_sigma_m_s = 0.25    # a larger learnt scatter: the propeller does not tell the speed
+lateral_sigma_m_s = 0.1       # sway and heave, taken as zero
+dvl_timeout_s = 1.0
+min_interval_s = 1.0          # at most one speed per interval
+min_dvl_updates = 50          # DVL readings learnt from before the speed is used
 
 [gnss]
 use = true                 # sigma from each fix's horizontal_sigma_m
@@ -479,6 +494,51 @@ impl Default for UseConfig {
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+pub struct RpmVelocityConfig {
+    #[serde(rename = "use")]
+    pub enabled: bool,
+    pub speed_sigma_floor_m_s: f64,
+    pub max_speed_sigma_m_s: f64,
+    pub lateral_sigma_m_s: f64,
+    pub dvl_timeout_s: f64,
+    pub min_interval_s: f64,
+    pub min_dvl_updates: usize,
+}
+
+impl Default for RpmVelocityConfig {
+    fn default() -> Self {
+        let f = RpmFilter::default();
+        RpmVelocityConfig {
+            enabled: false,
+            speed_sigma_floor_m_s: f.speed_sigma_floor_m_s,
+            max_speed_sigma_m_s: f.max_speed_sigma_m_s,
+            lateral_sigma_m_s: 0.1,
+            dvl_timeout_s: f.dvl_timeout_s,
+            min_interval_s: f.min_interval_s,
+            min_dvl_updates: f.min_dvl_updates,
+        }
+    }
+}
+
+impl RpmVelocityConfig {
+    /// The aid, or `None` when not used.
+    pub fn aid(&self) -> Option<RpmVelocity> {
+        self.enabled.then(|| RpmVelocity {
+            filter: RpmFilter {
+                speed_sigma_floor_m_s: self.speed_sigma_floor_m_s,
+                max_speed_sigma_m_s: self.max_speed_sigma_m_s,
+                dvl_timeout_s: self.dvl_timeout_s,
+                min_interval_s: self.min_interval_s,
+                min_dvl_updates: self.min_dvl_updates,
+                ..RpmFilter::default()
+            },
+            lateral_sigma_m_s: self.lateral_sigma_m_s,
+        })
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct GateConfig {
     pub probability: f64,
     pub reset_after: usize,
@@ -647,6 +707,7 @@ pub struct Config {
     pub depth: DepthConfig,
     pub eml: EmlConfig,
     pub mag: MagConfig,
+    pub rpm_velocity: RpmVelocityConfig,
     pub gnss: UseConfig,
     pub position_fix: UseConfig,
     pub gate: GateConfig,
@@ -670,6 +731,7 @@ impl Config {
             Sensor::SpeedLog => self.eml.enabled,
             Sensor::PositionFix => self.position_fix.enabled,
             Sensor::Magnetometer => self.mag.enabled,
+            Sensor::RpmVelocity => self.rpm_velocity.enabled,
         }
     }
 }
@@ -712,7 +774,7 @@ impl Config {
     /// Checks ranges (positive sigmas and intervals, a probability in (0, 1]).
     pub fn check(&self) -> Result<(), ConfigError> {
         let spec = self.imu.spec();
-        let positive: [(&'static str, f64); 24] = [
+        let positive: [(&'static str, f64); 29] = [
             ("alignment.first_span_s", self.alignment.first_span_s),
             (
                 "alignment.found_sigma_floor_deg",
@@ -726,6 +788,26 @@ impl Config {
             ),
             ("mag.min_interval_s", self.mag.min_interval_s),
             ("mag.max_field_deviation", self.mag.max_field_deviation),
+            (
+                "rpm_velocity.speed_sigma_floor_m_s",
+                self.rpm_velocity.speed_sigma_floor_m_s,
+            ),
+            (
+                "rpm_velocity.max_speed_sigma_m_s",
+                self.rpm_velocity.max_speed_sigma_m_s,
+            ),
+            (
+                "rpm_velocity.lateral_sigma_m_s",
+                self.rpm_velocity.lateral_sigma_m_s,
+            ),
+            (
+                "rpm_velocity.dvl_timeout_s",
+                self.rpm_velocity.dvl_timeout_s,
+            ),
+            (
+                "rpm_velocity.min_interval_s",
+                self.rpm_velocity.min_interval_s,
+            ),
             ("imu.gyro_bias_deg_h", spec.gyro_bias_deg_h),
             ("imu.gyro_arw_deg_rt_h", spec.gyro_arw_deg_rt_h),
             ("imu.accel_bias_ug", spec.accel_bias_ug),
@@ -883,6 +965,7 @@ impl Config {
                 eml_sigma_m_s: self.eml.enabled.then_some(self.eml.sigma_m_s),
                 // Set by the reconstruction, which knows the declination and the field.
                 mag: None,
+                rpm_velocity: self.rpm_velocity.aid(),
                 gate_probability: (self.gate.probability < 1.0).then_some(self.gate.probability),
                 gate_reset_after: self.gate.reset_after,
             },

@@ -115,6 +115,8 @@ pub struct ForwardPass {
     pub init: Initialisation,
     pub mag: magnetometer::PreparedMag,
     pub run: ForwardRun,
+    /// What the aiding sources said (a source that could not be used, and why).
+    pub aid_notes: Vec<String>,
     pub time: Duration,
 }
 
@@ -189,11 +191,13 @@ pub fn forward(
         return Err(InitError::NoHeading(init.heading_unavailable.join("; ")).into());
     }
     let run = run_forward(&settings, &inputs, init.estimate)?;
+    let aid_notes = aids.iter().flat_map(|aid| aid.notes()).collect();
     drop(aids); // it borrows the magnetometer's readings
     Ok(ForwardPass {
         init,
         mag,
         run,
+        aid_notes,
         time: started.elapsed(),
     })
 }
@@ -300,6 +304,7 @@ pub fn finish(
         init,
         mag,
         mut run,
+        aid_notes: _,
         time: forward_time,
     } = pass;
     let started = Instant::now();

@@ -11,8 +11,9 @@ use super::aids;
 use super::error_state::N;
 use super::forward::{DvlMounting, Estimate};
 use crate::contract::{
-    Depth, Dvl, GnssFix, MagneticField, Message, PositionFix, SpeedLog, Streams,
+    Depth, Dvl, GnssFix, MagneticField, Message, PositionFix, Propeller, SpeedLog, Streams,
 };
+use crate::filters::velocity::rpm::RpmFilter;
 use nalgebra::{SMatrix, SVector, Vector3};
 
 /// Which sensor a measurement comes from.
@@ -24,16 +25,19 @@ pub enum Sensor {
     SpeedLog,
     PositionFix,
     Magnetometer,
+    /// The propeller's speed through seed 003's velocity filter, while the DVL is out.
+    RpmVelocity,
 }
 
 impl Sensor {
-    pub const ALL: [Sensor; 6] = [
+    pub const ALL: [Sensor; 7] = [
         Sensor::Dvl,
         Sensor::Depth,
         Sensor::Gnss,
         Sensor::SpeedLog,
         Sensor::PositionFix,
         Sensor::Magnetometer,
+        Sensor::RpmVelocity,
     ];
 
     /// Name used in tables and summaries.
@@ -45,6 +49,7 @@ impl Sensor {
             Sensor::SpeedLog => "eml",
             Sensor::PositionFix => "position_fix",
             Sensor::Magnetometer => "mag",
+            Sensor::RpmVelocity => "rpm_velocity",
         }
     }
 
@@ -57,6 +62,7 @@ impl Sensor {
             Sensor::SpeedLog => SpeedLog::DEFAULT_TOPIC,
             Sensor::PositionFix => PositionFix::DEFAULT_TOPIC,
             Sensor::Magnetometer => MagneticField::DEFAULT_TOPIC,
+            Sensor::RpmVelocity => Propeller::DEFAULT_TOPIC,
         }
     }
 
@@ -69,6 +75,7 @@ impl Sensor {
             Sensor::SpeedLog => streams.eml.len(),
             Sensor::PositionFix => streams.fixes.len(),
             Sensor::Magnetometer => streams.mag.len(),
+            Sensor::RpmVelocity => streams.rpm.len(),
         }
     }
 
@@ -99,13 +106,17 @@ impl Sensor {
                 mag: &[],
                 ..streams
             },
+            Sensor::RpmVelocity => Streams {
+                rpm: &[],
+                ..streams
+            },
         }
     }
 
     /// Number of components of its innovation.
     pub fn dims(self) -> usize {
         match self {
-            Sensor::Dvl => 3,
+            Sensor::Dvl | Sensor::RpmVelocity => 3,
             Sensor::Depth | Sensor::SpeedLog | Sensor::Magnetometer => 1,
             Sensor::Gnss | Sensor::PositionFix => 2,
         }
@@ -181,6 +192,10 @@ pub trait Aid: Sync {
     fn left_out(&self) -> LeftOut {
         LeftOut::default()
     }
+    /// What a user should know of the source (why it could not be used).
+    fn notes(&self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// The table the driver walks, in the order the sources are applied within an epoch.
@@ -223,6 +238,8 @@ pub struct Aiding {
     pub eml_sigma_m_s: Option<f64>,
     /// Magnetic heading updates (`None`: the magnetometer is not used).
     pub mag: Option<MagAiding>,
+    /// The propeller's speed while the DVL is out (`None`: not used).
+    pub rpm_velocity: Option<RpmVelocity>,
     /// Probability of the chi-square gate (a consistent measurement passes it with this
     /// probability); `None` disables gating.
     pub gate_probability: Option<f64>,
@@ -248,21 +265,34 @@ pub struct MagAiding {
     pub max_norm_deviation: f64,
 }
 
+/// Seed 003's velocity filter as an aid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RpmVelocity {
+    pub filter: RpmFilter,
+    /// 1-sigma of the sway and heave taken as zero, m/s.
+    pub lateral_sigma_m_s: f64,
+}
+
 impl Aiding {
     /// The table over `streams` (mission origin `origin_rad`, latitude and longitude, the
     /// frame of the position fixes): a row per sensor the settings use, in the order the
     /// updates are applied within an epoch.
     pub fn table<'a>(&self, streams: &Streams<'a>, origin_rad: (f64, f64)) -> AidTable<'a> {
+        let dvl = aids::DvlAid {
+            readings: streams.dvl,
+            altimeter: streams.altimeter,
+            sigma_m_s: self.dvl_sigma_m_s,
+            max_altitude_m: self.dvl_max_altitude_m,
+            check_range: self.dvl_check_range,
+            altimeter_max_age_s: self.altimeter_max_age_s,
+            mounting: self.dvl_mounting,
+        };
+        let rpm_velocity = self
+            .rpm_velocity
+            .filter(|_| !streams.rpm.is_empty())
+            .map(|r| aids::RpmVelocityAid::new(streams.rpm, &dvl, &r));
         let mut table: AidTable<'a> = vec![
-            Box::new(aids::DvlAid {
-                readings: streams.dvl,
-                altimeter: streams.altimeter,
-                sigma_m_s: self.dvl_sigma_m_s,
-                max_altitude_m: self.dvl_max_altitude_m,
-                check_range: self.dvl_check_range,
-                altimeter_max_age_s: self.altimeter_max_age_s,
-                mounting: self.dvl_mounting,
-            }),
+            Box::new(dvl),
             Box::new(aids::DepthAid::new(
                 streams.depth,
                 self.depth_sigma_m,
@@ -281,6 +311,9 @@ impl Aiding {
         }
         if let Some(mag) = self.mag {
             table.push(Box::new(aids::MagAid::new(streams.mag, &mag)));
+        }
+        if let Some(r) = rpm_velocity {
+            table.push(Box::new(r));
         }
         table
     }

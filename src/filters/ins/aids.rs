@@ -2,10 +2,13 @@
 //! settings, and the update of one reading from the measurement models of
 //! [`super::forward::measure`].
 
-use super::aiding::{Aid, Epoch, LeftOut, MagAiding, Measurement, Sensor, Update};
+use super::aiding::{Aid, Epoch, LeftOut, MagAiding, Measurement, RpmVelocity, Sensor, Update};
 use super::forward::{measure, DvlMounting};
 use crate::align::latest_at;
-use crate::contract::{Altimeter, Depth, Dvl, GnssFix, MagneticField, PositionFix, SpeedLog};
+use crate::contract::{
+    Altimeter, Depth, Dvl, GnssFix, MagneticField, PositionFix, Propeller, SpeedLog,
+};
+use crate::filters::velocity::rpm::{self, Reading, RpmFilter, RpmRun};
 use crate::geodesy;
 use nalgebra::{SMatrix, Vector3};
 
@@ -267,6 +270,85 @@ impl Aid for MagAid {
     }
     fn left_out(&self) -> LeftOut {
         self.left_out
+    }
+}
+
+/// Seed 003's switch: while the DVL is out, the propeller's speed from the velocity filter
+/// ([`crate::filters::velocity::rpm`], learnt from the DVL's forward speed while in range),
+/// as a body velocity `[V, 0, 0]` over ground (sway and heave taken as zero).
+pub struct RpmVelocityAid {
+    speeds: Vec<rpm::RpmSpeed>,
+    lateral_sigma_m_s: f64,
+    /// The filter's run, or why the propeller was refused.
+    pub run: Result<RpmRun, rpm::RpmRefused>,
+}
+
+impl RpmVelocityAid {
+    /// Runs the velocity filter over the propeller's readings and the DVL's readings in
+    /// range (`dvl`'s check), their forward speed in the body axes.
+    pub fn new(propeller: &[Propeller], dvl: &DvlAid<'_>, settings: &RpmVelocity) -> Self {
+        let body_from_dvl = dvl.mounting.dvl_from_body.inverse();
+        let mut readings: Vec<Reading> =
+            propeller
+                .iter()
+                .map(|p| Reading::Rpm {
+                    stamp_ns: p.stamp_ns,
+                    rpm: p.rpm,
+                })
+                .chain(dvl.readings.iter().filter(|d| dvl.in_range(d)).map(|d| {
+                    Reading::DvlForward {
+                        stamp_ns: d.stamp_ns,
+                        speed_m_s: (body_from_dvl * Vector3::from(d.velocity)).x,
+                    }
+                }))
+                .collect();
+        readings.sort_by_key(Reading::stamp_ns);
+        let filter = RpmFilter {
+            dvl_sigma_m_s: dvl.sigma_m_s,
+            ..settings.filter
+        };
+        let run = if propeller.is_empty() {
+            Ok(RpmRun::default())
+        } else {
+            rpm::run(&filter, &readings)
+        };
+        RpmVelocityAid {
+            speeds: run.as_ref().map(|r| r.speeds.clone()).unwrap_or_default(),
+            lateral_sigma_m_s: settings.lateral_sigma_m_s,
+            run,
+        }
+    }
+}
+
+impl Aid for RpmVelocityAid {
+    fn sensor(&self) -> Sensor {
+        Sensor::RpmVelocity
+    }
+    fn len(&self) -> usize {
+        self.speeds.len()
+    }
+    fn stamp_ns(&self, i: usize) -> i64 {
+        self.speeds[i].stamp_ns
+    }
+    fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
+        let s = &self.speeds[i];
+        let (y, h) = super::forward::measure::body_velocity_uncalibrated(
+            at.est,
+            &Vector3::new(s.speed_m_s, 0.0, 0.0),
+        );
+        let lateral = self.lateral_sigma_m_s.powi(2);
+        let r = SMatrix::<f64, 3, 3>::from_diagonal(&Vector3::new(
+            s.sigma_m_s.powi(2),
+            lateral,
+            lateral,
+        ));
+        Some(Update::Three(Measurement { y, h, r }))
+    }
+    fn notes(&self) -> Vec<String> {
+        match &self.run {
+            Err(why) => vec![format!("rpm_velocity: not used: {why}")],
+            Ok(_) => Vec::new(),
+        }
     }
 }
 

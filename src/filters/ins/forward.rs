@@ -317,6 +317,23 @@ pub mod measure {
         dvl_velocity(est, v_body, &DvlMounting::default(), &Vector3::zeros())
     }
 
+    /// Velocity over ground in the body axes from a source with no calibration states (a
+    /// propeller's speed along x, with sway and heave taken as zero): `z = C^T v`, so
+    /// `H_v = C^T`, `H_psi = C^T [v x]`.
+    pub fn body_velocity_uncalibrated(
+        est: &Estimate,
+        v_body: &Vector3<f64>,
+    ) -> (SVector<f64, 3>, SMatrix<f64, 3, N>) {
+        let c_t = body_from_ned(est);
+        let v = est.nav.vel_ned_m_s;
+        let y = v_body - c_t * v;
+        let mut h = SMatrix::<f64, 3, N>::zeros();
+        h.fixed_view_mut::<3, 3>(0, idx::VEL).copy_from(&c_t);
+        h.fixed_view_mut::<3, 3>(0, idx::ATT)
+            .copy_from(&(c_t * v.cross_matrix()));
+        (y, h)
+    }
+
     /// Depth (positive down): `z = -h`, so `H_D = 1`.
     pub fn depth(est: &Estimate, depth_m: f64) -> (SVector<f64, 1>, SMatrix<f64, 1, N>) {
         let y = SVector::<f64, 1>::new(depth_m - (-est.nav.height_m));
@@ -454,6 +471,18 @@ mod tests {
             assert!(
                 (numeric - h.column(i)).amax() < 1e-6,
                 "DVL column {i}: {numeric} vs {}",
+                h.column(i)
+            );
+        }
+        let (y0, h) = measure::body_velocity_uncalibrated(&est, &v_body);
+        for i in 0..N {
+            let mut dx = ErrorState::zeros();
+            dx[i] = 1e-6;
+            let (y1, _) = measure::body_velocity_uncalibrated(&est.corrected_by(&dx), &v_body);
+            let numeric = (y0 - y1) / 1e-6;
+            assert!(
+                (numeric - h.column(i)).amax() < 1e-6,
+                "uncalibrated body velocity column {i}: {numeric} vs {}",
                 h.column(i)
             );
         }
