@@ -97,7 +97,7 @@ calibrate = true           # hard and soft iron fitted to the log's readings whe
 saturation_repeats = 3     # an axis at its extreme this many readings in a row is saturated
 
 [rpm_velocity]
-# Seed 003's velocity filter: the forward speed from the propeller (/rpm), V = sf rpm + b,
+# Seed 003's velocity filter: the forward speed from the propeller (/rpm) as sf rpm + b,
 # sf and b learnt from the DVL's forward speed while it is in range; while it is out (no
 # reading in range for dvl_timeout_s), that speed is a body-velocity aid [V, 0, 0].
 # Off by default until it beats switching alone on seed 003's runs (README, issue 15).

@@ -79,7 +79,7 @@ impl Sensor {
         }
     }
 
-    /// `streams` without this sensor's readings.
+    /// `streams` without this sensor's readings (the propeller's kept: see below).
     pub fn left_out_of<'a>(self, streams: Streams<'a>) -> Streams<'a> {
         match self {
             Sensor::Dvl => Streams {
@@ -106,10 +106,9 @@ impl Sensor {
                 mag: &[],
                 ..streams
             },
-            Sensor::RpmVelocity => Streams {
-                rpm: &[],
-                ..streams
-            },
+            // The propeller's readings serve the initialisation too (speed, in-run
+            // alignment): the aid is left out by its settings, the stream is kept.
+            Sensor::RpmVelocity => streams,
         }
     }
 
