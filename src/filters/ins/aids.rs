@@ -279,7 +279,7 @@ impl Aid for MagAid {
 pub struct RpmVelocityAid {
     speeds: Vec<rpm::RpmSpeed>,
     lateral_sigma_m_s: f64,
-    /// The filter's run, or why the propeller was refused.
+    /// The filter's run (its speeds moved into the aid), or why the propeller was refused.
     pub run: Result<RpmRun, rpm::RpmRefused>,
 }
 
@@ -307,13 +307,16 @@ impl RpmVelocityAid {
             dvl_sigma_m_s: dvl.sigma_m_s,
             ..settings.filter
         };
-        let run = if propeller.is_empty() {
+        let mut run = if propeller.is_empty() {
             Ok(RpmRun::default())
         } else {
             rpm::run(&filter, &readings)
         };
         RpmVelocityAid {
-            speeds: run.as_ref().map(|r| r.speeds.clone()).unwrap_or_default(),
+            speeds: run
+                .as_mut()
+                .map(|r| std::mem::take(&mut r.speeds))
+                .unwrap_or_default(),
             lateral_sigma_m_s: settings.lateral_sigma_m_s,
             run,
         }
