@@ -2,7 +2,8 @@
 //! reconstruction, its initialisation and its aiding table read the log from.
 
 use super::{
-    Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, Propeller, SpeedLog, Truth,
+    Altimeter, ControlSurfaces, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, Propeller,
+    SpeedLog, Truth,
 };
 
 /// Time-sorted messages of each role (empty when the log has none).
@@ -17,5 +18,6 @@ pub struct Streams<'a> {
     pub gnss: &'a [GnssFix],
     pub fixes: &'a [PositionFix],
     pub rpm: &'a [Propeller],
+    pub fins: &'a [ControlSurfaces],
     pub truth: &'a [Truth],
 }

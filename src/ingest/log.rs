@@ -209,6 +209,7 @@ impl<'a> Streams<'a> {
             gnss: log.at_default_topic(),
             fixes: log.at_default_topic(),
             rpm: log.at_default_topic(),
+            fins: log.at_default_topic(),
             truth: log.at_default_topic(),
         }
     }

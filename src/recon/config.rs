@@ -110,6 +110,25 @@ dvl_timeout_s = 1.0
 min_interval_s = 1.0          # at most one speed per interval
 min_dvl_updates = 50          # DVL readings learnt from before the speed is used
 
+[model_velocity]
+# Seed 000's model-aided velocity filter: the vehicle's 6-DOF model, driven by /fins, /rpm
+# and the navigation's attitude, runs beside the vehicle; a 7-state EKF estimates its depth,
+# velocity and rate errors from the depth sensor, the EM log, the gyro and the DVL, and the
+# corrected body velocity is a body-velocity aid while the DVL is out. Needs /fins, /rpm
+# and a vehicle file (the mission's `vehicle` when built in, or `vehicle` here).
+use = false
+method = "proposed"           # or "virtual-sensor": the model's velocity as it is (Koifman
+                              # and Bar-Itzhack), the baseline seed 000 improves on
+vehicle = ""                  # a built-in vehicle (nps-auv-ii, remus-100) or a vehicle file;
+                              # empty: the mission's vehicle
+correlation_s = 30.0          # the aid's error is correlated over this time: each update's
+                              # covariance is the filter's times correlation_s / min_interval_s
+min_interval_s = 1.0          # at most one velocity per interval
+dvl_timeout_s = 1.0           # without a DVL reading in range for this long, the DVL is out
+max_nis = 3.0                 # a mean NIS per dimension of the filter's DVL and EM-log
+                              # updates above this: the model does not fit the vehicle, and
+                              # the aid is not used (with a warning)
+
 [gnss]
 use = true                 # sigma from each fix's horizontal_sigma_m
 
@@ -708,6 +727,7 @@ pub struct Config {
     pub eml: EmlConfig,
     pub mag: MagConfig,
     pub rpm_velocity: RpmVelocityConfig,
+    pub model_velocity: ModelVelocityConfig,
     pub gnss: UseConfig,
     pub position_fix: UseConfig,
     pub gate: GateConfig,
@@ -732,6 +752,42 @@ impl Config {
             Sensor::PositionFix => self.position_fix.enabled,
             Sensor::Magnetometer => self.mag.enabled,
             Sensor::RpmVelocity => self.rpm_velocity.enabled,
+            Sensor::ModelVelocity => self.model_velocity.enabled,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ModelVelocityConfig {
+    #[serde(rename = "use")]
+    pub enabled: bool,
+    pub method: ModelMethod,
+    pub vehicle: String,
+    pub correlation_s: f64,
+    pub min_interval_s: f64,
+    pub dvl_timeout_s: f64,
+    pub max_nis: f64,
+}
+
+/// Which velocity the model aid hands on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ModelMethod {
+    Proposed,
+    VirtualSensor,
+}
+
+impl Default for ModelVelocityConfig {
+    fn default() -> Self {
+        ModelVelocityConfig {
+            enabled: false,
+            method: ModelMethod::Proposed,
+            vehicle: String::new(),
+            correlation_s: 30.0,
+            min_interval_s: 1.0,
+            dvl_timeout_s: 1.0,
+            max_nis: 3.0,
         }
     }
 }
@@ -774,7 +830,7 @@ impl Config {
     /// Checks ranges (positive sigmas and intervals, a probability in (0, 1]).
     pub fn check(&self) -> Result<(), ConfigError> {
         let spec = self.imu.spec();
-        let positive: [(&'static str, f64); 29] = [
+        let positive: [(&'static str, f64); 33] = [
             ("alignment.first_span_s", self.alignment.first_span_s),
             (
                 "alignment.found_sigma_floor_deg",
@@ -808,6 +864,19 @@ impl Config {
                 "rpm_velocity.min_interval_s",
                 self.rpm_velocity.min_interval_s,
             ),
+            (
+                "model_velocity.correlation_s",
+                self.model_velocity.correlation_s,
+            ),
+            (
+                "model_velocity.min_interval_s",
+                self.model_velocity.min_interval_s,
+            ),
+            (
+                "model_velocity.dvl_timeout_s",
+                self.model_velocity.dvl_timeout_s,
+            ),
+            ("model_velocity.max_nis", self.model_velocity.max_nis),
             ("imu.gyro_bias_deg_h", spec.gyro_bias_deg_h),
             ("imu.gyro_arw_deg_rt_h", spec.gyro_arw_deg_rt_h),
             ("imu.accel_bias_ug", spec.accel_bias_ug),

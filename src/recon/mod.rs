@@ -16,6 +16,7 @@ pub mod in_motion;
 pub mod in_run;
 pub mod init;
 pub mod magnetometer;
+pub mod model_velocity;
 pub mod score;
 pub mod stats;
 pub mod tune;
@@ -24,6 +25,7 @@ use crate::contract::Imu;
 use crate::filters::ins::aiding::{MagAiding, Sensor};
 use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs};
 use crate::filters::ins::record::Solution;
+use crate::filters::velocity::model_aided::ModelAidedFilter;
 use crate::ingest::Mission;
 use crate::smooth::rts::{smooth, SmoothError};
 use config::Config;
@@ -40,6 +42,8 @@ pub enum ReconError {
     Forward(ForwardError),
     #[error("smoother: {0}")]
     Smooth(SmoothError),
+    #[error("model-aided velocity: {0}")]
+    Vehicle(model_velocity::VehicleError),
 }
 
 impl From<InitError> for ReconError {
@@ -178,7 +182,7 @@ pub fn forward(
         mission.origin_latitude_deg.to_radians(),
         mission.origin_longitude_deg.to_radians(),
     );
-    let aids = settings.aiding.table(&streams, origin_rad);
+    let mut aids = settings.aiding.table(&streams, origin_rad);
     let inputs = Inputs {
         imu: streams.imu,
         aids: &aids,
@@ -190,8 +194,43 @@ pub fn forward(
     } else if init.heading == heading::HeadingSource::Unknown {
         return Err(InitError::NoHeading(init.heading_unavailable.join("; ")).into());
     }
-    let run = run_forward(&settings, &inputs, init.estimate)?;
-    let aid_notes = aids.iter().flat_map(|aid| aid.notes()).collect();
+    let mut run = run_forward(&settings, &inputs, init.estimate)?;
+    let mut aid_notes: Vec<String> = Vec::new();
+    if config.uses(Sensor::ModelVelocity) {
+        // Seed 000: the model runs on the attitude of the pass without it, and the pass is
+        // made again with its velocity.
+        match model_velocity::model_for(&config.model_velocity, mission)
+            .map_err(ReconError::Vehicle)?
+        {
+            Ok(model) => {
+                let attitude = model_velocity::attitude_track(&run.records);
+                run.records = Vec::new(); // the attitude is all it was needed for
+                let dvl_in_range = settings.aiding.dvl(&streams).in_range_body_velocities();
+                let filter = ModelAidedFilter {
+                    depth_sigma_m: config.depth.sigma_m,
+                    eml_sigma_m_s: config.eml.sigma_m_s,
+                    dvl_sigma_m_s: config.dvl.sigma_m_s,
+                    ..ModelAidedFilter::default()
+                };
+                aids.push(Box::new(model_velocity::aid(
+                    &model,
+                    &streams,
+                    &attitude,
+                    &dvl_in_range,
+                    &config.model_velocity,
+                    &filter,
+                )));
+                let inputs = Inputs {
+                    imu: streams.imu,
+                    aids: &aids,
+                    output_stamps_ns: &stamps,
+                };
+                run = run_forward(&settings, &inputs, init.estimate)?;
+            }
+            Err(why) => aid_notes.push(format!("model_velocity: not used: {why}")),
+        }
+    }
+    aid_notes.extend(aids.iter().flat_map(|aid| aid.notes()));
     drop(aids); // it borrows the magnetometer's readings
     Ok(ForwardPass {
         init,

@@ -11,7 +11,8 @@ use super::aids;
 use super::error_state::N;
 use super::forward::{DvlMounting, Estimate};
 use crate::contract::{
-    Depth, Dvl, GnssFix, MagneticField, Message, PositionFix, Propeller, SpeedLog, Streams,
+    ControlSurfaces, Depth, Dvl, GnssFix, MagneticField, Message, PositionFix, Propeller, SpeedLog,
+    Streams,
 };
 use crate::filters::velocity::rpm::RpmFilter;
 use nalgebra::{SMatrix, SVector, Vector3};
@@ -27,10 +28,12 @@ pub enum Sensor {
     Magnetometer,
     /// The propeller's speed through seed 003's velocity filter, while the DVL is out.
     RpmVelocity,
+    /// The vehicle model's velocity through seed 000's filter, while the DVL is out.
+    ModelVelocity,
 }
 
 impl Sensor {
-    pub const ALL: [Sensor; 7] = [
+    pub const ALL: [Sensor; 8] = [
         Sensor::Dvl,
         Sensor::Depth,
         Sensor::Gnss,
@@ -38,6 +41,7 @@ impl Sensor {
         Sensor::PositionFix,
         Sensor::Magnetometer,
         Sensor::RpmVelocity,
+        Sensor::ModelVelocity,
     ];
 
     /// Name used in tables and summaries.
@@ -50,6 +54,7 @@ impl Sensor {
             Sensor::PositionFix => "position_fix",
             Sensor::Magnetometer => "mag",
             Sensor::RpmVelocity => "rpm_velocity",
+            Sensor::ModelVelocity => "model_velocity",
         }
     }
 
@@ -63,6 +68,7 @@ impl Sensor {
             Sensor::PositionFix => PositionFix::DEFAULT_TOPIC,
             Sensor::Magnetometer => MagneticField::DEFAULT_TOPIC,
             Sensor::RpmVelocity => Propeller::DEFAULT_TOPIC,
+            Sensor::ModelVelocity => ControlSurfaces::DEFAULT_TOPIC,
         }
     }
 
@@ -76,6 +82,7 @@ impl Sensor {
             Sensor::PositionFix => streams.fixes.len(),
             Sensor::Magnetometer => streams.mag.len(),
             Sensor::RpmVelocity => streams.rpm.len(),
+            Sensor::ModelVelocity => streams.fins.len(),
         }
     }
 
@@ -109,13 +116,17 @@ impl Sensor {
             // The propeller's readings serve the initialisation too (speed, in-run
             // alignment): the aid is left out by its settings, the stream is kept.
             Sensor::RpmVelocity => streams,
+            Sensor::ModelVelocity => Streams {
+                fins: &[],
+                ..streams
+            },
         }
     }
 
     /// Number of components of its innovation.
     pub fn dims(self) -> usize {
         match self {
-            Sensor::Dvl | Sensor::RpmVelocity => 3,
+            Sensor::Dvl | Sensor::RpmVelocity | Sensor::ModelVelocity => 3,
             Sensor::Depth | Sensor::SpeedLog | Sensor::Magnetometer => 1,
             Sensor::Gnss | Sensor::PositionFix => 2,
         }
@@ -273,11 +284,9 @@ pub struct RpmVelocity {
 }
 
 impl Aiding {
-    /// The table over `streams` (mission origin `origin_rad`, latitude and longitude, the
-    /// frame of the position fixes): a row per sensor the settings use, in the order the
-    /// updates are applied within an epoch.
-    pub fn table<'a>(&self, streams: &Streams<'a>, origin_rad: (f64, f64)) -> AidTable<'a> {
-        let dvl = aids::DvlAid {
+    /// The DVL's row over `streams`.
+    pub fn dvl<'a>(&self, streams: &Streams<'a>) -> aids::DvlAid<'a> {
+        aids::DvlAid {
             readings: streams.dvl,
             altimeter: streams.altimeter,
             sigma_m_s: self.dvl_sigma_m_s,
@@ -285,7 +294,14 @@ impl Aiding {
             check_range: self.dvl_check_range,
             altimeter_max_age_s: self.altimeter_max_age_s,
             mounting: self.dvl_mounting,
-        };
+        }
+    }
+
+    /// The table over `streams` (mission origin `origin_rad`, latitude and longitude, the
+    /// frame of the position fixes): a row per sensor the settings use, in the order the
+    /// updates are applied within an epoch.
+    pub fn table<'a>(&self, streams: &Streams<'a>, origin_rad: (f64, f64)) -> AidTable<'a> {
+        let dvl = self.dvl(streams);
         let rpm_velocity = self
             .rpm_velocity
             .filter(|_| !streams.rpm.is_empty())

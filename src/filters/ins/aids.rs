@@ -8,6 +8,7 @@ use crate::align::latest_at;
 use crate::contract::{
     Altimeter, Depth, Dvl, GnssFix, MagneticField, PositionFix, Propeller, SpeedLog,
 };
+use crate::filters::velocity::model_aided::{BodyVelocityReading, ModelRun, ModelVelocity};
 use crate::filters::velocity::rpm::{self, Reading, RpmFilter, RpmRun};
 use crate::geodesy;
 use nalgebra::{SMatrix, Vector3};
@@ -49,6 +50,19 @@ impl DvlAid<'_> {
                 .map(|(a, _)| a.altitude)
         });
         !self.check_range || (d.valid && altitude.is_none_or(|h| h <= self.max_altitude_m))
+    }
+
+    /// The readings in range, their velocity in the body axes (the nominal mounting).
+    pub fn in_range_body_velocities(&self) -> Vec<BodyVelocityReading> {
+        let body_from_dvl = self.mounting.dvl_from_body.inverse();
+        self.readings
+            .iter()
+            .filter(|d| self.in_range(d))
+            .map(|d| BodyVelocityReading {
+                stamp_ns: d.stamp_ns,
+                v_body_m_s: body_from_dvl * Vector3::from(d.velocity),
+            })
+            .collect()
     }
 }
 
@@ -287,21 +301,21 @@ impl RpmVelocityAid {
     /// Runs the velocity filter over the propeller's readings and the DVL's readings in
     /// range (`dvl`'s check), their forward speed in the body axes.
     pub fn new(propeller: &[Propeller], dvl: &DvlAid<'_>, settings: &RpmVelocity) -> Self {
-        let body_from_dvl = dvl.mounting.dvl_from_body.inverse();
-        let mut readings: Vec<Reading> =
-            propeller
-                .iter()
-                .map(|p| Reading::Rpm {
-                    stamp_ns: p.stamp_ns,
-                    rpm: p.rpm,
-                })
-                .chain(dvl.readings.iter().filter(|d| dvl.in_range(d)).map(|d| {
-                    Reading::DvlForward {
+        let mut readings: Vec<Reading> = propeller
+            .iter()
+            .map(|p| Reading::Rpm {
+                stamp_ns: p.stamp_ns,
+                rpm: p.rpm,
+            })
+            .chain(
+                dvl.in_range_body_velocities()
+                    .iter()
+                    .map(|d| Reading::DvlForward {
                         stamp_ns: d.stamp_ns,
-                        speed_m_s: (body_from_dvl * Vector3::from(d.velocity)).x,
-                    }
-                }))
-                .collect();
+                        speed_m_s: d.v_body_m_s.x,
+                    }),
+            )
+            .collect();
         readings.sort_by_key(Reading::stamp_ns);
         let filter = RpmFilter {
             dvl_sigma_m_s: dvl.sigma_m_s,
@@ -352,6 +366,84 @@ impl Aid for RpmVelocityAid {
             Err(why) => vec![format!("rpm_velocity: not used: {why}")],
             Ok(_) => Vec::new(),
         }
+    }
+}
+
+/// Seed 000's model-aided velocity (or the virtual sensor's) while the DVL is out: the
+/// filter's body velocity over ground with its covariance, spread over the updates within its
+/// correlation time (the filter's error is slow: a covariance applied at every update as if
+/// independent would be averaged away).
+pub struct ModelVelocityAid {
+    velocities: Vec<ModelVelocity>,
+    /// Each velocity's covariance is multiplied by this.
+    inflation: f64,
+    notes: Vec<String>,
+}
+
+/// How the model's velocities are handed to the navigation filter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModelVelocityUse {
+    pub correlation_s: f64,
+    pub min_interval_s: f64,
+    pub dvl_timeout_s: f64,
+}
+
+impl ModelVelocityAid {
+    /// The velocities of `run` at least `min_interval_s` apart, those with no DVL reading
+    /// in range (`dvl_in_range`, time-sorted) within the timeout before them.
+    pub fn new(
+        run: ModelRun,
+        dvl_in_range: &[BodyVelocityReading],
+        how: &ModelVelocityUse,
+    ) -> Self {
+        let timeout_ns = (how.dvl_timeout_s * 1e9) as i64;
+        let dvl_out = |t_ns: i64| {
+            let i = dvl_in_range.partition_point(|d| d.stamp_ns <= t_ns);
+            i == 0 || t_ns - dvl_in_range[i - 1].stamp_ns > timeout_ns
+        };
+        let out: Vec<ModelVelocity> = run
+            .velocities
+            .into_iter()
+            .filter(|v| dvl_out(v.stamp_ns))
+            .collect();
+        ModelVelocityAid {
+            velocities: thinned(&out, how.min_interval_s, |v| v.stamp_ns),
+            inflation: (how.correlation_s / how.min_interval_s).max(1.0),
+            notes: Vec::new(),
+        }
+    }
+
+    /// No velocities, and why.
+    pub fn refused(why: String) -> Self {
+        ModelVelocityAid {
+            velocities: Vec::new(),
+            inflation: 1.0,
+            notes: vec![why],
+        }
+    }
+}
+
+impl Aid for ModelVelocityAid {
+    fn sensor(&self) -> Sensor {
+        Sensor::ModelVelocity
+    }
+    fn len(&self) -> usize {
+        self.velocities.len()
+    }
+    fn stamp_ns(&self, i: usize) -> i64 {
+        self.velocities[i].stamp_ns
+    }
+    fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
+        let v = &self.velocities[i];
+        let (y, h) = super::forward::measure::body_velocity_uncalibrated(at.est, &v.v_body_m_s);
+        Some(Update::Three(Measurement {
+            y,
+            h,
+            r: v.cov * self.inflation,
+        }))
+    }
+    fn notes(&self) -> Vec<String> {
+        self.notes.clone()
     }
 }
 

@@ -87,6 +87,7 @@ pub fn first_span<'a>(streams: &Streams<'a>, span_s: f64) -> Streams<'a> {
         gnss: cut(streams.gnss, end),
         fixes: cut(streams.fixes, end),
         rpm: cut(streams.rpm, end),
+        fins: cut(streams.fins, end),
         truth: cut(streams.truth, end),
     }
 }

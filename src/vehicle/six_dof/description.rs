@@ -41,10 +41,11 @@ pub struct Vehicle {
 /// Propeller force and moment.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Propulsion {
-    /// NPS AUV II: `X = (rho/2) L^2 Cd0 (0.012^2 n|n| sign(u) - u|u|)` (the file's
+    /// NPS AUV II: `X = (rho/2) L^2 Cd0 (k_t 0.012^2 n|n| sign(u) - u|u|)` (the file's
     /// `Cd0 (|prop| prop - 1)` times `u^2`, with drag taken as `u|u|` so that it opposes the
-    /// motion astern too).
-    Nps { cd0: f64 },
+    /// motion astern too). `k_t` (`thrust_factor`) is 1 in the file; a perturbed vehicle
+    /// draws it apart from `Cd0`, so that its thrust and its drag are wrong independently.
+    Nps { cd0: f64, thrust_factor: f64 },
     /// REMUS 100: thrust `X = kt n|n|`, torque `K = kq n|n|` (n in rad/s).
     Quadratic { thrust: f64, torque: f64 },
 }
@@ -466,7 +467,10 @@ impl Vehicle {
                 .and_then(|p| number(p, "Cd0").transpose())
                 .transpose()?
                 .ok_or_else(|| VehicleError::Missing("propulsion.Cd0".into()))?;
-            propulsion = Propulsion::Nps { cd0 };
+            propulsion = Propulsion::Nps {
+                cd0,
+                thrust_factor: 1.0,
+            };
         }
         let crossflow = match (
             number(phys, "crossflow_Cdy")?,
@@ -556,8 +560,10 @@ impl Vehicle {
             .map(|(_, text)| Vehicle::from_json(text))
     }
 
-    /// A "true" vehicle drawn around this one (seed 000's case 2): every hydrodynamic term
-    /// and added-mass entry multiplied by `1 + f z`, `z` standard normal cut at +-3, seeded. Returns the vehicle and the factors by name, to record in the log.
+    /// A "true" vehicle drawn around this one (seed 000's case 2): every hydrodynamic term,
+    /// added-mass entry, propulsion and cross-flow coefficient multiplied by `1 + f z`, `z`
+    /// standard normal cut at +-3, seeded. Returns the vehicle and the factors by name, to
+    /// record in the log.
     pub fn perturbed(&self, fraction: f64, seed: u64) -> (Vehicle, Vec<(String, f64)>) {
         use rand::SeedableRng;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -584,6 +590,27 @@ impl Vehicle {
                     factors.push((format!("added_mass[{i}][{j}]"), k));
                 }
             }
+        }
+        // The propulsion's and the cross-flow drag's coefficients too: the balance of
+        // thrust and drag sets the cruising speed.
+        let mut scale = |name: &str, x: &mut f64| {
+            let k = draw();
+            *x *= k;
+            factors.push((name.to_string(), k));
+        };
+        match &mut v.propulsion {
+            Propulsion::Nps { cd0, thrust_factor } => {
+                scale("propulsion.Cd0", cd0);
+                scale("propulsion.thrust_factor", thrust_factor);
+            }
+            Propulsion::Quadratic { thrust, torque } => {
+                scale("propulsion.thrust", thrust);
+                scale("propulsion.torque", torque);
+            }
+        }
+        if let Some(cf) = &mut v.crossflow {
+            scale("crossflow_Cdy", &mut cf.cd_y);
+            scale("crossflow_Cdz", &mut cf.cd_z);
         }
         (v, factors)
     }

@@ -182,10 +182,11 @@ impl SixDof {
         // Propulsion.
         let n = inputs.propeller_rad_s;
         match veh.propulsion {
-            Propulsion::Nps { cd0 } => {
+            Propulsion::Nps { cd0, thrust_factor } => {
                 let k = veh.water_density_kg_m3 / 2.0 * veh.length_m.powi(2) * cd0;
                 let u = nu[0];
-                tau[0] += k * (0.012f64.powi(2) * n * n.abs() * u.signum() - u * u.abs());
+                tau[0] +=
+                    k * (thrust_factor * 0.012f64.powi(2) * n * n.abs() * u.signum() - u * u.abs());
                 if let Some(d) = d {
                     d[(0, 0)] += -2.0 * k * u.abs();
                 }

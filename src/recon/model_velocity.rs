@@ -1,0 +1,147 @@
+//! Seed 000's model-aided velocity for a reconstruction: the vehicle file, the attitude of a
+//! first forward pass that drives the model, the filter's run, and the check that the model
+//! fits the vehicle before its velocities are trusted.
+
+use super::config::{ModelMethod, ModelVelocityConfig};
+use super::Streams;
+use crate::filters::ins::aids::{ModelVelocityAid, ModelVelocityUse};
+use crate::filters::ins::record::EpochRecord;
+use crate::filters::velocity::model_aided::{
+    self, AttitudeAt, BodyVelocityReading, Mode, ModelAidedFilter,
+};
+use crate::ingest::Mission;
+use crate::vehicle::six_dof::description::{Vehicle, BUILT_IN};
+use crate::vehicle::six_dof::model::SixDof;
+
+/// A vehicle the configuration names cannot be read.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("vehicle `{name}`: {reason}")]
+pub struct VehicleError {
+    pub name: String,
+    pub reason: String,
+}
+
+/// The built-in names, for messages.
+pub fn built_in_names() -> String {
+    BUILT_IN
+        .iter()
+        .map(|(n, _)| *n)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// A built-in vehicle by name, or a vehicle file by path.
+pub fn load_vehicle(name: &str) -> Result<SixDof, VehicleError> {
+    let bad = |reason: String| VehicleError {
+        name: name.to_string(),
+        reason,
+    };
+    let vehicle = match Vehicle::built_in(name) {
+        Some(v) => v.map_err(|e| bad(e.to_string()))?,
+        None => {
+            let text = std::fs::read_to_string(name).map_err(|e| {
+                bad(format!(
+                    "neither a built-in vehicle ({}) nor a readable vehicle file ({e})",
+                    built_in_names()
+                ))
+            })?;
+            Vehicle::from_json(&text).map_err(|e| bad(e.to_string()))?
+        }
+    };
+    SixDof::new(vehicle).ok_or_else(|| bad("the mass matrix is singular".into()))
+}
+
+/// The model for the aid: the configuration's vehicle (an error when it cannot be read), else
+/// the mission's when built in, else `Ok(Err(why))`.
+pub fn model_for(
+    config: &ModelVelocityConfig,
+    mission: &Mission,
+) -> Result<Result<SixDof, String>, VehicleError> {
+    if !config.vehicle.is_empty() {
+        return load_vehicle(&config.vehicle).map(Ok);
+    }
+    Ok(match Vehicle::built_in(&mission.vehicle) {
+        Some(_) => load_vehicle(&mission.vehicle).map_err(|e| e.to_string()),
+        None => Err(format!(
+            "the mission's vehicle `{}` is not built in ({}): give a vehicle file as \
+             model_velocity.vehicle",
+            mission.vehicle,
+            built_in_names()
+        )),
+    })
+}
+
+/// The attitude of a forward pass's epochs.
+pub fn attitude_track(records: &[EpochRecord]) -> Vec<AttitudeAt> {
+    records
+        .iter()
+        .map(|r| AttitudeAt {
+            stamp_ns: r.stamp_ns,
+            ned_from_body: r.posterior.nav.ned_from_body,
+            lat_rad: r.posterior.nav.lat_rad,
+        })
+        .collect()
+}
+
+/// The aid: the filter run over the log with `attitude` driving the model, refused (with the
+/// reason as its note) when the model cannot run or does not fit the vehicle.
+pub fn aid(
+    model: &SixDof,
+    streams: &Streams<'_>,
+    attitude: &[AttitudeAt],
+    dvl_in_range: &[BodyVelocityReading],
+    config: &ModelVelocityConfig,
+    filter: &ModelAidedFilter,
+) -> ModelVelocityAid {
+    let inputs = model_aided::Inputs {
+        fins: streams.fins,
+        propeller: streams.rpm,
+        attitude,
+        imu: streams.imu,
+        depth: streams.depth,
+        eml: streams.eml,
+        dvl: dvl_in_range,
+    };
+    let settings = ModelAidedFilter {
+        mode: match config.method {
+            ModelMethod::Proposed => Mode::Proposed,
+            ModelMethod::VirtualSensor => Mode::VirtualSensor,
+        },
+        ..*filter
+    };
+    let how = ModelVelocityUse {
+        correlation_s: config.correlation_s,
+        min_interval_s: config.min_interval_s,
+        dvl_timeout_s: config.dvl_timeout_s,
+    };
+    let run = match model_aided::run(&settings, model, &inputs) {
+        Ok(run) => run,
+        Err(why) => return ModelVelocityAid::refused(format!("model_velocity: not used: {why}")),
+    };
+    if let Some(why) = misfit(&run, config.max_nis) {
+        return ModelVelocityAid::refused(format!(
+            "model_velocity: not used: the vehicle model `{}` does not fit this vehicle: {why}; \
+             the navigation runs without it",
+            model.vehicle.name
+        ));
+    }
+    ModelVelocityAid::new(run, dvl_in_range, &how)
+}
+
+/// Why the filter's updates say the model does not fit (mean NIS per dimension of the DVL's
+/// and the EM log's updates above `max_nis`, or most of them rejected), if they do.
+fn misfit(run: &model_aided::ModelRun, max_nis: f64) -> Option<String> {
+    [("DVL", &run.dvl), ("EM log", &run.eml)]
+        .into_iter()
+        .find_map(|(name, t)| {
+            let rejected = t.rejected as f64 / t.updates.max(1) as f64;
+            let mean = t.mean_per_dim()?;
+            (mean > max_nis || rejected > 0.5).then(|| {
+                format!(
+                    "its {name} updates' mean NIS is {mean:.1} per axis (at most {max_nis} \
+                     expected) with {:.0} % rejected",
+                    rejected * 100.0
+                )
+            })
+        })
+}
