@@ -15,12 +15,16 @@ use crate::sim::scenario::Scenario;
 use crate::sim::writer::{to_bytes, WriterOptions};
 
 /// One case of a study: the scenario with its start tilt set (a dropped vehicle's roll and
-/// pitch), or as it is.
-#[derive(Debug, Clone, PartialEq)]
+/// pitch) or its vehicle's coefficients drawn with an uncertainty (seed 000's case 2), or as
+/// it is.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Case {
     pub label: String,
     pub start_roll_deg: Option<f64>,
     pub start_pitch_deg: Option<f64>,
+    /// 1-sigma fraction of the true vehicle's coefficients about the file's (a dynamic
+    /// scenario's).
+    pub coef_uncertainty: Option<f64>,
 }
 
 impl Case {
@@ -33,14 +37,26 @@ impl Case {
         if let Some(p) = self.start_pitch_deg {
             s.start.pitch_deg = p;
         }
+        if let (Some(u), Some(d)) = (self.coef_uncertainty, s.dynamics.as_mut()) {
+            d.coef_uncertainty = u;
+        }
         s
     }
+}
+
+/// One way of reconstructing each run (a study compares them on the same simulated logs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Solution {
+    pub label: String,
+    pub config: Config,
 }
 
 /// What one run gave.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RunResult {
     pub case: usize,
+    /// Which solution (index into the study's solutions).
+    pub solution: usize,
     pub seed: u64,
     /// Why the run failed, if it did.
     pub error: Option<String>,
@@ -55,8 +71,20 @@ pub struct RunResult {
     pub smoothed_horizontal_rms_m: f64,
     pub forward_final_m: f64,
     pub forward_yaw_rms_deg: f64,
-    /// Forward horizontal error, m, once a second from the first IMU sample.
+    /// Interval of the error series, s.
+    pub series_step_s: f64,
+    /// Forward horizontal error, m, every `series_step_s` from the first IMU sample.
     pub forward_error_series: Vec<f64>,
+    /// Smoothed horizontal error, m, at the same times.
+    pub smoothed_error_series: Vec<f64>,
+    /// Forward velocity error along the true body x axis, m/s, at the same times.
+    pub forward_body_x_velocity_error_series: Vec<f64>,
+}
+
+/// Interval of a run's error series: one second, or longer for a long mission (at most about
+/// 2000 points).
+pub fn series_step_s(duration_s: f64) -> f64 {
+    (duration_s / 2000.0).ceil().max(1.0)
 }
 
 /// Why a run could not be made (its message goes into the run's row).
@@ -77,6 +105,23 @@ pub fn run_one(
     config: &Config,
     case: usize,
 ) -> Result<RunResult, StudyError> {
+    let solution = Solution {
+        label: String::new(),
+        config: config.clone(),
+    };
+    run_solutions(scenario, seed, std::slice::from_ref(&solution), case)?
+        .pop()
+        .expect("one solution, one result")
+}
+
+/// Simulates `scenario` with `seed` once and reconstructs it with each solution's
+/// configuration (its `initial.truth_seed` set to the run's seed), each scored.
+pub fn run_solutions(
+    scenario: &Scenario,
+    seed: u64,
+    solutions: &[Solution],
+    case: usize,
+) -> Result<Vec<Result<RunResult, StudyError>>, StudyError> {
     let mut simulated = Ok(());
     let bytes = to_bytes(WriterOptions::default(), |w| {
         simulated = crate::sim::run::run(scenario, seed, w).map(|_| ());
@@ -88,7 +133,32 @@ pub fn run_one(
         .map_err(|e| StudyError::Read(e.to_string()))?;
     let mission = log.mission().map_err(|e| StudyError::Read(e.to_string()))?;
     let streams = Streams::of(&log);
-    let r = reconstruct(&streams, &mission, config)
+    let span_s = match (streams.imu.first(), streams.imu.last()) {
+        (Some(a), Some(b)) => (b.stamp_ns - a.stamp_ns) as f64 * 1e-9,
+        _ => 0.0,
+    };
+    let step_s = series_step_s(span_s);
+    Ok(solutions
+        .iter()
+        .enumerate()
+        .map(|(k, solution)| {
+            let mut config = solution.config.clone();
+            config.initial.truth_seed = seed;
+            let mut r = score_run(&streams, &mission, &config, step_s)?;
+            (r.case, r.solution, r.seed) = (case, k, seed);
+            Ok(r)
+        })
+        .collect())
+}
+
+/// Reconstructs one log and scores it against its `/truth`.
+fn score_run(
+    streams: &Streams<'_>,
+    mission: &crate::ingest::Mission,
+    config: &Config,
+    step_s: f64,
+) -> Result<RunResult, StudyError> {
+    let r = reconstruct(streams, mission, config)
         .map_err(|e| StudyError::Reconstruct(e.to_string()))?;
     let pick = |sol: &[crate::filters::ins::record::Solution]| {
         sol.iter()
@@ -104,10 +174,21 @@ pub fn run_one(
         ));
     };
     let t0 = r.init.estimate_stamp_ns;
-    let mut series = Vec::new();
-    for e in &fwd {
-        if (e.stamp_ns - t0) >= series.len() as i64 * 1_000_000_000 {
+    let step_ns = (step_s * 1e9) as i64;
+    let (mut series, mut smoothed_series, mut body_x) = (Vec::new(), Vec::new(), Vec::new());
+    for (e, s) in fwd.iter().zip(&smo) {
+        if (e.stamp_ns - t0) >= series.len() as i64 * step_ns {
             series.push(e.horizontal_m());
+            smoothed_series.push(s.horizontal_m());
+            let along = latest_at(streams.truth, e.stamp_ns).map_or(f64::NAN, |(t, _)| {
+                let ned_from_body = nalgebra::UnitQuaternion::from_euler_angles(
+                    t.attitude[0],
+                    t.attitude[1],
+                    t.attitude[2],
+                );
+                (ned_from_body.inverse() * e.velocity_m_s).x
+            });
+            body_x.push(along);
         }
     }
     let tilt_error = |truth: Option<(&Truth, i64)>, roll: f64, pitch: f64| {
@@ -126,8 +207,9 @@ pub fn run_one(
         at_start = tilt_error(latest_at(streams.truth, t0), roll, pitch);
     }
     Ok(RunResult {
-        case,
-        seed,
+        case: 0,
+        solution: 0,
+        seed: 0,
         error: None,
         aligned_after_s: r.init.in_run.map(|a| a.aligned_after_s),
         roll_error_deg: at_align.map(|e| e.0),
@@ -138,7 +220,10 @@ pub fn run_one(
         smoothed_horizontal_rms_m: s.horizontal_rms_m,
         forward_final_m: f.horizontal_final_m,
         forward_yaw_rms_deg: f.yaw_rms_deg,
+        series_step_s: step_s,
         forward_error_series: series,
+        smoothed_error_series: smoothed_series,
+        forward_body_x_velocity_error_series: body_x,
     })
 }
 
@@ -158,10 +243,11 @@ pub fn mean_sigma(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     Some((mean, var.sqrt()))
 }
 
-/// One case's statistics over its runs.
+/// One case's statistics over its runs (of one solution).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct CaseSummary {
     pub label: String,
+    pub solution: String,
     pub runs: usize,
     pub failed: usize,
     /// Runs in which the in-run alignment happened.
@@ -176,13 +262,20 @@ pub struct CaseSummary {
     pub smoothed_horizontal_rms_mean_m: Option<f64>,
 }
 
-/// The statistics of each case.
-pub fn summarise(cases: &[Case], runs: &[RunResult]) -> Vec<CaseSummary> {
-    cases
-        .iter()
-        .enumerate()
-        .map(|(k, case)| {
-            let mine: Vec<&RunResult> = runs.iter().filter(|r| r.case == k).collect();
+/// The statistics of each case and solution.
+pub fn summarise(cases: &[Case], solutions: &[String], runs: &[RunResult]) -> Vec<CaseSummary> {
+    let pairs = cases.iter().enumerate().flat_map(|(k, case)| {
+        solutions
+            .iter()
+            .enumerate()
+            .map(move |(j, solution)| (k, case, j, solution))
+    });
+    pairs
+        .map(|(k, case, j, solution)| {
+            let mine: Vec<&RunResult> = runs
+                .iter()
+                .filter(|r| r.case == k && r.solution == j)
+                .collect();
             let ok: Vec<&&RunResult> = mine.iter().filter(|r| r.error.is_none()).collect();
             let stat =
                 |f: &dyn Fn(&RunResult) -> Option<f64>| mean_sigma(ok.iter().filter_map(|r| f(r)));
@@ -191,6 +284,7 @@ pub fn summarise(cases: &[Case], runs: &[RunResult]) -> Vec<CaseSummary> {
             let after = stat(&|r| r.aligned_after_s);
             CaseSummary {
                 label: case.label.clone(),
+                solution: solution.clone(),
                 runs: mine.len(),
                 failed: mine.len() - ok.len(),
                 aligned: ok.iter().filter(|r| r.aligned_after_s.is_some()).count(),
@@ -207,6 +301,60 @@ pub fn summarise(cases: &[Case], runs: &[RunResult]) -> Vec<CaseSummary> {
             }
         })
         .collect()
+}
+
+/// The runs' errors at one time, for one case and solution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeRow {
+    pub case: usize,
+    pub solution: usize,
+    pub t_s: f64,
+    /// Runs with a value at this time.
+    pub runs: usize,
+    /// Root mean square over the runs of the horizontal error, m.
+    pub forward_rms_m: f64,
+    pub smoothed_rms_m: f64,
+    /// Mean over the runs of the forward velocity error along the body x axis, m/s.
+    pub body_x_velocity_error_mean_m_s: f64,
+}
+
+/// RMS over the runs of the horizontal error against time (and the mean body-x velocity
+/// error), per case and solution: seed 000's figures 9-13.
+pub fn error_vs_time(runs: &[RunResult], cases: usize, solutions: usize) -> Vec<TimeRow> {
+    let mut rows = Vec::new();
+    for case in 0..cases {
+        for solution in 0..solutions {
+            let mine: Vec<&RunResult> = runs
+                .iter()
+                .filter(|r| r.case == case && r.solution == solution && r.error.is_none())
+                .collect();
+            let len = mine.iter().map(|r| r.forward_error_series.len()).max();
+            for i in 0..len.unwrap_or(0) {
+                let at = |f: fn(&RunResult) -> &Vec<f64>| -> Vec<f64> {
+                    mine.iter()
+                        .filter_map(|r| f(r).get(i).copied())
+                        .filter(|v| v.is_finite())
+                        .collect()
+                };
+                let rms =
+                    |v: Vec<f64>| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+                let forward = at(|r| &r.forward_error_series);
+                let runs_here = forward.len();
+                let body_x = at(|r| &r.forward_body_x_velocity_error_series);
+                rows.push(TimeRow {
+                    case,
+                    solution,
+                    t_s: i as f64 * mine[0].series_step_s,
+                    runs: runs_here,
+                    forward_rms_m: rms(forward),
+                    smoothed_rms_m: rms(at(|r| &r.smoothed_error_series)),
+                    body_x_velocity_error_mean_m_s: mean_sigma(body_x.into_iter())
+                        .map_or(f64::NAN, |s| s.0),
+                });
+            }
+        }
+    }
+    rows
 }
 
 #[cfg(test)]

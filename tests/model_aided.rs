@@ -53,7 +53,9 @@ fn velocity_errors_of_a_log() {
             mode,
             ..ModelAidedFilter::default()
         };
+        let started = std::time::Instant::now();
         let run = model_aided::run(&settings, &model, &inputs).unwrap();
+        println!("{mode:?}: {:.2} s", started.elapsed().as_secs_f64());
         let t0 = run.velocities[0].stamp_ns;
         println!(
             "{mode:?}: dvl {:?} eml {:?} depth {:?}",

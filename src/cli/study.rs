@@ -6,10 +6,12 @@ use super::{commit_and_list, write_parquet, write_png};
 use anyhow::{Context, Result};
 use hindsight::output::atomic::Staging;
 use hindsight::output::plots::{Series, TrackPlot};
-use hindsight::output::study_tables::{runs_batch, summary_batch};
+use hindsight::output::study_tables::{error_vs_time_batch, runs_batch, summary_batch};
 use hindsight::recon::config::Config;
 use hindsight::sim::scenario::Scenario;
-use hindsight::study::{mean_sigma, run_one, summarise, Case, RunResult};
+use hindsight::study::{
+    error_vs_time, run_solutions, summarise, Case, RunResult, Solution, TimeRow,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use std::io::IsTerminal;
@@ -24,10 +26,20 @@ use std::path::PathBuf;
 ///   hindsight study --scenario drop-no-dvl --runs 100 --tilt 10,10 --tilt 10,-10
 ///       --tilt=-10,10 --tilt=-10,-10 --out study/
 ///
-/// Writes runs.parquet (one row per run), summary.parquet (one row per case: mean and sigma
-/// of the roll and pitch errors after the alignment, the alignment time, the horizontal
-/// RMS), error_vs_time.png (mean forward horizontal error of each case, and mean + 1 sigma),
-/// and prints the summary. The same seeds give the same numbers whatever the thread count.
+/// Seed 000's study (the model-aided velocity filter on the 5.5 h dive, exact and 10 %
+/// uncertain coefficients, four solutions of the same simulated runs):
+///
+///   hindsight study --scenario long-dive-dynamic --imu-rate-hz 10 --runs 100 --coef-uncertainty 0
+///       --coef-uncertainty 0.1 --solution pure=configs/seed000-pure.toml
+///       --solution koifman=configs/seed000-koifman.toml
+///       --solution proposed=configs/seed000-proposed.toml --out study000/
+///
+/// Writes runs.parquet (one row per run and solution), summary.parquet (one row per case
+/// and solution: mean and sigma of the roll and pitch errors after the alignment, the
+/// alignment time, the horizontal RMS), error_vs_time.parquet (RMS over the runs of the
+/// forward and smoothed horizontal error, and the mean body-x velocity error, against
+/// time), error_vs_time.png (the forward and smoothed RMS of each case and solution), and
+/// prints the summary. The same seeds give the same numbers whatever the thread count.
 #[derive(Debug, clap::Args)]
 pub struct StudyArgs {
     /// Built-in scenario name (see `hindsight simulate --list`).
@@ -55,9 +67,24 @@ pub struct StudyArgs {
     #[arg(long, value_name = "ROLL,PITCH", allow_hyphen_values = true, value_parser = parse_tilt)]
     pub tilt: Vec<(f64, f64)>,
 
+    /// A case: the true vehicle's coefficients drawn about the vehicle file's with this
+    /// 1-sigma fraction (0.1 = 10 %; 0: exact), for a dynamic scenario (repeatable).
+    #[arg(long, value_name = "FRACTION", conflicts_with = "tilt")]
+    pub coef_uncertainty: Vec<f64>,
+
+    /// Sample the scenario's IMU at this rate instead of its own, every sensor's rate capped
+    /// at it (seed 000's SDINS runs at 10 Hz; a study of 100 long runs needs the speed).
+    #[arg(long, value_name = "HZ")]
+    pub imu_rate_hz: Option<f64>,
+
     /// Reconstruction settings (TOML, as `hindsight reconstruct --config`).
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "solution")]
     pub config: Option<PathBuf>,
+
+    /// A solution to compare: LABEL=FILE, reconstruction settings applied to every run
+    /// (repeatable; each run is simulated once and reconstructed with each).
+    #[arg(long, value_name = "LABEL=FILE", value_parser = parse_solution)]
+    pub solution: Vec<(String, PathBuf)>,
 
     /// Output directory.
     #[arg(long, value_name = "DIR")]
@@ -66,6 +93,22 @@ pub struct StudyArgs {
     /// Worker threads [default: all cores].
     #[arg(long)]
     pub jobs: Option<usize>,
+}
+
+fn parse_solution(text: &str) -> Result<(String, PathBuf), String> {
+    let (label, file) = text
+        .split_once('=')
+        .filter(|(l, f)| !l.trim().is_empty() && !f.trim().is_empty())
+        .ok_or_else(|| {
+            format!("`{text}`: give LABEL=FILE, e.g. proposed=configs/seed000-proposed.toml")
+        })?;
+    Ok((label.trim().to_string(), PathBuf::from(file.trim())))
+}
+
+fn read_config(path: &std::path::Path) -> Result<Config> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("reading the configuration {}", path.display()))?;
+    Config::from_toml(&text).with_context(|| format!("configuration {}", path.display()))
 }
 
 fn parse_tilt(text: &str) -> Result<(f64, f64), String> {
@@ -92,29 +135,68 @@ pub fn run(args: StudyArgs) -> Result<()> {
         (Some(name), None) => Scenario::built_in(name)?,
         (None, None) => anyhow::bail!("give --scenario NAME or --scenario-file FILE"),
     };
-    let config = match &args.config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading the configuration {}", path.display()))?;
-            Config::from_toml(&text).with_context(|| format!("configuration {}", path.display()))?
-        }
-        None => Config::default(),
+    let scenario = match args.imu_rate_hz {
+        Some(hz) => scenario
+            .with_imu_rate(hz)
+            .with_context(|| format!("--imu-rate-hz {hz}"))?,
+        None => scenario,
     };
-    let cases: Vec<Case> = if args.tilt.is_empty() {
-        vec![Case {
-            label: scenario.name.clone(),
-            start_roll_deg: None,
-            start_pitch_deg: None,
+    let solutions: Vec<Solution> = if args.solution.is_empty() {
+        vec![Solution {
+            label: "default".into(),
+            config: match &args.config {
+                Some(path) => read_config(path)?,
+                None => Config::default(),
+            },
         }]
     } else {
+        args.solution
+            .iter()
+            .map(|(label, path)| {
+                Ok(Solution {
+                    label: label.clone(),
+                    config: read_config(path)?,
+                })
+            })
+            .collect::<Result<_>>()?
+    };
+    if !args.coef_uncertainty.is_empty() && scenario.dynamics.is_none() {
+        anyhow::bail!(
+            "--coef-uncertainty needs a dynamic scenario (one with [dynamics]); `{}` is kinematic",
+            scenario.name
+        );
+    }
+    if let Some(u) = args
+        .coef_uncertainty
+        .iter()
+        .find(|u| !(0.0..=0.5).contains(*u))
+    {
+        anyhow::bail!("--coef-uncertainty {u}: give a fraction in [0, 0.5] (0.1 = 10 %)");
+    }
+    let cases: Vec<Case> = if !args.tilt.is_empty() {
         args.tilt
             .iter()
             .map(|&(r, p)| Case {
                 label: format!("roll {r:+} pitch {p:+}"),
                 start_roll_deg: Some(r),
                 start_pitch_deg: Some(p),
+                ..Case::default()
             })
             .collect()
+    } else if !args.coef_uncertainty.is_empty() {
+        args.coef_uncertainty
+            .iter()
+            .map(|&u| Case {
+                label: format!("coefficients +-{:.0} %", u * 100.0),
+                coef_uncertainty: Some(u),
+                ..Case::default()
+            })
+            .collect()
+    } else {
+        vec![Case {
+            label: scenario.name.clone(),
+            ..Case::default()
+        }]
     };
     let scenarios: Vec<Scenario> = cases.iter().map(|c| c.scenario(&scenario)).collect();
     let jobs: Vec<(usize, u64)> = (0..cases.len())
@@ -131,15 +213,25 @@ pub fn run(args: StudyArgs) -> Result<()> {
     let started = std::time::Instant::now();
     let work = || -> Vec<RunResult> {
         jobs.par_iter()
-            .map(|&(k, seed)| {
-                let r = run_one(&scenarios[k], seed, &config, k).unwrap_or_else(|e| RunResult {
+            .flat_map(|&(k, seed)| {
+                let failed = |solution: usize, e: &dyn std::fmt::Display| RunResult {
                     case: k,
+                    solution,
                     seed,
                     error: Some(e.to_string()),
                     ..RunResult::default()
-                });
+                };
+                let results: Vec<RunResult> =
+                    match run_solutions(&scenarios[k], seed, &solutions, k) {
+                        Ok(each) => each
+                            .into_iter()
+                            .enumerate()
+                            .map(|(j, r)| r.unwrap_or_else(|e| failed(j, &e)))
+                            .collect(),
+                        Err(e) => (0..solutions.len()).map(|j| failed(j, &e)).collect(),
+                    };
                 bar.inc(1);
-                r
+                results
             })
             .collect()
     };
@@ -153,47 +245,72 @@ pub fn run(args: StudyArgs) -> Result<()> {
     };
     bar.finish_and_clear();
     let elapsed_s = started.elapsed().as_secs_f64();
-    let summaries = summarise(&cases, &runs);
+    let labels: Vec<String> = solutions.iter().map(|s| s.label.clone()).collect();
+    let summaries = summarise(&cases, &labels, &runs);
+    let curves = error_vs_time(&runs, cases.len(), solutions.len());
 
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mut staging = Staging::new();
     let mut written = Vec::new();
     let path = args.out.join("runs.parquet");
-    write_parquet(&mut staging, &path, runs_batch(&cases, &runs)?, || None)?;
+    write_parquet(
+        &mut staging,
+        &path,
+        runs_batch(&cases, &labels, &runs)?,
+        || None,
+    )?;
     written.push(path);
     let path = args.out.join("summary.parquet");
     write_parquet(&mut staging, &path, summary_batch(&summaries)?, || None)?;
     written.push(path);
+    let path = args.out.join("error_vs_time.parquet");
+    write_parquet(
+        &mut staging,
+        &path,
+        error_vs_time_batch(&cases, &labels, &curves)?,
+        || None,
+    )?;
+    written.push(path);
     let path = args.out.join("error_vs_time.png");
-    let labels: Vec<(String, String)> = cases
-        .iter()
-        .map(|c| {
-            (
-                format!("{} mean", c.label),
-                format!("{} mean + 1 sigma", c.label),
-            )
-        })
-        .collect();
+    let mut names = Vec::new();
+    for case in &cases {
+        for label in &labels {
+            let name = |what: &str| match (cases.len(), labels.len()) {
+                (1, 1) => what.to_string(),
+                (1, _) => format!("{label} {what}"),
+                (_, 1) => format!("{} {what}", case.label),
+                _ => format!("{}, {label} {what}", case.label),
+            };
+            names.push((name("forward"), name("smoothed")));
+        }
+    }
     let mut series = Vec::new();
-    for (k, (mean_label, upper_label)) in labels.iter().enumerate() {
-        let (mean, upper) = error_statistics(&runs, k);
+    for (i, (forward, smoothed)) in names.iter().enumerate() {
+        let (k, j) = (i / labels.len(), i % labels.len());
+        let pick = |f: fn(&TimeRow) -> f64| -> Vec<(f64, f64)> {
+            curves
+                .iter()
+                .filter(|r| r.case == k && r.solution == j && r.runs > 0)
+                .map(|r| (r.t_s / 3600.0, f(r)))
+                .collect()
+        };
         series.push(Series {
-            name: mean_label,
-            points: mean,
+            name: forward,
+            points: pick(|r| r.forward_rms_m),
         });
         series.push(Series {
-            name: upper_label,
-            points: upper,
+            name: smoothed,
+            points: pick(|r| r.smoothed_rms_m),
         });
     }
     write_png(
         &mut staging,
         &path,
         &TrackPlot {
-            title: "forward horizontal error over the runs",
-            x_label: "time from the start, s",
-            y_label: "horizontal error, m",
+            title: "horizontal error, RMS over the runs",
+            x_label: "time from the start, h",
+            y_label: "horizontal error RMS, m",
             series,
             marks: Vec::new(),
             y_down: false,
@@ -209,6 +326,7 @@ pub fn run(args: StudyArgs) -> Result<()> {
         rayon::current_num_threads()
     );
     print_summary(&summaries);
+    print_error_vs_time(&cases, &labels, &curves);
     for r in runs.iter().filter(|r| r.error.is_some()).take(5) {
         eprintln!(
             "warning: {} seed {}: {}",
@@ -220,29 +338,46 @@ pub fn run(args: StudyArgs) -> Result<()> {
     Ok(())
 }
 
-/// Mean and mean + 1 sigma of case `k`'s forward horizontal error at each second.
-type Curve = Vec<(f64, f64)>;
-fn error_statistics(runs: &[RunResult], k: usize) -> (Curve, Curve) {
-    let mine: Vec<&RunResult> = runs
-        .iter()
-        .filter(|r| r.case == k && r.error.is_none())
+/// The RMS of the horizontal error at each hour and at the end, per case and solution.
+fn print_error_vs_time(cases: &[Case], labels: &[String], curves: &[TimeRow]) {
+    let end_s = curves.iter().map(|r| r.t_s).fold(0.0, f64::max);
+    if end_s < 3600.0 {
+        return;
+    }
+    let marks: Vec<f64> = (1..)
+        .map(|h| h as f64 * 3600.0)
+        .take_while(|&t| t < end_s)
+        .chain([end_s])
         .collect();
-    let len = mine
-        .iter()
-        .map(|r| r.forward_error_series.len())
-        .max()
-        .unwrap_or(0);
-    let (mut mean, mut upper) = (Vec::new(), Vec::new());
-    for t in 0..len {
-        if let Some((m, s)) = mean_sigma(
-            mine.iter()
-                .filter_map(|r| r.forward_error_series.get(t).copied()),
-        ) {
-            mean.push((t as f64, m));
-            upper.push((t as f64, m + s));
+    println!(
+        "horizontal error RMS over the runs, m (forward / smoothed), and (the mean forward \
+         velocity error along the body x axis, m/s):"
+    );
+    for (k, case) in cases.iter().enumerate() {
+        for (j, label) in labels.iter().enumerate() {
+            let at = |t: f64| {
+                curves
+                    .iter()
+                    .filter(|r| r.case == k && r.solution == j && r.runs > 0)
+                    .min_by(|a, b| (a.t_s - t).abs().total_cmp(&(b.t_s - t).abs()))
+            };
+            let cells: Vec<String> = marks
+                .iter()
+                .map(|&t| {
+                    at(t).map_or("-".into(), |r| {
+                        format!(
+                            "{:.2} h {:.1}/{:.1} ({:+.3})",
+                            r.t_s / 3600.0,
+                            r.forward_rms_m,
+                            r.smoothed_rms_m,
+                            r.body_x_velocity_error_mean_m_s
+                        )
+                    })
+                })
+                .collect();
+            println!("  {} / {label}: {}", case.label, cells.join("  "));
         }
     }
-    (mean, upper)
 }
 
 fn print_summary(summaries: &[hindsight::study::CaseSummary]) {
@@ -264,7 +399,11 @@ fn print_summary(summaries: &[hindsight::study::CaseSummary]) {
     for s in summaries {
         println!(
             "{:<22} {:>5} {:>6} {:>8} | {:>9} {:>9} | {:>9} {:>9} | {:>9} s | {:>7} m {:>7} m",
-            s.label,
+            if s.solution == "default" {
+                s.label.clone()
+            } else {
+                format!("{} {}", s.label, s.solution)
+            },
             s.runs,
             s.failed,
             s.aligned,

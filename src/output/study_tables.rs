@@ -1,17 +1,28 @@
-//! Arrow tables of `hindsight study`: one row per run, one row per case.
+//! Arrow tables of `hindsight study`: one row per run, one row per case, and the errors
+//! against time.
 
 use super::columns::Columns;
-use crate::study::{Case, CaseSummary, RunResult};
+use crate::study::{Case, CaseSummary, RunResult, TimeRow};
 use arrow_array::{ArrayRef, RecordBatch, StringArray, UInt64Array};
 use arrow_schema::{ArrowError, DataType, Field};
 use std::sync::Arc;
 
-/// One row per run: case, seed, error, alignment and scores.
-pub fn runs_batch(cases: &[Case], runs: &[RunResult]) -> Result<RecordBatch, ArrowError> {
+/// One row per run and solution: case, solution, seed, error, alignment and scores.
+pub fn runs_batch(
+    cases: &[Case],
+    solutions: &[String],
+    runs: &[RunResult],
+) -> Result<RecordBatch, ArrowError> {
     let mut c = Columns::default();
     c.text(
         "case",
         runs.iter().map(|r| cases[r.case].label.as_str()).collect(),
+    );
+    c.text(
+        "solution",
+        runs.iter()
+            .map(|r| solutions[r.solution].as_str())
+            .collect(),
     );
     c.push(
         Field::new("seed", DataType::UInt64, false),
@@ -59,10 +70,50 @@ pub fn runs_batch(cases: &[Case], runs: &[RunResult]) -> Result<RecordBatch, Arr
     c.finish()
 }
 
+/// One row per case, solution and time: the RMS over the runs of the horizontal errors and
+/// the mean body-x velocity error.
+pub fn error_vs_time_batch(
+    cases: &[Case],
+    solutions: &[String],
+    rows: &[TimeRow],
+) -> Result<RecordBatch, ArrowError> {
+    let mut c = Columns::default();
+    c.text(
+        "case",
+        rows.iter().map(|r| cases[r.case].label.as_str()).collect(),
+    );
+    c.text(
+        "solution",
+        rows.iter()
+            .map(|r| solutions[r.solution].as_str())
+            .collect(),
+    );
+    let col = |f: fn(&TimeRow) -> f64| rows.iter().map(|r| Some(f(r))).collect::<Vec<_>>();
+    c.number("t_s", "s", rows.iter().map(|r| r.t_s).collect());
+    c.push(
+        Field::new("runs", DataType::UInt64, false),
+        Arc::new(UInt64Array::from(
+            rows.iter().map(|r| r.runs as u64).collect::<Vec<_>>(),
+        )) as ArrayRef,
+    );
+    c.optional("forward_rms_m", "m", col(|r| r.forward_rms_m));
+    c.optional("smoothed_rms_m", "m", col(|r| r.smoothed_rms_m));
+    c.optional(
+        "body_x_velocity_error_mean_m_s",
+        "m/s",
+        col(|r| r.body_x_velocity_error_mean_m_s),
+    );
+    c.finish()
+}
+
 /// One row per case: its statistics.
 pub fn summary_batch(summaries: &[CaseSummary]) -> Result<RecordBatch, ArrowError> {
     let mut c = Columns::default();
     c.text("case", summaries.iter().map(|s| s.label.as_str()).collect());
+    c.text(
+        "solution",
+        summaries.iter().map(|s| s.solution.as_str()).collect(),
+    );
     let count = |f: fn(&CaseSummary) -> usize| {
         Arc::new(UInt64Array::from(
             summaries.iter().map(|s| f(s) as u64).collect::<Vec<_>>(),

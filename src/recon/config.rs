@@ -173,6 +173,12 @@ in_run_sigma_deg = 0.2       # roll/pitch 1-sigma of the in-run alignment
                              # vehicle's steady speed at that rpm (built-in vehicles)
 gnss_window_s = 10.0          # a GNSS fix this soon after the start sets the position
 origin_sigma_m = 20.0         # position sigma when starting at the mission origin
+from_truth = false            # simulated logs only (Monte Carlo studies): start from /truth
+                              # with errors drawn with the sigmas below (seed 000's Table 2)
+truth_position_sigma_m = [10.0, 10.0, 1.0]      # north, east, down
+truth_velocity_sigma_m_s = 0.1
+truth_attitude_sigma_arcmin = [0.01, 0.01, 0.03]  # roll, pitch, yaw
+truth_seed = 0                # seed of the drawn errors (a study uses the run's seed)
 
 [alignment]
 # In-motion alignment: a bank of heading hypotheses spread over 360 deg, each a full forward
@@ -620,6 +626,14 @@ pub struct InitialConfig {
     pub rpm_speed_m_s_per_rpm: Option<f64>,
     pub gnss_window_s: f64,
     pub origin_sigma_m: f64,
+    /// Monte Carlo studies of simulated logs: start from `/truth` with errors drawn with
+    /// these sigmas (seed 000's Table 2), instead of from the sensors.
+    pub from_truth: bool,
+    pub truth_position_sigma_m: [f64; 3],
+    pub truth_velocity_sigma_m_s: f64,
+    pub truth_attitude_sigma_arcmin: [f64; 3],
+    /// Seed of the drawn start errors (a study sets it to the run's seed).
+    pub truth_seed: u64,
 }
 
 impl Default for InitialConfig {
@@ -639,6 +653,11 @@ impl Default for InitialConfig {
             rpm_speed_m_s_per_rpm: None,
             gnss_window_s: 10.0,
             origin_sigma_m: 20.0,
+            from_truth: false,
+            truth_position_sigma_m: [10.0, 10.0, 1.0],
+            truth_velocity_sigma_m_s: 0.1,
+            truth_attitude_sigma_arcmin: [0.01, 0.01, 0.03],
+            truth_seed: 0,
         }
     }
 }

@@ -23,7 +23,7 @@ use super::config::{HeadingChoice, ImuSpec, InitialConfig};
 use super::heading::combine;
 pub use super::heading::{DeclinationSource, DeclinationUsed, HeadingCandidate, HeadingSource};
 use super::Streams;
-use crate::contract::GnssFix;
+use crate::contract::{GnssFix, Truth};
 use crate::filters::ins::alignment;
 use crate::filters::ins::error_state::{idx, ErrorMatrix, ErrorState};
 use crate::filters::ins::forward::{DvlMounting, Estimate};
@@ -55,17 +55,33 @@ pub struct InitSettings<'a> {
 /// Where the initial position came from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PositionSource {
-    Gnss { stamp_ns: i64 },
-    StartFix { stamp_ns: i64 },
+    Gnss {
+        stamp_ns: i64,
+    },
+    StartFix {
+        stamp_ns: i64,
+    },
     MissionOrigin,
+    /// `/truth` with drawn errors (a Monte Carlo study).
+    Truth,
 }
 
 /// Where the initial velocity came from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum VelocitySource {
-    Dvl { stamp_ns: i64 },
-    SpeedLog { stamp_ns: i64 },
+    Dvl {
+        stamp_ns: i64,
+    },
+    SpeedLog {
+        stamp_ns: i64,
+    },
+    /// The propeller's speed (the configured gain, or the vehicle model's steady speed).
+    Propeller {
+        stamp_ns: i64,
+    },
     AtRest,
+    /// `/truth` with drawn errors (a Monte Carlo study).
+    Truth,
 }
 
 /// The initial estimate and its sources, with their 1-sigma.
@@ -115,6 +131,8 @@ pub enum InitError {
          give one with --initial-yaw DEG (or [initial] yaw_deg)"
     )]
     NoHeading(String),
+    #[error("a start from /truth was asked for, but the log has no /truth (a simulated log's)")]
+    NoTruth,
     #[error("heading source `{choice}` is not available: {reason}")]
     HeadingUnavailable {
         choice: &'static str,
@@ -344,6 +362,17 @@ pub fn initialise(
             },
             0.1 + 0.05 * e.speed,
         )
+    } else if let Some((p, speed)) = set.speed_of_rpm.and_then(|f| {
+        let p = src.rpm.iter().find(|p| in_window(p.stamp_ns))?;
+        Some((p, f(p.rpm)))
+    }) {
+        (
+            Vector3::new(speed, 0.0, 0.0),
+            VelocitySource::Propeller {
+                stamp_ns: p.stamp_ns,
+            },
+            0.1 + 0.1 * speed.abs(),
+        )
     } else {
         (Vector3::zeros(), VelocitySource::AtRest, 1.0)
     };
@@ -450,6 +479,48 @@ pub fn initialise(
         estimate_stamp_ns: t0,
         window_s,
     })
+}
+
+/// Replaces the start's position, velocity and attitude by `/truth`'s at the start with
+/// errors drawn (seeded) with the configured sigmas, and their covariance by those sigmas: a
+/// Monte Carlo study's start (seed 000's Table 2).
+pub fn start_from_truth(init: &mut Initialisation, truth: &Truth, cfg: &InitialConfig) {
+    use rand::SeedableRng;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.truth_seed);
+    rng.set_stream(2000);
+    let mut z =
+        || -> f64 { rand_distr::Distribution::sample(&rand_distr::StandardNormal, &mut rng) };
+    let p = cfg.truth_position_sigma_m;
+    let arcmin = |x: f64| (x / 60.0).to_radians();
+    let a = cfg.truth_attitude_sigma_arcmin.map(arcmin);
+    let v = cfg.truth_velocity_sigma_m_s;
+    let dp = Vector3::new(p[0] * z(), p[1] * z(), p[2] * z());
+    let dv = Vector3::new(v * z(), v * z(), v * z());
+    let da = Vector3::new(a[0] * z(), a[1] * z(), a[2] * z());
+    let lat = truth.latitude_deg.to_radians();
+    let true_attitude =
+        UnitQuaternion::from_euler_angles(truth.attitude[0], truth.attitude[1], truth.attitude[2]);
+    let (roll, pitch, yaw) = true_attitude.euler_angles();
+    let nav = &mut init.estimate.nav;
+    nav.lat_rad = lat + dp.x / geodesy::meridian_radius_m(lat);
+    nav.lon_rad = truth.longitude_deg.to_radians()
+        + dp.y / (geodesy::prime_vertical_radius_m(lat) * lat.cos());
+    nav.height_m = -(truth.down_m + dp.z);
+    nav.vel_ned_m_s = Vector3::from(truth.velocity_ned) + dv;
+    nav.ned_from_body = UnitQuaternion::from_euler_angles(roll + da.x, pitch + da.y, yaw + da.z);
+    for i in 0..3 {
+        init.variances[idx::POS + i] = p[i].powi(2);
+        init.variances[idx::VEL + i] = v.powi(2);
+        init.variances[idx::ATT + i] = a[i].powi(2);
+    }
+    init.body_velocity = false;
+    init.estimate.cov = initial_covariance(&init.variances, &nav.vel_ned_m_s, false);
+    init.position = PositionSource::Truth;
+    init.position_sigma_m = p[0].hypot(p[1]) / std::f64::consts::SQRT_2;
+    init.velocity = VelocitySource::Truth;
+    init.velocity_sigma_m_s = v;
+    init.heading_sigma_deg = a[2].to_degrees();
+    init.tilt_sigma_deg = a[0].max(a[1]).to_degrees();
 }
 
 /// The initial covariance from independent variances, with the velocity's error tied to the
@@ -753,6 +824,7 @@ impl fmt::Display for Initialisation {
             PositionSource::MissionOrigin => {
                 "mission origin (no GNSS fix or start mark near the start)".to_string()
             }
+            PositionSource::Truth => "/truth with drawn errors (a study's start)".to_string(),
         };
         writeln!(
             f,
@@ -765,6 +837,8 @@ impl fmt::Display for Initialisation {
         let velocity = match self.velocity {
             VelocitySource::Dvl { .. } => "first DVL reading in range",
             VelocitySource::SpeedLog { .. } => "EM-log speed along the body x axis",
+            VelocitySource::Propeller { .. } => "propeller speed along the body x axis",
+            VelocitySource::Truth => "/truth with a drawn error",
             VelocitySource::AtRest => "none: assumed at rest",
         };
         let v = nav.vel_ned_m_s;
@@ -852,6 +926,7 @@ impl PositionSource {
             PositionSource::Gnss { .. } => "gnss",
             PositionSource::StartFix { .. } => "start_fix",
             PositionSource::MissionOrigin => "mission_origin",
+            PositionSource::Truth => "truth",
         }
     }
 }
@@ -861,6 +936,8 @@ impl VelocitySource {
         match self {
             VelocitySource::Dvl { .. } => "dvl",
             VelocitySource::SpeedLog { .. } => "eml",
+            VelocitySource::Propeller { .. } => "rpm",
+            VelocitySource::Truth => "truth",
             VelocitySource::AtRest => "at_rest",
         }
     }

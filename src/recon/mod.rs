@@ -167,6 +167,13 @@ pub fn forward(
         },
     )?;
 
+    if config.initial.from_truth {
+        let truth = crate::align::latest_at(streams.truth, init.estimate_stamp_ns)
+            .map(|(t, _)| t)
+            .or(streams.truth.first())
+            .ok_or(InitError::NoTruth)?;
+        init::start_from_truth(&mut init, truth, &config.initial);
+    }
     settings.aiding.mag = init
         .declination
         .filter(|_| config.mag.use_as_aid && !mag.readings.is_empty())

@@ -441,6 +441,38 @@ impl Scenario {
         Ok(s)
     }
 
+    /// The scenario with its IMU sampled at `rate_hz` and every sensor's rate capped at it
+    /// (sensors are sampled on the IMU's ticks; a dynamic flight is integrated at that step).
+    pub fn with_imu_rate(&self, rate_hz: f64) -> Result<Scenario, ScenarioError> {
+        let mut s = self.clone();
+        s.imu.rate_hz = rate_hz;
+        let cap = |r: &mut f64| *r = r.min(rate_hz);
+        if let Some(x) = s.mag.as_mut() {
+            cap(&mut x.rate_hz);
+        }
+        if let Some(x) = s.dvl.as_mut() {
+            cap(&mut x.rate_hz);
+        }
+        for x in [s.eml.as_mut(), s.depth.as_mut(), s.altimeter.as_mut()]
+            .into_iter()
+            .flatten()
+        {
+            cap(&mut x.rate_hz);
+        }
+        if let Some(x) = s.rpm.as_mut() {
+            cap(&mut x.rate_hz);
+        }
+        if let Some(x) = s.gnss.as_mut() {
+            cap(&mut x.rate_hz);
+        }
+        if let Some(x) = s.fins.as_mut() {
+            cap(&mut x.rate_hz);
+        }
+        cap(&mut s.truth_rate_hz);
+        s.check()?;
+        Ok(s)
+    }
+
     fn check(&self) -> Result<(), ScenarioError> {
         let bad = |reason: String| ScenarioError::Invalid {
             name: self.name.clone(),

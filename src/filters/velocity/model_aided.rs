@@ -280,7 +280,8 @@ pub fn run(
         settings.process_sigma[i].powi(2) * dt
     }));
     let proposed = settings.mode == Mode::Proposed;
-    let gate = |m: usize| Some(chi_square_quantile(m, settings.gate_probability));
+    let gates = [1, 3].map(|m| Some(chi_square_quantile(m, settings.gate_probability)));
+    let gate = |m: usize| if m == 1 { gates[0] } else { gates[1] };
     let mut out = ModelRun {
         velocities: Vec::with_capacity(((last.stamp_ns - t0) / step_ns.max(1)) as usize + 1),
         ..ModelRun::default()
