@@ -1,10 +1,18 @@
-//! Seed 000's model-aided velocity filter on the 6-DOF simulator's logs, against `/truth`.
+//! Seed 000's model-aided velocity filter on the 6-DOF simulator's logs, against `/truth`,
+//! and what it does with a wrong vehicle, no fins, or an unknown vehicle.
+
+mod common;
 
 use hindsight::align::latest_at;
 use hindsight::contract::Truth;
 use hindsight::filters::velocity::model_aided::{self, AttitudeAt, Mode, ModelAidedFilter};
 use hindsight::ingest::{read_log, IngestOptions};
-use hindsight::recon::Streams;
+use hindsight::recon::config::Config;
+use hindsight::recon::score::scores;
+use hindsight::recon::{finish, forward, Streams};
+use hindsight::sim::scenario::Scenario;
+
+use common::output_errors as errors;
 use hindsight::vehicle::six_dof::description::Vehicle;
 use hindsight::vehicle::six_dof::model::SixDof;
 use nalgebra::{UnitQuaternion, Vector3};
@@ -97,4 +105,92 @@ fn velocity_errors_of_a_log() {
             );
         }
     }
+}
+
+fn seed000_config() -> Config {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/configs/seed000-proposed.toml"
+    ))
+    .unwrap();
+    Config::from_toml(&text).unwrap()
+}
+
+/// Forward horizontal RMS against `/truth`, and what the aids said.
+fn forward_rms(log: &hindsight::ingest::Log, config: &Config) -> (f64, Vec<String>) {
+    let streams = Streams::of(log);
+    let pass = forward(&streams, &log.mission().unwrap(), config).unwrap();
+    let notes = pass.aid_notes.clone();
+    let r = finish(pass, config, true).unwrap();
+    (
+        scores(&errors(streams.truth, &r).0)
+            .unwrap()
+            .horizontal_rms_m,
+        notes,
+    )
+}
+
+/// The other built-in vehicle's model (REMUS 100 for an NPS AUV II): the filter's
+/// innovations say it does not fit, the aid is left out with a warning, and the navigation
+/// is the one without it (it does not diverge).
+#[test]
+fn a_wrong_vehicle_is_noticed_and_left_out() {
+    let scenario = Scenario::built_in("long-dive-dynamic")
+        .unwrap()
+        .with_imu_rate(10.0)
+        .unwrap();
+    let log = common::simulated_log(&scenario, 3);
+    let right = seed000_config();
+    let mut wrong = right.clone();
+    wrong.model_velocity.vehicle = "remus-100".into();
+    let mut without = right.clone();
+    without.model_velocity.enabled = false;
+    let (rms_right, notes_right) = forward_rms(&log, &right);
+    let (rms_wrong, notes_wrong) = forward_rms(&log, &wrong);
+    let (rms_without, _) = forward_rms(&log, &without);
+    eprintln!(
+        "long-dive-dynamic (10 Hz) seed 3, forward RMS: nps-auv-ii {rms_right:.1} m, \
+         remus-100 {rms_wrong:.1} m, without the model {rms_without:.1} m; notes {notes_wrong:?}"
+    );
+    assert!(notes_right.is_empty(), "{notes_right:?}");
+    assert!(
+        notes_wrong.iter().any(|n| n.contains("does not fit")),
+        "{notes_wrong:?}"
+    );
+    assert_eq!(rms_wrong, rms_without);
+    assert!(rms_right < rms_without);
+}
+
+/// A log without `/fins` (a kinematic survey with a propeller): the model aid is not used,
+/// a note says why, and the reconstruction runs.
+#[test]
+fn without_fins_the_model_aid_is_left_out() {
+    let log = common::simulated_log(&Scenario::built_in("trench-eml").unwrap(), 1);
+    let mut config = Config::default();
+    config.model_velocity.enabled = true;
+    config.model_velocity.vehicle = "nps-auv-ii".into();
+    let (rms, notes) = forward_rms(&log, &config);
+    assert!(rms.is_finite());
+    assert!(notes.iter().any(|n| n.contains("no /fins")), "{notes:?}");
+}
+
+/// An unknown vehicle on the command line: exit 2, naming it.
+#[test]
+fn an_unknown_vehicle_is_refused_by_name() {
+    let out = common::scratch_dir("unknown-vehicle");
+    let o = common::hindsight(&[
+        "reconstruct",
+        common::SAMPLE,
+        "--vehicle",
+        "no-such-auv",
+        "--out",
+        out.join("run").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", common::stderr(&o));
+    assert!(
+        common::stderr(&o).contains("no-such-auv"),
+        "{}",
+        common::stderr(&o)
+    );
+    assert!(!out.join("run").exists());
 }

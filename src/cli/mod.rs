@@ -186,6 +186,9 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
         || err
             .downcast_ref::<hindsight::sim::run::SimError>()
             .is_some_and(|e| matches!(e, hindsight::sim::run::SimError::Scenario(_)))
+        || err
+            .downcast_ref::<hindsight::recon::model_velocity::VehicleError>()
+            .is_some()
     {
         EXIT_USAGE
     } else {

@@ -96,6 +96,14 @@ pub struct ReconstructArgs {
     /// Also write a trajectory row at every aiding measurement's epoch.
     #[arg(long)]
     pub aiding_epochs: bool,
+
+    /// The vehicle's 6-DOF model for seed 000's model-aided velocity filter: a built-in
+    /// vehicle (nps-auv-ii, remus-100) or a vehicle file (JSON, see `hindsight vehicle
+    /// check`). Turns the filter on ([model_velocity] use): driven by /fins, /rpm and the
+    /// navigation's attitude, it bridges DVL outages. Without it, [model_velocity] vehicle,
+    /// else the mission's vehicle when built in.
+    #[arg(long, value_name = "NAME_OR_FILE")]
+    pub vehicle: Option<String>,
 }
 
 /// On or off.
@@ -137,6 +145,14 @@ impl ReconstructArgs {
         }
         if let Some(y) = self.initial_yaw {
             config.initial.yaw_deg = Some(y);
+        }
+        if let Some(v) = &self.vehicle {
+            hindsight::recon::model_velocity::load_vehicle(v).context("--vehicle")?;
+            config.model_velocity.vehicle = v.clone();
+            config.model_velocity.enabled = true;
+        } else if config.model_velocity.enabled && !config.model_velocity.vehicle.is_empty() {
+            hindsight::recon::model_velocity::load_vehicle(&config.model_velocity.vehicle)
+                .context("[model_velocity] vehicle")?;
         }
         if let Some(d) = self.declination {
             config.initial.declination_deg = Some(d);

@@ -157,6 +157,7 @@ pub struct ModelRun {
     pub velocities: Vec<ModelVelocity>,
     pub depth: NisTally,
     pub eml: NisTally,
+    pub gyro: NisTally,
     pub dvl: NisTally,
 }
 
@@ -341,8 +342,7 @@ pub fn run(
                     .copy_from(&Matrix3::identity());
                 let y = w_bar - w_eb - est.mean.fixed_rows::<3>(4);
                 let r = Matrix3::identity() * settings.gyro_sigma_rad_s.powi(2);
-                let mut unused = NisTally::default();
-                est = apply(&est, &y, &h, &r, gate(3), &mut unused, next_ns)?;
+                est = apply(&est, &y, &h, &r, gate(3), &mut out.gyro, next_ns)?;
             }
             for d in within(inputs.dvl, t_ns, next_ns, |x| x.stamp_ns) {
                 let mut h = SMatrix::<f64, 3, STATES>::zeros();
