@@ -10,9 +10,9 @@ use crate::contract::Truth;
 use crate::ingest::{read_log_from, IngestOptions};
 use crate::recon::config::Config;
 use crate::recon::score::{epoch_error, scores};
-use crate::recon::{reconstruct, Streams};
+use crate::recon::{reconstruct_sharing, AttitudeTrack, Streams};
 use crate::sim::scenario::Scenario;
-use crate::sim::writer::{to_bytes, WriterOptions};
+use crate::sim::writer::{to_bytes, Compression, WriterOptions};
 
 /// One case of a study: the scenario with its start tilt set (a dropped vehicle's roll and
 /// pitch) or its vehicle's coefficients drawn with an uncertainty (seed 000's case 2), or as
@@ -123,7 +123,12 @@ pub fn run_solutions(
     case: usize,
 ) -> Result<Vec<Result<RunResult, StudyError>>, StudyError> {
     let mut simulated = Ok(());
-    let bytes = to_bytes(WriterOptions::default(), |w| {
+    // The log lives in memory for a moment: compressing it would only cost time.
+    let options = WriterOptions {
+        compression: Compression::None,
+        ..WriterOptions::default()
+    };
+    let bytes = to_bytes(options, |w| {
         simulated = crate::sim::run::run(scenario, seed, w).map(|_| ());
         Ok(())
     })
@@ -138,13 +143,23 @@ pub fn run_solutions(
         _ => 0.0,
     };
     let step_s = series_step_s(span_s);
+    // Solutions whose settings differ only in the model aid's share its first pass.
+    let mut shared: Vec<(Config, AttitudeTrack)> = Vec::new();
     Ok(solutions
         .iter()
         .enumerate()
         .map(|(k, solution)| {
             let mut config = solution.config.clone();
             config.initial.truth_seed = seed;
-            let mut r = score_run(&streams, &mission, &config, step_s)?;
+            let key = Config {
+                model_velocity: Default::default(),
+                ..config.clone()
+            };
+            let attitude = shared.iter().find(|(c, _)| *c == key).map(|s| s.1.clone());
+            let (mut r, used) = score_run(&streams, &mission, &config, step_s, attitude)?;
+            if let Some(track) = used {
+                shared.push((key, track));
+            }
             (r.case, r.solution, r.seed) = (case, k, seed);
             Ok(r)
         })
@@ -157,8 +172,9 @@ fn score_run(
     mission: &crate::ingest::Mission,
     config: &Config,
     step_s: f64,
-) -> Result<RunResult, StudyError> {
-    let r = reconstruct(streams, mission, config)
+    shared_attitude: Option<AttitudeTrack>,
+) -> Result<(RunResult, Option<AttitudeTrack>), StudyError> {
+    let (r, attitude) = reconstruct_sharing(streams, mission, config, shared_attitude)
         .map_err(|e| StudyError::Reconstruct(e.to_string()))?;
     let pick = |sol: &[crate::filters::ins::record::Solution]| {
         sol.iter()
@@ -206,7 +222,7 @@ fn score_run(
         let (roll, pitch, _) = r.init.estimate.nav.ned_from_body.euler_angles();
         at_start = tilt_error(latest_at(streams.truth, t0), roll, pitch);
     }
-    Ok(RunResult {
+    let result = RunResult {
         case: 0,
         solution: 0,
         seed: 0,
@@ -224,7 +240,8 @@ fn score_run(
         forward_error_series: series,
         smoothed_error_series: smoothed_series,
         forward_body_x_velocity_error_series: body_x,
-    })
+    };
+    Ok((result, attitude))
 }
 
 /// Mean and sample standard deviation (`None` for no values; sigma 0 for one).

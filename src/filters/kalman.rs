@@ -113,8 +113,10 @@ pub fn update_considering<const N: usize, const M: usize>(
             k.row_mut(i).fill(0.0);
         }
     }
-    let i_kh = SMatrix::<f64, N, N>::identity() - k * h;
-    let cov = i_kh * prior.cov * i_kh.transpose() + k * r * k.transpose();
+    // Joseph form, in products with N x M factors only: with A = I - K H and P symmetric,
+    // A P = P - K (P H^T)^T and (A P) A^T = A P - (A P H^T) K^T.
+    let a_p = prior.cov - k * pht.transpose();
+    let cov = a_p - (a_p * h.transpose()) * k.transpose() + k * r * k.transpose();
     Ok((
         Gaussian {
             mean: prior.mean + k * y,
@@ -358,6 +360,38 @@ mod tests {
             let textbook = (Matrix4::identity() - k * h) * p;
             assert!((post.cov - textbook).amax() < 1e-10);
             assert!((post.mean - k * Vector2::new(0.5, -0.2)).amax() < 1e-12);
+        }
+    }
+
+    /// With a non-optimal gain (a considered state's row zeroed) the update is still the
+    /// Joseph form's `(I - K H) P (I - K H)^T + K R K^T`, written out.
+    #[test]
+    fn update_with_considered_states_is_the_explicit_joseph_form() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for _ in 0..100 {
+            let a = Matrix4::from_fn(|_, _| rng.random_range(-1.0..1.0));
+            let p = a * a.transpose() + Matrix4::identity() * 0.1;
+            let h = nalgebra::Matrix2x4::from_fn(|_, _| rng.random_range(-1.0..1.0));
+            let r = Matrix2::new(0.3, 0.1, 0.1, 0.2);
+            let prior = Gaussian {
+                mean: Vector4::zeros(),
+                cov: p,
+            };
+            let considered = [false, true, false, false];
+            let y = Vector2::new(0.5, -0.2);
+            let (post, _) =
+                update_considering(&prior, &y, &h, &r, None, Some(&considered)).unwrap();
+            let s = h * p * h.transpose() + r;
+            let mut k = p * h.transpose() * s.try_inverse().unwrap();
+            k.row_mut(1).fill(0.0);
+            let i_kh = Matrix4::identity() - k * h;
+            let joseph = i_kh * p * i_kh.transpose() + k * r * k.transpose();
+            assert!(
+                (post.cov - joseph).amax() < 1e-12,
+                "{}",
+                (post.cov - joseph).amax()
+            );
+            assert!((post.mean - k * y).amax() < 1e-12);
         }
     }
 

@@ -25,11 +25,12 @@ use crate::contract::Imu;
 use crate::filters::ins::aiding::{MagAiding, Sensor};
 use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs};
 use crate::filters::ins::record::Solution;
-use crate::filters::velocity::model_aided::ModelAidedFilter;
+use crate::filters::velocity::model_aided::{AttitudeAt, ModelAidedFilter};
 use crate::ingest::Mission;
 use crate::smooth::rts::{smooth, SmoothError};
 use config::Config;
 use init::{InitError, InitSettings, Initialisation};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// Why a reconstruction failed. The message carries the cause's text, so the cause is not
@@ -122,13 +123,32 @@ pub struct ForwardPass {
     /// What the aiding sources said (a source that could not be used, and why).
     pub aid_notes: Vec<String>,
     pub time: Duration,
+    /// The attitude the model-aided velocity was driven by (a pass without it), when it ran.
+    pub model_attitude: Option<AttitudeTrack>,
 }
+
+/// The attitude of a forward pass without the model-aided velocity: what the model is
+/// driven by. Shared between reconstructions of one log whose settings differ only in the
+/// model aid's (a study's solutions), so that the pass is made once.
+pub type AttitudeTrack = Arc<Vec<AttitudeAt>>;
 
 /// Initialises from the log and runs the forward filter.
 pub fn forward(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
+) -> Result<ForwardPass, ReconError> {
+    forward_sharing(streams, mission, config, None)
+}
+
+/// [`forward`], the model-aided velocity driven by `shared_attitude` when it is given (the
+/// [`ForwardPass::model_attitude`] of a reconstruction of the same log whose settings differ
+/// only in `[model_velocity]`) instead of a pass of its own.
+pub fn forward_sharing(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    shared_attitude: Option<AttitudeTrack>,
 ) -> Result<ForwardPass, ReconError> {
     let mut settings = config.settings();
     let mag = if config.mag.enabled {
@@ -201,42 +221,50 @@ pub fn forward(
     } else if init.heading == heading::HeadingSource::Unknown {
         return Err(InitError::NoHeading(init.heading_unavailable.join("; ")).into());
     }
-    let mut run = run_forward(&settings, &inputs, init.estimate)?;
     let mut aid_notes: Vec<String> = Vec::new();
-    if config.uses(Sensor::ModelVelocity) {
-        // Seed 000: the model runs on the attitude of the pass without it, and the pass is
-        // made again with its velocity.
-        match model_velocity::model_for(&config.model_velocity, mission)
-            .map_err(ReconError::Vehicle)?
-        {
-            Ok(model) => {
-                let attitude = model_velocity::attitude_track(&run.records);
-                run.records = Vec::new(); // the attitude is all it was needed for
-                let dvl_in_range = settings.aiding.dvl(&streams).in_range_body_velocities();
-                let filter = ModelAidedFilter {
-                    depth_sigma_m: config.depth.sigma_m,
-                    eml_sigma_m_s: config.eml.sigma_m_s,
-                    dvl_sigma_m_s: config.dvl.sigma_m_s,
-                    ..ModelAidedFilter::default()
-                };
-                aids.push(Box::new(model_velocity::aid(
-                    &model,
-                    &streams,
-                    &attitude,
-                    &dvl_in_range,
-                    &config.model_velocity,
-                    &filter,
-                )));
-                let inputs = Inputs {
-                    imu: streams.imu,
-                    aids: &aids,
-                    output_stamps_ns: &stamps,
-                };
-                run = run_forward(&settings, &inputs, init.estimate)?;
-            }
-            Err(why) => aid_notes.push(format!("model_velocity: not used: {why}")),
+    let model = config
+        .uses(Sensor::ModelVelocity)
+        .then(|| model_velocity::model_for(&config.model_velocity, mission))
+        .transpose()
+        .map_err(ReconError::Vehicle)?;
+    let (run, attitude) = match model {
+        // Seed 000: the model runs on the attitude of a pass without it (this one's, or one
+        // handed in), and the pass is made with its velocity.
+        Some(Ok(model)) => {
+            let attitude = match shared_attitude {
+                Some(track) => track,
+                None => Arc::new(model_velocity::attitude_track(
+                    &run_forward(&settings, &inputs, init.estimate)?.records,
+                )),
+            };
+            let dvl_in_range = settings.aiding.dvl(&streams).in_range_body_velocities();
+            let filter = ModelAidedFilter {
+                depth_sigma_m: config.depth.sigma_m,
+                eml_sigma_m_s: config.eml.sigma_m_s,
+                dvl_sigma_m_s: config.dvl.sigma_m_s,
+                ..ModelAidedFilter::default()
+            };
+            aids.push(Box::new(model_velocity::aid(
+                &model,
+                &streams,
+                &attitude,
+                &dvl_in_range,
+                &config.model_velocity,
+                &filter,
+            )));
+            let inputs = Inputs {
+                imu: streams.imu,
+                aids: &aids,
+                output_stamps_ns: &stamps,
+            };
+            (run_forward(&settings, &inputs, init.estimate)?, Some(attitude))
         }
-    }
+        Some(Err(why)) => {
+            aid_notes.push(format!("model_velocity: not used: {why}"));
+            (run_forward(&settings, &inputs, init.estimate)?, None)
+        }
+        None => (run_forward(&settings, &inputs, init.estimate)?, None),
+    };
     aid_notes.extend(aids.iter().flat_map(|aid| aid.notes()));
     drop(aids); // it borrows the magnetometer's readings
     Ok(ForwardPass {
@@ -245,6 +273,7 @@ pub fn forward(
         run,
         aid_notes,
         time: started.elapsed(),
+        model_attitude: attitude,
     })
 }
 
@@ -339,6 +368,20 @@ pub fn reconstruct(
     finish(pass, config, depth_used)
 }
 
+/// [`reconstruct`] with [`forward_sharing`]'s shared attitude; also gives back the attitude
+/// the model aid was driven by, to share with the next.
+pub fn reconstruct_sharing(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    shared_attitude: Option<AttitudeTrack>,
+) -> Result<(Reconstruction, Option<AttitudeTrack>), ReconError> {
+    let pass = forward_sharing(streams, mission, config, shared_attitude)?;
+    let attitude = pass.model_attitude.clone();
+    let depth_used = config.depth.enabled && !streams.depth.is_empty();
+    Ok((finish(pass, config, depth_used)?, attitude))
+}
+
 /// Smooths a forward run and turns its records into solutions (freeing the records).
 /// `depth_used`: the run had depth updates (their offset is then added to the depth sigma).
 pub fn finish(
@@ -352,6 +395,7 @@ pub fn finish(
         mut run,
         aid_notes: _,
         time: forward_time,
+        model_attitude: _,
     } = pass;
     let started = Instant::now();
     let mut smoothed = smooth(&run.records)?;

@@ -100,8 +100,8 @@ pub fn bounds_95(dof: usize) -> (f64, f64) {
 pub fn scores(errors: &[EpochError]) -> Option<Scores> {
     let last = errors.last()?;
     let n = errors.len() as f64;
-    let inside = |dof: usize, f: &dyn Fn(&EpochError) -> f64| {
-        let (lo, hi) = bounds_95(dof);
+    let (horizontal, position) = (bounds_95(2), bounds_95(3));
+    let inside = |(lo, hi): (f64, f64), f: &dyn Fn(&EpochError) -> f64| {
         errors.iter().filter(|e| (lo..=hi).contains(&f(e))).count() as f64 / n
     };
     Some(Scores {
@@ -112,13 +112,13 @@ pub fn scores(errors: &[EpochError]) -> Option<Scores> {
             .map(EpochError::horizontal_m)
             .fold(0.0, f64::max),
         horizontal_final_m: last.horizontal_m(),
-        nees_horizontal_inside_95: inside(2, &|e| e.nees_horizontal),
+        nees_horizontal_inside_95: inside(horizontal, &|e| e.nees_horizontal),
         nees_horizontal_above_95: errors
             .iter()
-            .filter(|e| e.nees_horizontal > bounds_95(2).1)
+            .filter(|e| e.nees_horizontal > horizontal.1)
             .count() as f64
             / n,
-        nees_position_inside_95: inside(3, &|e| e.nees_position),
+        nees_position_inside_95: inside(position, &|e| e.nees_position),
         yaw_rms_deg: (errors.iter().map(|e| e.euler_rad[2].powi(2)).sum::<f64>() / n)
             .sqrt()
             .to_degrees(),

@@ -14,6 +14,10 @@ pub trait ForwardEpoch<const N: usize> {
     fn posterior_cov(&self) -> SMatrix<f64, N, N>;
     /// Transition from the previous epoch to this one.
     fn phi(&self) -> SMatrix<f64, N, N>;
+    /// `Phi m` (a filter whose transition has structure can skip its zeros).
+    fn phi_times(&self, m: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
+        self.phi() * m
+    }
     /// Covariance predicted to this epoch from the previous epoch's posterior.
     fn prior_cov(&self, previous_posterior: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N>;
     /// Correction this epoch's updates applied, prior to posterior.
@@ -55,7 +59,7 @@ pub fn backward<const N: usize, E: ForwardEpoch<N>>(
             .cholesky()
             .ok_or(SmoothError::SingularPrior { epoch: k + 1 })?;
         // C = P Phi^T Pp^-1  =>  C^T = Pp^-1 Phi P.
-        let gain = chol.solve(&(next.phi() * p)).transpose();
+        let gain = chol.solve(&next.phi_times(&p)).transpose();
         let dx = gain * (dx_next + next.correction());
         let p_smooth = p + gain * (p_next - prior_cov) * gain.transpose();
         let p_smooth = (p_smooth + p_smooth.transpose()) * 0.5;

@@ -40,6 +40,9 @@ impl ForwardEpoch<{ error_state::N }> for EpochRecord {
     fn phi(&self) -> ErrorMatrix {
         self.phi_from_previous.unpack()
     }
+    fn phi_times(&self, m: &ErrorMatrix) -> ErrorMatrix {
+        self.phi_from_previous.times(m)
+    }
     fn prior_cov(&self, previous_posterior: &ErrorMatrix) -> ErrorMatrix {
         EpochRecord::prior_cov(self, previous_posterior)
     }

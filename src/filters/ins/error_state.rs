@@ -201,17 +201,65 @@ pub fn difference(truth: &NavState, nominal: &NavState) -> SVector<f64, 9> {
     ])
 }
 
+/// Rows of `F` (and of every transition) that are not constants' or random walks': the
+/// position, velocity and attitude errors. The other rows of `F` are zero, so those of a
+/// transition are `[0 I]`, and the products below work on the top rows only.
+pub const NAV_ROWS: usize = idx::GYRO_BIAS;
+/// The other rows.
+const HELD_ROWS: usize = N - NAV_ROWS;
+
+/// The transition's rows that are not `[0 I]`.
+pub type TransitionRows = SMatrix<f64, NAV_ROWS, N>;
+
 /// Discrete transition `Phi = exp(F dt)` (Taylor series to fourth order: F dt is small at IMU
-/// rate) for one interval.
+/// rate) for one interval. With `F dt = [A B; 0 0]`, `(F dt)^k = [A^k A^(k-1) B; 0 0]`, so
+/// only the top rows are summed: `[sum A^k/k!  sum A^(k-1) B/k!; 0 I]`.
 pub fn transition(f: &ErrorMatrix, dt_s: f64) -> ErrorMatrix {
-    let a = f * dt_s;
-    let mut term = ErrorMatrix::identity();
+    debug_assert!(
+        f.fixed_rows::<HELD_ROWS>(NAV_ROWS).amax() == 0.0,
+        "F's rows below the attitude are not zero"
+    );
+    let a = f.fixed_view::<NAV_ROWS, NAV_ROWS>(0, 0) * dt_s;
+    let b = f.fixed_view::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS) * dt_s;
+    let mut a_power = SMatrix::<f64, NAV_ROWS, NAV_ROWS>::identity(); // A^(k-1) / (k-1)!
     let mut phi = ErrorMatrix::identity();
     for k in 1..=4 {
-        term = term * a / k as f64;
-        phi += term;
+        let over_k = 1.0 / k as f64;
+        let mut top_right = phi.fixed_view_mut::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS);
+        top_right += a_power * b * over_k;
+        a_power = a_power * a * over_k;
+        let mut top_left = phi.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0);
+        top_left += a_power;
     }
     phi
+}
+
+/// `Phi P` for a transition whose rows below [`NAV_ROWS`] are `[0 I]`, given its top rows.
+pub fn transition_times(phi_top: &TransitionRows, p: &ErrorMatrix) -> ErrorMatrix {
+    let mut out = *p;
+    out.fixed_rows_mut::<NAV_ROWS>(0).copy_from(&(phi_top * p));
+    out
+}
+
+/// The predicted covariance `Phi P Phi^T + diag(q)`, symmetric, for a transition whose rows
+/// below [`NAV_ROWS`] are `[0 I]`, given its top rows `[T M]`: with `X = [T M] P` (the top
+/// rows of `Phi P`), the top-left block is `X [T M]^T`, the top-right `X`'s right block, and
+/// the bottom-right `P`'s.
+pub fn predicted_cov(phi_top: &TransitionRows, p: &ErrorMatrix, q: &ErrorState) -> ErrorMatrix {
+    let x = phi_top * p;
+    let top_left = x * phi_top.transpose();
+    let mut out = *p;
+    out.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
+        .copy_from(&((top_left + top_left.transpose()) * 0.5));
+    let top_right = x.fixed_view::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS);
+    out.fixed_view_mut::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS)
+        .copy_from(&top_right);
+    out.fixed_view_mut::<HELD_ROWS, NAV_ROWS>(NAV_ROWS, 0)
+        .copy_from(&top_right.transpose());
+    for i in 0..N {
+        out[(i, i)] += q[i];
+    }
+    out
 }
 
 #[cfg(test)]
@@ -243,6 +291,57 @@ mod tests {
 
     /// Each column of Phi by a central difference of the mechanization itself: propagate a
     /// corrected state and the nominal over dt and take their difference.
+    /// A continuous matrix of the model's shape (rows below the attitude zero) with
+    /// entries of mixed sizes, and a covariance from it.
+    fn structured_f_and_cov() -> (ErrorMatrix, ErrorMatrix) {
+        let (nav, imu) = nominal();
+        let mut f = continuous_matrix(&nav, &imu.specific_force_body, &imu.omega_ib_body);
+        for r in 0..NAV_ROWS {
+            for c in 0..N {
+                f[(r, c)] += 1e-3 * ((r * 31 + c * 17) % 13) as f64 - 6e-3;
+            }
+        }
+        let l = ErrorMatrix::from_fn(|r, c| {
+            if c <= r {
+                1.0 + ((r * 7 + c * 3) % 5) as f64
+            } else {
+                0.0
+            }
+        });
+        (f, l * l.transpose())
+    }
+
+    /// The block forms equal the plain Taylor series and products.
+    #[test]
+    fn structured_transition_and_prediction_match_the_full_products() {
+        let (f, p) = structured_f_and_cov();
+        let dt = 0.7;
+        let a = f * dt;
+        let (mut term, mut full_phi) = (ErrorMatrix::identity(), ErrorMatrix::identity());
+        for k in 1..=4 {
+            term = term * a / k as f64;
+            full_phi += term;
+        }
+        let phi = transition(&f, dt);
+        assert!(
+            (phi - full_phi).amax() < 1e-12 * full_phi.amax(),
+            "{}",
+            (phi - full_phi).amax()
+        );
+        let top: TransitionRows = phi.fixed_rows::<NAV_ROWS>(0).into_owned();
+        let full_phi_p = full_phi * p;
+        assert!((transition_times(&top, &p) - full_phi_p).amax() < 1e-12 * full_phi_p.amax());
+        let q = ErrorState::from_fn(|i, _| 0.1 * i as f64);
+        let full = full_phi * p * full_phi.transpose() + ErrorMatrix::from_diagonal(&q);
+        let got = predicted_cov(&top, &p, &q);
+        assert!(
+            (got - full).amax() < 1e-12 * full.amax(),
+            "{}",
+            (got - full).amax()
+        );
+        assert_eq!(got, got.transpose());
+    }
+
     #[test]
     fn matches_finite_differences_of_the_mechanization() {
         // A vehicle's speed, and an aircraft's, whose large velocity makes the small

@@ -194,12 +194,9 @@ impl Filter {
             + error_state::continuous_matrix(nav_to, f_body, w_body))
             * 0.5;
         let phi = error_state::transition(&f, dt_s);
-        let q = process_noise(noise, self.current_walk, dt_s);
-        let prior = Gaussian {
-            mean: ErrorState::zeros(),
-            cov: *cov,
-        };
-        (kalman::predict(&prior, &phi, &q).cov, phi, q.diagonal())
+        let q = process_noise(noise, self.current_walk, dt_s).diagonal();
+        let top = phi.fixed_rows::<{ error_state::NAV_ROWS }>(0).into_owned();
+        (error_state::predicted_cov(&top, cov, &q), phi, q)
     }
 
     /// Applies a measurement with innovation `y` and matrix `h` (in the error state), then

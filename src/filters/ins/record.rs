@@ -10,18 +10,17 @@
 //!   nine rows are kept (135 of 225).
 
 use super::error_state::{
-    idx, DvlCalibration, ErrorMatrix, ErrorState, WaterState, DVL_STATES, N, WATER_STATES,
+    self, idx, DvlCalibration, ErrorMatrix, ErrorState, TransitionRows, WaterState, DVL_STATES, N,
+    NAV_ROWS, WATER_STATES,
 };
 use super::forward::Estimate;
 use super::mechanization::NavState;
-use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
-/// Number of numbers in the upper triangle of a 15x15 matrix.
+/// Number of numbers in the upper triangle of an N x N matrix.
 const PACKED: usize = N * (N + 1) / 2;
-/// Rows of the transition that are not `[0 I]`.
-const NAV_ROWS: usize = idx::GYRO_BIAS;
 
-/// A symmetric 15x15 matrix, upper triangle row by row.
+/// A symmetric N x N matrix, upper triangle row by row.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PackedCov([f64; PACKED]);
 
@@ -74,7 +73,7 @@ impl PackedCov {
 
 /// A transition matrix whose bias rows are `[0 I]`, stored as its top nine rows.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PackedTransition(SMatrix<f64, NAV_ROWS, N>);
+pub struct PackedTransition(TransitionRows);
 
 impl PackedTransition {
     /// Packs `phi`; its bias rows must be `[0 I]` (true of every transition of the model).
@@ -97,6 +96,11 @@ impl PackedTransition {
         let mut m = ErrorMatrix::identity();
         m.fixed_view_mut::<NAV_ROWS, N>(0, 0).copy_from(&self.0);
         m
+    }
+
+    /// `Phi P`.
+    pub fn times(&self, p: &ErrorMatrix) -> ErrorMatrix {
+        error_state::transition_times(&self.0, p)
     }
 }
 
@@ -156,10 +160,11 @@ impl EpochRecord {
     /// The covariance predicted to this epoch from the previous epoch's posterior covariance
     /// (what the forward pass had before this epoch's updates).
     pub fn prior_cov(&self, previous_posterior: &ErrorMatrix) -> ErrorMatrix {
-        let phi = self.phi_from_previous.unpack();
-        let p = phi * previous_posterior * phi.transpose()
-            + ErrorMatrix::from_diagonal(&self.process_noise);
-        (p + p.transpose()) * 0.5
+        error_state::predicted_cov(
+            &self.phi_from_previous.0,
+            previous_posterior,
+            &self.process_noise,
+        )
     }
 
     /// The full posterior estimate.

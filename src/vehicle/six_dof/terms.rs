@@ -102,26 +102,15 @@ impl Term {
 
     /// The term's value and gradient by `nu`.
     pub fn eval(&self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Nu) {
-        let evaluated: Vec<(f64, Nu)> = self
-            .factors
-            .iter()
-            .map(|f| f.eval(nu, inputs, length_m))
-            .collect();
-        let value: f64 = evaluated.iter().map(|e| e.0).product();
-        let mut grad = Nu::zeros();
-        for (k, (_, g)) in evaluated.iter().enumerate() {
-            if g.iter().all(|v| *v == 0.0) {
-                continue;
-            }
-            let others: f64 = evaluated
+        // The product rule one factor at a time: (p g)' = p' g + p g'.
+        let (value, grad) =
+            self.factors
                 .iter()
-                .enumerate()
-                .filter(|(l, _)| *l != k)
-                .map(|(_, e)| e.0)
-                .product();
-            grad += g * others;
-        }
-        (self.coefficient * value, grad * self.coefficient)
+                .fold((self.coefficient, Nu::zeros()), |(p, dp), f| {
+                    let (v, dv) = f.eval(nu, inputs, length_m);
+                    (p * v, dp * v + dv * p)
+                });
+        (value, grad)
     }
 }
 
