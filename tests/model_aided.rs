@@ -194,3 +194,40 @@ fn an_unknown_vehicle_is_refused_by_name() {
     );
     assert!(!out.join("run").exists());
 }
+
+/// Why the paper's -0.6 m/s mean body-x error of the virtual sensor (seed 000, Fig. 12) is
+/// not reproduced: with the paper's draws (every coefficient off by a normal 10 %, 1-sigma),
+/// the cruising speed the nominal model predicts for the true vehicle's propeller speed is
+/// off by a spread of a few cm/s about a mean near zero, over 100 draws. A mean of -0.6 m/s
+/// (40 % of the 1.5 m/s cruise) needs a bias in the draws or a model that drifts, neither of
+/// which the paper states.
+#[test]
+fn the_virtual_sensors_cruise_speed_error_is_centred_over_the_papers_draws() {
+    use hindsight::vehicle::six_dof::autopilot::propeller_for;
+    use hindsight::vehicle::six_dof::properties::steady_speed;
+    let nominal_vehicle = Vehicle::built_in("nps-auv-ii").unwrap().unwrap();
+    let nominal = SixDof::new(nominal_vehicle.clone()).unwrap();
+    let cruise_m_s = 1.5;
+    let errors: Vec<f64> = (1..=100)
+        .filter_map(|seed| {
+            let (vehicle, _) = nominal_vehicle.perturbed(0.1, seed);
+            let truth = SixDof::new(vehicle)?;
+            let n = propeller_for(&truth, cruise_m_s)?;
+            Some(steady_speed(&nominal, n)? - cruise_m_s)
+        })
+        .collect();
+    assert!(errors.len() >= 95, "{} of 100 draws cruise", errors.len());
+    let (mean, sd) = hindsight::study::mean_sigma(errors.iter().copied()).unwrap();
+    println!(
+        "virtual sensor's cruise speed error over {} draws: mean {mean:+.4} m/s, sd {sd:.4} m/s",
+        errors.len()
+    );
+    // The draws do move the model's speed (case 2 is not case 1) ...
+    assert!(sd > 0.01, "sd {sd}");
+    // ... but about a centre far from the paper's -0.6 m/s: within 3 standard errors of
+    // zero or a few cm/s.
+    assert!(
+        mean.abs() < (3.0 * sd / (errors.len() as f64).sqrt()).max(0.05),
+        "mean {mean}"
+    );
+}

@@ -294,3 +294,43 @@ fn bad_input_is_reported_or_handled() {
     assert_eq!(out_smo, wo_smo);
     assert!(out_smo.horizontal_rms_m < clean_smo.horizontal_rms_m + 0.1);
 }
+
+/// `[imu] estimate_biases = false` (seed 000's pure SDINS): the biases and the gyro's scale
+/// factor never move from zero, their uncertainty stays in the covariance (a consider
+/// state's variance is not reduced by any update), and the solution is still consistent.
+#[test]
+fn biases_not_estimated_are_carried_but_never_moved() {
+    let log = common::simulated_log(&Scenario::built_in("survey").unwrap(), 1);
+    let streams = Streams::of(&log);
+    let mut config = Config::from_toml(SURVEY_CONFIG).unwrap();
+    let estimated = run(&log, &streams, &config);
+    config.imu.estimate_biases = false;
+    let held = run(&log, &streams, &config);
+    let moved = |r: &Reconstruction| {
+        r.forward
+            .iter()
+            .map(|s| {
+                s.point
+                    .gyro_bias
+                    .amax()
+                    .max(s.point.accel_bias.amax())
+                    .max(s.point.gyro_scale_z.abs())
+            })
+            .fold(0.0, f64::max)
+    };
+    assert!(moved(&estimated) > 0.0, "the default estimates the biases");
+    assert_eq!(moved(&held), 0.0);
+    // Without updates to them, the biases' sigma can only grow (their walk).
+    let first = held.forward.first().unwrap().sigma;
+    let last = held.forward.last().unwrap().sigma;
+    for i in 9..15 {
+        assert!(
+            last[i] >= first[i] * (1.0 - 1e-9),
+            "state {i}: {} -> {}",
+            first[i],
+            last[i]
+        );
+    }
+    let (f, _) = score(streams.truth, &held);
+    assert!(f.nees_horizontal_inside_95 > 0.8, "{f:?}");
+}

@@ -131,13 +131,22 @@ fn at_time(out: &std::path::Path, case: &str, solution: &str, t_s: f64) -> (f64,
         .1
 }
 
-/// Issue 15's seed 000 study, the CI version (5 runs per case; the README's command makes
-/// 100): `long-dive-dynamic` at seed 000's SDINS rate (10 Hz), exact and 10 % uncertain
-/// coefficients, each run reconstructed by pure SDINS, Koifman's virtual sensor and the
-/// proposed model-aided filter, scored against `/truth`.
-#[test]
-fn seed_000_model_aided_study_of_five_runs() {
-    let out = common::scratch_dir("study000").join("out");
+/// Seed 000's figures at 5 h (RMS over the runs, forward / smoothed / mean body-x velocity
+/// error).
+struct Seed000 {
+    proposed2: (f64, f64, f64),
+    proposed1: (f64, f64, f64),
+    koifman2: (f64, f64, f64),
+    koifman2_at_2h: (f64, f64, f64),
+    pure2: (f64, f64, f64),
+}
+
+/// Issue 15's seed 000 study: `long-dive-dynamic` at seed 000's SDINS rate (10 Hz), exact
+/// and 10 % uncertain coefficients, each run reconstructed by pure SDINS, Koifman's virtual
+/// sensor and the proposed model-aided filter, scored against `/truth`; the issue's bars
+/// that hold for any number of runs asserted.
+fn seed_000_study(runs: u64) -> Seed000 {
+    let out = common::scratch_dir(&format!("study000-{runs}")).join("out");
     let config = |name: &str| {
         format!(
             "{name}={}/configs/seed000-{name}.toml",
@@ -145,6 +154,7 @@ fn seed_000_model_aided_study_of_five_runs() {
         )
     };
     let (pure, koifman, proposed) = (config("pure"), config("koifman"), config("proposed"));
+    let runs = runs.to_string();
     let o = common::hindsight(&[
         "study",
         "--scenario",
@@ -152,7 +162,7 @@ fn seed_000_model_aided_study_of_five_runs() {
         "--imu-rate-hz",
         "10",
         "--runs",
-        "5",
+        &runs,
         "--coef-uncertainty",
         "0",
         "--coef-uncertainty",
@@ -170,11 +180,20 @@ fn seed_000_model_aided_study_of_five_runs() {
     println!("{}", String::from_utf8_lossy(&o.stdout));
     let (case1, case2) = ("coefficients +-0 %", "coefficients +-10 %");
     let five_h = 5.0 * 3600.0;
-    let proposed2 = at_time(&out, case2, "proposed", five_h);
-    let proposed1 = at_time(&out, case1, "proposed", five_h);
-    let koifman2 = at_time(&out, case2, "koifman", five_h);
-    let koifman2_at_2h = at_time(&out, case2, "koifman", 2.0 * 3600.0);
-    let pure2 = at_time(&out, case2, "pure", five_h);
+    let f = Seed000 {
+        proposed2: at_time(&out, case2, "proposed", five_h),
+        proposed1: at_time(&out, case1, "proposed", five_h),
+        koifman2: at_time(&out, case2, "koifman", five_h),
+        koifman2_at_2h: at_time(&out, case2, "koifman", 2.0 * 3600.0),
+        pure2: at_time(&out, case2, "pure", five_h),
+    };
+    let Seed000 {
+        proposed2,
+        proposed1,
+        koifman2,
+        koifman2_at_2h,
+        pure2,
+    } = f;
     println!(
         "at 5 h, RMS forward / smoothed: proposed case 2 {:.1} / {:.1} m, case 1 {:.1} / {:.1} m; \
          koifman case 2 {:.1} m (2 h: {:.1} m), mean body-x velocity error {:+.3} m/s; pure {:.1} m",
@@ -203,4 +222,26 @@ fn seed_000_model_aided_study_of_five_runs() {
     );
     // Both model-aided solutions beat the unaided INS.
     assert!(pure2.0 > koifman2.0.min(proposed2.0));
+    f
+}
+
+/// The CI version: 5 runs per case.
+#[test]
+fn seed_000_model_aided_study_of_five_runs() {
+    seed_000_study(5);
+}
+
+/// The issue's 100 runs per case (about 26 minutes on 2 cores, so not in CI):
+/// `cargo test --release --test study seed_000_model_aided_study_of_100_runs -- --ignored
+/// --nocapture`. With 100 runs the pure SDINS's RMS is close enough to its expectation to
+/// be held to seed 000's figure: within 40 % of 1.4 km.
+#[test]
+#[ignore]
+fn seed_000_model_aided_study_of_100_runs() {
+    let f = seed_000_study(100);
+    assert!(
+        (0.6 * 1400.0..=1.4 * 1400.0).contains(&f.pure2.0),
+        "pure SDINS at 5 h: {:.1} m",
+        f.pure2.0
+    );
 }

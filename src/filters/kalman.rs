@@ -342,18 +342,31 @@ mod tests {
         assert!((rec.innovation_cov[(0, 0)] - 5.5).abs() < 1e-12);
     }
 
+    /// A random 4-state prior, 2-row measurement matrix and noise.
+    fn random_problem(
+        rng: &mut ChaCha8Rng,
+    ) -> (
+        Matrix4<f64>,
+        nalgebra::Matrix2x4<f64>,
+        Matrix2<f64>,
+        Gaussian<4>,
+    ) {
+        let a = Matrix4::from_fn(|_, _| rng.random_range(-1.0..1.0));
+        let p = a * a.transpose() + Matrix4::identity() * 0.1;
+        let h = nalgebra::Matrix2x4::from_fn(|_, _| rng.random_range(-1.0..1.0));
+        let r = Matrix2::new(0.3, 0.1, 0.1, 0.2);
+        let prior = Gaussian {
+            mean: Vector4::zeros(),
+            cov: p,
+        };
+        (p, h, r, prior)
+    }
+
     #[test]
     fn joseph_equals_the_textbook_form_for_the_optimal_gain() {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         for _ in 0..100 {
-            let a = Matrix4::from_fn(|_, _| rng.random_range(-1.0..1.0));
-            let p = a * a.transpose() + Matrix4::identity() * 0.1;
-            let h = nalgebra::Matrix2x4::from_fn(|_, _| rng.random_range(-1.0..1.0));
-            let r = Matrix2::new(0.3, 0.1, 0.1, 0.2);
-            let prior = Gaussian {
-                mean: Vector4::zeros(),
-                cov: p,
-            };
+            let (p, h, r, prior) = random_problem(&mut rng);
             let (post, _) = update(&prior, &Vector2::new(0.5, -0.2), &h, &r, None).unwrap();
             let s = h * p * h.transpose() + r;
             let k = p * h.transpose() * s.try_inverse().unwrap();
@@ -369,14 +382,7 @@ mod tests {
     fn update_with_considered_states_is_the_explicit_joseph_form() {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         for _ in 0..100 {
-            let a = Matrix4::from_fn(|_, _| rng.random_range(-1.0..1.0));
-            let p = a * a.transpose() + Matrix4::identity() * 0.1;
-            let h = nalgebra::Matrix2x4::from_fn(|_, _| rng.random_range(-1.0..1.0));
-            let r = Matrix2::new(0.3, 0.1, 0.1, 0.2);
-            let prior = Gaussian {
-                mean: Vector4::zeros(),
-                cov: p,
-            };
+            let (p, h, r, prior) = random_problem(&mut rng);
             let considered = [false, true, false, false];
             let y = Vector2::new(0.5, -0.2);
             let (post, _) =

@@ -30,6 +30,9 @@ pub const DEFAULT_TOML: &str = r#"# hindsight reconstruct: configuration (every 
 # gyro_scale_ppm = 100.0              # z gyro's scale factor error (estimated: a turn leaves
                                       # this times the angle turned in the heading); grades:
                                       # navigation 5, intermediate 30, tactical 100, MEMS 3000
+estimate_biases = true     # false: the gyro and accelerometer biases and the gyro's scale
+                           # factor are carried in the covariance but never estimated (a
+                           # pure SDINS, as seed 000 compares against)
 
 [dvl]
 use = true
@@ -302,6 +305,9 @@ pub struct ImuConfig {
     pub accel_vrw_ug_rt_hz: Option<f64>,
     pub bias_correlation_s: Option<f64>,
     pub gyro_scale_ppm: Option<f64>,
+    /// False: the biases and the gyro's scale factor are consider states (in the covariance,
+    /// never estimated).
+    pub estimate_biases: bool,
 }
 
 impl Default for ImuConfig {
@@ -316,6 +322,7 @@ impl Default for ImuConfig {
             accel_vrw_ug_rt_hz: None,
             bias_correlation_s: None,
             gyro_scale_ppm: None,
+            estimate_biases: true,
         }
     }
 }
@@ -1021,6 +1028,19 @@ impl Config {
         Ok(())
     }
 
+    /// The error states carried as consider states: the DVL's calibration (its `calibration`
+    /// mode), and the IMU's biases and scale factor when they are not to be estimated.
+    pub fn considered(&self) -> [bool; crate::filters::ins::error_state::N] {
+        use crate::filters::ins::error_state::idx;
+        let mut considered = self.dvl.considered();
+        if !self.imu.estimate_biases {
+            for i in (idx::GYRO_BIAS..idx::ACCEL_BIAS + 3).chain([idx::GYRO_SCALE_Z]) {
+                considered[i] = true;
+            }
+        }
+        considered
+    }
+
     /// The forward filter's settings.
     pub fn settings(&self) -> Settings {
         let noise = self.imu.spec().noise();
@@ -1030,7 +1050,7 @@ impl Config {
                 noise,
                 height_damping: None,
                 current_walk: self.eml.current_walk_m_s_rt_h / 60.0,
-                considered: self.dvl.considered(),
+                considered: self.considered(),
             },
             propagation: Propagation {
                 covariance_interval_s: p.covariance_interval_s,

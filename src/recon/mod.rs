@@ -257,7 +257,10 @@ pub fn forward_sharing(
                 aids: &aids,
                 output_stamps_ns: &stamps,
             };
-            (run_forward(&settings, &inputs, init.estimate)?, Some(attitude))
+            (
+                run_forward(&settings, &inputs, init.estimate)?,
+                Some(attitude),
+            )
         }
         Some(Err(why)) => {
             aid_notes.push(format!("model_velocity: not used: {why}"));

@@ -156,6 +156,7 @@ pub fn with_candidate(config: &Config, c: &Candidate, still: Option<&StillNoise>
             accel_vrw_ug_rt_hz: Some(s.accel_vrw_ug_rt_hz),
             bias_correlation_s: Some(s.bias_correlation_s),
             gyro_scale_ppm: config.imu.gyro_scale_ppm,
+            estimate_biases: config.imu.estimate_biases,
         },
         ..config.clone()
     }
