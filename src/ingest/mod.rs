@@ -14,6 +14,7 @@ mod error;
 mod log;
 mod mission;
 mod reader;
+pub mod ros2;
 mod samples;
 pub mod stats;
 
