@@ -30,6 +30,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
         skip_unknown: true,
         max_invalid_fraction: 1.0,
         keep_messages: false,
+        ..IngestOptions::default()
     };
     let log = super::load(&args.log.log, &options, &args.log.offsets)?;
     print!(

@@ -240,6 +240,7 @@ impl PolicyArgs {
             skip_unknown: self.skip_unknown,
             max_invalid_fraction: self.max_invalid_fraction,
             keep_messages: true,
+            ..IngestOptions::default()
         }
     }
 }

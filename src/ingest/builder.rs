@@ -1,6 +1,6 @@
 //! Accumulates the records of a log into per-topic typed streams.
 
-use super::decode::{self, Decoder};
+use super::decode::{self, TopicDecoder};
 use super::error::{IngestError, MessageIssue};
 use super::log::{FileReport, IngestOptions, Log, SkippedTopic, Stream, StreamCounts};
 use super::reader::Ending;
@@ -15,7 +15,8 @@ const ISSUES_KEPT_PER_TOPIC: usize = 5;
 /// Accumulates records into streams.
 pub(super) struct Builder<'o> {
     options: &'o IngestOptions,
-    schemas: HashMap<u16, (String, String)>,
+    /// Name, encoding and text of each schema.
+    schemas: HashMap<u16, (String, String, Vec<u8>)>,
     /// Slot of each channel id (a channel id is a u16: a direct table beats hashing).
     channel_to_slot: Vec<Option<usize>>,
     slots: Vec<Slot>,
@@ -32,7 +33,7 @@ struct Slot {
     topic: String,
     schema_name: String,
     message_encoding: String,
-    decoder: Option<&'static dyn Decoder>,
+    decoder: Option<TopicDecoder>,
     samples: Option<Box<dyn Samples>>,
     stamps_ns: Vec<i64>,
     log_time_ns: Vec<u64>,
@@ -66,9 +67,9 @@ impl<'o> Builder<'o> {
                 self.library = h.library;
                 self.profile = h.profile;
             }
-            Record::Schema { header, .. } => {
+            Record::Schema { header, data } => {
                 self.schemas
-                    .insert(header.id, (header.name, header.encoding));
+                    .insert(header.id, (header.name, header.encoding, data.into_owned()));
             }
             Record::Channel(c) => self.on_channel(c)?,
             Record::Message { header, data } if !self.in_summary => {
@@ -87,10 +88,10 @@ impl<'o> Builder<'o> {
         if self.channel_to_slot[usize::from(c.id)].is_some() {
             return Ok(()); // repeated in the summary, or re-announced
         }
-        let schema_name = self
+        let (schema_name, schema_text) = self
             .schemas
             .get(&c.schema_id)
-            .map(|(name, _)| name.clone())
+            .map(|(name, _, text)| (name.clone(), text.as_slice()))
             .unwrap_or_default();
         let slot = match self
             .slots
@@ -99,7 +100,18 @@ impl<'o> Builder<'o> {
         {
             Some(i) => i,
             None => {
-                let decoder = decode::find(&schema_name, &c.message_encoding);
+                let decoder = decode::for_topic(
+                    &c.topic,
+                    &schema_name,
+                    schema_text,
+                    &c.message_encoding,
+                    self.options,
+                )
+                .map_err(|e| IngestError::Ros2Schema {
+                    topic: c.topic.clone(),
+                    schema: schema_name.clone(),
+                    reason: e.to_string(),
+                })?;
                 if decoder.is_none() && !self.options.skip_unknown {
                     return Err(IngestError::UnknownSchema {
                         topic: c.topic,
@@ -116,8 +128,8 @@ impl<'o> Builder<'o> {
                     topic: c.topic,
                     schema_name,
                     message_encoding: c.message_encoding,
+                    samples: decoder.as_ref().map(|d| d.get().new_samples()),
                     decoder,
-                    samples: decoder.map(|d| d.new_samples()),
                     stamps_ns: Vec::new(),
                     log_time_ns: Vec::new(),
                     counts: StreamCounts::default(),
@@ -138,10 +150,10 @@ impl<'o> Builder<'o> {
         };
         let s = &mut self.slots[slot];
         s.counts.received += 1;
-        let (Some(decoder), Some(samples)) = (s.decoder, s.samples.as_mut()) else {
+        let (Some(decoder), Some(samples)) = (s.decoder.as_ref(), s.samples.as_mut()) else {
             return;
         };
-        match decoder.decode_into(data, samples.as_mut()) {
+        match decoder.get().decode_into(data, samples.as_mut()) {
             Ok(()) => {
                 let stamp = samples.stamp_ns(samples.len() - 1);
                 if !self.options.keep_messages {

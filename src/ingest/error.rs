@@ -57,6 +57,13 @@ pub enum IngestError {
         known: String,
     },
 
+    #[error("topic {topic} ({schema}, cdr): {reason}")]
+    Ros2Schema {
+        topic: String,
+        schema: String,
+        reason: String,
+    },
+
     #[error(
         "{first}; {invalid} of {received} messages on {topic} are invalid, over the allowed \
          fraction {allowed} (see `hindsight info` for all topics; --max-invalid raises the limit)"

@@ -20,6 +20,10 @@ pub struct IngestOptions {
     /// only stamps and counts (what `info` needs): memory then stays at 8 bytes per message
     /// and the streams hold no messages.
     pub keep_messages: bool,
+    /// How ROS 2 messages are converted (pressure to depth, fixes without a covariance).
+    pub ros2: crate::ingest::ros2::map::Ros2Settings,
+    /// A topic's frame convention, where its `frame_id` should not decide it.
+    pub frame_conventions: std::collections::BTreeMap<String, crate::ingest::ros2::map::Convention>,
 }
 
 impl Default for IngestOptions {
@@ -28,6 +32,8 @@ impl Default for IngestOptions {
             skip_unknown: false,
             max_invalid_fraction: 0.01,
             keep_messages: true,
+            ros2: Default::default(),
+            frame_conventions: Default::default(),
         }
     }
 }

@@ -1,7 +1,7 @@
 //! The `json` message encoding: one serde-derived decoder per contract type.
 
 use super::Decoder;
-use crate::contract::{validate, FieldIssue, Message};
+use crate::contract::{FieldIssue, Message};
 use crate::ingest::samples::Samples;
 use std::marker::PhantomData;
 
@@ -14,23 +14,17 @@ impl<T> JsonDecoder<T> {
 }
 
 impl<T: Message> Decoder for JsonDecoder<T> {
-    fn schema_name(&self) -> &'static str {
+    fn schema_name(&self) -> &str {
         T::SCHEMA_NAME
     }
-    fn message_encoding(&self) -> &'static str {
+    fn message_encoding(&self) -> &str {
         "json"
     }
     fn new_samples(&self) -> Box<dyn Samples> {
         Box::new(Vec::<T>::new())
     }
     fn decode_into(&self, data: &[u8], out: &mut dyn Samples) -> Result<(), FieldIssue> {
-        let msg = decode::<T>(data)?;
-        validate(&msg)?;
-        out.as_any_mut()
-            .downcast_mut::<Vec<T>>()
-            .ok_or_else(|| FieldIssue::new("", "internal: sample store of the wrong type"))?
-            .push(msg);
-        Ok(())
+        super::push_validated(out, decode::<T>(data)?)
     }
 }
 

@@ -1,8 +1,8 @@
 //! Decoders: bytes of one message encoding into one contract type, found by schema name.
 //!
-//! One decoder per (schema, message encoding). Today every contract schema has a JSON
-//! decoder ([`json::JsonDecoder`]); ROS 2 `cdr` decoders will be added here, one per type,
-//! without touching the ingest loop.
+//! One decoder per (schema, message encoding): every contract schema has a JSON decoder
+//! ([`json::JsonDecoder`]); a ROS 2 topic in `cdr` gets one built from the schema text the
+//! file carries ([`crate::ingest::ros2`]), one mapping per standard type.
 
 mod flat_json;
 pub mod json;
@@ -14,13 +14,26 @@ use json::JsonDecoder;
 /// Decodes and validates messages of one schema in one encoding.
 pub trait Decoder: Send + Sync {
     /// Schema name this decoder reads, e.g. `hindsight.Imu`.
-    fn schema_name(&self) -> &'static str;
+    fn schema_name(&self) -> &str;
     /// MCAP message encoding, e.g. `json`.
-    fn message_encoding(&self) -> &'static str;
+    fn message_encoding(&self) -> &str;
     /// An empty store for this decoder's messages.
     fn new_samples(&self) -> Box<dyn Samples>;
     /// Decodes, validates and appends one message; on failure nothing is appended.
     fn decode_into(&self, data: &[u8], out: &mut dyn Samples) -> Result<(), FieldIssue>;
+}
+
+/// Validates a decoded message and appends it to its typed store.
+pub fn push_validated<T: crate::contract::Message>(
+    out: &mut dyn Samples,
+    msg: T,
+) -> Result<(), FieldIssue> {
+    crate::contract::validate(&msg)?;
+    out.as_any_mut()
+        .downcast_mut::<Vec<T>>()
+        .ok_or_else(|| FieldIssue::new("", "internal: sample store of the wrong type"))?
+        .push(msg);
+    Ok(())
 }
 
 macro_rules! json_decoders {
@@ -33,6 +46,44 @@ crate::for_each_message!(json_decoders);
 /// Every registered decoder.
 pub fn decoders() -> &'static [&'static dyn Decoder] {
     DECODERS
+}
+
+/// A topic's decoder: a registered one, or one built from the topic's schema text.
+pub enum TopicDecoder {
+    Registered(&'static dyn Decoder),
+    Built(Box<dyn Decoder>),
+}
+
+impl TopicDecoder {
+    pub fn get(&self) -> &dyn Decoder {
+        match self {
+            TopicDecoder::Registered(d) => *d,
+            TopicDecoder::Built(d) => d.as_ref(),
+        }
+    }
+}
+
+/// The decoder of a topic (`None`: no decoder reads it): a ROS 2 standard type in `cdr`
+/// from its schema text, else the registered decoder of its schema name and encoding.
+pub fn for_topic(
+    topic: &str,
+    schema_name: &str,
+    schema_text: &[u8],
+    message_encoding: &str,
+    options: &crate::ingest::IngestOptions,
+) -> Result<Option<TopicDecoder>, crate::ingest::ros2::decoder::Ros2SchemaError> {
+    if message_encoding == "cdr" {
+        let text = String::from_utf8_lossy(schema_text);
+        let convention = options.frame_conventions.get(topic).copied();
+        let built = crate::ingest::ros2::decoder::Ros2Decoder::for_schema(
+            schema_name,
+            &text,
+            convention,
+            options.ros2,
+        )?;
+        return Ok(built.map(|d| TopicDecoder::Built(Box::new(d))));
+    }
+    Ok(find(schema_name, message_encoding).map(TopicDecoder::Registered))
 }
 
 /// The decoder for a schema name and message encoding.

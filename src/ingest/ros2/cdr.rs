@@ -366,7 +366,7 @@ mod tests {
             Writer(vec![0, 1, 0, 0])
         }
         fn pad(&mut self, a: usize) {
-            while (self.0.len() - 4) % a != 0 {
+            while !(self.0.len() - 4).is_multiple_of(a) {
                 self.0.push(0);
             }
         }

@@ -4,4 +4,6 @@
 //! the schema text.
 
 pub mod cdr;
+pub mod decoder;
+pub mod map;
 pub mod msg;

@@ -1,0 +1,114 @@
+//! The decoder of one ROS 2 topic: its schema text parsed, a CDR plan compiled for the
+//! fields its type's mapping reads, each message converted to the contract's and checked.
+
+use super::cdr::{Plan, PlanError};
+use super::map::{convert, Convention, Converted, Ros2Settings, RosType, FRAME};
+use super::msg::{full_name, parse, SchemaError};
+use crate::contract::FieldIssue;
+use crate::ingest::decode::{push_validated as push, Decoder};
+use crate::ingest::samples::Samples;
+
+/// Why a ROS 2 topic cannot be read.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Ros2SchemaError {
+    #[error("schema text: {0}")]
+    Schema(#[from] SchemaError),
+    #[error("{0}")]
+    Plan(#[from] PlanError),
+    #[error("the schema of {ty} has no field `{field}`")]
+    MissingField { ty: &'static str, field: String },
+}
+
+/// Reads one topic of a standard ROS 2 type.
+#[derive(Debug, Clone)]
+pub struct Ros2Decoder {
+    ty: RosType,
+    plan: Plan,
+    convention: Option<Convention>,
+    settings: Ros2Settings,
+}
+
+impl Ros2Decoder {
+    /// The decoder of a topic whose schema is `schema_name` with `schema_text`, if its type
+    /// is one hindsight reads (`Ok(None)` otherwise).
+    pub fn for_schema(
+        schema_name: &str,
+        schema_text: &str,
+        convention: Option<Convention>,
+        settings: Ros2Settings,
+    ) -> Result<Option<Ros2Decoder>, Ros2SchemaError> {
+        let Some(ty) = full_name(schema_name).and_then(|n| RosType::of(&n)) else {
+            return Ok(None);
+        };
+        let defs = parse(schema_name, schema_text)?;
+        let numbers = ty.numbers();
+        let plan = Plan::new(&defs, &numbers, &FRAME)?;
+        if let Some(i) = (0..numbers.len()).find(|&i| !plan.has_number(i)) {
+            return Err(Ros2SchemaError::MissingField {
+                ty: ty.name(),
+                field: numbers[i].to_string(),
+            });
+        }
+        Ok(Some(Ros2Decoder {
+            ty,
+            plan,
+            convention,
+            settings,
+        }))
+    }
+
+    /// The contract message of one CDR message.
+    pub fn convert(&self, data: &[u8]) -> Result<Converted, FieldIssue> {
+        let picked = self
+            .plan
+            .read(data)
+            .map_err(|e| FieldIssue::new("(message)", e.to_string()))?;
+        let frame = if self.plan.has_string(0) {
+            picked.text[0]
+        } else {
+            ""
+        };
+        convert(
+            self.ty,
+            &picked.number[..self.ty.numbers().len()],
+            (picked.integer[0], picked.integer[1]),
+            frame,
+            self.convention,
+            &self.settings,
+        )
+    }
+}
+
+impl Decoder for Ros2Decoder {
+    fn schema_name(&self) -> &str {
+        self.ty.name()
+    }
+    fn message_encoding(&self) -> &str {
+        "cdr"
+    }
+    fn new_samples(&self) -> Box<dyn Samples> {
+        use crate::contract::*;
+        match self.ty {
+            RosType::Imu => Box::new(Vec::<Imu>::new()),
+            RosType::MagneticField => Box::new(Vec::<MagneticField>::new()),
+            RosType::NavSatFix => Box::new(Vec::<GnssFix>::new()),
+            RosType::FluidPressure => Box::new(Vec::<Depth>::new()),
+            RosType::Range => Box::new(Vec::<Altimeter>::new()),
+            RosType::TwistWithCovarianceStamped => Box::new(Vec::<Dvl>::new()),
+            RosType::QuaternionStamped => Box::new(Vec::<Attitude>::new()),
+            RosType::PointStamped => Box::new(Vec::<PositionFix>::new()),
+        }
+    }
+    fn decode_into(&self, data: &[u8], out: &mut dyn Samples) -> Result<(), FieldIssue> {
+        match self.convert(data)? {
+            Converted::Imu(m) => push(out, m),
+            Converted::MagneticField(m) => push(out, m),
+            Converted::GnssFix(m) => push(out, m),
+            Converted::Depth(m) => push(out, m),
+            Converted::Altimeter(m) => push(out, m),
+            Converted::Dvl(m) => push(out, m),
+            Converted::Attitude(m) => push(out, m),
+            Converted::PositionFix(m) => push(out, m),
+        }
+    }
+}

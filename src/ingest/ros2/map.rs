@@ -1,0 +1,431 @@
+//! The standard ROS 2 types, each turned into its contract message: which fields are read
+//! (paths for [`super::cdr::Plan`]) and how they become the contract's, frames and units
+//! converted.
+//!
+//! Frames: REP-103/105 (body FLU, world ENU) is turned into the contract's FRD/NED; a
+//! message already in FRD/NED is kept. Which one a message is in comes from its
+//! `header.frame_id` (a body frame ending in `_frd`, a world frame ending in `_ned`: native;
+//! anything else, e.g. `base_link`, `odom`, `map`: REP-103), or from a per-topic override.
+
+use crate::contract::{
+    Altimeter, Attitude, Depth, Dvl, FieldIssue, GnssFix, Imu, MagneticField, PositionFix,
+};
+use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
+
+/// Frame convention of a message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Convention {
+    /// REP-103: body x forward, y left, z up; world x east, y north, z up.
+    Rep103,
+    /// The contract's: body FRD, world NED.
+    Native,
+}
+
+/// What the conversions need that a ROS 2 message does not say.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ros2Settings {
+    /// Sea water density for FluidPressure to depth, kg/m^3.
+    pub water_density_kg_m3: f64,
+    /// Pressure at the surface, Pa (FluidPressure is absolute).
+    pub atmospheric_pressure_pa: f64,
+    /// Gravity for FluidPressure to depth, m/s^2.
+    pub gravity_m_s2: f64,
+    /// 1-sigma of a NavSatFix without a covariance (type unknown), m.
+    pub gnss_sigma_unknown_m: f64,
+    /// 1-sigma of a PointStamped position fix (it carries none), m.
+    pub point_fix_sigma_m: f64,
+}
+
+impl Default for Ros2Settings {
+    fn default() -> Self {
+        Ros2Settings {
+            water_density_kg_m3: 1025.0,
+            atmospheric_pressure_pa: 101_325.0,
+            gravity_m_s2: 9.80665,
+            gnss_sigma_unknown_m: 5.0,
+            point_fix_sigma_m: 1.0,
+        }
+    }
+}
+
+/// A standard ROS 2 type hindsight reads, and the contract message it becomes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RosType {
+    Imu,
+    MagneticField,
+    NavSatFix,
+    FluidPressure,
+    Range,
+    TwistWithCovarianceStamped,
+    QuaternionStamped,
+    PointStamped,
+}
+
+/// The stamp's paths, first in every type's list.
+const STAMP: [&str; 2] = ["header.stamp.sec", "header.stamp.nanosec"];
+/// The frame, the one string every type asks for.
+pub const FRAME: [&str; 1] = ["header.frame_id"];
+
+impl RosType {
+    pub const ALL: [RosType; 8] = [
+        RosType::Imu,
+        RosType::MagneticField,
+        RosType::NavSatFix,
+        RosType::FluidPressure,
+        RosType::Range,
+        RosType::TwistWithCovarianceStamped,
+        RosType::QuaternionStamped,
+        RosType::PointStamped,
+    ];
+
+    /// The type's full name, `pkg/Type`.
+    pub fn name(self) -> &'static str {
+        match self {
+            RosType::Imu => "sensor_msgs/Imu",
+            RosType::MagneticField => "sensor_msgs/MagneticField",
+            RosType::NavSatFix => "sensor_msgs/NavSatFix",
+            RosType::FluidPressure => "sensor_msgs/FluidPressure",
+            RosType::Range => "sensor_msgs/Range",
+            RosType::TwistWithCovarianceStamped => "geometry_msgs/TwistWithCovarianceStamped",
+            RosType::QuaternionStamped => "geometry_msgs/QuaternionStamped",
+            RosType::PointStamped => "geometry_msgs/PointStamped",
+        }
+    }
+
+    /// The type of a full name (`pkg/Type`).
+    pub fn of(full_name: &str) -> Option<RosType> {
+        RosType::ALL.into_iter().find(|t| t.name() == full_name)
+    }
+
+    /// Whether the type's vectors are in the body frame (else the world frame).
+    fn in_body(self) -> bool {
+        !matches!(self, RosType::QuaternionStamped | RosType::PointStamped)
+    }
+
+    /// The numbers read, after the stamp.
+    fn fields(self) -> &'static [&'static str] {
+        match self {
+            RosType::Imu => &[
+                "angular_velocity.x",
+                "angular_velocity.y",
+                "angular_velocity.z",
+                "linear_acceleration.x",
+                "linear_acceleration.y",
+                "linear_acceleration.z",
+            ],
+            RosType::MagneticField => &["magnetic_field.x", "magnetic_field.y", "magnetic_field.z"],
+            RosType::NavSatFix => &[
+                "status.status",
+                "latitude",
+                "longitude",
+                "position_covariance[0]",
+                "position_covariance[4]",
+                "position_covariance_type",
+            ],
+            RosType::FluidPressure => &["fluid_pressure"],
+            RosType::Range => &["range"],
+            RosType::TwistWithCovarianceStamped => &[
+                "twist.twist.linear.x",
+                "twist.twist.linear.y",
+                "twist.twist.linear.z",
+                "twist.covariance[0]",
+            ],
+            RosType::QuaternionStamped => &[
+                "quaternion.x",
+                "quaternion.y",
+                "quaternion.z",
+                "quaternion.w",
+            ],
+            RosType::PointStamped => &["point.x", "point.y", "point.z"],
+        }
+    }
+
+    /// Every number path, the stamp first.
+    pub fn numbers(self) -> Vec<&'static str> {
+        STAMP.iter().chain(self.fields()).copied().collect()
+    }
+}
+
+/// A converted message.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Converted {
+    Imu(Imu),
+    MagneticField(MagneticField),
+    GnssFix(GnssFix),
+    Depth(Depth),
+    Altimeter(Altimeter),
+    Dvl(Dvl),
+    Attitude(Attitude),
+    PositionFix(PositionFix),
+}
+
+/// The convention a message's frame name says.
+pub fn convention_of(frame_id: &str, in_body: bool) -> Convention {
+    let native = if in_body { "_frd" } else { "_ned" };
+    if frame_id.ends_with(native) || frame_id == &native[1..] {
+        Convention::Native
+    } else {
+        Convention::Rep103
+    }
+}
+
+/// Body FLU to FRD.
+fn body(v: Vector3<f64>, c: Convention) -> [f64; 3] {
+    match c {
+        Convention::Native => v.into(),
+        Convention::Rep103 => [v.x, -v.y, -v.z],
+    }
+}
+
+/// World ENU to NED.
+fn world(v: Vector3<f64>, c: Convention) -> Vector3<f64> {
+    match c {
+        Convention::Native => v,
+        Convention::Rep103 => Vector3::new(v.y, v.x, -v.z),
+    }
+}
+
+/// `ned_from_frd` of a REP-103 `enu_from_flu`: `C = R_ned_enu C_enu_flu R_flu_frd`.
+pub fn ned_from_frd(q_enu_from_flu: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    let ned_from_enu = Matrix3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0);
+    let flu_from_frd = Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0));
+    let c = ned_from_enu * q_enu_from_flu.to_rotation_matrix().matrix() * flu_from_frd;
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(c))
+}
+
+/// The contract message of one read message (`n`: the numbers in [`RosType::numbers`]
+/// order; `frame_id`; the convention when the topic overrides it).
+pub fn convert(
+    ty: RosType,
+    n: &[f64],
+    stamp: (i64, i64),
+    frame_id: &str,
+    given: Option<Convention>,
+    s: &Ros2Settings,
+) -> Result<Converted, FieldIssue> {
+    let stamp_ns = stamp
+        .0
+        .checked_mul(1_000_000_000)
+        .and_then(|t| t.checked_add(stamp.1))
+        .ok_or_else(|| FieldIssue::new("header.stamp", "out of range"))?;
+    let c = given.unwrap_or_else(|| convention_of(frame_id, ty.in_body()));
+    let f = &n[STAMP.len()..];
+    let v3 = |i: usize| Vector3::new(f[i], f[i + 1], f[i + 2]);
+    Ok(match ty {
+        RosType::Imu => Converted::Imu(Imu {
+            stamp_ns,
+            angular_velocity: body(v3(0), c),
+            specific_force: body(v3(3), c),
+        }),
+        RosType::MagneticField => Converted::MagneticField(MagneticField {
+            stamp_ns,
+            magnetic_field: body(v3(0), c),
+        }),
+        RosType::NavSatFix => {
+            if f[0] < 0.0 {
+                return Err(FieldIssue::new("status.status", "no fix (-1)"));
+            }
+            let sigma = if f[5] == 0.0 {
+                s.gnss_sigma_unknown_m
+            } else {
+                (0.5 * (f[3] + f[4])).max(0.0).sqrt()
+            };
+            Converted::GnssFix(GnssFix {
+                stamp_ns,
+                latitude_deg: f[1],
+                longitude_deg: f[2],
+                horizontal_sigma_m: sigma,
+            })
+        }
+        RosType::FluidPressure => Converted::Depth(Depth {
+            stamp_ns,
+            depth: (f[0] - s.atmospheric_pressure_pa) / (s.water_density_kg_m3 * s.gravity_m_s2),
+        }),
+        RosType::Range => Converted::Altimeter(Altimeter {
+            stamp_ns,
+            altitude: f[0],
+        }),
+        RosType::TwistWithCovarianceStamped => Converted::Dvl(Dvl {
+            stamp_ns,
+            velocity: body(v3(0), c),
+            // Drivers mark a reading without bottom lock with covariance[0] = -1.
+            valid: f[3] >= 0.0,
+            altitude: None,
+        }),
+        RosType::QuaternionStamped => {
+            let q = Quaternion::new(f[3], f[0], f[1], f[2]);
+            let norm = q.norm();
+            if norm.is_nan() || norm <= 0.5 {
+                return Err(FieldIssue::new(
+                    "quaternion",
+                    "not a rotation (norm far from 1)",
+                ));
+            }
+            let q = UnitQuaternion::from_quaternion(q);
+            let ned_from_body = match c {
+                Convention::Native => q,
+                Convention::Rep103 => ned_from_frd(&q),
+            };
+            let (roll, pitch, yaw) = ned_from_body.euler_angles();
+            Converted::Attitude(Attitude {
+                stamp_ns,
+                roll,
+                pitch,
+                yaw,
+            })
+        }
+        RosType::PointStamped => {
+            let p = world(v3(0), c);
+            Converted::PositionFix(PositionFix {
+                stamp_ns,
+                north_m: p.x,
+                east_m: p.y,
+                down_m: Some(p.z),
+                sigma_m: s.point_fix_sigma_m,
+                label: frame_id.to_string(),
+            })
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn numbers(fields: &[f64]) -> Vec<f64> {
+        [0.0, 0.0].iter().chain(fields).copied().collect()
+    }
+
+    #[test]
+    fn conventions_come_from_the_frame_name() {
+        assert_eq!(convention_of("base_link", true), Convention::Rep103);
+        assert_eq!(convention_of("imu_frd", true), Convention::Native);
+        assert_eq!(convention_of("map", false), Convention::Rep103);
+        assert_eq!(convention_of("odom_ned", false), Convention::Native);
+        assert_eq!(convention_of("ned", false), Convention::Native);
+        // A body frame named like a world frame is still REP-103 in the body.
+        assert_eq!(convention_of("base_ned", true), Convention::Rep103);
+    }
+
+    #[test]
+    fn flu_vectors_become_frd() {
+        let s = Ros2Settings::default();
+        let n = numbers(&[0.1, 0.2, 0.3, 1.0, 2.0, 9.8]);
+        let Converted::Imu(m) = convert(RosType::Imu, &n, (5, 7), "base_link", None, &s).unwrap()
+        else {
+            panic!()
+        };
+        assert_eq!(m.stamp_ns, 5_000_000_007);
+        assert_eq!(m.angular_velocity, [0.1, -0.2, -0.3]);
+        // At rest and level, REP-103's accelerometer reads +9.8 up: FRD's -9.8 down.
+        assert_eq!(m.specific_force, [1.0, -2.0, -9.8]);
+        let Converted::Imu(m) = convert(RosType::Imu, &n, (5, 7), "imu_frd", None, &s).unwrap()
+        else {
+            panic!()
+        };
+        assert_eq!(m.specific_force, [1.0, 2.0, 9.8]);
+        // A topic's override wins over the frame name.
+        let Converted::Imu(m) = convert(
+            RosType::Imu,
+            &n,
+            (5, 7),
+            "imu_frd",
+            Some(Convention::Rep103),
+            &s,
+        )
+        .unwrap() else {
+            panic!()
+        };
+        assert_eq!(m.angular_velocity, [0.1, -0.2, -0.3]);
+    }
+
+    /// A REP-103 attitude (ENU from FLU) gives the contract's Euler angles: yaw measured from
+    /// north clockwise (90 deg - ENU yaw), roll the same, pitch of the other sign.
+    #[test]
+    fn enu_quaternions_become_ned_euler_angles() {
+        let (roll, pitch, yaw_enu) = (0.1f64, 0.2f64, 1.2f64);
+        let q = UnitQuaternion::from_euler_angles(roll, pitch, yaw_enu);
+        let n = numbers(&[q.i, q.j, q.k, q.w]);
+        let s = Ros2Settings::default();
+        let Converted::Attitude(a) =
+            convert(RosType::QuaternionStamped, &n, (0, 0), "map", None, &s).unwrap()
+        else {
+            panic!()
+        };
+        let yaw_ned = std::f64::consts::FRAC_PI_2 - yaw_enu;
+        assert!((a.roll - roll).abs() < 1e-12, "{a:?}");
+        assert!((a.pitch + pitch).abs() < 1e-12, "{a:?}");
+        assert!(
+            (crate::angle::wrap_pi(a.yaw - yaw_ned)).abs() < 1e-12,
+            "{a:?}"
+        );
+        let Converted::Attitude(a) =
+            convert(RosType::QuaternionStamped, &n, (0, 0), "map_ned", None, &s).unwrap()
+        else {
+            panic!()
+        };
+        assert!((a.yaw - yaw_enu).abs() < 1e-12 && (a.pitch - pitch).abs() < 1e-12);
+        let bad = numbers(&[0.0, 0.0, 0.0, 0.0]);
+        assert!(convert(RosType::QuaternionStamped, &bad, (0, 0), "map", None, &s).is_err());
+    }
+
+    #[test]
+    fn pressure_fixes_and_dvl_lock() {
+        let s = Ros2Settings::default();
+        let p = s.atmospheric_pressure_pa + 100.0 * s.water_density_kg_m3 * s.gravity_m_s2;
+        let Converted::Depth(d) =
+            convert(RosType::FluidPressure, &numbers(&[p]), (0, 0), "", None, &s).unwrap()
+        else {
+            panic!()
+        };
+        assert!((d.depth - 100.0).abs() < 1e-9);
+        let fix = |status: f64, cov_type: f64| {
+            convert(
+                RosType::NavSatFix,
+                &numbers(&[status, 35.0, 129.5, 4.0, 16.0, cov_type]),
+                (0, 0),
+                "gps",
+                None,
+                &s,
+            )
+        };
+        let Ok(Converted::GnssFix(g)) = fix(0.0, 2.0) else {
+            panic!()
+        };
+        assert!((g.horizontal_sigma_m - 10f64.sqrt()).abs() < 1e-12);
+        let Ok(Converted::GnssFix(g)) = fix(0.0, 0.0) else {
+            panic!()
+        };
+        assert_eq!(g.horizontal_sigma_m, s.gnss_sigma_unknown_m);
+        assert_eq!(fix(-1.0, 2.0).unwrap_err().field, "status.status");
+        let dvl = |cov0: f64| {
+            let n = numbers(&[1.0, 0.1, 0.0, cov0]);
+            match convert(
+                RosType::TwistWithCovarianceStamped,
+                &n,
+                (0, 0),
+                "dvl_frd",
+                None,
+                &s,
+            ) {
+                Ok(Converted::Dvl(d)) => d,
+                other => panic!("{other:?}"),
+            }
+        };
+        assert!(dvl(0.0001).valid);
+        assert!(!dvl(-1.0).valid);
+        let Converted::PositionFix(p) = convert(
+            RosType::PointStamped,
+            &numbers(&[10.0, 20.0, -5.0]),
+            (0, 0),
+            "map",
+            None,
+            &s,
+        )
+        .unwrap() else {
+            panic!()
+        };
+        assert_eq!((p.north_m, p.east_m, p.down_m), (20.0, 10.0, Some(5.0)));
+    }
+}

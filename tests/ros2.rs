@@ -1,0 +1,238 @@
+//! ROS 2 recordings (issue 16): topics in `cdr` with the standard types, read through the
+//! schema text the file carries, converted to the contract's frames and units.
+
+mod common;
+
+use hindsight::contract::{Depth, Dvl, Imu};
+use hindsight::ingest::{read_log_from, IngestError, IngestOptions};
+use hindsight::sim::writer::{to_bytes, WriterOptions};
+
+const HEADER: &str = "\
+================================================================================
+MSG: std_msgs/Header
+builtin_interfaces/Time stamp
+string frame_id
+================================================================================
+MSG: builtin_interfaces/Time
+int32 sec
+uint32 nanosec
+";
+
+const VECTOR3: &str = "\
+================================================================================
+MSG: geometry_msgs/Vector3
+float64 x
+float64 y
+float64 z
+";
+
+fn imu_schema() -> String {
+    format!(
+        "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\n\
+         float64[9] orientation_covariance\ngeometry_msgs/Vector3 angular_velocity\n\
+         float64[9] angular_velocity_covariance\ngeometry_msgs/Vector3 linear_acceleration\n\
+         float64[9] linear_acceleration_covariance\n{HEADER}\
+         ================================================================================\n\
+         MSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n{VECTOR3}"
+    )
+}
+
+/// Little-endian plain CDR, the alignment rules written out (as the Python writer does).
+struct Cdr(Vec<u8>);
+
+impl Cdr {
+    fn new() -> Self {
+        Cdr(vec![0, 1, 0, 0])
+    }
+    fn pad(&mut self, a: usize) {
+        while !(self.0.len() - 4).is_multiple_of(a) {
+            self.0.push(0);
+        }
+    }
+    fn i32(&mut self, v: i32) -> &mut Self {
+        self.pad(4);
+        self.0.extend(v.to_le_bytes());
+        self
+    }
+    fn u32(&mut self, v: u32) -> &mut Self {
+        self.pad(4);
+        self.0.extend(v.to_le_bytes());
+        self
+    }
+    fn f64(&mut self, v: f64) -> &mut Self {
+        self.pad(8);
+        self.0.extend(v.to_le_bytes());
+        self
+    }
+    fn f64s(&mut self, v: &[f64]) -> &mut Self {
+        for x in v {
+            self.f64(*x);
+        }
+        self
+    }
+    fn string(&mut self, s: &str) -> &mut Self {
+        self.u32(s.len() as u32 + 1);
+        self.0.extend(s.as_bytes());
+        self.0.push(0);
+        self
+    }
+    fn header(&mut self, stamp_ns: i64, frame: &str) -> &mut Self {
+        self.i32((stamp_ns / 1_000_000_000) as i32)
+            .u32((stamp_ns % 1_000_000_000) as u32)
+            .string(frame)
+    }
+}
+
+fn imu_cdr(stamp_ns: i64, frame: &str, w: [f64; 3], a: [f64; 3]) -> Vec<u8> {
+    let mut c = Cdr::new();
+    c.header(stamp_ns, frame)
+        .f64s(&[0.0, 0.0, 0.0, 1.0])
+        .f64s(&[0.0; 9]);
+    c.f64s(&w).f64s(&[0.0; 9]).f64s(&a).f64s(&[0.0; 9]);
+    c.0
+}
+
+const T0: i64 = 1_700_000_000_000_000_000;
+
+/// A log with ROS 2 topics beside json ones.
+fn mixed_log(imu_frame: &str) -> Vec<u8> {
+    to_bytes(WriterOptions::default(), |w| {
+        let schema = imu_schema();
+        for k in 0..50i64 {
+            let t = T0 + k * 10_000_000;
+            let data = imu_cdr(t, imu_frame, [0.01 * k as f64, 0.02, -0.03], [0.1, -0.2, 9.8]);
+            w.write_raw("/imu", "sensor_msgs/msg/Imu", &schema, "cdr", &data, t as u64)?;
+            let depth = Depth {
+                stamp_ns: t,
+                depth: 10.0 + k as f64,
+            };
+            w.write("/depth", &depth, t as u64)?;
+        }
+        let twist_schema = format!(
+            "std_msgs/Header header\ngeometry_msgs/TwistWithCovariance twist\n{HEADER}\
+             ================================================================================\n\
+             MSG: geometry_msgs/TwistWithCovariance\ngeometry_msgs/Twist twist\nfloat64[36] covariance\n\
+             ================================================================================\n\
+             MSG: geometry_msgs/Twist\nVector3 linear\nVector3 angular\n{VECTOR3}"
+        );
+        for (k, cov0) in [(0i64, 1e-4), (1, -1.0)] {
+            let t = T0 + k * 1_000_000_000;
+            let mut c = Cdr::new();
+            c.header(t, "dvl_frd").f64s(&[1.5, 0.1, -0.05, 0.0, 0.0, 0.0]);
+            let mut cov = [0.0; 36];
+            cov[0] = cov0;
+            c.f64s(&cov);
+            w.write_raw(
+                "/dvl",
+                "geometry_msgs/msg/TwistWithCovarianceStamped",
+                &twist_schema,
+                "cdr",
+                &c.0,
+                t as u64,
+            )?;
+        }
+        Ok(())
+    })
+    .unwrap()
+}
+
+#[test]
+fn cdr_topics_read_beside_json_in_the_contract_frames() {
+    let log = read_log_from(&mixed_log("base_link")[..], &IngestOptions::default()).unwrap();
+    let imu: &[Imu] = log.messages("/imu").unwrap();
+    assert_eq!(imu.len(), 50);
+    assert_eq!(imu[7].stamp_ns, T0 + 70_000_000);
+    // base_link is REP-103 (FLU): y and z change sign.
+    assert_eq!(imu[7].angular_velocity, [0.07, -0.02, 0.03]);
+    assert_eq!(imu[7].specific_force, [0.1, 0.2, -9.8]);
+    let depth: &[Depth] = log.messages("/depth").unwrap();
+    assert_eq!(depth.len(), 50);
+    let dvl: &[Dvl] = log.messages("/dvl").unwrap();
+    assert_eq!(dvl.len(), 2);
+    assert_eq!(dvl[0].velocity, [1.5, 0.1, -0.05]); // dvl_frd: kept
+    assert!(
+        dvl[0].valid && !dvl[1].valid,
+        "covariance[0] = -1: no bottom lock"
+    );
+
+    let log = read_log_from(&mixed_log("imu_frd")[..], &IngestOptions::default()).unwrap();
+    let imu: &[Imu] = log.messages("/imu").unwrap();
+    assert_eq!(imu[7].specific_force, [0.1, -0.2, 9.8]);
+}
+
+#[test]
+fn a_schema_that_does_not_parse_is_refused_naming_the_topic() {
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        let data = imu_cdr(T0, "base_link", [0.0; 3], [0.0; 3]);
+        w.write_raw(
+            "/vehicle/imu",
+            "sensor_msgs/msg/Imu",
+            "float64[x] broken\n",
+            "cdr",
+            &data,
+            0,
+        )
+    })
+    .unwrap();
+    let e = read_log_from(&bytes[..], &IngestOptions::default()).unwrap_err();
+    assert!(matches!(e, IngestError::Ros2Schema { .. }), "{e}");
+    let text = e.to_string();
+    assert!(
+        text.contains("/vehicle/imu") && text.contains("line 1"),
+        "{text}"
+    );
+}
+
+#[test]
+fn short_and_flipped_cdr_messages_are_counted_never_a_panic() {
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        let schema = imu_schema();
+        let data = imu_cdr(T0, "base_link", [0.1; 3], [0.0, 0.0, 9.8]);
+        w.write_raw("/imu", "sensor_msgs/msg/Imu", &schema, "cdr", &data, 0)?;
+        w.write_raw(
+            "/imu",
+            "sensor_msgs/msg/Imu",
+            &schema,
+            "cdr",
+            &data[..100],
+            1,
+        )
+    })
+    .unwrap();
+    let options = IngestOptions {
+        max_invalid_fraction: 1.0,
+        ..IngestOptions::default()
+    };
+    let log = read_log_from(&bytes[..], &options).unwrap();
+    let s = log.stream("/imu").unwrap();
+    assert_eq!((s.counts.received, s.counts.invalid), (2, 1));
+    assert!(
+        s.issues[0].to_string().contains("shorter than its layout"),
+        "{}",
+        s.issues[0]
+    );
+    // Every single-byte corruption of an uncompressed copy reads or fails cleanly.
+    let plain = to_bytes(
+        WriterOptions {
+            compression: hindsight::sim::writer::Compression::None,
+            ..WriterOptions::default()
+        },
+        |w| {
+            let data = imu_cdr(T0, "base_link", [0.1; 3], [0.0, 0.0, 9.8]);
+            w.write_raw(
+                "/imu",
+                "sensor_msgs/msg/Imu",
+                &imu_schema(),
+                "cdr",
+                &data,
+                0,
+            )
+        },
+    )
+    .unwrap();
+    for i in 0..plain.len() {
+        let mut b = plain.clone();
+        b[i] ^= 0x5a;
+        let _ = read_log_from(&b[..], &options);
+    }
+}
