@@ -98,6 +98,14 @@ impl Plan {
         self.has_string.get(i).copied().unwrap_or(false)
     }
 
+    /// Walks one message through the whole layout, keeping nothing: the bytes it takes
+    /// (at most the message's length; the rest is padding a writer may add).
+    pub fn check(&self, data: &[u8]) -> Result<usize, CdrError> {
+        let mut c = Cursor::new(data)?;
+        c.steps(&self.steps, &mut None)?;
+        Ok(c.at)
+    }
+
     /// Reads one message (with its encapsulation header).
     pub fn read<'a>(&self, data: &'a [u8]) -> Result<Picked<'a>, CdrError> {
         let mut c = Cursor::new(data)?;
@@ -221,6 +229,9 @@ impl<'a> Cursor<'a> {
     }
 
     fn take(&mut self, n: usize, align: usize) -> Result<&'a [u8], CdrError> {
+        if n == 0 {
+            return Ok(&[]); // nothing to align: an empty sequence ends at its count
+        }
         let a = align.min(self.max_align);
         let offset = self.at - HEADER;
         let start = self.at + (a - offset % a) % a;

@@ -5,7 +5,8 @@
 //! no room in a message), comments, primitive types, bounded and unbounded strings, fixed,
 //! bounded and unbounded arrays, and type names relative to the enclosing package (`Header`
 //! is `std_msgs/Header`). `builtin_interfaces/Time` and `Duration` are known without their
-//! text, since some writers leave them out.
+//! text, since some writers leave them out. A message with no fields (constants only) takes
+//! one byte, as rosidl gives it (`uint8 structure_needs_at_least_one_member`).
 
 use std::collections::HashMap;
 
@@ -161,6 +162,14 @@ pub fn parse(schema_name: &str, text: &str) -> Result<Definitions, SchemaError> 
     }
     types.insert(current, fields);
     types.remove("");
+    // ROS 2 gives a message without fields (constants only) one byte on the wire.
+    for fields in types.values_mut().filter(|f| f.is_empty()) {
+        fields.push(Field {
+            name: "structure_needs_at_least_one_member".into(),
+            element: Element::Primitive(Primitive::U8),
+            shape: Shape::One,
+        });
+    }
     for (name, body) in BUILTIN {
         if !types.contains_key(name) {
             let fields = body
