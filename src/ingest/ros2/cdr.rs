@@ -495,6 +495,29 @@ float64 z
         assert_eq!(got.number[..3], [13.0, -4.5, 10.0]);
     }
 
+    /// Two rules rosbag2's recordings taught: an empty sequence ends at its count (no
+    /// alignment for elements that are not there), and a message of constants only takes
+    /// one byte.
+    #[test]
+    fn empty_sequences_and_empty_messages() {
+        let text = "\
+int64[] none
+uint32 after
+Empty e
+uint8 last
+================================================================================
+MSG: a/Empty
+uint8 ONLY=1
+";
+        let defs = parse("a/B", text).unwrap();
+        let plan = Plan::new(&defs, &["after", "last"], &[]).unwrap();
+        let mut w = Writer::new();
+        w.u32(0).u32(77).u8(0).u8(9);
+        let got = plan.read(&w.0).unwrap();
+        assert_eq!((got.integer[0], got.integer[1]), (77, 9));
+        assert_eq!(plan.check(&w.0).unwrap(), w.0.len());
+    }
+
     #[test]
     fn big_endian_and_bad_headers() {
         let defs = parse("a/B", "uint16 a\nfloat64 b\n").unwrap();
