@@ -366,9 +366,7 @@ pub fn reconstruct(
     mission: &Mission,
     config: &Config,
 ) -> Result<Reconstruction, ReconError> {
-    let pass = forward(streams, mission, config)?;
-    let depth_used = config.depth.enabled && !streams.depth.is_empty();
-    finish(pass, config, depth_used)
+    reconstruct_sharing(streams, mission, config, None).map(|(r, _)| r)
 }
 
 /// [`reconstruct`] with [`forward_sharing`]'s shared attitude; also gives back the attitude

@@ -24,6 +24,8 @@ pub enum Ros2SchemaError {
 pub struct Ros2Decoder {
     ty: RosType,
     plan: Plan,
+    /// How many numbers the plan keeps (the stamp and the type's fields).
+    numbers: usize,
     convention: Option<Convention>,
     settings: Ros2Settings,
 }
@@ -52,6 +54,7 @@ impl Ros2Decoder {
         Ok(Some(Ros2Decoder {
             ty,
             plan,
+            numbers: numbers.len(),
             convention,
             settings,
         }))
@@ -70,7 +73,7 @@ impl Ros2Decoder {
         };
         convert(
             self.ty,
-            &picked.number[..self.ty.numbers().len()],
+            &picked.number[..self.numbers],
             (picked.integer[0], picked.integer[1]),
             frame,
             self.convention,
