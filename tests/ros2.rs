@@ -310,3 +310,111 @@ fn rosbag2_recordings_fit_their_schemas_and_read_in_info() {
         assert!(checked.get(ty).is_some_and(|&n| n > 0), "{ty}: {checked:?}");
     }
 }
+
+/// A log with the same IMU messages (cdr) on each of `topics`, and json depth.
+fn imu_on_topics(topics: &[&str]) -> Vec<u8> {
+    to_bytes(WriterOptions::default(), |w| {
+        let schema = imu_schema();
+        for k in 0..20i64 {
+            let t = T0 + k * 10_000_000;
+            let data = imu_cdr(t, "base_link", [0.0, 0.0, 0.01], [0.0, 0.0, 9.8]);
+            for topic in topics {
+                w.write_raw(
+                    topic,
+                    "sensor_msgs/msg/Imu",
+                    &schema,
+                    "cdr",
+                    &data,
+                    t as u64,
+                )?;
+            }
+            w.write(
+                "/depth",
+                &Depth {
+                    stamp_ns: t,
+                    depth: 5.0,
+                },
+                t as u64,
+            )?;
+        }
+        Ok(())
+    })
+    .unwrap()
+}
+
+fn read_naming(
+    bytes: &[u8],
+    named: &[(&str, &str)],
+) -> Result<hindsight::ingest::Log, IngestError> {
+    let options = IngestOptions {
+        topics: named
+            .iter()
+            .map(|(r, t)| (r.to_string(), t.to_string()))
+            .collect(),
+        ..IngestOptions::default()
+    };
+    read_log_from(bytes, &options)
+}
+
+#[test]
+fn a_role_takes_its_default_topic_then_the_one_topic_of_its_type() {
+    use hindsight::contract::Streams;
+    use hindsight::ingest::RoleSource;
+    let log = read_naming(&imu_on_topics(&["/vehicle/imu/data"]), &[]).unwrap();
+    assert_eq!(log.role_topic::<Imu>(), Some("/vehicle/imu/data"));
+    assert_eq!(Streams::of(&log).imu.len(), 20);
+    assert_eq!(Streams::of(&log).depth.len(), 20);
+    let imu_role = log.roles.iter().find(|c| c.role == "imu").unwrap();
+    assert_eq!(imu_role.source, RoleSource::ByType);
+
+    // The default topic wins over another of the type.
+    let log = read_naming(&imu_on_topics(&["/imu_aux", "/imu"]), &[]).unwrap();
+    assert_eq!(log.role_topic::<Imu>(), Some("/imu"));
+    // Named, another topic wins over the default.
+    let log = read_naming(
+        &imu_on_topics(&["/imu_aux", "/imu"]),
+        &[("imu", "/imu_aux")],
+    )
+    .unwrap();
+    assert_eq!(log.role_topic::<Imu>(), Some("/imu_aux"));
+    assert_eq!(Streams::of(&log).imu.len(), 20);
+}
+
+#[test]
+fn an_ambiguous_or_misnamed_role_is_refused_naming_the_candidates() {
+    let two = imu_on_topics(&["/port/imu", "/stbd/imu"]);
+    let e = read_naming(&two, &[]).unwrap_err();
+    let text = e.to_string();
+    assert!(matches!(e, IngestError::Role(_)), "{e:?}");
+    assert!(
+        text.contains("ambiguous") && text.contains("/port/imu") && text.contains("/stbd/imu"),
+        "{text}"
+    );
+    let log = read_naming(&two, &[("imu", "/stbd/imu")]).unwrap();
+    assert_eq!(log.role_topic::<Imu>(), Some("/stbd/imu"));
+
+    let text = read_naming(&two, &[("imu", "/imu")])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        text.contains("no topic /imu") && text.contains("/port/imu"),
+        "{text}"
+    );
+    let text = read_naming(&two, &[("imu", "/depth")])
+        .unwrap_err()
+        .to_string();
+    assert!(text.contains("/depth holds `hindsight.Depth`"), "{text}");
+    let text = read_naming(&two, &[("gyro", "/port/imu")])
+        .unwrap_err()
+        .to_string();
+    assert!(text.contains("unknown topic role `gyro`"), "{text}");
+
+    // Not strict (what info uses): read, the problem kept as a warning.
+    let options = IngestOptions {
+        strict_roles: false,
+        ..IngestOptions::default()
+    };
+    let log = read_log_from(&two[..], &options).unwrap();
+    assert_eq!(log.role_topic::<Imu>(), None);
+    assert!(log.warnings().iter().any(|w| w.contains("ambiguous")));
+}

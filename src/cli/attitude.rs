@@ -67,6 +67,9 @@ pub struct AttitudeArgs {
     #[command(flatten)]
     pub policy: PolicyArgs,
 
+    #[command(flatten)]
+    pub source: super::source::SourceArgs,
+
     /// Output folder (created if missing; files of the same names are replaced).
     #[arg(long, value_name = "DIR", required_unless_present = "print_config")]
     pub out: Option<PathBuf>,
@@ -131,19 +134,24 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         eprintln!("note: {a}");
     }
     let started = Instant::now();
-    let log = super::load(&log_path, &args.policy.ingest_options(), &args.offsets)?;
+    let log = super::load(
+        &log_path,
+        &args.policy.ingest_options(&args.source),
+        &args.offsets,
+    )?;
     let mission = log
-        .mission()
+        .mission_or(&args.source.mission_defaults(Default::default()))
         .with_context(|| format!("reading {}", log_path.display()))?;
-    let imu: &[Imu] = log.messages("/imu").unwrap_or_default();
+    super::print_roles(&log);
+    let imu: &[Imu] = log.role();
     if imu.len() < 2 {
         return Err(compare::InputError::NoImu)
             .with_context(|| format!("attitude from {}", log_path.display()));
     }
-    let raw_mag: &[MagneticField] = log.messages("/mag").unwrap_or_default();
-    let dvl: &[Dvl] = log.messages("/dvl").unwrap_or_default();
-    let marks: &[PositionFix] = log.messages("/position_fix").unwrap_or_default();
-    let truth: &[Truth] = log.messages("/truth").unwrap_or_default();
+    let raw_mag: &[MagneticField] = log.role();
+    let dvl: &[Dvl] = log.role();
+    let marks: &[PositionFix] = log.role();
+    let truth: &[Truth] = log.role();
     eprintln!(
         "read {} in {:.1} s: {} IMU, {} magnetometer, {} DVL readings",
         log_path.display(),

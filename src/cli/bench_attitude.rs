@@ -23,8 +23,8 @@ pub fn run(repeat: usize, keep: Option<&Path>) -> Result<()> {
 
 fn measure(path: &Path, repeat: usize) -> Result<()> {
     let log = ingest::read_log(path, &IngestOptions::default())?;
-    let imu: &[Imu] = log.messages("/imu").unwrap_or_default();
-    let mag: &[MagneticField] = log.messages("/mag").unwrap_or_default();
+    let imu: &[Imu] = log.role();
+    let mag: &[MagneticField] = log.role();
     let inputs = AhrsInputs {
         imu,
         mag,

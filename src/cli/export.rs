@@ -50,7 +50,7 @@ pub fn run(args: ExportArgs) -> Result<()> {
     let period_ns = (1e9 / args.rate).round() as i64;
     let log = super::load(
         &args.log.log,
-        &args.policy.ingest_options(),
+        &args.policy.ingest_options(&args.log.source),
         &args.log.offsets,
     )?;
     if log.message_count() == 0 {

@@ -46,6 +46,9 @@ pub struct IdentifyArgs {
     #[command(flatten)]
     pub policy: PolicyArgs,
 
+    #[command(flatten)]
+    pub source: super::source::SourceArgs,
+
     /// The model to identify.
     #[arg(long, value_enum, default_value_t = Model::HeavePitch)]
     pub model: Model,
@@ -137,7 +140,7 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
     let start = start_values(&args)?;
     let mut records = Vec::new();
     for path in &args.logs {
-        let log = super::load(path, &args.policy.ingest_options(), &[])?;
+        let log = super::load(path, &args.policy.ingest_options(&args.source), &[])?;
         let name = path.file_name().map_or_else(
             || path.display().to_string(),
             |n| n.to_string_lossy().into_owned(),

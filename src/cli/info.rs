@@ -2,7 +2,7 @@
 
 use super::LogArgs;
 use anyhow::Result;
-use hindsight::ingest::{stats::GAP_FACTOR, Ending, IngestOptions, Log, Stream};
+use hindsight::ingest::{stats::GAP_FACTOR, Ending, IngestOptions, Log, RoleSource, Stream};
 use hindsight::time::format_utc;
 
 /// Show what a log holds: per topic its schema, rate, span, gaps and defects; the mission.
@@ -26,12 +26,14 @@ pub struct InfoArgs {
 
 pub fn run(args: InfoArgs) -> Result<()> {
     // info reports every defect instead of stopping at the first.
-    let options = IngestOptions {
+    let mut options = IngestOptions {
         skip_unknown: true,
         max_invalid_fraction: 1.0,
         keep_messages: false,
+        strict_roles: false,
         ..IngestOptions::default()
     };
+    args.log.source.apply(&mut options);
     let log = super::load(&args.log.log, &options, &args.log.offsets)?;
     print!(
         "{}",
@@ -116,6 +118,22 @@ fn render(log: &Log, name: &str, list_gaps: bool) -> String {
         rows.push(r);
     }
     out.push_str(&table(&header, &rows));
+    let moved: Vec<String> = log
+        .roles
+        .iter()
+        .filter(|c| c.source != RoleSource::DefaultTopic)
+        .map(|c| format!("{} {}", c.role, c.topic))
+        .collect();
+    if !moved.is_empty() {
+        let _ = writeln!(
+            out,
+            "roles not at their default topic: {}",
+            moved.join(", ")
+        );
+    }
+    for p in &log.role_problems {
+        let _ = writeln!(out, "role  {p}");
+    }
     for s in &log.streams {
         if list_gaps {
             for g in &s.timing.gaps {

@@ -14,6 +14,7 @@ mod identify;
 mod info;
 mod reconstruct;
 mod simulate;
+mod source;
 mod study;
 mod vehicle;
 
@@ -39,7 +40,11 @@ Exit status: 0 success; 2 bad command line or configuration file; 3 the input lo
 contract (the message names topic, log time and field); 4 an output could not be written;
 1 anything else.
 
-Logs follow the recorded-log contract: MCAP with JSON messages whose schemas are in schemas/.";
+Logs follow the recorded-log contract: MCAP with JSON messages whose schemas are in schemas/,
+or ROS 2 recordings (rosbag2 MCAP, cdr) of the standard types (sensor_msgs Imu, MagneticField,
+NavSatFix, FluidPressure, Range; geometry_msgs TwistWithCovarianceStamped, QuaternionStamped,
+PointStamped), or both in one file. Each role (imu, dvl, ...) takes its default topic, else
+the one topic of its type, else --topic ROLE=TOPIC.";
 
 /// Reconstruct what an underwater vehicle did from its recorded sensor logs (MCAP).
 #[derive(Debug, Parser)]
@@ -206,6 +211,9 @@ pub struct LogArgs {
     /// e.g. --offset /dvl=-0.120 when the DVL stamps run 120 ms late.
     #[arg(long = "offset", value_name = "TOPIC=SECONDS")]
     pub offsets: Vec<ClockOffset>,
+
+    #[command(flatten)]
+    pub source: source::SourceArgs,
 }
 
 /// What a command that needs clean data tolerates in a log.
@@ -235,13 +243,33 @@ fn parse_fraction(text: &str) -> Result<f64, String> {
 }
 
 impl PolicyArgs {
-    fn ingest_options(&self) -> IngestOptions {
-        IngestOptions {
+    /// Ingest options of this policy with `source`'s topic roles and conversions.
+    fn ingest_options(&self, source: &source::SourceArgs) -> IngestOptions {
+        let mut options = IngestOptions {
             skip_unknown: self.skip_unknown,
             max_invalid_fraction: self.max_invalid_fraction,
             keep_messages: true,
             ..IngestOptions::default()
-        }
+        };
+        source.apply(&mut options);
+        options
+    }
+}
+
+/// Prints the roles not played by their default topic (found by type or named), so that a
+/// user sees which ROS 2 topic became the IMU.
+fn print_roles(log: &Log) {
+    use hindsight::ingest::RoleSource;
+    for c in log
+        .roles
+        .iter()
+        .filter(|c| c.source != RoleSource::DefaultTopic)
+    {
+        let how = match c.source {
+            RoleSource::Named => "as named",
+            _ => "the one topic of its type",
+        };
+        eprintln!("{}: {} ({how})", c.role, c.topic);
     }
 }
 

@@ -317,17 +317,28 @@ fn tune_noise(
     (tuned, tuning)
 }
 
+/// The configuration's topic roles and ROS 2 conversions, the command line's over them.
+fn ingest_options(args: &ReconstructArgs, config: &Config) -> hindsight::ingest::IngestOptions {
+    let mut options = args.policy.ingest_options(&Default::default());
+    options.topics = config.topics.clone();
+    options.frame_conventions = config.frames.clone();
+    options.ros2 = config.ros2;
+    args.log.source.apply(&mut options);
+    options
+}
+
 pub fn run(args: ReconstructArgs) -> Result<()> {
     let started = Instant::now();
     let config = args.config()?;
     let log = super::load(
         &args.log.log,
-        &args.policy.ingest_options(),
+        &ingest_options(&args, &config),
         &args.log.offsets,
     )?;
     let mission = log
-        .mission()
+        .mission_or(&args.log.source.mission_defaults(config.mission.clone()))
         .with_context(|| format!("reading {}", args.log.log.display()))?;
+    super::print_roles(&log);
     let ingest_s = started.elapsed().as_secs_f64();
     let streams = Streams::of(&log);
     eprintln!(

@@ -89,16 +89,16 @@ impl Record {
     /// Reads a log. `speed_m_s` overrides the DVL's forward speed.
     pub fn from_log(name: &str, log: &Log, speed_m_s: Option<f64>) -> Result<Record, RecordError> {
         let log_name = name.to_string();
-        let imu: &[Imu] = log.messages("/imu").unwrap_or_default();
-        let fins: &[ControlSurfaces] = log.messages("/fins").unwrap_or_default();
-        let attitude: &[Attitude] = log.messages("/attitude").unwrap_or_default();
+        let imu: &[Imu] = log.role();
+        let fins: &[ControlSurfaces] = log.role();
+        let attitude: &[Attitude] = log.role();
         let dvl: Vec<&Dvl> = log
             .messages::<Dvl>("/dvl")
             .unwrap_or_default()
             .iter()
             .filter(|d| d.valid)
             .collect();
-        let depth: &[Depth] = log.messages("/depth").unwrap_or_default();
+        let depth: &[Depth] = log.role();
         if imu.len() < 2 {
             return Err(RecordError::NoImu { log: log_name });
         }

@@ -4,6 +4,7 @@ use super::decode::{self, TopicDecoder};
 use super::error::{IngestError, MessageIssue};
 use super::log::{FileReport, IngestOptions, Log, SkippedTopic, Stream, StreamCounts};
 use super::reader::Ending;
+use super::roles;
 use super::samples::Samples;
 use super::stats;
 use mcap::records::Record;
@@ -237,7 +238,13 @@ impl<'o> Builder<'o> {
                 issues: slot.issues,
             });
         }
+        let (roles, role_problems) = roles::resolve(&streams, &self.options.topics);
+        if let (true, Some(first)) = (self.options.strict_roles, role_problems.first()) {
+            return Err(IngestError::Role(first.clone()));
+        }
         Ok(Log {
+            roles,
+            role_problems,
             streams,
             skipped,
             metadata: self.metadata,

@@ -57,6 +57,9 @@ pub enum IngestError {
         known: String,
     },
 
+    #[error(transparent)]
+    Role(#[from] super::roles::RoleError),
+
     #[error("topic {topic} ({schema}, cdr): {reason}")]
     Ros2Schema {
         topic: String,

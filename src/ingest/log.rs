@@ -1,11 +1,12 @@
 //! What ingest returns: the decoded log, its streams, counts and report.
 
 use super::error::MessageIssue;
-use super::mission::{Mission, MissionError};
+use super::mission::{Mission, MissionDefaults, MissionError};
 use super::reader::Ending;
+use super::roles::{RoleChoice, RoleError};
 use super::samples::Samples;
 use super::stats;
-use crate::contract::{Message, Streams};
+use crate::contract::{GnssFix, Message, Streams};
 use std::collections::BTreeMap;
 
 /// What ingest tolerates.
@@ -24,6 +25,11 @@ pub struct IngestOptions {
     pub ros2: crate::ingest::ros2::map::Ros2Settings,
     /// A topic's frame convention, where its `frame_id` should not decide it.
     pub frame_conventions: std::collections::BTreeMap<String, crate::ingest::ros2::map::Convention>,
+    /// Topics named for roles (role -> topic), over the default topics and the types.
+    pub topics: BTreeMap<String, String>,
+    /// A role that cannot be resolved (ambiguous, or named for a topic that is not there)
+    /// fails the read. `false` keeps it as a warning (what `info` uses).
+    pub strict_roles: bool,
 }
 
 impl Default for IngestOptions {
@@ -34,6 +40,8 @@ impl Default for IngestOptions {
             keep_messages: true,
             ros2: Default::default(),
             frame_conventions: Default::default(),
+            topics: BTreeMap::new(),
+            strict_roles: true,
         }
     }
 }
@@ -132,12 +140,30 @@ pub struct Log {
     /// All metadata records by name (later records of the same name win).
     pub metadata: BTreeMap<String, BTreeMap<String, String>>,
     pub file: FileReport,
+    /// The topic of each role the log has.
+    pub roles: Vec<RoleChoice>,
+    /// Roles that could not be resolved (only when reading was not strict about roles).
+    pub role_problems: Vec<RoleError>,
 }
 
 impl Log {
     /// The contract's `mission` metadata.
     pub fn mission(&self) -> Result<Mission, MissionError> {
         Mission::parse(self.metadata.get("mission").ok_or(MissionError::Absent)?)
+    }
+
+    /// The `mission` metadata, or where the log has none (a ROS 2 recording), a mission from
+    /// `defaults` and the first GNSS fix (see [`Mission::standing_in`]).
+    pub fn mission_or(&self, defaults: &MissionDefaults) -> Result<Mission, MissionError> {
+        match self.metadata.get("mission") {
+            Some(record) => Mission::parse(record),
+            None => Mission::standing_in(
+                defaults,
+                self.role::<GnssFix>()
+                    .first()
+                    .map(|f| (f.latitude_deg, f.longitude_deg)),
+            ),
+        }
     }
 
     /// The stream on `topic`.
@@ -150,9 +176,20 @@ impl Log {
         self.stream(topic)?.messages::<T>()
     }
 
-    /// The messages of type `T` at the contract's default topic (none when absent).
-    pub fn at_default_topic<T: Message>(&self) -> &[T] {
-        self.messages(T::DEFAULT_TOPIC).unwrap_or_default()
+    /// The topic playing the role of message type `T` (see [`super::roles`]).
+    pub fn role_topic<T: Message>(&self) -> Option<&str> {
+        self.roles
+            .iter()
+            .find(|c| c.schema_name == T::SCHEMA_NAME)
+            .map(|c| c.topic.as_str())
+    }
+
+    /// The messages of the role of type `T`: at the topic named for it, its default topic,
+    /// or the one topic of its type (none when absent).
+    pub fn role<T: Message>(&self) -> &[T] {
+        self.role_topic::<T>()
+            .and_then(|t| self.messages(t))
+            .unwrap_or_default()
     }
 
     /// Messages kept over all streams.
@@ -192,6 +229,7 @@ impl Log {
                 s.topic, s.messages, s.schema_name, s.message_encoding
             ));
         }
+        out.extend(self.role_problems.iter().map(|p| p.to_string()));
         if self.file.orphan_messages > 0 {
             out.push(format!(
                 "{} messages on undefined channels were skipped",
@@ -203,20 +241,20 @@ impl Log {
 }
 
 impl<'a> Streams<'a> {
-    /// The log's streams at the contract's default topics.
+    /// The log's streams by role (see [`super::roles`]).
     pub fn of(log: &'a Log) -> Self {
         Streams {
-            imu: log.at_default_topic(),
-            mag: log.at_default_topic(),
-            dvl: log.at_default_topic(),
-            altimeter: log.at_default_topic(),
-            eml: log.at_default_topic(),
-            depth: log.at_default_topic(),
-            gnss: log.at_default_topic(),
-            fixes: log.at_default_topic(),
-            rpm: log.at_default_topic(),
-            fins: log.at_default_topic(),
-            truth: log.at_default_topic(),
+            imu: log.role(),
+            mag: log.role(),
+            dvl: log.role(),
+            altimeter: log.role(),
+            eml: log.role(),
+            depth: log.role(),
+            gnss: log.role(),
+            fixes: log.role(),
+            rpm: log.role(),
+            fins: log.role(),
+            truth: log.role(),
         }
     }
 }

@@ -19,11 +19,28 @@ pub struct Mission {
     pub magnetic_declination_deg: Option<f64>,
 }
 
+/// What stands in for an absent `mission` record (a ROS 2 recording has none).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MissionDefaults {
+    /// Origin of the local NED frame, degrees. Not given: the first GNSS fix.
+    pub origin_latitude_deg: Option<f64>,
+    pub origin_longitude_deg: Option<f64>,
+    /// Not given: `unknown`.
+    pub vehicle: Option<String>,
+    pub magnetic_declination_deg: Option<f64>,
+}
+
 /// Why the `mission` metadata is unusable.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MissionError {
     #[error("the log has no `mission` metadata record (origin_latitude_deg, origin_longitude_deg, vehicle, description)")]
     Absent,
+    #[error(
+        "the log has no `mission` metadata record and no GNSS fix to take the origin from: \
+         give the origin of its local frame (latitude and longitude, degrees)"
+    )]
+    NoOrigin,
     #[error("`mission` metadata, key `{key}`: {reason}")]
     BadKey { key: &'static str, reason: String },
 }
@@ -73,6 +90,40 @@ impl Mission {
         })
     }
 
+    /// The mission of a log without a `mission` record: the origin from `defaults`, else from
+    /// `first_fix` (latitude, longitude, degrees); the vehicle `unknown` unless given.
+    pub fn standing_in(
+        defaults: &MissionDefaults,
+        first_fix: Option<(f64, f64)>,
+    ) -> Result<Mission, MissionError> {
+        let given = defaults
+            .origin_latitude_deg
+            .zip(defaults.origin_longitude_deg);
+        let (source, (lat, lon)) = match (given, first_fix) {
+            (Some(o), _) => ("the configuration", o),
+            (None, Some(o)) => ("the first GNSS fix", o),
+            (None, None) => return Err(MissionError::NoOrigin),
+        };
+        let check = |key: &'static str, v: f64, limit: f64| {
+            if v.is_finite() && v.abs() <= limit {
+                Ok(v)
+            } else {
+                Err(MissionError::BadKey {
+                    key,
+                    reason: format!("{v} is outside [-{limit}, {limit}]"),
+                })
+            }
+        };
+        Ok(Mission {
+            origin_latitude_deg: check("origin_latitude_deg", lat, 90.0)?,
+            origin_longitude_deg: check("origin_longitude_deg", lon, 360.0)?,
+            vehicle: defaults.vehicle.clone().unwrap_or_else(|| "unknown".into()),
+            description: format!("no mission record; origin from {source}"),
+            initial_yaw_rad: None,
+            magnetic_declination_deg: defaults.magnetic_declination_deg,
+        })
+    }
+
     /// The key/value map of this mission, as written to a `mission` metadata record.
     pub fn to_map(&self) -> BTreeMap<String, String> {
         let mut m = BTreeMap::new();
@@ -114,6 +165,45 @@ mod tests {
     #[test]
     fn round_trips() {
         assert_eq!(Mission::parse(&mission().to_map()), Ok(mission()));
+    }
+
+    #[test]
+    fn a_missing_record_takes_the_configured_origin_then_the_first_fix() {
+        let none = MissionDefaults::default();
+        assert_eq!(
+            Mission::standing_in(&none, None),
+            Err(MissionError::NoOrigin)
+        );
+        let from_fix = Mission::standing_in(&none, Some((35.0, 129.0))).unwrap();
+        assert_eq!(
+            (from_fix.origin_latitude_deg, from_fix.origin_longitude_deg),
+            (35.0, 129.0)
+        );
+        assert_eq!(from_fix.vehicle, "unknown");
+        let given = MissionDefaults {
+            origin_latitude_deg: Some(-33.9),
+            origin_longitude_deg: Some(18.4),
+            vehicle: Some("remus-100".into()),
+            magnetic_declination_deg: Some(-25.0),
+        };
+        let m = Mission::standing_in(&given, Some((35.0, 129.0))).unwrap();
+        assert_eq!(
+            (m.origin_latitude_deg, m.origin_longitude_deg),
+            (-33.9, 18.4)
+        );
+        assert_eq!(m.vehicle, "remus-100");
+        assert_eq!(m.magnetic_declination_deg, Some(-25.0));
+        let bad = MissionDefaults {
+            origin_latitude_deg: Some(95.0),
+            ..given
+        };
+        assert!(matches!(
+            Mission::standing_in(&bad, None),
+            Err(MissionError::BadKey {
+                key: "origin_latitude_deg",
+                ..
+            })
+        ));
     }
 
     #[test]

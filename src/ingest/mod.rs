@@ -14,13 +14,15 @@ mod error;
 mod log;
 mod mission;
 mod reader;
+pub mod roles;
 pub mod ros2;
 mod samples;
 pub mod stats;
 
 pub use error::{IngestError, MessageIssue};
-pub use mission::{Mission, MissionError};
+pub use mission::{Mission, MissionDefaults, MissionError};
 pub use reader::Ending;
+pub use roles::{RoleChoice, RoleError, RoleSource};
 pub use samples::Samples;
 
 pub use log::{FileReport, IngestOptions, Log, SkippedTopic, Stream, StreamCounts};

@@ -20,6 +20,8 @@ pub trait Samples: Send + Sync + std::fmt::Debug {
     fn get(&self, i: usize, prop: usize) -> PropValue<'_>;
     /// The message type's fields.
     fn properties(&self) -> &'static [Property];
+    /// The message type's contract schema name, e.g. `hindsight.Imu`.
+    fn schema_name(&self) -> &'static str;
     /// Keeps the messages at `order`, in that order.
     fn permute(&mut self, order: &[usize]);
     /// Drops every message.
@@ -44,6 +46,9 @@ impl<T: Message> Samples for Vec<T> {
     }
     fn properties(&self) -> &'static [Property] {
         T::PROPERTIES
+    }
+    fn schema_name(&self) -> &'static str {
+        T::SCHEMA_NAME
     }
     fn permute(&mut self, order: &[usize]) {
         let mut taken: Vec<Option<T>> = self.drain(..).map(Some).collect();

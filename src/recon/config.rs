@@ -208,6 +208,34 @@ span_s = 1800.0            # the IMU is tuned on the mission's first span_s seco
 [output]
 rate_hz = 10.0             # trajectory rows per second (per solution)
 aiding_epochs = false      # also a row at every aiding measurement's epoch
+
+[topics]
+# The topic of each role, where neither the contract's default topic (/imu, /dvl, ...) nor
+# the message type tells (two topics of one type): the role's name, then its topic. Roles: imu, mag,
+# dvl, eml, depth, altimeter, rpm, fins, attitude, gnss, position_fix, truth.
+# imu = "/vehicle/imu/data"
+
+[frames]
+# A ROS 2 topic's frame convention where its frame_id misleads: "rep103" (body FLU, world
+# ENU: converted) or "native" (body FRD, world NED: kept). Not given: from the frame_id
+# (a body frame ending in _frd or a world frame ending in _ned is native).
+# "/dvl/twist" = "native"
+
+[ros2]
+# How ROS 2 messages become the contract's.
+water_density_kg_m3 = 1025.0      # FluidPressure to depth (sea water; fresh water 997)
+atmospheric_pressure_pa = 101325.0  # FluidPressure is absolute: this is the surface
+gravity_m_s2 = 9.80665
+gnss_sigma_unknown_m = 5.0        # 1-sigma of a NavSatFix without a covariance
+point_fix_sigma_m = 1.0           # 1-sigma of a PointStamped position fix (it has none)
+
+[mission]
+# What stands in for a log without a `mission` record (a ROS 2 recording): the origin of
+# the local frame (not given: the first GNSS fix), the vehicle and the declination.
+# origin_latitude_deg = 35.1
+# origin_longitude_deg = 129.05
+# vehicle = "remus-100"
+# magnetic_declination_deg = -8.0
 "#;
 
 /// Grade of an IMU.
@@ -762,6 +790,12 @@ pub struct Config {
     pub alignment: AlignmentConfig,
     pub tune: TuneConfig,
     pub output: OutputConfig,
+    /// Topics named for roles (role -> topic).
+    pub topics: std::collections::BTreeMap<String, String>,
+    /// ROS 2 topics' frame conventions where the frame_id misleads.
+    pub frames: std::collections::BTreeMap<String, crate::ingest::ros2::map::Convention>,
+    pub ros2: crate::ingest::ros2::map::Ros2Settings,
+    pub mission: crate::ingest::MissionDefaults,
     /// The tunable keys ([`TUNABLE_KEYS`]) the configuration gave: kept as given.
     #[serde(skip)]
     pub fixed: std::collections::BTreeSet<String>,
@@ -1106,6 +1140,12 @@ mod tests {
         assert_eq!(c.initial.yaw_deg, Some(45.0));
         assert_eq!(c.initial.declination_deg, Some(-7.8));
         assert_eq!(c.imu.gyro_bias_deg_h, Some(1.0));
+        assert_eq!(c.topics["imu"], "/vehicle/imu/data");
+        assert_eq!(
+            c.frames["/dvl/twist"],
+            crate::ingest::ros2::map::Convention::Native
+        );
+        assert_eq!(c.mission.origin_longitude_deg, Some(129.05));
     }
 
     #[test]

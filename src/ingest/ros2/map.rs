@@ -22,8 +22,25 @@ pub enum Convention {
     Native,
 }
 
+impl std::str::FromStr for Convention {
+    type Err = String;
+
+    /// `rep103` (also `flu`, `enu`) or `native` (also `frd`, `ned`).
+    fn from_str(text: &str) -> Result<Self, Self::Err> {
+        match text.trim().to_ascii_lowercase().as_str() {
+            "rep103" | "rep-103" | "flu" | "enu" => Ok(Convention::Rep103),
+            "native" | "frd" | "ned" => Ok(Convention::Native),
+            other => Err(format!(
+                "frame convention `{other}`: expected rep103 (FLU body, ENU world) or native \
+                 (FRD body, NED world)"
+            )),
+        }
+    }
+}
+
 /// What the conversions need that a ROS 2 message does not say.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct Ros2Settings {
     /// Sea water density for FluidPressure to depth, kg/m^3.
     pub water_density_kg_m3: f64,
