@@ -100,6 +100,7 @@ impl Decoder for Ros2Decoder {
             RosType::TwistWithCovarianceStamped => Box::new(Vec::<Dvl>::new()),
             RosType::QuaternionStamped => Box::new(Vec::<Attitude>::new()),
             RosType::PointStamped => Box::new(Vec::<PositionFix>::new()),
+            RosType::AcousticDvl => Box::new(Vec::<Dvl>::new()),
         }
     }
     fn decode_into(&self, data: &[u8], out: &mut dyn Samples) -> Result<(), FieldIssue> {

@@ -77,6 +77,9 @@ pub enum RosType {
     TwistWithCovarianceStamped,
     QuaternionStamped,
     PointStamped,
+    /// `marine_acoustic_msgs/Dvl`, the DVL message of common drivers (UW-APL's
+    /// marine_msgs): velocity, mode, good beams and altitude.
+    AcousticDvl,
 }
 
 /// The stamp's paths, first in every type's list.
@@ -85,7 +88,7 @@ const STAMP: [&str; 2] = ["header.stamp.sec", "header.stamp.nanosec"];
 pub const FRAME: [&str; 1] = ["header.frame_id"];
 
 impl RosType {
-    pub const ALL: [RosType; 8] = [
+    pub const ALL: [RosType; 9] = [
         RosType::Imu,
         RosType::MagneticField,
         RosType::NavSatFix,
@@ -94,6 +97,7 @@ impl RosType {
         RosType::TwistWithCovarianceStamped,
         RosType::QuaternionStamped,
         RosType::PointStamped,
+        RosType::AcousticDvl,
     ];
 
     /// The type's full name, `pkg/Type`.
@@ -107,6 +111,7 @@ impl RosType {
             RosType::TwistWithCovarianceStamped => "geometry_msgs/TwistWithCovarianceStamped",
             RosType::QuaternionStamped => "geometry_msgs/QuaternionStamped",
             RosType::PointStamped => "geometry_msgs/PointStamped",
+            RosType::AcousticDvl => "marine_acoustic_msgs/Dvl",
         }
     }
 
@@ -155,6 +160,14 @@ impl RosType {
                 "quaternion.w",
             ],
             RosType::PointStamped => &["point.x", "point.y", "point.z"],
+            RosType::AcousticDvl => &[
+                "velocity.x",
+                "velocity.y",
+                "velocity.z",
+                "velocity_mode",
+                "num_good_beams",
+                "altitude",
+            ],
         }
     }
 
@@ -163,6 +176,9 @@ impl RosType {
         STAMP.iter().chain(self.fields()).copied().collect()
     }
 }
+
+/// `marine_acoustic_msgs/Dvl`'s `DVL_MODE_WATER`: the velocity is relative to the water.
+const ACOUSTIC_DVL_MODE_WATER: f64 = 2.0;
 
 /// A converted message.
 #[derive(Debug, Clone, PartialEq)]
@@ -226,7 +242,11 @@ pub fn convert(
         .checked_mul(1_000_000_000)
         .and_then(|t| t.checked_add(stamp.1))
         .ok_or_else(|| FieldIssue::new("header.stamp", "out of range"))?;
-    let c = given.unwrap_or_else(|| convention_of(frame_id, ty.in_body()));
+    let c = given.unwrap_or_else(|| match ty {
+        // The message defines its frame: z toward the seabed, x forward (so y starboard).
+        RosType::AcousticDvl => Convention::Native,
+        _ => convention_of(frame_id, ty.in_body()),
+    });
     let f = &n[STAMP.len()..];
     let v3 = |i: usize| Vector3::new(f[i], f[i + 1], f[i + 2]);
     Ok(match ty {
@@ -292,13 +312,21 @@ pub fn convert(
                 yaw,
             })
         }
+        RosType::AcousticDvl => Converted::Dvl(Dvl {
+            stamp_ns,
+            velocity: body(v3(0), c),
+            // Bottom lock: not water-track mode (2), and three beams or more.
+            valid: f[3] != ACOUSTIC_DVL_MODE_WATER && f[4] >= 3.0,
+            altitude: (f[5].is_finite() && f[5] > 0.0).then_some(f[5]),
+        }),
         RosType::PointStamped => {
             let p = world(v3(0), c);
             Converted::PositionFix(PositionFix {
                 stamp_ns,
                 north_m: p.x,
                 east_m: p.y,
-                down_m: Some(p.z),
+                // NaN is ROS's "unknown": a horizontal-only fix.
+                down_m: (!p.z.is_nan()).then_some(p.z),
                 sigma_m: s.point_fix_sigma_m,
                 label: frame_id.to_string(),
             })
@@ -444,5 +472,37 @@ mod tests {
             panic!()
         };
         assert_eq!((p.north_m, p.east_m, p.down_m), (20.0, 10.0, Some(5.0)));
+        let Converted::PositionFix(p) = convert(
+            RosType::PointStamped,
+            &numbers(&[10.0, 20.0, f64::NAN]),
+            (0, 0),
+            "map",
+            None,
+            &s,
+        )
+        .unwrap() else {
+            panic!()
+        };
+        assert_eq!(p.down_m, None, "NaN is unknown: a horizontal fix");
+    }
+
+    #[test]
+    fn acoustic_dvl_lock_comes_from_mode_and_beams_and_its_frame_is_native() {
+        let s = Ros2Settings::default();
+        let dvl = |mode: f64, beams: f64, altitude: f64| {
+            let n = numbers(&[1.0, 0.1, 0.02, mode, beams, altitude]);
+            match convert(RosType::AcousticDvl, &n, (0, 0), "dvl_link", None, &s) {
+                Ok(Converted::Dvl(d)) => d,
+                other => panic!("{other:?}"),
+            }
+        };
+        let d = dvl(1.0, 4.0, 12.5);
+        assert!(d.valid);
+        assert_eq!(d.velocity, [1.0, 0.1, 0.02], "x forward, z down: kept");
+        assert_eq!(d.altitude, Some(12.5));
+        assert!(dvl(1.0, 3.0, 12.5).valid, "three beams give a velocity");
+        assert!(!dvl(1.0, 2.0, 12.5).valid);
+        assert!(!dvl(2.0, 4.0, 12.5).valid, "water track is not over ground");
+        assert_eq!(dvl(1.0, 4.0, 0.0).altitude, None);
     }
 }
