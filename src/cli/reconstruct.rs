@@ -173,6 +173,7 @@ impl ReconstructArgs {
 struct Summary {
     hindsight_version: &'static str,
     log: String,
+    mission: MissionSummary,
     inputs: Vec<InputCount>,
     initialisation: InitSummary,
     /// Self-tuning's estimates (absent with tuning off).
@@ -207,9 +208,21 @@ struct Summary {
 
 #[derive(Debug, Serialize)]
 struct InputCount {
+    /// The role's contract topic.
     topic: &'static str,
+    /// The log's topic that played it (a ROS 2 recording's `/vehicle/imu/data`).
+    log_topic: Option<String>,
     messages: usize,
     used: bool,
+}
+
+/// The mission the run used (from the log's record, or standing in for it).
+#[derive(Debug, Serialize)]
+struct MissionSummary {
+    origin_latitude_deg: f64,
+    origin_longitude_deg: f64,
+    vehicle: String,
+    description: String,
 }
 
 #[derive(Debug, Serialize)]
@@ -392,8 +405,13 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     }
     // What the outputs need from the log; the log itself is freed before smoothing.
     let truth: Vec<Truth> = streams.truth.to_vec();
-    let count = |topic, messages, used: bool| InputCount {
+    let count = |topic: &'static str, messages, used: bool| InputCount {
         topic,
+        log_topic: log
+            .roles
+            .iter()
+            .find(|c| c.role == topic.trim_start_matches('/'))
+            .map(|c| c.topic.clone()),
         messages,
         used: used && messages > 0,
     };
@@ -477,6 +495,12 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     let summary = Summary {
         hindsight_version: env!("CARGO_PKG_VERSION"),
         log: args.log.log.display().to_string(),
+        mission: MissionSummary {
+            origin_latitude_deg: mission.origin_latitude_deg,
+            origin_longitude_deg: mission.origin_longitude_deg,
+            vehicle: mission.vehicle.clone(),
+            description: mission.description.clone(),
+        },
         inputs,
         tuning,
         initialisation: InitSummary {

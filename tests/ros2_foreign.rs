@@ -1,0 +1,325 @@
+//! ROS 2 recordings written by the official Python writer (`mcap-ros2-support` 0.6.0) from
+//! the json sample logs: `tests/fixtures/ros2/make_ros2_fixtures.py` made them (issue 16).
+//! Both frame conventions and both distros' definitions; the values after conversion are the
+//! json original's, and the same mission reconstructs and gives attitude within 1 mm.
+
+mod common;
+
+use hindsight::contract::{
+    Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, Message, Propeller, SpeedLog, Streams,
+    Truth,
+};
+use hindsight::ingest::ros2::map::Convention;
+use hindsight::ingest::{read_log, read_log_from, IngestOptions, Log, MissionDefaults};
+use hindsight::recon::config::Config;
+use hindsight::recon::{reconstruct, Reconstruction};
+use hindsight::sim::writer::{to_bytes, LogWriter, WriterOptions};
+use std::path::{Path, PathBuf};
+
+/// The window of the survey sample log the fixtures hold (the script's WINDOW_S).
+const WINDOW_NS: u64 = 120_000_000_000;
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/ros2")
+        .join(name)
+}
+
+fn sample(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("sample-logs")
+        .join(name)
+}
+
+/// Copies the messages of `T`'s role logged within the window.
+fn copy<T: Message>(w: &mut LogWriter<std::io::Cursor<Vec<u8>>>, log: &Log, t0: u64) {
+    let Some(s) = log.role_topic::<T>().and_then(|t| log.stream(t)) else {
+        return;
+    };
+    for (m, &t) in s.messages::<T>().unwrap().iter().zip(&s.log_time_ns) {
+        if t - t0 <= WINDOW_NS {
+            w.write(T::DEFAULT_TOPIC, m, t).unwrap();
+        }
+    }
+}
+
+/// The json survey sample log cut to the fixtures' window, as the script cut it.
+fn json_survey_window() -> Log {
+    let full = read_log(
+        &sample("survey-short-seed1.mcap"),
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    let t0 = full
+        .streams
+        .iter()
+        .filter_map(|s| s.log_time_ns.first())
+        .min()
+        .copied()
+        .unwrap();
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        w.write_mission(&full.mission().unwrap())?;
+        copy::<Imu>(w, &full, t0);
+        copy::<MagneticField>(w, &full, t0);
+        copy::<Dvl>(w, &full, t0);
+        copy::<SpeedLog>(w, &full, t0);
+        copy::<Depth>(w, &full, t0);
+        copy::<Altimeter>(w, &full, t0);
+        copy::<Propeller>(w, &full, t0);
+        copy::<GnssFix>(w, &full, t0);
+        copy::<Truth>(w, &full, t0);
+        Ok(())
+    })
+    .unwrap();
+    read_log_from(&bytes[..], &IngestOptions::default()).unwrap()
+}
+
+/// Reads a fixture; the Jazzy survey's magnetometer is FRD under `mag_link`, so its
+/// convention is given, as a user would with `--frame /vehicle/mag=native`.
+fn ros2(name: &str) -> Log {
+    let mut options = IngestOptions::default();
+    if name.contains("native") {
+        options
+            .frame_conventions
+            .insert("/vehicle/mag".into(), Convention::Native);
+    }
+    read_log(&fixture(name), &options).unwrap()
+}
+
+fn assert_close(a: f64, b: f64, tol: f64, what: &str) {
+    assert!((a - b).abs() <= tol, "{what}: {a} against {b}");
+}
+
+/// Compares every role's messages with the json original's, to the precision the ROS 2 type
+/// carries.
+fn assert_same_values(json: &Log, ros: &Log, dvl_has_altitude: bool) {
+    let (j, r) = (Streams::of(json), Streams::of(ros));
+    assert_eq!(j.imu, r.imu, "IMU: sign changes are exact");
+    assert_eq!(j.mag, r.mag);
+    assert_eq!(j.eml, r.eml);
+    assert_eq!(j.rpm, r.rpm);
+    assert_eq!(j.truth, r.truth);
+    assert_eq!(j.dvl.len(), r.dvl.len());
+    for (a, b) in j.dvl.iter().zip(r.dvl) {
+        assert_eq!(
+            (a.stamp_ns, a.velocity, a.valid),
+            (b.stamp_ns, b.velocity, b.valid)
+        );
+        let expected = if dvl_has_altitude { a.altitude } else { None };
+        assert_eq!(b.altitude, expected);
+    }
+    assert_eq!(j.depth.len(), r.depth.len());
+    for (a, b) in j.depth.iter().zip(r.depth) {
+        assert_eq!(a.stamp_ns, b.stamp_ns);
+        // Through FluidPressure: 1e5 Pa and back.
+        assert_close(a.depth, b.depth, 1e-9, "depth");
+    }
+    assert_eq!(j.altimeter.len(), r.altimeter.len());
+    for (a, b) in j.altimeter.iter().zip(r.altimeter) {
+        assert_eq!(a.stamp_ns, b.stamp_ns);
+        assert_eq!(b.altitude, a.altitude as f32 as f64, "Range is float32");
+    }
+    assert_eq!(j.gnss.len(), r.gnss.len());
+    for (a, b) in j.gnss.iter().zip(r.gnss) {
+        assert_eq!(
+            (a.stamp_ns, a.latitude_deg, a.longitude_deg),
+            (b.stamp_ns, b.latitude_deg, b.longitude_deg)
+        );
+        assert_close(a.horizontal_sigma_m, b.horizontal_sigma_m, 1e-12, "sigma");
+    }
+    assert!(!j.imu.is_empty() && !j.dvl.is_empty() && !j.gnss.is_empty());
+}
+
+#[test]
+fn humble_rep103_and_jazzy_native_recordings_hold_the_json_values() {
+    let json = json_survey_window();
+    let humble = ros2("survey_humble_rep103.mcap");
+    assert!(humble.file.library.contains("mcap-ros2-support/0.6.0"));
+    assert_eq!(humble.role_topic::<Imu>(), Some("/vehicle/imu/data"));
+    assert_eq!(
+        humble.role_topic::<Dvl>(),
+        Some("/vehicle/dvl/twist"),
+        "TwistWithCovarianceStamped"
+    );
+    assert_same_values(&json, &humble, false);
+    let jazzy = ros2("survey_jazzy_native.mcap");
+    assert_eq!(
+        jazzy.role_topic::<Dvl>(),
+        Some("/vehicle/dvl"),
+        "marine_acoustic_msgs/Dvl"
+    );
+    assert_same_values(&json, &jazzy, true);
+
+    // Without the override, `mag_link` reads as REP-103: y and z change sign.
+    let misread = read_log(
+        &fixture("survey_jazzy_native.mcap"),
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    let (a, b) = (&Streams::of(&json).mag[3], &Streams::of(&misread).mag[3]);
+    assert_eq!(b.magnetic_field[1], -a.magnetic_field[1]);
+}
+
+/// Largest distance between the positions of two solution lists, m.
+fn largest_difference(a: &Reconstruction, b: &Reconstruction) -> f64 {
+    const R: f64 = 6_378_137.0;
+    let pairs = |x: &[hindsight::filters::ins::record::Solution],
+                 y: &[hindsight::filters::ins::record::Solution]| {
+        assert_eq!(x.len(), y.len());
+        x.iter()
+            .zip(y)
+            .map(|(p, q)| {
+                assert_eq!(p.stamp_ns, q.stamp_ns);
+                let (p, q) = (&p.point.nav, &q.point.nav);
+                let north = (p.lat_rad - q.lat_rad) * R;
+                let east = (p.lon_rad - q.lon_rad) * R * p.lat_rad.cos();
+                (north * north + east * east + (p.height_m - q.height_m).powi(2)).sqrt()
+            })
+            .fold(0.0, f64::max)
+    };
+    pairs(&a.forward, &b.forward).max(pairs(&a.smoothed, &b.smoothed))
+}
+
+#[test]
+fn the_same_mission_in_json_and_in_ros2_reconstructs_within_a_millimetre() {
+    let json = json_survey_window();
+    let mission = json.mission().unwrap();
+    let defaults = MissionDefaults {
+        origin_latitude_deg: Some(mission.origin_latitude_deg),
+        origin_longitude_deg: Some(mission.origin_longitude_deg),
+        vehicle: Some(mission.vehicle.clone()),
+        magnetic_declination_deg: mission.magnetic_declination_deg,
+    };
+    let config = Config::default();
+    let reference = reconstruct(&Streams::of(&json), &mission, &config).unwrap();
+    assert!(reference.forward.len() > 1000 && reference.smoothed.len() > 1000);
+    for name in ["survey_humble_rep103.mcap", "survey_jazzy_native.mcap"] {
+        let log = ros2(name);
+        let r = reconstruct(
+            &Streams::of(&log),
+            &log.mission_or(&defaults).unwrap(),
+            &config,
+        )
+        .unwrap();
+        let d = largest_difference(&reference, &r);
+        println!("{name}: largest position difference {d:.2e} m");
+        assert!(d < 1e-3, "{name}: {d} m");
+    }
+}
+
+/// The float columns of a Parquet file, concatenated over its batches.
+fn float_columns(path: &Path) -> Vec<(String, Vec<f64>)> {
+    use arrow_array::{Array, Float64Array};
+    let batches = common::read_parquet(path);
+    let schema = batches[0].schema();
+    let mut out = Vec::new();
+    for (i, field) in schema.fields().iter().enumerate() {
+        let mut values = Vec::new();
+        for b in &batches {
+            let Some(c) = b.column(i).as_any().downcast_ref::<Float64Array>() else {
+                break;
+            };
+            values.extend((0..c.len()).map(|k| if c.is_null(k) { f64::NAN } else { c.value(k) }));
+        }
+        if !values.is_empty() {
+            out.push((field.name().clone(), values));
+        }
+    }
+    out
+}
+
+#[test]
+fn the_same_pool_run_in_json_and_in_ros2_gives_attitude_within_a_millimetre() {
+    let json_out = common::scratch_dir("ros2-attitude-json");
+    let ros_out = common::scratch_dir("ros2-attitude-ros2");
+    let json_log = sample("pool-rectangle-seed1.mcap");
+    let ros_log = fixture("pool_jazzy_rep103.mcap");
+    let o = common::hindsight(&[
+        "attitude",
+        json_log.to_str().unwrap(),
+        "--out",
+        json_out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    // No mission record in a rosbag2 file: the pool's origin and declination are given.
+    let mission = read_log(&json_log, &IngestOptions::default())
+        .unwrap()
+        .mission()
+        .unwrap();
+    let origin = format!(
+        "{},{}",
+        mission.origin_latitude_deg, mission.origin_longitude_deg
+    );
+    let declination = mission.magnetic_declination_deg.unwrap().to_string();
+    let o = common::hindsight(&[
+        "attitude",
+        ros_log.to_str().unwrap(),
+        "--origin",
+        &origin,
+        "--declination",
+        &declination,
+        "--out",
+        ros_out.to_str().unwrap(),
+    ]);
+    let err = common::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("imu: /vehicle/imu/data (the one topic of its type)"),
+        "{err}"
+    );
+    for file in ["attitude.parquet", "attitude_summary.parquet"] {
+        let (a, b) = (
+            float_columns(&json_out.join(file)),
+            float_columns(&ros_out.join(file)),
+        );
+        assert_eq!(a.len(), b.len(), "{file}");
+        for ((name, x), (_, y)) in a.iter().zip(&b) {
+            assert_eq!(x.len(), y.len(), "{file} {name}");
+            // Positions within 1 mm; angles (rad) and scores within the same 1e-3.
+            let worst = x
+                .iter()
+                .zip(y)
+                .filter(|(p, q)| !(p.is_nan() && q.is_nan()))
+                .map(|(p, q)| match name.ends_with("_rad") {
+                    true => hindsight::angle::wrap_pi(p - q).abs(),
+                    false => (p - q).abs(),
+                })
+                .fold(0.0, f64::max);
+            println!("{file} {name}: largest difference {worst:.1e}");
+            assert!(worst < 1e-3, "{file} {name}: differs by {worst}");
+        }
+    }
+    let rows = float_columns(&json_out.join("attitude.parquet"))[0].1.len();
+    assert!(rows > 6 * 20_000, "{rows}");
+}
+
+#[test]
+fn info_export_and_reconstruct_read_a_ros2_recording() {
+    let log = fixture("survey_humble_rep103.mcap");
+    let log = log.to_str().unwrap();
+    let o = common::hindsight(&["info", log]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("roles not at their default topic: imu /vehicle/imu/data"),
+        "{text}"
+    );
+    assert!(text.contains("sensor_msgs/msg/NavSatFix"), "{text}");
+
+    let out = common::scratch_dir("ros2-export");
+    let o = common::hindsight(&["export", log, "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    assert!(std::fs::read_dir(&out).unwrap().count() > 3);
+
+    // Without a mission record, the origin is the first GNSS fix.
+    let out = common::scratch_dir("ros2-reconstruct");
+    let o = common::hindsight(&["reconstruct", log, "--out", out.to_str().unwrap()]);
+    let err = common::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("gnss: /vehicle/gps/fix"), "{err}");
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(
+        summary.contains("origin from the first GNSS fix"),
+        "{summary}"
+    );
+}
