@@ -37,51 +37,7 @@ fn imu_schema() -> String {
     )
 }
 
-/// Little-endian plain CDR, the alignment rules written out (as the Python writer does).
-struct Cdr(Vec<u8>);
-
-impl Cdr {
-    fn new() -> Self {
-        Cdr(vec![0, 1, 0, 0])
-    }
-    fn pad(&mut self, a: usize) {
-        while !(self.0.len() - 4).is_multiple_of(a) {
-            self.0.push(0);
-        }
-    }
-    fn i32(&mut self, v: i32) -> &mut Self {
-        self.pad(4);
-        self.0.extend(v.to_le_bytes());
-        self
-    }
-    fn u32(&mut self, v: u32) -> &mut Self {
-        self.pad(4);
-        self.0.extend(v.to_le_bytes());
-        self
-    }
-    fn f64(&mut self, v: f64) -> &mut Self {
-        self.pad(8);
-        self.0.extend(v.to_le_bytes());
-        self
-    }
-    fn f64s(&mut self, v: &[f64]) -> &mut Self {
-        for x in v {
-            self.f64(*x);
-        }
-        self
-    }
-    fn string(&mut self, s: &str) -> &mut Self {
-        self.u32(s.len() as u32 + 1);
-        self.0.extend(s.as_bytes());
-        self.0.push(0);
-        self
-    }
-    fn header(&mut self, stamp_ns: i64, frame: &str) -> &mut Self {
-        self.i32((stamp_ns / 1_000_000_000) as i32)
-            .u32((stamp_ns % 1_000_000_000) as u32)
-            .string(frame)
-    }
-}
+use hindsight::sim::ros2::CdrWriter as Cdr;
 
 fn imu_cdr(stamp_ns: i64, frame: &str, w: [f64; 3], a: [f64; 3]) -> Vec<u8> {
     let mut c = Cdr::new();
@@ -89,7 +45,7 @@ fn imu_cdr(stamp_ns: i64, frame: &str, w: [f64; 3], a: [f64; 3]) -> Vec<u8> {
         .f64s(&[0.0, 0.0, 0.0, 1.0])
         .f64s(&[0.0; 9]);
     c.f64s(&w).f64s(&[0.0; 9]).f64s(&a).f64s(&[0.0; 9]);
-    c.0
+    c.into_bytes()
 }
 
 const T0: i64 = 1_700_000_000_000_000_000;
@@ -127,7 +83,7 @@ fn mixed_log(imu_frame: &str) -> Vec<u8> {
                 "geometry_msgs/msg/TwistWithCovarianceStamped",
                 &twist_schema,
                 "cdr",
-                &c.0,
+                c.bytes(),
                 t as u64,
             )?;
         }

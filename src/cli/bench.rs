@@ -18,6 +18,11 @@ use std::time::{Duration, Instant};
 ///   merge         the time-ordered k-way merge over all topics of the ingested log
 ///   ingest+merge  the sum of the two medians: a log from file to one event stream
 ///
+/// With --cdr: the same log's streams of standard ROS 2 types (IMU, magnetometer, DVL as
+/// TwistWithCovarianceStamped, depth as FluidPressure, altimeter as Range, attitude as
+/// QuaternionStamped) written as a ROS 2 recording in CDR, REP-103 frames, and its ingest
+/// timed the same way (schema-driven CDR decoding, frame conversion, validation).
+///
 /// With --reconstruct: the scenario (default long-dive, 5.5 h; seed 0) is simulated, then
 /// ingest, forward filter and smoother are timed (medians, and their ratio to ingest), and
 /// the peak memory of one whole reconstruction is printed.
@@ -48,6 +53,10 @@ pub struct BenchArgs {
     /// Keep the generated log at this path (otherwise a temporary file is removed).
     #[arg(long, value_name = "FILE")]
     pub keep: Option<PathBuf>,
+
+    /// Benchmark the ingest of the log written as a ROS 2 recording (CDR) instead of JSON.
+    #[arg(long)]
+    pub cdr: bool,
 
     /// Benchmark the reconstruction on a simulated scenario instead of ingest alone.
     #[arg(long)]
@@ -101,6 +110,27 @@ pub fn run(args: BenchArgs) -> Result<()> {
         seed: args.seed,
         ..Default::default()
     };
+    if args.cdr {
+        return with_log_file(
+            None,
+            |w| Ok(synthetic::write_survey(w, &spec).map(|_| ())?),
+            |json| {
+                let log = ingest::read_log(json, &IngestOptions::default())?;
+                with_log_file(
+                    args.keep.as_deref(),
+                    |w| {
+                        let settings = Default::default();
+                        let convention = hindsight::ingest::ros2::map::Convention::Rep103;
+                        hindsight::sim::ros2::write_standard_streams(
+                            &log, convention, &settings, w,
+                        )?;
+                        Ok(())
+                    },
+                    |path| measure(&path.to_path_buf(), args.repeat),
+                )
+            },
+        );
+    }
     with_log_file(
         args.keep.as_deref(),
         |w| Ok(synthetic::write_survey(w, &spec).map(|_| ())?),
@@ -116,7 +146,9 @@ pub(super) fn with_log_file(
     measure: impl FnOnce(&std::path::Path) -> Result<()>,
 ) -> Result<()> {
     let path = keep.map(|p| p.to_path_buf()).unwrap_or_else(|| {
-        std::env::temp_dir().join(format!("hindsight-bench-{}.mcap", std::process::id()))
+        static FILES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = FILES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        std::env::temp_dir().join(format!("hindsight-bench-{}-{n}.mcap", std::process::id()))
     });
     let file =
         std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
@@ -143,7 +175,7 @@ fn measure(path: &PathBuf, repeat: usize) -> Result<()> {
     };
     let totals = ingest::scan(open()?)?;
     println!(
-        "log: {}  {:.1} MB on disk, {} messages, {:.1} MB of JSON",
+        "log: {}  {:.1} MB on disk, {} messages, {:.1} MB of payload",
         path.display(),
         file_bytes / 1e6,
         totals.messages,
@@ -164,7 +196,7 @@ fn measure(path: &PathBuf, repeat: usize) -> Result<()> {
     let n = totals.messages as f64;
     println!(
         "{:<14} {:>10} {:>14} {:>12} {:>12}",
-        "stage", "median s", "messages/s", "file MB/s", "JSON MB/s"
+        "stage", "median s", "messages/s", "file MB/s", "payload MB/s"
     );
     for (name, d) in [
         ("scan", scan),

@@ -1,11 +1,13 @@
 //! Log production: the project's MCAP writer and generated logs for tests, benchmarks and
 //! `sample-logs/`.
 //!
-//! May import: `contract`, `ingest` (for [`Mission`](crate::ingest::Mission)), `time`, `mcap`.
+//! May import: `contract`, `ingest` (for [`Mission`](crate::ingest::Mission), and the logs
+//! [`ros2`] rewrites), `align` (its merge), `time`, `mcap`.
 
 pub mod dynamic;
 pub mod inertial;
 pub mod profile;
+pub mod ros2;
 pub mod run;
 pub mod scenario;
 pub mod sensors;

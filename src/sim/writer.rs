@@ -162,9 +162,14 @@ impl<W: Write + Seek> LogWriter<W> {
         let schema_id = match self.schemas.get(schema_name) {
             Some(&id) => id,
             None => {
-                let id =
-                    self.inner
-                        .add_schema(schema_name, "jsonschema", schema_json.as_bytes())?;
+                // cdr messages are described by ROS 2 message definitions.
+                let encoding = match message_encoding {
+                    "cdr" => "ros2msg",
+                    _ => "jsonschema",
+                };
+                let id = self
+                    .inner
+                    .add_schema(schema_name, encoding, schema_json.as_bytes())?;
                 self.schemas.insert(schema_name.to_string(), id);
                 id
             }

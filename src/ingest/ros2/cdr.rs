@@ -11,7 +11,7 @@
 use super::msg::{Definitions, Element, Primitive, Shape};
 
 /// Most values a plan can keep, and most strings.
-pub const MAX_VALUES: usize = 48;
+pub const MAX_VALUES: usize = 16;
 pub const MAX_STRINGS: usize = 4;
 
 /// Why a plan could not be made for the asked paths.
@@ -38,8 +38,14 @@ pub enum CdrError {
 enum Step {
     /// One primitive, kept in a value slot or skipped.
     Value(Primitive, Option<usize>),
-    /// A fixed array of primitives, each element kept or not.
+    /// A fixed array of primitives, each element kept or not (while the plan is built).
     Values(Primitive, Vec<Option<usize>>),
+    /// `count` primitives in a row: the byte offset in the run and the slot of each kept one.
+    Run {
+        p: Primitive,
+        count: usize,
+        kept: Vec<(usize, usize)>,
+    },
     /// A string, kept in a string slot or skipped.
     Text(Option<usize>),
     /// `n` strings (fixed array), skipped.
@@ -81,6 +87,7 @@ impl Plan {
         let mut steps = Vec::new();
         let wanted = Wanted { numbers, strings };
         flatten(defs, &defs.root, "", &wanted, &mut found, &mut steps);
+        let steps = into_runs(merge_runs(steps));
         Ok(Plan {
             steps,
             has_number: found.0.iter().map(Option::is_some).collect(),
@@ -196,6 +203,107 @@ fn flatten(
     }
 }
 
+/// Joins consecutive values of one primitive type (a Vector3's x, y, z; a covariance after
+/// it) into one step: after the first is aligned the rest follow with no padding (a
+/// primitive's alignment divides its size), so the run is one bounds check.
+fn merge_runs(steps: Vec<Step>) -> Vec<Step> {
+    let mut out: Vec<Step> = Vec::with_capacity(steps.len());
+    for step in steps {
+        let (p, slots) = match step {
+            Step::Value(p, slot) => (p, vec![slot]),
+            Step::Values(p, slots) => (p, slots),
+            Step::Sequence(inner) => {
+                out.push(Step::Sequence(merge_runs(inner)));
+                continue;
+            }
+            Step::Repeat(n, inner) => {
+                out.push(Step::Repeat(n, merge_runs(inner)));
+                continue;
+            }
+            other => {
+                out.push(other);
+                continue;
+            }
+        };
+        let previous = match out.last() {
+            Some(Step::Value(q, first)) if *q == p => Some(vec![*first]),
+            Some(Step::Values(q, run)) if *q == p => Some(run.clone()),
+            _ => None,
+        };
+        match previous {
+            Some(mut run) => {
+                run.extend(slots);
+                *out.last_mut().expect("a previous step") = Step::Values(p, run);
+            }
+            None => out.push(match slots.as_slice() {
+                [slot] => Step::Value(p, *slot),
+                _ => Step::Values(p, slots),
+            }),
+        }
+    }
+    out
+}
+
+/// The plan's arrays as runs that list only their kept elements.
+fn into_runs(steps: Vec<Step>) -> Vec<Step> {
+    steps
+        .into_iter()
+        .map(|step| match step {
+            Step::Values(p, slots) => Step::Run {
+                p,
+                count: slots.len(),
+                kept: slots
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, slot)| slot.map(|i| (k * p.size(), i)))
+                    .collect(),
+            },
+            Step::Sequence(inner) => Step::Sequence(into_runs(inner)),
+            Step::Repeat(n, inner) => Step::Repeat(n, into_runs(inner)),
+            other => other,
+        })
+        .collect()
+}
+
+/// One primitive from its bytes (exactly `p.size()` of them) as (f64, i64).
+#[inline]
+fn decode(p: Primitive, b: &[u8], little: bool) -> (f64, i64) {
+    macro_rules! int {
+        ($t:ty, $n:literal) => {{
+            let mut a = [0u8; $n];
+            a.copy_from_slice(b);
+            let v = if little {
+                <$t>::from_le_bytes(a)
+            } else {
+                <$t>::from_be_bytes(a)
+            };
+            (v as f64, v as i64)
+        }};
+    }
+    match p {
+        Primitive::Bool | Primitive::Byte | Primitive::Char | Primitive::U8 => {
+            (f64::from(b[0]), i64::from(b[0]))
+        }
+        Primitive::I8 => (f64::from(b[0] as i8), i64::from(b[0] as i8)),
+        Primitive::I16 => int!(i16, 2),
+        Primitive::U16 => int!(u16, 2),
+        Primitive::I32 => int!(i32, 4),
+        Primitive::U32 => int!(u32, 4),
+        Primitive::I64 => int!(i64, 8),
+        Primitive::U64 => int!(u64, 8),
+        Primitive::F32 => {
+            let (v, _) = int!(u32, 4);
+            let x = f32::from_bits(v as u32);
+            (f64::from(x), x as i64)
+        }
+        Primitive::F64 => {
+            let (_, v) = int!(u64, 8);
+            let x = f64::from_bits(v as u64);
+            (x, x as i64)
+        }
+    }
+}
+
 struct Cursor<'a> {
     data: &'a [u8],
     at: usize,
@@ -258,40 +366,7 @@ impl<'a> Cursor<'a> {
     /// One primitive as (f64, i64).
     fn value(&mut self, p: Primitive) -> Result<(f64, i64), CdrError> {
         let b = self.take(p.size(), p.size())?;
-        macro_rules! int {
-            ($t:ty, $n:literal) => {{
-                let mut a = [0u8; $n];
-                a.copy_from_slice(b);
-                let v = if self.little {
-                    <$t>::from_le_bytes(a)
-                } else {
-                    <$t>::from_be_bytes(a)
-                };
-                (v as f64, v as i64)
-            }};
-        }
-        Ok(match p {
-            Primitive::Bool | Primitive::Byte | Primitive::Char | Primitive::U8 => {
-                (f64::from(b[0]), i64::from(b[0]))
-            }
-            Primitive::I8 => (f64::from(b[0] as i8), i64::from(b[0] as i8)),
-            Primitive::I16 => int!(i16, 2),
-            Primitive::U16 => int!(u16, 2),
-            Primitive::I32 => int!(i32, 4),
-            Primitive::U32 => int!(u32, 4),
-            Primitive::I64 => int!(i64, 8),
-            Primitive::U64 => int!(u64, 8),
-            Primitive::F32 => {
-                let (v, _) = int!(u32, 4);
-                let x = f32::from_bits(v as u32);
-                (f64::from(x), x as i64)
-            }
-            Primitive::F64 => {
-                let (_, v) = int!(u64, 8);
-                let x = f64::from_bits(v as u64);
-                (x, x as i64)
-            }
-        })
+        Ok(decode(p, b, self.little))
     }
 
     fn text(&mut self) -> Result<&'a str, CdrError> {
@@ -317,14 +392,15 @@ impl<'a> Cursor<'a> {
                     }
                 }
                 Step::Values(p, slots) => {
-                    if slots.iter().all(Option::is_none) {
-                        self.take(p.size() * slots.len(), p.size())?;
-                        continue;
-                    }
-                    for slot in slots {
-                        let v = self.value(*p)?;
-                        if let (Some(i), Some(o)) = (slot, out.as_deref_mut()) {
-                            (o.number[*i], o.integer[*i]) = v;
+                    // Only while a plan is built: `into_runs` turns these into runs.
+                    self.take(p.size() * slots.len(), p.size())?;
+                }
+                Step::Run { p, count, kept } => {
+                    let run = self.take(p.size() * count, p.size())?;
+                    if let Some(o) = out.as_deref_mut() {
+                        for &(at, i) in kept {
+                            (o.number[i], o.integer[i]) =
+                                decode(*p, &run[at..at + p.size()], self.little);
                         }
                     }
                 }
@@ -369,49 +445,7 @@ mod tests {
     use super::super::msg::parse;
     use super::*;
 
-    /// A little-endian XCDR1 writer for the tests (the alignment rules written out).
-    pub(crate) struct Writer(pub Vec<u8>);
-
-    impl Writer {
-        pub fn new() -> Self {
-            Writer(vec![0, 1, 0, 0])
-        }
-        fn pad(&mut self, a: usize) {
-            while !(self.0.len() - 4).is_multiple_of(a) {
-                self.0.push(0);
-            }
-        }
-        pub fn u8(&mut self, v: u8) -> &mut Self {
-            self.0.push(v);
-            self
-        }
-        pub fn i32(&mut self, v: i32) -> &mut Self {
-            self.pad(4);
-            self.0.extend(v.to_le_bytes());
-            self
-        }
-        pub fn u32(&mut self, v: u32) -> &mut Self {
-            self.pad(4);
-            self.0.extend(v.to_le_bytes());
-            self
-        }
-        pub fn f32(&mut self, v: f32) -> &mut Self {
-            self.pad(4);
-            self.0.extend(v.to_le_bytes());
-            self
-        }
-        pub fn f64(&mut self, v: f64) -> &mut Self {
-            self.pad(8);
-            self.0.extend(v.to_le_bytes());
-            self
-        }
-        pub fn string(&mut self, s: &str) -> &mut Self {
-            self.u32(s.len() as u32 + 1);
-            self.0.extend(s.as_bytes());
-            self.0.push(0);
-            self
-        }
-    }
+    use crate::sim::ros2::CdrWriter as Writer;
 
     const RANGE_HUMBLE: &str = "\
 std_msgs/Header header
@@ -433,7 +467,7 @@ string frame_id
         if let Some(v) = variance {
             w.f32(v);
         }
-        w.0
+        w.into_bytes()
     }
 
     #[test]
@@ -491,7 +525,7 @@ float64 z
             .f64(2.0)
             .f64(3.0);
         w.f64(10.0).f64(11.0).f64(12.0).f64(13.0).f64(-4.5);
-        let got = plan.read(&w.0).unwrap();
+        let got = plan.read(w.bytes()).unwrap();
         assert_eq!(got.number[..3], [13.0, -4.5, 10.0]);
     }
 
@@ -513,9 +547,9 @@ uint8 ONLY=1
         let plan = Plan::new(&defs, &["after", "last"], &[]).unwrap();
         let mut w = Writer::new();
         w.u32(0).u32(77).u8(0).u8(9);
-        let got = plan.read(&w.0).unwrap();
+        let got = plan.read(w.bytes()).unwrap();
         assert_eq!((got.integer[0], got.integer[1]), (77, 9));
-        assert_eq!(plan.check(&w.0).unwrap(), w.0.len());
+        assert_eq!(plan.check(w.bytes()).unwrap(), w.bytes().len());
     }
 
     #[test]
