@@ -2,6 +2,8 @@
 
 mod common;
 
+use hindsight::contract::Streams;
+
 use hindsight::contract::{Imu, Message};
 use hindsight::ingest::{read_log_from, Ending, IngestError, IngestOptions};
 use hindsight::sim::writer::{to_bytes, Compression, WriterOptions};
@@ -99,6 +101,8 @@ fn random_bytes_never_panic() {
 
 #[test]
 fn corrupted_logs_never_panic() {
+    use hindsight::ingest::ros2::map::Convention;
+    use hindsight::sim::ros2::write_standard_streams;
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     for (chunked, compression) in [
         (true, Compression::Zstd),
@@ -112,8 +116,18 @@ fn corrupted_logs_never_panic() {
             summary: true,
             chunk_size: 8 * 1024,
         };
-        let good = common::survey_bytes(options, 3.0);
-        for _ in 0..150 {
+        let json = common::survey_bytes(options, 3.0);
+        // The same log as a ROS 2 recording (cdr, REP-103), flipped the same way.
+        let log = read(&json, &IngestOptions::default()).unwrap();
+        let cdr = to_bytes(options, |w| {
+            let settings = Default::default();
+            write_standard_streams(&log, Convention::Rep103, &settings, w).map(|_| ())
+        })
+        .unwrap();
+        let as_ros2 = read(&cdr, &IngestOptions::default()).unwrap();
+        assert_eq!(as_ros2.streams[0].message_encoding, "cdr");
+        assert_eq!(Streams::of(&as_ros2).imu, Streams::of(&log).imu);
+        for (_, good) in (0..300).zip([&json, &cdr].into_iter().cycle()) {
             let mut bytes = good.clone();
             for _ in 0..rng.random_range(1..4) {
                 let i = rng.random_range(8..bytes.len());

@@ -126,7 +126,7 @@ fn a_schema_that_does_not_parse_is_refused_naming_the_topic() {
             "float64[x] broken\n",
             "cdr",
             &data,
-            0,
+            T0 as u64,
         )
     })
     .unwrap();
@@ -134,7 +134,63 @@ fn a_schema_that_does_not_parse_is_refused_naming_the_topic() {
     assert!(matches!(e, IngestError::Ros2Schema { .. }), "{e}");
     let text = e.to_string();
     assert!(
-        text.contains("/vehicle/imu") && text.contains("line 1"),
+        text.contains("/vehicle/imu")
+            && text.contains("line 1")
+            && text.contains("log time 2023-11-14T22:13:20.000Z")
+            && !text.contains('\n'),
+        "{text}"
+    );
+}
+
+/// A ROS 2 recording's other topics (tf, diagnostics) are skipped with a warning; the same
+/// topic named for a role is refused, naming it and the time of its first message.
+#[test]
+fn other_cdr_topics_are_skipped_unless_a_role_needs_them() {
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        let tf = "geometry_msgs/TransformStamped[] transforms\n";
+        for k in 0..3u64 {
+            let t = T0 as u64 + k * 10_000_000;
+            w.write_raw(
+                "/tf",
+                "tf2_msgs/msg/TFMessage",
+                tf,
+                "cdr",
+                &[0, 1, 0, 0, 0, 0, 0, 0],
+                t,
+            )?;
+            let data = imu_cdr(t as i64, "base_link", [0.0; 3], [0.0, 0.0, 9.8]);
+            w.write_raw(
+                "/imu",
+                "sensor_msgs/msg/Imu",
+                &imu_schema(),
+                "cdr",
+                &data,
+                t,
+            )?;
+        }
+        Ok(())
+    })
+    .unwrap();
+    let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
+    assert_eq!(log.messages::<Imu>("/imu").unwrap().len(), 3);
+    assert_eq!(log.skipped.len(), 1);
+    assert!(
+        log.warnings()
+            .iter()
+            .any(|w| w.contains("/tf: skipped 3 messages")),
+        "{:?}",
+        log.warnings()
+    );
+    let options = IngestOptions {
+        topics: [("imu".to_string(), "/tf".to_string())].into(),
+        ..IngestOptions::default()
+    };
+    let e = read_log_from(&bytes[..], &options).unwrap_err();
+    let text = e.to_string();
+    assert!(matches!(e, IngestError::UnknownSchema { .. }), "{e}");
+    assert!(
+        text.contains("topic /tf at log time 2023-11-14T22:13:20.000Z")
+            && text.contains("tf2_msgs/msg/TFMessage"),
         "{text}"
     );
 }

@@ -41,6 +41,16 @@ struct Slot {
     counts: StreamCounts,
     latest_stamp_ns: i64,
     issues: Vec<MessageIssue>,
+    /// Why the topic cannot be read: the read fails at its first message (naming its time).
+    refusal: Option<Refusal>,
+}
+
+/// Why a topic that must be read cannot be.
+enum Refusal {
+    /// No decoder for its schema and encoding.
+    Unknown,
+    /// A ROS 2 type hindsight reads, but its schema text does not serve.
+    Schema(String),
 }
 
 impl<'o> Builder<'o> {
@@ -74,7 +84,7 @@ impl<'o> Builder<'o> {
             }
             Record::Channel(c) => self.on_channel(c)?,
             Record::Message { header, data } if !self.in_summary => {
-                self.on_message(header.channel_id, header.log_time, &data)
+                self.on_message(header.channel_id, header.log_time, &data)?
             }
             Record::Metadata(m) => {
                 self.metadata.insert(m.name, m.metadata);
@@ -101,30 +111,22 @@ impl<'o> Builder<'o> {
         {
             Some(i) => i,
             None => {
-                let decoder = decode::for_topic(
+                let (decoder, refusal) = match decode::for_topic(
                     &c.topic,
                     &schema_name,
                     schema_text,
                     &c.message_encoding,
                     self.options,
-                )
-                .map_err(|e| IngestError::Ros2Schema {
-                    topic: c.topic.clone(),
-                    schema: schema_name.clone(),
-                    reason: e.to_string(),
-                })?;
-                if decoder.is_none() && !self.options.skip_unknown {
-                    return Err(IngestError::UnknownSchema {
-                        topic: c.topic,
-                        schema: schema_name,
-                        encoding: c.message_encoding,
-                        known: crate::contract::all_kinds()
-                            .iter()
-                            .map(|k| k.schema_name())
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                    });
-                }
+                ) {
+                    Ok(Some(d)) => (Some(d), None),
+                    Ok(None)
+                        if self.refuses_unknown(&c.topic, &schema_name, &c.message_encoding) =>
+                    {
+                        (None, Some(Refusal::Unknown))
+                    }
+                    Ok(None) => (None, None),
+                    Err(e) => (None, Some(Refusal::Schema(e.to_string()))),
+                };
                 self.slots.push(Slot {
                     topic: c.topic,
                     schema_name,
@@ -136,6 +138,7 @@ impl<'o> Builder<'o> {
                     counts: StreamCounts::default(),
                     latest_stamp_ns: i64::MIN,
                     issues: Vec::new(),
+                    refusal,
                 });
                 self.slots.len() - 1
             }
@@ -144,15 +147,62 @@ impl<'o> Builder<'o> {
         Ok(())
     }
 
-    fn on_message(&mut self, channel_id: u16, log_time_ns: u64, data: &[u8]) {
+    /// Whether a topic without a decoder fails the read: unless unknown topics are skipped,
+    /// a topic a role needs (named for one, at a contract default topic, or of a contract
+    /// schema), and any topic of another encoding than `cdr`. A ROS 2 recording's other
+    /// topics (tf, diagnostics, cameras) are skipped with a warning.
+    fn refuses_unknown(&self, topic: &str, schema_name: &str, encoding: &str) -> bool {
+        if self.options.skip_unknown {
+            return false;
+        }
+        let needed = self.options.topics.values().any(|t| t == topic)
+            || crate::contract::kind_by_schema(schema_name).is_some()
+            || crate::contract::all_kinds()
+                .iter()
+                .any(|k| k.default_topic() == topic);
+        needed || encoding != "cdr"
+    }
+
+    fn refused(&self, slot: usize, log_time_ns: u64) -> Option<IngestError> {
+        let s = &self.slots[slot];
+        Some(match s.refusal.as_ref()? {
+            Refusal::Unknown => IngestError::UnknownSchema {
+                topic: s.topic.clone(),
+                schema: s.schema_name.clone(),
+                encoding: s.message_encoding.clone(),
+                known: crate::contract::all_kinds()
+                    .iter()
+                    .map(|k| k.schema_name())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                log_time_ns,
+            },
+            Refusal::Schema(reason) => IngestError::Ros2Schema {
+                topic: s.topic.clone(),
+                schema: s.schema_name.clone(),
+                reason: reason.clone(),
+                log_time_ns,
+            },
+        })
+    }
+
+    fn on_message(
+        &mut self,
+        channel_id: u16,
+        log_time_ns: u64,
+        data: &[u8],
+    ) -> Result<(), IngestError> {
         let Some(slot) = self.channel_to_slot[usize::from(channel_id)] else {
             self.orphan_messages += 1;
-            return;
+            return Ok(());
         };
+        if let Some(e) = self.refused(slot, log_time_ns) {
+            return Err(e);
+        }
         let s = &mut self.slots[slot];
         s.counts.received += 1;
         let (Some(decoder), Some(samples)) = (s.decoder.as_ref(), s.samples.as_mut()) else {
-            return;
+            return Ok(());
         };
         match decoder.get().decode_into(data, samples.as_mut()) {
             Ok(()) => {
@@ -179,6 +229,7 @@ impl<'o> Builder<'o> {
                 }
             }
         }
+        Ok(())
     }
 
     pub(super) fn finish(self, ending: Ending, bytes_read: u64) -> Result<Log, IngestError> {

@@ -28,6 +28,12 @@ impl std::fmt::Display for MessageIssue {
     }
 }
 
+/// A log time as UTC with its nanoseconds.
+fn at(log_time_ns: u64) -> String {
+    let t = i64::try_from(log_time_ns).unwrap_or(i64::MAX);
+    format!("{} ({log_time_ns} ns)", time::format_utc(t))
+}
+
 /// Why a log could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum IngestError {
@@ -47,24 +53,30 @@ pub enum IngestError {
     Corrupt { offset: u64, detail: String },
 
     #[error(
-        "topic {topic}: no decoder for schema `{schema}` with message encoding `{encoding}` \
-         (hindsight reads the `json` encoding of: {known}); pass --skip-unknown to ignore the topic"
+        "topic {topic} at log time {}: no decoder for schema `{schema}` with message encoding \
+         `{encoding}` (hindsight reads the `json` encoding of: {known}; and in `cdr` the ROS 2 \
+         types of the README); pass --skip-unknown to ignore the topic",
+        at(*log_time_ns)
     )]
     UnknownSchema {
         topic: String,
         schema: String,
         encoding: String,
         known: String,
+        /// MCAP `log_time` of the topic's first message.
+        log_time_ns: u64,
     },
 
     #[error(transparent)]
     Role(#[from] super::roles::RoleError),
 
-    #[error("topic {topic} ({schema}, cdr): {reason}")]
+    #[error("topic {topic} ({schema}, cdr) at log time {}: {reason}", at(*log_time_ns))]
     Ros2Schema {
         topic: String,
         schema: String,
         reason: String,
+        /// MCAP `log_time` of the topic's first message.
+        log_time_ns: u64,
     },
 
     #[error(
