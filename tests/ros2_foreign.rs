@@ -323,3 +323,78 @@ fn info_export_and_reconstruct_read_a_ros2_recording() {
         "{summary}"
     );
 }
+
+/// The same zig-zag as a ROS 2 recording (hindsight's own CDR writer: IMU, attitude as
+/// QuaternionStamped, depth as FluidPressure, DVL as TwistWithCovarianceStamped, REP-103;
+/// /fins stays json), every topic moved under /vehicle so each role is found by its type,
+/// identifies as its json original.
+#[test]
+fn a_ros2_zigzag_identifies_as_its_json_original() {
+    use hindsight::sim::ros2::{write_as_ros2, Others};
+    use hindsight::sim::zigzag::{self, ZigzagSpec};
+    let dir = common::scratch_dir("ros2-identify");
+    let spec = ZigzagSpec::built_in("zigzag-10-5").unwrap();
+    let json = to_bytes(WriterOptions::default(), |w| {
+        zigzag::run(&spec, 1, w)?;
+        Ok(())
+    })
+    .unwrap();
+    let log = read_log_from(&json[..], &IngestOptions::default()).unwrap();
+    let ros = to_bytes(WriterOptions::default(), |w| {
+        let vehicle = |t: &str| format!("/vehicle{t}");
+        write_as_ros2(
+            &log,
+            Convention::Rep103,
+            &Default::default(),
+            Others::Json,
+            &vehicle,
+            w,
+        )?;
+        Ok(())
+    })
+    .unwrap();
+    let (json_log, ros_log) = (dir.join("zigzag.mcap"), dir.join("zigzag-ros2.mcap"));
+    std::fs::write(&json_log, json).unwrap();
+    std::fs::write(&ros_log, ros).unwrap();
+    let mut outs = Vec::new();
+    for (name, path) in [("json", &json_log), ("ros2", &ros_log)] {
+        let out = dir.join(name);
+        let o = common::hindsight(&[
+            "identify",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{name}: {}", common::stderr(&o));
+        outs.push(out);
+    }
+    let (a, b) = (
+        float_columns(&outs[0].join("coefficients.parquet")),
+        float_columns(&outs[1].join("coefficients.parquet")),
+    );
+    assert!(!a.is_empty() && a.len() == b.len());
+    // The inputs differ by rounding (the attitude through a quaternion, the depth through a
+    // pressure); the fit stops at its tolerance, so the estimates agree to that, not to the
+    // last bit: within 1e-3 of their sigma.
+    let column = |cols: &[(String, Vec<f64>)], name: &str| {
+        cols.iter().find(|(n, _)| n == name).unwrap().1.clone()
+    };
+    let (estimate_a, estimate_b) = (column(&a, "estimate"), column(&b, "estimate"));
+    let sigma = column(&a, "sigma");
+    assert!(!estimate_a.is_empty());
+    for ((p, q), s) in estimate_a.iter().zip(&estimate_b).zip(&sigma) {
+        println!(
+            "estimate {p:.9e} against {q:.9e}: {:.1e} sigma",
+            (p - q).abs() / s
+        );
+        assert!((p - q).abs() <= 1e-3 * s, "{p} against {q} (sigma {s})");
+    }
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        for (p, q) in x.iter().zip(y) {
+            assert!(
+                (p - q).abs() <= 1e-3 * p.abs().max(1e-9) || (p.is_nan() && q.is_nan()),
+                "{name}: {p} against {q}"
+            );
+        }
+    }
+}

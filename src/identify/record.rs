@@ -92,12 +92,7 @@ impl Record {
         let imu: &[Imu] = log.role();
         let fins: &[ControlSurfaces] = log.role();
         let attitude: &[Attitude] = log.role();
-        let dvl: Vec<&Dvl> = log
-            .messages::<Dvl>("/dvl")
-            .unwrap_or_default()
-            .iter()
-            .filter(|d| d.valid)
-            .collect();
+        let dvl: Vec<&Dvl> = log.role::<Dvl>().iter().filter(|d| d.valid).collect();
         let depth: &[Depth] = log.role();
         if imu.len() < 2 {
             return Err(RecordError::NoImu { log: log_name });

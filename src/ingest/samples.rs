@@ -28,6 +28,8 @@ pub trait Samples: Send + Sync + std::fmt::Debug {
     fn clear(&mut self);
     /// Adds `offset_ns` to every stamp (saturating).
     fn shift_stamps(&mut self, offset_ns: i64);
+    /// Message `i` as the contract's JSON.
+    fn to_json(&self, i: usize) -> Vec<u8>;
     /// Upcast for typed access.
     fn as_any(&self) -> &dyn Any;
     /// Upcast for typed appends.
@@ -62,6 +64,9 @@ impl<T: Message> Samples for Vec<T> {
             let s = m.stamp_ns().saturating_add(offset_ns);
             m.set_stamp_ns(s);
         }
+    }
+    fn to_json(&self, i: usize) -> Vec<u8> {
+        serde_json::to_vec(&self[i]).expect("a contract message serializes")
     }
     fn as_any(&self) -> &dyn Any {
         self

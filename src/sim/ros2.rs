@@ -351,13 +351,26 @@ fn encoder_of<'a>(
         .or_else(|| typed::<PositionFix>(stream, c, s))
 }
 
-/// Writes the streams of `log` that have a standard ROS 2 type as CDR, on their topics, in
-/// stamp order (logged at their stamps); the others are left out. Returns the messages
-/// written.
-pub fn write_standard_streams<W: Write + Seek>(
+/// What [`write_as_ros2`] does with a stream of no standard ROS 2 type (`/eml`, `/rpm`,
+/// `/fins`, `/truth`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Others {
+    /// Left out.
+    Leave,
+    /// Written as the contract's json beside the cdr topics (a mixed file).
+    Json,
+}
+
+/// Writes `log` as a ROS 2 recording: the streams with a standard ROS 2 type as CDR, on
+/// their topics (`topic_of` renames them, e.g. `/imu` to `/vehicle/imu/data`), the others
+/// as `others` says; in stamp order, logged at their stamps, without a `mission` record (as
+/// rosbag2 writes). Returns the messages written.
+pub fn write_as_ros2<W: Write + Seek>(
     log: &Log,
     convention: Convention,
     settings: &Ros2Settings,
+    others: Others,
+    topic_of: &dyn Fn(&str) -> String,
     w: &mut LogWriter<W>,
 ) -> Result<u64, WriteError> {
     let encoders: Vec<Option<StreamEncoder>> = log
@@ -365,18 +378,53 @@ pub fn write_standard_streams<W: Write + Seek>(
         .iter()
         .map(|s| encoder_of(s, convention, settings))
         .collect();
+    let topics: Vec<String> = log.streams.iter().map(|s| topic_of(&s.topic)).collect();
     let mut written = 0;
     for event in crate::align::merged(&log.streams) {
-        let Some(e) = &encoders[event.stream] else {
-            continue;
-        };
-        let topic = &log.streams[event.stream].topic;
-        let data = (e.encode)(event.index);
+        let stream = &log.streams[event.stream];
         let log_time = u64::try_from(event.stamp_ns).unwrap_or(0);
-        w.write_raw(topic, e.type_name, &e.definition, "cdr", &data, log_time)?;
+        let topic = &topics[event.stream];
+        match (&encoders[event.stream], others) {
+            (Some(e), _) => {
+                let data = (e.encode)(event.index);
+                w.write_raw(topic, e.type_name, &e.definition, "cdr", &data, log_time)?;
+            }
+            (None, Others::Json) => {
+                let kind = crate::contract::kind_by_schema(stream.samples.schema_name())
+                    .expect("a stream holds a contract message");
+                let data = stream.samples.to_json(event.index);
+                w.write_raw(
+                    topic,
+                    kind.schema_name(),
+                    kind.schema_json(),
+                    "json",
+                    &data,
+                    log_time,
+                )?;
+            }
+            (None, Others::Leave) => continue,
+        }
         written += 1;
     }
     Ok(written)
+}
+
+/// The streams of `log` with a standard ROS 2 type as CDR on their own topics, the others
+/// left out (see [`write_as_ros2`]).
+pub fn write_standard_streams<W: Write + Seek>(
+    log: &Log,
+    convention: Convention,
+    settings: &Ros2Settings,
+    w: &mut LogWriter<W>,
+) -> Result<u64, WriteError> {
+    write_as_ros2(
+        log,
+        convention,
+        settings,
+        Others::Leave,
+        &|t| t.to_string(),
+        w,
+    )
 }
 
 #[cfg(test)]
