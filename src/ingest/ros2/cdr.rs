@@ -38,13 +38,14 @@ pub enum CdrError {
 enum Step {
     /// One primitive, kept in a value slot or skipped.
     Value(Primitive, Option<usize>),
-    /// A fixed array of primitives, each element kept or not (while the plan is built).
-    Values(Primitive, Vec<Option<usize>>),
-    /// `count` primitives in a row: the byte offset in the run and the slot of each kept one.
+    /// Primitives of one size in a row, each kept or not (while the plan is built).
+    Values(Vec<(Primitive, Option<usize>)>),
+    /// `count` primitives of `size` bytes in a row: the byte offset in the run, the type and
+    /// the slot of each kept one.
     Run {
-        p: Primitive,
+        size: usize,
         count: usize,
-        kept: Vec<(usize, usize)>,
+        kept: Vec<(usize, Primitive, usize)>,
     },
     /// A string, kept in a string slot or skipped.
     Text(Option<usize>),
@@ -72,6 +73,23 @@ pub struct Picked<'a> {
     pub number: [f64; MAX_VALUES],
     pub integer: [i64; MAX_VALUES],
     pub text: [&'a str; MAX_STRINGS],
+}
+
+impl Picked<'_> {
+    /// Nothing read yet: numbers NaN, integers 0, strings empty.
+    pub fn new() -> Self {
+        Picked {
+            number: [f64::NAN; MAX_VALUES],
+            integer: [0; MAX_VALUES],
+            text: [""; MAX_STRINGS],
+        }
+    }
+}
+
+impl Default for Picked<'_> {
+    fn default() -> Self {
+        Picked::new()
+    }
 }
 
 impl Plan {
@@ -115,14 +133,15 @@ impl Plan {
 
     /// Reads one message (with its encapsulation header).
     pub fn read<'a>(&self, data: &'a [u8]) -> Result<Picked<'a>, CdrError> {
-        let mut c = Cursor::new(data)?;
-        let mut out = Picked {
-            number: [f64::NAN; MAX_VALUES],
-            integer: [0; MAX_VALUES],
-            text: [""; MAX_STRINGS],
-        };
-        c.steps(&self.steps, &mut Some(&mut out))?;
+        let mut out = Picked::new();
+        self.read_into(data, &mut out)?;
         Ok(out)
+    }
+
+    /// Reads one message into `out` (filled in place: the hot path of a recording).
+    pub fn read_into<'a>(&self, data: &'a [u8], out: &mut Picked<'a>) -> Result<(), CdrError> {
+        let mut c = Cursor::new(data)?;
+        c.steps(&self.steps, &mut Some(out))
     }
 }
 
@@ -159,10 +178,12 @@ fn flatten(
                 steps.push(Step::Value(*p, mark(wanted.numbers, &mut found.0, &path)))
             }
             (Element::Primitive(p), Shape::Fixed(n)) => {
-                let slots = (0..n)
+                let slots: Vec<Option<usize>> = (0..n)
                     .map(|i| mark(wanted.numbers, &mut found.0, &format!("{path}[{i}]")))
                     .collect();
-                steps.push(Step::Values(*p, slots));
+                steps.push(Step::Values(
+                    slots.into_iter().map(|slot| (*p, slot)).collect(),
+                ));
             }
             (Element::Primitive(p), Shape::Sequence) => {
                 steps.push(Step::Sequence(vec![Step::Value(*p, None)]))
@@ -209,9 +230,9 @@ fn flatten(
 fn merge_runs(steps: Vec<Step>) -> Vec<Step> {
     let mut out: Vec<Step> = Vec::with_capacity(steps.len());
     for step in steps {
-        let (p, slots) = match step {
-            Step::Value(p, slot) => (p, vec![slot]),
-            Step::Values(p, slots) => (p, slots),
+        let values = match step {
+            Step::Value(p, slot) => vec![(p, slot)],
+            Step::Values(values) => values,
             Step::Sequence(inner) => {
                 out.push(Step::Sequence(merge_runs(inner)));
                 continue;
@@ -225,39 +246,48 @@ fn merge_runs(steps: Vec<Step>) -> Vec<Step> {
                 continue;
             }
         };
+        let size = values[0].0.size();
         let previous = match out.last() {
-            Some(Step::Value(q, first)) if *q == p => Some(vec![*first]),
-            Some(Step::Values(q, run)) if *q == p => Some(run.clone()),
+            Some(Step::Value(q, first)) if q.size() == size => Some(vec![(*q, *first)]),
+            Some(Step::Values(run)) if run[0].0.size() == size => Some(run.clone()),
             _ => None,
         };
         match previous {
             Some(mut run) => {
-                run.extend(slots);
-                *out.last_mut().expect("a previous step") = Step::Values(p, run);
+                run.extend(values);
+                *out.last_mut().expect("a previous step") = Step::Values(run);
             }
-            None => out.push(match slots.as_slice() {
-                [slot] => Step::Value(p, *slot),
-                _ => Step::Values(p, slots),
+            None => out.push(match values.as_slice() {
+                [(p, slot)] => Step::Value(*p, *slot),
+                _ => Step::Values(values),
             }),
         }
     }
     out
 }
 
-/// The plan's arrays as runs that list only their kept elements.
+/// The plan's values as runs that list only their kept elements.
 fn into_runs(steps: Vec<Step>) -> Vec<Step> {
     steps
         .into_iter()
         .map(|step| match step {
-            Step::Values(p, slots) => Step::Run {
-                p,
-                count: slots.len(),
-                kept: slots
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(k, slot)| slot.map(|i| (k * p.size(), i)))
-                    .collect(),
+            Step::Value(p, slot) => Step::Run {
+                size: p.size(),
+                count: 1,
+                kept: slot.map(|i| (0, p, i)).into_iter().collect(),
             },
+            Step::Values(values) => {
+                let size = values[0].0.size();
+                Step::Run {
+                    size,
+                    count: values.len(),
+                    kept: values
+                        .iter()
+                        .enumerate()
+                        .filter_map(|(k, (p, slot))| slot.map(|i| (k * size, *p, i)))
+                        .collect(),
+                }
+            }
             Step::Sequence(inner) => Step::Sequence(into_runs(inner)),
             Step::Repeat(n, inner) => Step::Repeat(n, into_runs(inner)),
             other => other,
@@ -391,16 +421,23 @@ impl<'a> Cursor<'a> {
                         (o.number[*i], o.integer[*i]) = v;
                     }
                 }
-                Step::Values(p, slots) => {
+                Step::Values(values) => {
                     // Only while a plan is built: `into_runs` turns these into runs.
-                    self.take(p.size() * slots.len(), p.size())?;
+                    let size = values[0].0.size();
+                    self.take(size * values.len(), size)?;
                 }
-                Step::Run { p, count, kept } => {
-                    let run = self.take(p.size() * count, p.size())?;
+                Step::Run { size, count, kept } => {
+                    let run = self.take(size * count, *size)?;
                     if let Some(o) = out.as_deref_mut() {
-                        for &(at, i) in kept {
-                            (o.number[i], o.integer[i]) =
-                                decode(*p, &run[at..at + p.size()], self.little);
+                        for &(at, p, i) in kept {
+                            let b = &run[at..at + size];
+                            if p == Primitive::F64 && self.little {
+                                // The common case, without the general decode's dispatch.
+                                let x = f64::from_le_bytes(b.try_into().expect("8 bytes"));
+                                (o.number[i], o.integer[i]) = (x, x as i64);
+                            } else {
+                                (o.number[i], o.integer[i]) = decode(p, b, self.little);
+                            }
                         }
                     }
                 }
@@ -421,9 +458,17 @@ impl<'a> Cursor<'a> {
                 }
                 Step::Sequence(inner) => {
                     let n = self.count()?;
-                    if let [Step::Value(p, None)] = inner.as_slice() {
-                        self.take(n.saturating_mul(p.size()), p.size())?;
-                        continue;
+                    // A sequence of one primitive: one take for all its elements.
+                    if let [Step::Run {
+                        size,
+                        count: 1,
+                        kept,
+                    }] = inner.as_slice()
+                    {
+                        if kept.is_empty() {
+                            self.take(n.saturating_mul(*size), *size)?;
+                            continue;
+                        }
                     }
                     for _ in 0..n {
                         self.steps(inner, &mut None)?;

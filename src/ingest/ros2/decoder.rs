@@ -1,7 +1,7 @@
 //! The decoder of one ROS 2 topic: its schema text parsed, a CDR plan compiled for the
 //! fields its type's mapping reads, each message converted to the contract's and checked.
 
-use super::cdr::{Plan, PlanError};
+use super::cdr::{Picked, Plan, PlanError};
 use super::map::{convert, Convention, Converted, Ros2Settings, RosType, FRAME};
 use super::msg::{full_name, parse, SchemaError};
 use crate::contract::FieldIssue;
@@ -62,9 +62,9 @@ impl Ros2Decoder {
 
     /// The contract message of one CDR message.
     pub fn convert(&self, data: &[u8]) -> Result<Converted, FieldIssue> {
-        let picked = self
-            .plan
-            .read(data)
+        let mut picked = Picked::new();
+        self.plan
+            .read_into(data, &mut picked)
             .map_err(|e| FieldIssue::new("(message)", e.to_string()))?;
         let frame = if self.plan.has_string(0) {
             picked.text[0]
