@@ -460,29 +460,20 @@ mod tests {
         };
         assert!(dvl(0.0001).valid);
         assert!(!dvl(-1.0).valid);
-        let Converted::PositionFix(p) = convert(
+        let point = |z: f64| match convert(
             RosType::PointStamped,
-            &numbers(&[10.0, 20.0, -5.0]),
+            &numbers(&[10.0, 20.0, z]),
             (0, 0),
             "map",
             None,
             &s,
-        )
-        .unwrap() else {
-            panic!()
+        ) {
+            Ok(Converted::PositionFix(p)) => p,
+            other => panic!("{other:?}"),
         };
+        let p = point(-5.0);
         assert_eq!((p.north_m, p.east_m, p.down_m), (20.0, 10.0, Some(5.0)));
-        let Converted::PositionFix(p) = convert(
-            RosType::PointStamped,
-            &numbers(&[10.0, 20.0, f64::NAN]),
-            (0, 0),
-            "map",
-            None,
-            &s,
-        )
-        .unwrap() else {
-            panic!()
-        };
+        let p = point(f64::NAN);
         assert_eq!(p.down_m, None, "NaN is unknown: a horizontal fix");
     }
 
