@@ -430,3 +430,49 @@ fn an_ambiguous_or_misnamed_role_is_refused_naming_the_candidates() {
     assert_eq!(log.role_topic::<Imu>(), None);
     assert!(log.warnings().iter().any(|w| w.contains("ambiguous")));
 }
+
+/// `info` walks the messages of cdr types hindsight does not map through their schema's
+/// layout: a message shorter than its layout is counted with its topic and log time.
+#[test]
+fn unmapped_cdr_topics_are_checked_against_their_layout() {
+    use hindsight::ingest::LayoutCheck;
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        let schema = "float64[] values\nstring note\n";
+        let mut fits = Cdr::new();
+        fits.u32(2).f64s(&[1.0, 2.0]).string("ok");
+        let mut short = Cdr::new();
+        short.u32(5).f64(1.0);
+        for (k, data) in [fits.bytes(), short.bytes(), fits.bytes()]
+            .into_iter()
+            .enumerate()
+        {
+            let t = T0 as u64 + k as u64 * 1_000_000_000;
+            w.write_raw("/samples", "acme_msgs/msg/Samples", schema, "cdr", data, t)?;
+        }
+        Ok(())
+    })
+    .unwrap();
+    let options = IngestOptions {
+        check_layouts: true,
+        skip_unknown: true,
+        ..IngestOptions::default()
+    };
+    let log = read_log_from(&bytes[..], &options).unwrap();
+    let Some(LayoutCheck::Checked {
+        misfits,
+        first: Some(issue),
+    }) = &log.skipped[0].layout
+    else {
+        panic!("{:?}", log.skipped);
+    };
+    assert_eq!(*misfits, 1);
+    assert_eq!(issue.log_time_ns, T0 as u64 + 1_000_000_000);
+    assert!(
+        issue.to_string().contains("shorter than its layout"),
+        "{issue}"
+    );
+    // Without the check (the commands that reconstruct), the topic is only counted.
+    let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
+    assert_eq!(log.skipped[0].layout, None);
+    assert_eq!(log.skipped[0].messages, 3);
+}

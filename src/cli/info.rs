@@ -2,7 +2,9 @@
 
 use super::LogArgs;
 use anyhow::Result;
-use hindsight::ingest::{stats::GAP_FACTOR, Ending, IngestOptions, Log, RoleSource, Stream};
+use hindsight::ingest::{
+    stats::GAP_FACTOR, Ending, IngestOptions, LayoutCheck, Log, RoleSource, Stream,
+};
 use hindsight::time::format_utc;
 
 /// Show what a log holds: per topic its schema, rate, span, gaps and defects; the mission.
@@ -10,7 +12,9 @@ use hindsight::time::format_utc;
 /// Columns: count = messages kept; rate = 1 / median interval; jitter = standard deviation of
 /// the intervals that are not gaps; gaps = intervals over 3x the median; dup = repeated
 /// stamps (dropped); ooo = messages stamped earlier than one already received (sorted into
-/// place); invalid = failed decoding or validation (dropped; the first is shown). Every
+/// place); invalid = failed decoding or validation (dropped; the first is shown). A ROS 2
+/// topic of a type hindsight does not read is skipped, but its messages are walked through
+/// the layout of the schema text in the file: invalid then counts those that do not fit. Every
 /// message is decoded and checked, streaming the file; info reports every defect and
 /// skipped topic instead of stopping at the first.
 #[derive(Debug, clap::Args)]
@@ -31,6 +35,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
         max_invalid_fraction: 1.0,
         keep_messages: false,
         strict_roles: false,
+        check_layouts: true,
         ..IngestOptions::default()
     };
     args.log.source.apply(&mut options);
@@ -115,6 +120,10 @@ fn render(log: &Log, name: &str, list_gaps: bool) -> String {
         r[2] = s.message_encoding.clone();
         r[3] = s.messages.to_string();
         r[4] = "(no decoder: skipped)".into();
+        if let Some(LayoutCheck::Checked { misfits, .. }) = &s.layout {
+            r[4] = "(no decoder: layout checked)".into();
+            r[11] = misfits.to_string();
+        }
         rows.push(r);
     }
     out.push_str(&table(&header, &rows));
@@ -130,6 +139,19 @@ fn render(log: &Log, name: &str, list_gaps: bool) -> String {
             "roles not at their default topic: {}",
             moved.join(", ")
         );
+    }
+    for s in &log.skipped {
+        match &s.layout {
+            Some(LayoutCheck::Checked {
+                first: Some(issue), ..
+            }) => {
+                let _ = writeln!(out, "layout  {issue}");
+            }
+            Some(LayoutCheck::NoLayout(why)) => {
+                let _ = writeln!(out, "layout  {}: not checked: {why}", s.topic);
+            }
+            _ => {}
+        }
     }
     for p in &log.role_problems {
         let _ = writeln!(out, "role  {p}");

@@ -2,7 +2,7 @@
 
 use super::decode::{self, TopicDecoder};
 use super::error::{IngestError, MessageIssue};
-use super::log::{FileReport, IngestOptions, Log, SkippedTopic, Stream, StreamCounts};
+use super::log::{FileReport, IngestOptions, LayoutCheck, Log, SkippedTopic, Stream, StreamCounts};
 use super::reader::Ending;
 use super::roles;
 use super::samples::Samples;
@@ -43,6 +43,72 @@ struct Slot {
     issues: Vec<MessageIssue>,
     /// Why the topic cannot be read: the read fails at its first message (naming its time).
     refusal: Option<Refusal>,
+    /// A skipped cdr topic's layout, its messages walked through it.
+    layout: Option<Layout>,
+}
+
+/// The layout check of a skipped cdr topic.
+enum Layout {
+    NoLayout(String),
+    Plan {
+        plan: crate::ingest::ros2::cdr::Plan,
+        misfits: u64,
+        first: Option<MessageIssue>,
+    },
+}
+
+impl Layout {
+    /// The layout `schema_text` gives a message of `schema_name`.
+    fn of(schema_name: &str, schema_text: &[u8]) -> Layout {
+        use crate::ingest::ros2::{cdr::Plan, msg};
+        if msg::full_name(schema_name).is_none() {
+            return Layout::NoLayout(format!(
+                "`{schema_name}` is not a message type (a service's schema is its .srv text)"
+            ));
+        }
+        let text = String::from_utf8_lossy(schema_text);
+        match msg::parse(schema_name, &text).map(|defs| Plan::new(&defs, &[], &[])) {
+            Ok(Ok(plan)) => Layout::Plan {
+                plan,
+                misfits: 0,
+                first: None,
+            },
+            Ok(Err(e)) => Layout::NoLayout(e.to_string()),
+            Err(e) => Layout::NoLayout(format!("schema text: {e}")),
+        }
+    }
+
+    /// Walks one message; a misfit is one the layout does not reach the end of (beyond the
+    /// padding of the last alignment) or runs past.
+    fn check(&mut self, topic: &str, log_time_ns: u64, data: &[u8]) {
+        let Layout::Plan {
+            plan,
+            misfits,
+            first,
+        } = self
+        else {
+            return;
+        };
+        let reason = match plan.check(data) {
+            Ok(used) if data.len() - used < 8 => return,
+            Ok(used) => format!("{} bytes after the layout's {used}", data.len() - used),
+            Err(e) => e.to_string(),
+        };
+        *misfits += 1;
+        first.get_or_insert_with(|| MessageIssue {
+            topic: topic.to_string(),
+            log_time_ns,
+            field: "(message)".into(),
+            reason,
+        });
+    }
+
+    fn into_check(self) -> LayoutCheck {
+        match self {
+            Layout::NoLayout(why) => LayoutCheck::NoLayout(why),
+            Layout::Plan { misfits, first, .. } => LayoutCheck::Checked { misfits, first },
+        }
+    }
 }
 
 /// Why a topic that must be read cannot be.
@@ -127,6 +193,11 @@ impl<'o> Builder<'o> {
                     Ok(None) => (None, None),
                     Err(e) => (None, Some(Refusal::Schema(e.to_string()))),
                 };
+                let layout = (decoder.is_none()
+                    && refusal.is_none()
+                    && self.options.check_layouts
+                    && c.message_encoding == "cdr")
+                    .then(|| Layout::of(&schema_name, schema_text));
                 self.slots.push(Slot {
                     topic: c.topic,
                     schema_name,
@@ -138,6 +209,7 @@ impl<'o> Builder<'o> {
                     counts: StreamCounts::default(),
                     latest_stamp_ns: i64::MIN,
                     issues: Vec::new(),
+                    layout,
                     refusal,
                 });
                 self.slots.len() - 1
@@ -201,6 +273,9 @@ impl<'o> Builder<'o> {
         }
         let s = &mut self.slots[slot];
         s.counts.received += 1;
+        if let Some(layout) = s.layout.as_mut() {
+            layout.check(&s.topic, log_time_ns, data);
+        }
         let (Some(decoder), Some(samples)) = (s.decoder.as_ref(), s.samples.as_mut()) else {
             return Ok(());
         };
@@ -242,6 +317,7 @@ impl<'o> Builder<'o> {
                     schema_name: slot.schema_name,
                     message_encoding: slot.message_encoding,
                     messages: slot.counts.received,
+                    layout: slot.layout.map(Layout::into_check),
                 });
                 continue;
             };

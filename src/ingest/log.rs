@@ -25,6 +25,9 @@ pub struct IngestOptions {
     pub ros2: crate::ingest::ros2::map::Ros2Settings,
     /// A topic's frame convention, where its `frame_id` should not decide it.
     pub frame_conventions: std::collections::BTreeMap<String, crate::ingest::ros2::map::Convention>,
+    /// Walk the messages of cdr topics hindsight does not map through the layout of their
+    /// schema text, counting those that do not fit (what `info` does).
+    pub check_layouts: bool,
     /// Topics named for roles (role -> topic), over the default topics and the types.
     pub topics: BTreeMap<String, String>,
     /// A role that cannot be resolved (ambiguous, or named for a topic that is not there)
@@ -40,6 +43,7 @@ impl Default for IngestOptions {
             keep_messages: true,
             ros2: Default::default(),
             frame_conventions: Default::default(),
+            check_layouts: false,
             topics: BTreeMap::new(),
             strict_roles: true,
         }
@@ -91,6 +95,20 @@ pub struct SkippedTopic {
     pub schema_name: String,
     pub message_encoding: String,
     pub messages: u64,
+    /// For a cdr topic walked through its schema's layout ([`IngestOptions::check_layouts`]).
+    pub layout: Option<LayoutCheck>,
+}
+
+/// What walking a skipped cdr topic's messages through its schema's layout found.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LayoutCheck {
+    /// The schema text gives no layout (it does not parse, or is a service's `.srv` text).
+    NoLayout(String),
+    /// Messages that do not fit the layout, and the first of them.
+    Checked {
+        misfits: u64,
+        first: Option<MessageIssue>,
+    },
 }
 
 /// How the file itself read.
@@ -223,7 +241,7 @@ impl Log {
                 ));
             }
         }
-        for s in &self.skipped {
+        for s in self.skipped.iter().filter(|s| s.messages > 0) {
             out.push(format!(
                 "{}: skipped {} messages of schema `{}` (encoding `{}`): no decoder",
                 s.topic, s.messages, s.schema_name, s.message_encoding
