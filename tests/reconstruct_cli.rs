@@ -9,6 +9,32 @@ use hindsight::contract::Dvl;
 use hindsight::ingest::Mission;
 use hindsight::sim::writer::{to_bytes, WriterOptions};
 
+/// A float column of one solution's rows of trajectory.parquet.
+fn trajectory_column(batches: &[RecordBatch], name: &str, solution: &str) -> Vec<f64> {
+    use arrow_array::{Array, Float64Array, StringArray};
+    let mut out = Vec::new();
+    for b in batches {
+        let solutions = b
+            .column_by_name("solution")
+            .unwrap()
+            .as_any()
+            .downcast_ref::<StringArray>()
+            .unwrap();
+        let values = b
+            .column_by_name(name)
+            .unwrap()
+            .as_any()
+            .downcast_ref::<Float64Array>()
+            .unwrap();
+        out.extend(
+            (0..b.num_rows())
+                .filter(|&i| solutions.value(i) == solution)
+                .map(|i| values.value(i)),
+        );
+    }
+    out
+}
+
 fn rows(batches: &[RecordBatch]) -> usize {
     batches.iter().map(RecordBatch::num_rows).sum()
 }
@@ -114,10 +140,41 @@ fn reconstruct_writes_trajectory_residuals_errors_and_summary() {
             "errors.parquet",
             "residuals.parquet",
             "summary.json",
+            "trajectory.mcap",
             "trajectory.parquet",
             "tuned.toml"
         ]
     );
+    // trajectory.mcap: each solution's rows as Foxglove messages, the smoothed fix at the
+    // trajectory's latitude.
+    let bytes = std::fs::read(out.join("trajectory.mcap")).unwrap();
+    let mut counts = std::collections::BTreeMap::<(String, String), usize>::new();
+    let mut first_fix: Option<serde_json::Value> = None;
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let schema = m.channel.schema.as_ref().unwrap().name.clone();
+        if m.channel.topic == "/hindsight/smoothed/fix" && first_fix.is_none() {
+            first_fix = Some(serde_json::from_slice(&m.data).unwrap());
+        }
+        *counts.entry((m.channel.topic.clone(), schema)).or_default() += 1;
+    }
+    let expected: Vec<((String, String), usize)> = [
+        ("/hindsight/forward/fix", "foxglove.LocationFix"),
+        ("/hindsight/forward/pose", "foxglove.PoseInFrame"),
+        ("/hindsight/smoothed/fix", "foxglove.LocationFix"),
+        ("/hindsight/smoothed/pose", "foxglove.PoseInFrame"),
+    ]
+    .into_iter()
+    .map(|(t, s)| ((t.to_string(), s.to_string()), per_solution))
+    .collect();
+    assert_eq!(counts.into_iter().collect::<Vec<_>>(), expected);
+    let fix = first_fix.unwrap();
+    let smoothed_latitude = trajectory_column(&trajectory, "latitude_deg", "smoothed")[0];
+    assert!(
+        (fix["latitude"].as_f64().unwrap() - smoothed_latitude).abs() < 1e-9,
+        "{fix}"
+    );
+    assert_eq!(fix["position_covariance"].as_array().unwrap().len(), 9);
     // Self-tuning's figures are reported and reusable as a configuration that fixes them.
     let tuning = &summary["tuning"];
     assert_eq!(tuning["imu"]["source"], "estimated", "{tuning}");

@@ -30,6 +30,9 @@ use std::time::Instant;
 ///   trajectory.parquet  forward and smoothed solutions at --output-rate: position (lat/lon
 ///                       and north/east/down in the mission frame), NED velocity,
 ///                       roll/pitch/yaw, their 1-sigma, gyro and accelerometer biases
+///   trajectory.mcap     the same rows for Foxglove: foxglove.LocationFix (map panel) and
+///                       foxglove.PoseInFrame (3-D panel, `map` = east/north/up from the
+///                       origin) on /hindsight/{forward,smoothed}/{fix,pose}
 ///   residuals.parquet   every aiding measurement: innovation, predicted sigma, NIS, accepted
 ///   summary.json        inputs, initialisation, counts, rejections, NIS per sensor,
 ///                       distance, final 1-sigma, run time, and truth scores when /truth exists
@@ -340,6 +343,53 @@ fn ingest_options(args: &ReconstructArgs, config: &Config) -> hindsight::ingest:
     options
 }
 
+/// `trajectory.mcap`: the forward and smoothed solutions at the output rows as Foxglove
+/// messages (`foxglove.LocationFix` on `/hindsight/<solution>/fix`, `foxglove.PoseInFrame`
+/// on `/hindsight/<solution>/pose`), logged at their stamps.
+fn write_trajectory_mcap(
+    file: std::fs::File,
+    r: &recon::Reconstruction,
+    keep: &[usize],
+    origin_rad: (f64, f64),
+) -> Result<()> {
+    use hindsight::output::foxglove::{
+        location_fix, pose_in_frame, LOCATION_FIX_SCHEMA, POSE_IN_FRAME_SCHEMA,
+    };
+    use hindsight::sim::writer::{LogWriter, WriterOptions};
+    let mut w = LogWriter::new(std::io::BufWriter::new(file), WriterOptions::default())?;
+    let solutions = [("forward", &r.forward), ("smoothed", &r.smoothed)];
+    let topics = solutions.map(|(name, _)| {
+        (
+            format!("/hindsight/{name}/fix"),
+            format!("/hindsight/{name}/pose"),
+        )
+    });
+    for &k in keep {
+        for ((name, solutions), (fix_topic, pose_topic)) in solutions.iter().zip(&topics) {
+            let s = &solutions[k];
+            let t = u64::try_from(s.stamp_ns).unwrap_or(0);
+            w.write_raw(
+                fix_topic,
+                "foxglove.LocationFix",
+                LOCATION_FIX_SCHEMA,
+                "json",
+                &location_fix(s, name),
+                t,
+            )?;
+            w.write_raw(
+                pose_topic,
+                "foxglove.PoseInFrame",
+                POSE_IN_FRAME_SCHEMA,
+                "json",
+                &pose_in_frame(s, origin_rad, "map"),
+                t,
+            )?;
+        }
+    }
+    std::io::Write::flush(&mut w.finish()?)?;
+    Ok(())
+}
+
 pub fn run(args: ReconstructArgs) -> Result<()> {
     let started = Instant::now();
     let config = args.config()?;
@@ -459,6 +509,14 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     write_trajectory(file, &r, &keep, origin)
         .with_context(|| OutputFailed { path: path.clone() })?;
     let mut written = vec![path];
+
+    let path = args.out.join("trajectory.mcap");
+    let file = staging
+        .create(&path)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    write_trajectory_mcap(file, &r, &keep, origin)
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    written.push(path);
 
     let path = args.out.join("residuals.parquet");
     let file = staging

@@ -8,7 +8,9 @@ three with the same row counts; stamp_ns is timestamp[ns, tz=UTC]; within each s
 (`forward`, `smoothed`) the trajectory's stamps strictly increase and every sigma is
 positive; residuals have a known sensor and a NIS >= 0; summary.json parses and its counts
 match the files.
-Needs: pip install pyarrow polars duckdb
+trajectory.mcap, read with the official `mcap` reader, holds each solution's rows as
+foxglove.LocationFix and foxglove.PoseInFrame messages.
+Needs: pip install pyarrow polars duckdb mcap
 """
 import json
 import os
@@ -33,6 +35,27 @@ def open_everywhere(con, path):
     assert count == table.num_rows, path
     print(f"ok  {os.path.basename(path):20} {table.num_rows:>8} rows  {table.num_columns:>3} columns")
     return table
+
+
+def check_trajectory_mcap(path, per_solution):
+    from collections import Counter
+
+    from mcap.reader import make_reader
+
+    counts = Counter()
+    with open(path, "rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            assert channel.message_encoding == "json" and schema.encoding == "jsonschema"
+            body = json.loads(message.data)
+            assert body["timestamp"]["nsec"] < 10**9
+            counts[(channel.topic, schema.name)] += 1
+    expected = {
+        (f"/hindsight/{s}/{kind}", schema): per_solution
+        for s in ("forward", "smoothed")
+        for kind, schema in (("fix", "foxglove.LocationFix"), ("pose", "foxglove.PoseInFrame"))
+    }
+    assert dict(counts) == expected, counts
+    print(f"ok  trajectory.mcap      {sum(counts.values()):>8} messages on {len(counts)} topics (mcap reader)")
 
 
 def main(out_dir):
@@ -62,6 +85,7 @@ def main(out_dir):
         assert table.num_rows == 2 * per_solution
     else:
         assert not os.path.exists(errors)
+    check_trajectory_mcap(os.path.join(out_dir, "trajectory.mcap"), per_solution)
     print(f"reconstruct outputs open in pyarrow {pa.__version__}, polars {pl.__version__}, "
           f"duckdb {duckdb.__version__} without warnings")
 
