@@ -363,3 +363,61 @@ fn clock_offset_moves_stamps_span_and_gaps_of_one_topic() {
     let first = merged(&log.streams).next().unwrap();
     assert_eq!(log.streams[first.stream].topic, "/depth");
 }
+
+/// What a person looks for in `info` (issue 17): DVL readings without bottom lock, and a
+/// stream that samples and holds (a stuck pressure sensor), counted whether the messages
+/// are kept or not.
+#[test]
+fn unusable_readings_and_held_values_are_counted() {
+    const T0: i64 = 1_700_000_000_000_000_000;
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        for k in 0..100i64 {
+            let t = T0 + k * 100_000_000;
+            let dvl = Dvl {
+                stamp_ns: t,
+                velocity: [1.5 + 1e-3 * k as f64, 0.0, 0.0],
+                valid: !(30..45).contains(&k),
+                altitude: Some(10.0),
+            };
+            w.write("/dvl", &dvl, t as u64)?;
+            // The pressure sensor sticks at 12.5 m for messages 50..80.
+            let depth = if (50..80).contains(&k) {
+                12.5
+            } else {
+                10.0 + 0.01 * k as f64
+            };
+            w.write("/depth", &Depth { stamp_ns: t, depth }, t as u64)?;
+        }
+        Ok(())
+    })
+    .unwrap();
+    for keep_messages in [true, false] {
+        let options = IngestOptions {
+            keep_messages,
+            ..IngestOptions::default()
+        };
+        let log = read_log_from(&bytes[..], &options).unwrap();
+        let dvl = &log.stream("/dvl").unwrap().counts;
+        assert_eq!(dvl.flagged, 15);
+        assert_eq!(dvl.held.repeats, 0, "the velocity changes");
+        let depth = &log.stream("/depth").unwrap().counts;
+        assert_eq!(depth.flagged, 0);
+        assert_eq!(depth.held.repeats, 29, "30 messages, 29 repeats");
+        assert_eq!(depth.held.from_ns, T0 + 50 * 100_000_000);
+        assert!((depth.held.seconds() - 2.9).abs() < 1e-9);
+        assert_eq!(
+            log.stream("/depth").unwrap().samples.len(),
+            if keep_messages { 100 } else { 0 }
+        );
+    }
+    let dir = common::scratch_dir("info-held");
+    let path = dir.join("held.mcap");
+    std::fs::write(&path, &bytes).unwrap();
+    let o = common::hindsight(&["info", path.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("unusable  /dvl: 15 of 100 readings")
+            && text.contains("held  /depth: 30 messages in a row"),
+        "{text}"
+    );
+}

@@ -14,7 +14,10 @@ use hindsight::time::format_utc;
 /// stamps (dropped); ooo = messages stamped earlier than one already received (sorted into
 /// place); invalid = failed decoding or validation (dropped; the first is shown). A ROS 2
 /// topic of a type hindsight does not read is skipped, but its messages are walked through
-/// the layout of the schema text in the file: invalid then counts those that do not fit. Every
+/// the layout of the schema text in the file: invalid then counts those that do not fit.
+/// Below the table: readings that say they are unusable (a DVL without bottom lock), and
+/// the longest run of 10 or more messages repeating their predecessor's values in every
+/// field (a sensor that samples and holds, or is stuck). Every
 /// message is decoded and checked, streaming the file; info reports every defect and
 /// skipped topic instead of stopping at the first.
 #[derive(Debug, clap::Args)]
@@ -27,6 +30,9 @@ pub struct InfoArgs {
     #[arg(long)]
     pub gaps: bool,
 }
+
+/// Repeats of one value that `info` reports as a held stream.
+const HELD_REPEATS: u64 = 10;
 
 pub fn run(args: InfoArgs) -> Result<()> {
     // info reports every defect instead of stopping at the first.
@@ -151,6 +157,31 @@ fn render(log: &Log, name: &str, list_gaps: bool) -> String {
                 let _ = writeln!(out, "layout  {}: not checked: {why}", s.topic);
             }
             _ => {}
+        }
+    }
+    for s in &log.streams {
+        let c = &s.counts;
+        if c.flagged > 0 {
+            let _ = writeln!(
+                out,
+                "unusable  {}: {} of {} readings say they are not usable (a DVL without bottom \
+                 lock: valid false), {:.1} %",
+                s.topic,
+                c.flagged,
+                c.kept,
+                100.0 * c.flagged as f64 / c.kept.max(1) as f64
+            );
+        }
+        if c.held.repeats >= HELD_REPEATS {
+            let _ = writeln!(
+                out,
+                "held  {}: {} messages in a row repeat the same values over {:.1} s from {} \
+                 (a sensor that samples and holds, or is stuck)",
+                s.topic,
+                c.held.repeats + 1,
+                c.held.seconds(),
+                format_utc(c.held.from_ns)
+            );
         }
     }
     for p in &log.role_problems {

@@ -2,7 +2,9 @@
 
 use super::decode::{self, TopicDecoder};
 use super::error::{IngestError, MessageIssue};
-use super::log::{FileReport, IngestOptions, LayoutCheck, Log, SkippedTopic, Stream, StreamCounts};
+use super::log::{
+    FileReport, Held, IngestOptions, LayoutCheck, Log, SkippedTopic, Stream, StreamCounts,
+};
 use super::reader::Ending;
 use super::roles;
 use super::samples::Samples;
@@ -45,6 +47,10 @@ struct Slot {
     refusal: Option<Refusal>,
     /// A skipped cdr topic's layout, its messages walked through it.
     layout: Option<Layout>,
+    /// The stretch of repeated values being read.
+    holding: Held,
+    /// The field where a message says whether it is usable.
+    valid_property: Option<usize>,
 }
 
 /// The layout check of a skipped cdr topic.
@@ -198,11 +204,13 @@ impl<'o> Builder<'o> {
                     && self.options.check_layouts
                     && c.message_encoding == "cdr")
                     .then(|| Layout::of(&schema_name, schema_text));
+                let samples = decoder.as_ref().map(|d| d.get().new_samples());
                 self.slots.push(Slot {
                     topic: c.topic,
                     schema_name,
                     message_encoding: c.message_encoding,
-                    samples: decoder.as_ref().map(|d| d.get().new_samples()),
+                    valid_property: samples.as_ref().and_then(|s| s.valid_property()),
+                    samples,
                     decoder,
                     stamps_ns: Vec::new(),
                     log_time_ns: Vec::new(),
@@ -211,6 +219,7 @@ impl<'o> Builder<'o> {
                     issues: Vec::new(),
                     layout,
                     refusal,
+                    holding: Held::default(),
                 });
                 self.slots.len() - 1
             }
@@ -281,9 +290,27 @@ impl<'o> Builder<'o> {
         };
         match decoder.get().decode_into(data, samples.as_mut()) {
             Ok(()) => {
-                let stamp = samples.stamp_ns(samples.len() - 1);
+                let last = samples.len() - 1;
+                let stamp = samples.stamp_ns(last);
+                if let Some(valid) = s.valid_property {
+                    s.counts.flagged += u64::from(samples.flagged_invalid(last, valid));
+                }
+                if last > 0 && samples.same_values(last - 1, last) {
+                    s.holding.repeats += 1;
+                    s.holding.to_ns = stamp;
+                    if s.holding.repeats > s.counts.held.repeats {
+                        s.counts.held = s.holding;
+                    }
+                } else {
+                    s.holding = Held {
+                        repeats: 0,
+                        from_ns: stamp,
+                        to_ns: stamp,
+                    };
+                }
                 if !self.options.keep_messages {
-                    samples.clear();
+                    // The last message stays, to compare the next with.
+                    samples.keep_last();
                 }
                 if stamp < s.latest_stamp_ns {
                     s.counts.out_of_order += 1;
@@ -353,6 +380,7 @@ impl<'o> Builder<'o> {
             };
             if !self.options.keep_messages {
                 log_time_ns = Vec::new();
+                samples.clear();
             }
             streams.push(Stream {
                 topic: slot.topic,

@@ -63,6 +63,27 @@ pub struct StreamCounts {
     pub out_of_order: u64,
     /// Valid messages with distinct stamps: `received - invalid - duplicates`.
     pub kept: u64,
+    /// Messages that say they are not usable (a DVL reading without bottom lock).
+    pub flagged: u64,
+    /// The longest stretch of messages that repeat their predecessor's values (in file
+    /// order): a sensor that samples and holds, or is stuck.
+    pub held: Held,
+}
+
+/// A stretch of messages repeating one value.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Held {
+    /// Messages that repeat the one before them.
+    pub repeats: u64,
+    /// Stamp of the first message holding the value, and of the last repeat.
+    pub from_ns: i64,
+    pub to_ns: i64,
+}
+
+impl Held {
+    pub fn seconds(&self) -> f64 {
+        (self.to_ns - self.from_ns) as f64 * 1e-9
+    }
 }
 
 /// One topic of the log, decoded and sorted by `stamp_ns`.

@@ -25,7 +25,9 @@ pub use reader::Ending;
 pub use roles::{RoleChoice, RoleError, RoleSource};
 pub use samples::Samples;
 
-pub use log::{FileReport, IngestOptions, LayoutCheck, Log, SkippedTopic, Stream, StreamCounts};
+pub use log::{
+    FileReport, Held, IngestOptions, LayoutCheck, Log, SkippedTopic, Stream, StreamCounts,
+};
 
 use builder::Builder;
 use mcap::records::Record;

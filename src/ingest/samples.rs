@@ -26,6 +26,8 @@ pub trait Samples: Send + Sync + std::fmt::Debug {
     fn permute(&mut self, order: &[usize]);
     /// Drops every message.
     fn clear(&mut self);
+    /// Drops every message but the last.
+    fn keep_last(&mut self);
     /// Adds `offset_ns` to every stamp (saturating).
     fn shift_stamps(&mut self, offset_ns: i64);
     /// Message `i` as the contract's JSON.
@@ -59,6 +61,12 @@ impl<T: Message> Samples for Vec<T> {
     fn clear(&mut self) {
         Vec::clear(self);
     }
+    fn keep_last(&mut self) {
+        let n = Vec::len(self);
+        if n > 1 {
+            self.drain(..n - 1);
+        }
+    }
     fn shift_stamps(&mut self, offset_ns: i64) {
         for m in self.iter_mut() {
             let s = m.stamp_ns().saturating_add(offset_ns);
@@ -80,5 +88,23 @@ impl dyn Samples {
     /// The typed messages, if this stream holds `T`.
     pub fn as_slice<T: Message>(&self) -> Option<&[T]> {
         self.as_any().downcast_ref::<Vec<T>>().map(Vec::as_slice)
+    }
+}
+
+impl dyn Samples {
+    /// Whether messages `i` and `j` hold the same value in every field (stamps aside).
+    pub fn same_values(&self, i: usize, j: usize) -> bool {
+        (0..self.properties().len()).all(|p| self.get(i, p) == self.get(j, p))
+    }
+
+    /// The index of the `valid` field, where a message says whether it is usable (a DVL's
+    /// bottom lock).
+    pub fn valid_property(&self) -> Option<usize> {
+        self.properties().iter().position(|p| p.name == "valid")
+    }
+
+    /// Whether message `i` says it is not usable (`valid` at `property` is false).
+    pub fn flagged_invalid(&self, i: usize, property: usize) -> bool {
+        self.get(i, property) == crate::contract::PropValue::Bool(false)
     }
 }
