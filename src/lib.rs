@@ -16,6 +16,7 @@ pub mod geomag;
 pub mod identify;
 pub mod ingest;
 pub mod output;
+pub mod progress;
 pub mod recon;
 pub mod sim;
 pub mod smooth;

@@ -170,6 +170,7 @@ fn run_seed(scenario: &Scenario, config: &Config, seed: u64) -> Outcome {
             imu: streams.imu,
             aids: &aids,
             output_stamps_ns: &stamps,
+            progress: None,
         };
         let run = run_forward(&settings, &inputs, start).unwrap();
         let errors: Vec<_> = run

@@ -1,5 +1,6 @@
 //! `hindsight attitude LOG --out DIR`: seed 001's attitude-method comparison on any log.
 
+use super::console::{self, out, say};
 use super::{OutputFailed, PolicyArgs};
 use anyhow::{Context, Result};
 use hindsight::attitude::compare::{self, Method, MethodRun, MethodScore, Reference};
@@ -12,7 +13,8 @@ use hindsight::attitude::AhrsInputs;
 use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};
 use hindsight::output::atomic::Staging;
 use hindsight::output::attitude_tables;
-use hindsight::output::plots::{Series, TrackPlot};
+use hindsight::output::plots::{thin, Plot, Series};
+use hindsight::output::report::{Block, Report, Section};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -130,8 +132,9 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         None => AttitudeConfig::preset(args.preset),
     };
     let filters = config.filters()?;
+    let mut said = console::Said::default();
     for a in &filters.adjustments {
-        eprintln!("note: {a}");
+        said.note(a.to_string());
     }
     let started = Instant::now();
     let log = super::load(
@@ -152,7 +155,7 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     let dvl: &[Dvl] = log.role();
     let marks: &[PositionFix] = log.role();
     let truth: &[Truth] = log.role();
-    eprintln!(
+    say!(
         "read {} in {:.1} s: {} IMU, {} magnetometer, {} DVL readings",
         log_path.display(),
         started.elapsed().as_secs_f64(),
@@ -166,13 +169,13 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     // The magnetometer: saturation, then calibration.
     let (mut mag, spans) = without_saturation(raw_mag, config.magnetometer.saturation_repeats);
     for s in &spans {
-        eprintln!(
-            "warning: magnetometer saturated (an axis stuck at its extreme) for {:.1} s from \
+        said.warn(format!(
+            "magnetometer saturated (an axis stuck at its extreme) for {:.1} s from \
              {:.3} s into the log ({} readings): not used",
             (s.to_ns - s.from_ns) as f64 * 1e-9,
             into_log_s(s.from_ns),
             s.readings
-        );
+        ));
     }
     if args.mag_calibration == MagCalibration::Auto && !mag.is_empty() {
         match mag_calibration::fit(&mag) {
@@ -192,13 +195,13 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
                 );
                 match cal.trusted() {
                     Ok(()) => {
-                        eprintln!("{fitted}");
+                        said.info(fitted);
                         mag = cal.applied(&mag);
                     }
-                    Err(why) => eprintln!("note: {fitted}; not applied: {why}"),
+                    Err(why) => said.note(format!("{fitted}; not applied: {why}")),
                 }
             }
-            Err(e) => eprintln!("warning: magnetometer calibration not applied: {e}"),
+            Err(e) => said.warn(format!("magnetometer calibration not applied: {e}")),
         }
     }
 
@@ -215,11 +218,11 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
             .map(|m| m.name())
             .collect();
         if !skipped.is_empty() {
-            eprintln!(
-                "warning: no magnetometer readings on /mag: skipping {} (they take yaw from \
+            said.warn(format!(
+                "no magnetometer readings on /mag: skipping {} (they take yaw from \
                  it); the MEKF runs on gravity alone, its yaw from the gyro",
                 skipped.join(", ")
-            );
+            ));
         }
         methods.retain(|m| !m.needs_magnetometer());
     }
@@ -227,7 +230,7 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         return Err(compare::InputError::NoMagnetometer)
             .with_context(|| format!("attitude from {}", log_path.display()));
     }
-    let declination_rad = declination_deg(args.declination, &mission, imu[0].stamp_ns).to_radians();
+    let declination_rad = declination_deg(args.declination, &mission, imu[0].stamp_ns, &mut said).to_radians();
     let inputs = AhrsInputs {
         imu,
         mag: &mag,
@@ -248,20 +251,20 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     let start = mark("start");
     let end = mark("end");
     if !dvl.is_empty() && start.is_none() {
-        eprintln!("note: no `start` mark on /position_fix: dead reckoning from the mission origin");
+        said.note("no `start` mark on /position_fix: dead reckoning from the mission origin".into());
     }
     if dvl.is_empty() {
-        eprintln!("note: no DVL readings: dead reckoning skipped, attitude scored only");
+        said.note("no DVL readings: dead reckoning skipped, attitude scored only".into());
     } else if end.is_none() {
-        eprintln!("note: no `end` mark on /position_fix: end-point errors not available");
+        said.note("no `end` mark on /position_fix: end-point errors not available".into());
     }
     let gaps = gaps_longer_than(dvl, config.dvl.max_gap_s);
     if let Some(longest) = gaps
         .iter()
         .max_by(|a, b| a.duration_s().total_cmp(&b.duration_s()))
     {
-        eprintln!(
-            "warning: {} stretch(es) without a valid DVL reading longer than dvl.max_gap_s = \
+        said.warn(format!(
+            "{} stretch(es) without a valid DVL reading longer than dvl.max_gap_s = \
              {} s (longest {:.1} s from {:.1} s into the log, {:.1} s in all): not bridged, the \
              dead reckoning holds its position through them",
             gaps.len(),
@@ -269,7 +272,7 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
             longest.duration_s(),
             into_log_s(longest.from_ns),
             gaps.iter().map(|g| g.duration_s()).sum::<f64>()
-        );
+        ));
     }
     // The angles' reference: the truth, else the smoothed MEKF (every 10th sample).
     let truth_attitude = reference_from_truth(truth);
@@ -305,35 +308,65 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         .collect();
 
     let attitude_against = attitude_against.as_deref();
-    write_outputs(&out, &runs, &scores, attitude_against, start, end)?;
-    print_table(&runs, &scores, attitude_against, end.is_some(), filters_s);
+    let table = Table::new(&runs, &scores, attitude_against, end.is_some(), filters_s);
+    let page = Page {
+        log: &log_path,
+        said: &said,
+        table: &table,
+        read: format!(
+            "{} IMU, {} magnetometer ({} after saturation checks), {} DVL readings; \
+             {} position marks; /truth: {}",
+            imu.len(),
+            raw_mag.len(),
+            mag.len(),
+            dvl.len(),
+            marks.len(),
+            if truth.is_empty() { "no" } else { "yes" }
+        ),
+    };
+    write_outputs(&out, &runs, &scores, attitude_against, start, end, &page)?;
+    table.print();
     Ok(())
 }
 
 /// The declination, deg east: given, else the mission's, else the World Magnetic Model's at
 /// the mission origin on the log's date (0 with a warning when the model has none).
-fn declination_deg(given: Option<f64>, mission: &hindsight::ingest::Mission, t0_ns: i64) -> f64 {
+fn declination_deg(
+    given: Option<f64>,
+    mission: &hindsight::ingest::Mission,
+    t0_ns: i64,
+    said: &mut console::Said,
+) -> f64 {
     if let Some(d) = given.or(mission.magnetic_declination_deg) {
         return d;
     }
     let (lat, lon) = (mission.origin_latitude_deg, mission.origin_longitude_deg);
     match hindsight::geomag::declination(lat, lon, 0.0, t0_ns) {
         Ok(d) => {
-            eprintln!(
+            said.info(format!(
                 "declination {:.2} deg (+-{:.2}) from the World Magnetic Model at {lat:.4}, \
              {lon:.4} on the log's date",
                 d.declination_deg, d.sigma_deg
-            );
+            ));
             d.declination_deg
         }
         Err(e) => {
-            eprintln!(
-                "warning: no declination: the mission gives none and {e}; 0 used (give one \
+            said.warn(format!(
+                "no declination: the mission gives none and {e}; 0 used (give one \
              with --declination)"
-            );
+            ));
             0.0
         }
     }
+}
+
+/// What the report says besides the tracks.
+struct Page<'a> {
+    log: &'a std::path::Path,
+    said: &'a console::Said,
+    table: &'a Table,
+    /// What was read.
+    read: String,
 }
 
 fn write_outputs(
@@ -343,6 +376,7 @@ fn write_outputs(
     attitude_against: Option<&str>,
     start: Option<Vector3<f64>>,
     end: Option<Vector3<f64>>,
+    page: &Page<'_>,
 ) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| OutputFailed {
         path: out.to_path_buf(),
@@ -370,14 +404,35 @@ fn write_outputs(
     )?;
     written.push(path);
 
+    let mut report = Report {
+        title: format!(
+            "hindsight attitude: {}",
+            page.log.file_name().unwrap_or_default().to_string_lossy()
+        ),
+        subtitle: format!("{}: attitude methods compared", page.log.display()),
+        sections: vec![
+            Section::new("Comparison")
+                .with(Block::table(page.table.headers.clone(), page.table.rows.clone()))
+                .with(Block::text(page.table.caption.clone())),
+            Section::new("Inputs, calibration and notes")
+                .with(Block::text(page.read.clone()))
+                .with(Block::Facts(
+                    page.said.notes.iter().map(|n| ("note".to_string(), n.clone())).collect(),
+                )),
+        ],
+        footer: format!("hindsight {}", env!("CARGO_PKG_VERSION")),
+    };
     if scores.iter().any(|s| !s.track.is_empty()) {
         let marks: Vec<(&str, Vector3<f64>)> = [("start", start), ("end", end)]
             .into_iter()
             .filter_map(|(n, p)| Some((n, p?)))
             .collect();
-        for (name, title, x_label, y_label, y_down, pick) in [
+        let mut tracks = Section::new("Dead-reckoned tracks").with(Block::text(
+            "The same DVL dead reckoning with each method's attitude.",
+        ));
+        for (stem, title, x_label, y_label, y_down, pick) in [
             (
-                "tracks_xy.png",
+                "tracks_xy",
                 "DVL dead reckoning, plan view",
                 "east (m)",
                 "north (m)",
@@ -385,7 +440,7 @@ fn write_outputs(
                 (|p: &Vector3<f64>| (p.y, p.x)) as fn(&Vector3<f64>) -> (f64, f64),
             ),
             (
-                "tracks_xz.png",
+                "tracks_xz",
                 "DVL dead reckoning, north against depth",
                 "north (m)",
                 "down (m)",
@@ -393,99 +448,134 @@ fn write_outputs(
                 |p: &Vector3<f64>| (p.x, p.z),
             ),
         ] {
-            let plot = TrackPlot {
-                title,
-                x_label,
-                y_label,
-                series: scores
-                    .iter()
-                    .map(|s| Series {
-                        name: s.method.name(),
-                        points: s.track.iter().map(|t| pick(&t.ned_m)).collect(),
-                    })
-                    .collect(),
-                marks: marks.iter().map(|(n, p)| (*n, pick(p))).collect(),
-                y_down,
-                equal_axes: !y_down,
-            };
-            let path = out.join(name);
-            super::write_png(&mut staging, &path, &plot)?;
-            written.push(path);
+            let mut plot = Plot::new(title, x_label, y_label);
+            plot.series = scores
+                .iter()
+                .map(|s| {
+                    let points: Vec<(f64, f64)> = s.track.iter().map(|t| pick(&t.ned_m)).collect();
+                    Series::line(s.method.name(), thin(&points, 4000))
+                })
+                .collect();
+            plot.marks = marks.iter().map(|(n, p)| (n.to_string(), pick(p))).collect();
+            plot.y_down = y_down;
+            plot.equal_axes = !y_down;
+            tracks.push(Block::figure(stem, title, plot));
         }
+        report.sections.push(tracks);
     }
+    report
+        .sections
+        .push(Section::new("Warnings").with(Block::Warnings(page.said.warnings.clone())));
+    super::write_report(&mut staging, out, &report, &mut written)?;
     super::commit_and_list(staging, &written, out)
 }
 
-/// The console table (seed 001's Tables 9-10, with the truth errors when there are some), and
-/// what its columns are measured against.
-fn print_table(
-    runs: &[MethodRun],
-    scores: &[MethodScore],
-    attitude_against: Option<&str>,
-    has_end_mark: bool,
-    filters_s: f64,
-) {
-    let na =
-        |v: Option<f64>, digits: usize| v.map_or("N/A".to_string(), |v| format!("{v:.digits$}"));
-    let returns = !has_end_mark && scores.iter().any(|s| s.closest_return_m.is_some());
-    let (distance_header, distance_caption) = if has_end_mark {
-        (
-            "end err m",
-            "end err: distance of the track's end from the `end` mark",
-        )
-    } else if returns {
-        (
-            "return m",
-            "return: closest return of the track to its start (no `end` mark; the run comes back)",
-        )
-    } else {
-        (
-            "end err m",
-            "end err: N/A (no `end` mark, and the run does not come back to its start)",
-        )
-    };
-    println!(
-        "\n{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   notes",
-        "method",
-        distance_header,
-        "path m",
-        "% path",
-        "roll rms",
-        "pitch rms",
-        "yaw rms",
-        "total rms"
-    );
-    for (r, s) in runs.iter().zip(scores) {
-        let e = s.euler.as_ref();
-        let (distance, percent) = if returns {
-            (s.closest_return_m, s.closest_return_percent())
-        } else {
-            (s.end_error_m, s.end_error_percent())
+/// The comparison (seed 001's Tables 9-10, with the truth errors when there are some), and
+/// what its columns are measured against: printed, and in the report.
+struct Table {
+    headers: Vec<String>,
+    rows: Vec<Vec<String>>,
+    caption: String,
+}
+
+impl Table {
+    fn new(
+        runs: &[MethodRun],
+        scores: &[MethodScore],
+        attitude_against: Option<&str>,
+        has_end_mark: bool,
+        filters_s: f64,
+    ) -> Self {
+        let na = |v: Option<f64>, digits: usize| {
+            v.map_or("N/A".to_string(), |v| format!("{v:.digits$}"))
         };
-        let mut notes = r.notes.clone();
-        if attitude_against == Some(s.method.name()) {
-            notes.insert(0, "the angles' reference".to_string());
+        let returns = !has_end_mark && scores.iter().any(|s| s.closest_return_m.is_some());
+        let (distance_header, distance_caption) = if has_end_mark {
+            (
+                "end err m",
+                "end err: distance of the track's end from the `end` mark",
+            )
+        } else if returns {
+            (
+                "return m",
+                "return: closest return of the track to its start (no `end` mark; the run \
+                 comes back)",
+            )
+        } else {
+            (
+                "end err m",
+                "end err: N/A (no `end` mark, and the run does not come back to its start)",
+            )
+        };
+        let headers = [
+            "method",
+            distance_header,
+            "path m",
+            "% path",
+            "roll rms",
+            "pitch rms",
+            "yaw rms",
+            "total rms",
+            "notes",
+        ]
+        .map(String::from)
+        .to_vec();
+        let rows = runs
+            .iter()
+            .zip(scores)
+            .map(|(r, s)| {
+                let e = s.euler.as_ref();
+                let (distance, percent) = if returns {
+                    (s.closest_return_m, s.closest_return_percent())
+                } else {
+                    (s.end_error_m, s.end_error_percent())
+                };
+                let mut notes = r.notes.clone();
+                if attitude_against == Some(s.method.name()) {
+                    notes.insert(0, "the angles' reference".to_string());
+                }
+                vec![
+                    s.method.name().to_string(),
+                    na(distance, 3),
+                    na(s.path_m, 1),
+                    na(percent, 2),
+                    na(e.map(|e| e.roll_rms_deg), 2),
+                    na(e.map(|e| e.pitch_rms_deg), 2),
+                    na(e.map(|e| e.yaw_rms_deg), 2),
+                    na(s.broad.map(|b| b.total_deg), 2),
+                    notes.join("; "),
+                ]
+            })
+            .collect();
+        let angles_caption = match attitude_against {
+            Some("/truth") => "angles: RMS error against /truth, deg".to_string(),
+            Some(method) => format!(
+                "angles: RMS difference from {method}, deg (no /truth in the log: the methods \
+                 are compared with each other, not with the truth)"
+            ),
+            None => "angles: N/A (no /truth, and no MEKF to compare with)".to_string(),
+        };
+        Table {
+            headers,
+            rows,
+            caption: format!(
+                "{distance_caption}; {angles_caption}; {filters_s:.2} s for all methods"
+            ),
         }
-        println!(
-            "{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   {}",
-            s.method.name(),
-            na(distance, 3),
-            na(s.path_m, 1),
-            na(percent, 2),
-            na(e.map(|e| e.roll_rms_deg), 2),
-            na(e.map(|e| e.pitch_rms_deg), 2),
-            na(e.map(|e| e.yaw_rms_deg), 2),
-            na(s.broad.map(|b| b.total_deg), 2),
-            notes.join("; ")
-        );
     }
-    let angles_caption = match attitude_against {
-        Some("/truth") => "angles: RMS error against /truth, deg".to_string(),
-        Some(method) => format!(
-            "angles: RMS difference from {method}, deg (no /truth in the log: the methods are \
-             compared with each other, not with the truth)"
-        ),
-        None => "angles: N/A (no /truth, and no MEKF to compare with)".to_string(),
-    };
-    println!("({distance_caption}; {angles_caption}; {filters_s:.2} s for all methods)\n");
+
+    fn print(&self) {
+        let h = &self.headers;
+        out!(
+            "\n{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   {}",
+            h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]
+        );
+        for r in &self.rows {
+            out!(
+                "{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   {}",
+                r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8]
+            );
+        }
+        out!("({})\n", self.caption);
+    }
 }

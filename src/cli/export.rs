@@ -1,5 +1,6 @@
 //! `hindsight export LOG --out DIR`: every topic to Parquet, plus all streams on one clock.
 
+use super::console::{out};
 use super::{LogArgs, OutputFailed, PolicyArgs};
 use anyhow::{bail, Context, Result};
 use hindsight::ingest::{Log, Stream};
@@ -63,7 +64,7 @@ pub fn run(args: ExportArgs) -> Result<()> {
     })?;
     let written = write_all(&log, &clock, &args.out)?;
     for (path, rows) in written {
-        println!("{}  {rows} rows", path.display());
+        out!("{}  {rows} rows", path.display());
     }
     Ok(())
 }

@@ -1,5 +1,6 @@
 //! `hindsight identify LOG... --out DIR`: hydrodynamic coefficients from sea-trial logs.
 
+use super::console::{out, say};
 use super::{OutputFailed, PolicyArgs};
 use anyhow::{bail, Context, Result};
 use hindsight::identify::record::Record;
@@ -7,7 +8,8 @@ use hindsight::identify::settings::Settings;
 use hindsight::identify::{identify, perturbed, Identification, CHANNELS};
 use hindsight::output::atomic::Staging;
 use hindsight::output::identify_tables;
-use hindsight::output::plots::{Series, TrackPlot};
+use hindsight::output::plots::{Plot, Series};
+use hindsight::output::report::{Block, Report, Section};
 use hindsight::vehicle::heave_pitch::{Coefficients, HeavePitch, NAMES, TRUE_COEFFICIENTS, UNITS};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -139,6 +141,7 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
     }
     let start = start_values(&args)?;
     let mut records = Vec::new();
+    let mut read_logs = Vec::new();
     for path in &args.logs {
         let log = super::load(path, &args.policy.ingest_options(&args.source), &[])?;
         let name = path.file_name().map_or_else(
@@ -147,7 +150,7 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
         );
         let record = Record::from_log(&name, &log, args.speed)
             .with_context(|| format!("identifying from {}", path.display()))?;
-        eprintln!(
+        let read = format!(
             "{name}: {:.0} s, U = {:.3} m/s, {} DVL and {} depth readings, theta from {}",
             record.t_s.last().copied().unwrap_or(0.0),
             record.speed_m_s,
@@ -155,11 +158,13 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
             record.depth_m.len(),
             record.theta_source
         );
+        say!("{read}");
+        read_logs.push(read);
         records.push(record);
     }
     let fitting = Instant::now();
     let id = identify(&records, &start, &settings);
-    eprintln!(
+    say!(
         "identified in {:.2} s (EKF, then {} Levenberg-Marquardt iterations{})",
         fitting.elapsed().as_secs_f64(),
         id.refined.iterations,
@@ -173,9 +178,10 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
         speed_m_s: records[0].speed_m_s,
         ..settings.constants
     });
-    write_outputs(&args.out, &id, &records, &model, &settings)?;
-    print_report(&id, &records, &model, &settings);
-    eprintln!("total {:.1} s", started.elapsed().as_secs_f64());
+    let findings = Findings::new(&id, &records, &model, &settings, read_logs);
+    write_outputs(&args.out, &id, &records, &model, &settings, &findings)?;
+    findings.print();
+    say!("total {:.1} s", started.elapsed().as_secs_f64());
     Ok(())
 }
 
@@ -195,6 +201,7 @@ fn write_outputs(
     records: &[Record],
     model: &HeavePitch,
     settings: &Settings,
+    findings: &Findings,
 ) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| OutputFailed {
         path: out.to_path_buf(),
@@ -228,15 +235,16 @@ fn write_outputs(
         log_start.push(offset);
         offset += r.t_s.last().copied().unwrap_or(0.0);
     }
-    let convergence = TrackPlot {
-        title: "EKF pass: coefficient / refined estimate (logs one after the other)",
-        x_label: "time (s)",
-        y_label: "ratio",
-        series: (0..10)
+    let mut convergence = Plot::new(
+        "EKF pass: coefficient / refined estimate (logs one after the other)",
+        "time (s)",
+        "ratio",
+    );
+    convergence.series = (0..10)
             .filter(|&i| settings.fixed[i].is_none())
-            .map(|i| Series {
-                name: NAMES[i],
-                points: id
+            .map(|i| Series::line(
+                NAMES[i],
+                id
                     .ekf
                     .history
                     .iter()
@@ -247,12 +255,8 @@ fn write_outputs(
                         )
                     })
                     .collect(),
-            })
-            .collect(),
-        marks: Vec::new(),
-        y_down: false,
-        equal_axes: false,
-    };
+            ))
+            .collect();
     let labels: Vec<(String, String)> = records
         .iter()
         .map(|r| (format!("{} measured", r.name), format!("{} model", r.name)))
@@ -264,29 +268,19 @@ fn write_outputs(
                     scale: f64| {
         let mut series = Vec::new();
         for ((r, fit), (measured_label, model_label)) in records.iter().zip(&id.fits).zip(&labels) {
-            series.push(Series {
-                name: measured_label,
-                points: measured(r),
-            });
-            series.push(Series {
-                name: model_label,
-                points: r
-                    .t_s
+            series.push(Series::line(measured_label.as_str(), measured(r)));
+            series.push(Series::line(
+                model_label.as_str(),
+                r.t_s
                     .iter()
                     .zip(&fit.simulated)
                     .map(|(t, s)| (*t, s[state] * scale))
                     .collect(),
-            });
+            ));
         }
-        TrackPlot {
-            title,
-            x_label: "time (s)",
-            y_label,
-            series,
-            marks: Vec::new(),
-            y_down: false,
-            equal_axes: false,
-        }
+        let mut plot = Plot::new(title, "time (s)", y_label);
+        plot.series = series;
+        plot
     };
     let theta = fit_plot(
         "pitch: measured and re-simulated (every log)",
@@ -308,15 +302,17 @@ fn write_outputs(
         0,
         1.0,
     );
-    for (name, plot) in [
-        ("convergence.png", convergence),
-        ("fit_theta.png", theta),
-        ("fit_w.png", w),
-    ] {
-        let path = out.join(name);
-        super::write_png(&mut staging, &path, &plot)?;
-        written.push(path);
-    }
+    let figures = vec![
+        Block::figure(
+            "convergence",
+            "The EKF stage: each coefficient over its refined value, the logs one after the \
+             other (converged: flat at 1).",
+            convergence,
+        ),
+        Block::figure("fit_theta", "Pitch, measured and re-simulated.", theta),
+        Block::figure("fit_w", "Heave velocity, measured and re-simulated.", w),
+    ];
+    super::write_report(&mut staging, out, &findings.report(figures), &mut written)?;
 
     let summary = Summary {
         logs: records.iter().map(|r| r.name.as_str()).collect(),
@@ -340,71 +336,163 @@ fn write_outputs(
     super::commit_and_list(staging, &written, out)
 }
 
-/// The console table (seed 004's Tables 5.2-5.3: start, EKF, refined, with sigma), the fit
-/// and the warnings.
-fn print_report(id: &Identification, records: &[Record], model: &HeavePitch, settings: &Settings) {
-    println!(
-        "\n{:<8} {:>12} {:>12} {:>12} {:>12} {:>9} {:>14} {:<9}",
-        "name", "start", "EKF", "refined", "1-sigma", "sigma %", "dimensional", "unit"
-    );
-    for i in 0..10 {
-        let c = id.refined.coefficients[i];
-        let s = id.refined.covariance[(i, i)].sqrt();
-        let flag = if settings.fixed[i].is_some() {
-            " (fixed)"
-        } else if id
-            .assessment
-            .iter()
-            .any(|d| d.name == NAMES[i] && d.poorly_determined)
-        {
-            " (poorly determined)"
-        } else {
-            ""
-        };
-        println!(
-            "{:<8} {:>12.6} {:>12.6} {:>12.6} {:>12.6} {:>9.2} {:>14.4e} {:<9}{flag}",
-            NAMES[i],
-            id.start[i],
-            id.ekf.coefficients[i],
-            c,
-            s,
-            100.0 * s / c.abs().max(f64::MIN_POSITIVE),
-            c * model.scale(i),
-            UNITS[i]
-        );
-    }
-    println!("\nfit of the identified model (normalised RMS: residual RMS over the sensor's sigma; fit %):");
-    for (r, f) in records.iter().zip(&id.fits) {
-        let cells: Vec<String> = CHANNELS
-            .iter()
-            .zip(&f.channels)
-            .map(|(n, c)| format!("{n} {:.2} ({:.1} %)", c.normalised_rms, c.fit_percent))
+/// What identify found, as tables and warnings: printed, and in the report.
+struct Findings {
+    /// Seed 004's Tables 5.2-5.3: start, EKF, refined, with sigma.
+    coefficients: Vec<Vec<String>>,
+    /// Per log: name, then "channel normalised RMS (fit %)" per channel.
+    fit: Vec<(String, Vec<String>)>,
+    warnings: Vec<String>,
+    /// What each log held.
+    logs: Vec<String>,
+}
+
+const COEFFICIENT_HEADERS: [&str; 8] = [
+    "name",
+    "start",
+    "EKF",
+    "refined",
+    "1-sigma",
+    "sigma %",
+    "dimensional",
+    "unit",
+];
+
+impl Findings {
+    fn new(
+        id: &Identification,
+        records: &[Record],
+        model: &HeavePitch,
+        settings: &Settings,
+        logs: Vec<String>,
+    ) -> Self {
+        let coefficients = (0..10)
+            .map(|i| {
+                let c = id.refined.coefficients[i];
+                let s = id.refined.covariance[(i, i)].sqrt();
+                let flag = if settings.fixed[i].is_some() {
+                    " (fixed)"
+                } else if id
+                    .assessment
+                    .iter()
+                    .any(|d| d.name == NAMES[i] && d.poorly_determined)
+                {
+                    " (poorly determined)"
+                } else {
+                    ""
+                };
+                vec![
+                    NAMES[i].to_string(),
+                    format!("{:.6}", id.start[i]),
+                    format!("{:.6}", id.ekf.coefficients[i]),
+                    format!("{c:.6}"),
+                    format!("{s:.6}"),
+                    format!("{:.2}", 100.0 * s / c.abs().max(f64::MIN_POSITIVE)),
+                    format!("{:.4e}", c * model.scale(i)),
+                    format!("{}{flag}", UNITS[i]),
+                ]
+            })
             .collect();
-        println!("  {:<24} {}", r.name, cells.join(", "));
-    }
-    if id.ekf_diverged {
-        println!(
-            "warning: the EKF stage ran away (its coefficients cannot be simulated); the \
-             refinement started from the starting values"
+        let fit = records
+            .iter()
+            .zip(&id.fits)
+            .map(|(r, f)| {
+                let cells = CHANNELS
+                    .iter()
+                    .zip(&f.channels)
+                    .map(|(n, c)| format!("{n} {:.2} ({:.1} %)", c.normalised_rms, c.fit_percent))
+                    .collect();
+                (r.name.clone(), cells)
+            })
+            .collect();
+        let mut warnings = Vec::new();
+        if id.ekf_diverged {
+            warnings.push(
+                "the EKF stage ran away (its coefficients cannot be simulated); the refinement \
+                 started from the starting values"
+                    .to_string(),
+            );
+        }
+        let worst = id
+            .fits
+            .iter()
+            .flat_map(|f| f.channels.iter().map(|c| c.normalised_rms))
+            .fold(
+                0.0,
+                |a: f64, b| if b.is_nan() { f64::INFINITY } else { a.max(b) },
+            );
+        if worst > 2.0 || !id.refined.converged {
+            warnings.push(format!(
+                "POOR FIT: residuals up to {worst:.1} times the sensor noise: the model's \
+                 structure (or a fixed coefficient, or the noise figures) does not match the \
+                 data; do not trust these coefficients"
+            ));
+        }
+        warnings.extend(
+            id.assessment
+                .iter()
+                .filter(|d| d.poorly_determined)
+                .map(|d| d.to_string()),
         );
+        Findings {
+            coefficients,
+            fit,
+            warnings,
+            logs,
+        }
     }
-    let worst = id
-        .fits
-        .iter()
-        .flat_map(|f| f.channels.iter().map(|c| c.normalised_rms))
-        .fold(
-            0.0,
-            |a: f64, b| if b.is_nan() { f64::INFINITY } else { a.max(b) },
+
+    /// The console table, the fit and the warnings.
+    fn print(&self) {
+        let h = COEFFICIENT_HEADERS;
+        out!(
+            "\n{:<8} {:>12} {:>12} {:>12} {:>12} {:>9} {:>14} {:<9}",
+            h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7]
         );
-    if worst > 2.0 || !id.refined.converged {
-        println!(
-            "warning: POOR FIT: residuals up to {worst:.1} times the sensor noise: the model's \
-             structure (or a fixed coefficient, or the noise figures) does not match the data; \
-             do not trust these coefficients"
-        );
+        for r in &self.coefficients {
+            out!(
+                "{:<8} {:>12} {:>12} {:>12} {:>12} {:>9} {:>14} {:<9}",
+                r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]
+            );
+        }
+        out!("\nfit of the identified model (normalised RMS: residual RMS over the sensor's sigma; fit %):");
+        for (name, cells) in &self.fit {
+            out!("  {:<24} {}", name, cells.join(", "));
+        }
+        for w in &self.warnings {
+            out!("warning: {w}");
+        }
+        out!();
     }
-    for d in id.assessment.iter().filter(|d| d.poorly_determined) {
-        println!("warning: {d}");
+
+    fn report(&self, figures: Vec<Block>) -> Report {
+        let mut fit = Section::new("Fit").with(Block::text(
+            "Normalised RMS: the residual RMS of the re-simulated model over the sensor's sigma \
+             (about 1 for a model that fits to the noise); fit %.",
+        ));
+        fit.push(Block::table(
+            ["log", "fit per channel"],
+            self.fit
+                .iter()
+                .map(|(n, c)| vec![n.clone(), c.join(", ")])
+                .collect(),
+        ));
+        for f in figures {
+            fit.push(f);
+        }
+        Report {
+            title: "hindsight identify: heave-pitch coefficients".into(),
+            subtitle: self.logs.join("; "),
+            sections: vec![
+                Section::new("Coefficients")
+                    .with(Block::table(COEFFICIENT_HEADERS, self.coefficients.clone())),
+                Section::new("Inputs").with(Block::Facts(
+                    self.logs.iter().map(|l| ("log".to_string(), l.clone())).collect(),
+                )),
+                fit,
+                Section::new("Warnings").with(Block::Warnings(self.warnings.clone())),
+            ],
+            footer: format!("hindsight {}", env!("CARGO_PKG_VERSION")),
+        }
     }
-    println!();
 }

@@ -9,6 +9,7 @@ mod bench_attitude;
 mod bench_identify;
 mod bench_reconstruct;
 mod bench_simulate;
+mod console;
 mod export;
 mod identify;
 mod info;
@@ -24,6 +25,7 @@ use hindsight::align::{AlignError, ClockOffset};
 use hindsight::ingest::{IngestError, IngestOptions, Log, MissionError};
 use hindsight::recon::config::ConfigError;
 use hindsight::recon::ReconError;
+use console::{out, say};
 use std::path::{Path, PathBuf};
 
 /// Exit status: a bad command line or configuration file.
@@ -50,6 +52,11 @@ the one topic of its type, else --topic ROLE=TOPIC.";
 #[derive(Debug, Parser)]
 #[command(name = "hindsight", version, about, after_help = AFTER_HELP)]
 pub struct Args {
+    /// Print nothing but errors (no progress, notes, warnings or tables; the outputs and
+    /// their report.html are written as usual).
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
+
     #[command(subcommand)]
     pub command: Command,
 }
@@ -103,18 +110,38 @@ fn write_parquet(
     Ok(())
 }
 
-/// Draws `plot` as PNG into the staged file that becomes `path`.
-fn write_png(
+/// Writes `report.html` and each of its figures as `<stem>.png` beside it (drawn in
+/// parallel) into the staged files of `out`, and lists them in `written`.
+fn write_report(
     staging: &mut hindsight::output::atomic::Staging,
-    path: &Path,
-    plot: &hindsight::output::plots::TrackPlot<'_>,
+    out: &Path,
+    report: &hindsight::output::report::Report,
+    written: &mut Vec<PathBuf>,
 ) -> Result<()> {
     use anyhow::Context;
-    let failed = || OutputFailed {
+    use rayon::prelude::*;
+    let path = out.join("report.html");
+    let failed = |path: &Path| OutputFailed {
         path: path.to_path_buf(),
     };
-    let file = staging.create(path).with_context(failed)?;
-    hindsight::output::plots::write_png(plot, std::io::BufWriter::new(file)).with_context(failed)
+    let html = report.to_html().with_context(|| failed(&path))?;
+    let mut file = staging.create(&path).with_context(|| failed(&path))?;
+    std::io::Write::write_all(&mut file, html.as_bytes()).with_context(|| failed(&path))?;
+    written.push(path);
+    let mut pngs = Vec::new();
+    for f in report.figures() {
+        let path = out.join(format!("{}.png", f.stem));
+        let file = staging.create(&path).with_context(|| failed(&path))?;
+        pngs.push((path, file, &f.plot));
+    }
+    pngs.par_iter()
+        .map(|(path, file, plot)| {
+            hindsight::output::plots::write_png(plot, std::io::BufWriter::new(file))
+                .with_context(|| failed(path))
+        })
+        .collect::<Result<Vec<()>>>()?;
+    written.extend(pngs.into_iter().map(|(path, ..)| path));
+    Ok(())
 }
 
 /// Renames the staged outputs of a run into place, then lists them.
@@ -128,7 +155,7 @@ fn commit_and_list(
         path: out.to_path_buf(),
     })?;
     for p in written {
-        println!("wrote {}", p.display());
+        out!("wrote {}", p.display());
     }
     Ok(())
 }
@@ -142,6 +169,7 @@ pub struct OutputFailed {
 
 /// Runs a command.
 pub fn run(args: Args) -> Result<()> {
+    console::set_quiet(args.quiet);
     match args.command {
         Command::Reconstruct(a) => reconstruct::run(a),
         Command::Attitude(a) => attitude::run(a),
@@ -269,19 +297,26 @@ fn print_roles(log: &Log) {
             RoleSource::Named => "as named",
             _ => "the one topic of its type",
         };
-        eprintln!("{}: {} ({how})", c.role, c.topic);
+        say!("{}: {} ({how})", c.role, c.topic);
     }
 }
 
 /// Reads a log, applies the clock offsets and prints warnings to stderr.
 fn load(path: &Path, options: &IngestOptions, offsets: &[ClockOffset]) -> Result<Log> {
     use anyhow::Context;
-    let mut log = hindsight::ingest::read_log(path, options)
-        .with_context(|| format!("reading {}", path.display()))?;
+    let reading = || format!("reading {}", path.display());
+    let file = std::fs::File::open(path)
+        .map_err(IngestError::from)
+        .with_context(reading)?;
+    let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let bar = console::bytes_bar(size, "reading the log");
+    let input = std::io::BufReader::with_capacity(1 << 20, bar.wrap_read(file));
+    let mut log = hindsight::ingest::read_log_from(input, options).with_context(reading)?;
+    bar.finish_and_clear();
     hindsight::align::apply_offsets(&mut log, offsets)
         .with_context(|| format!("aligning {}", path.display()))?;
     for w in log.warnings() {
-        eprintln!("warning: {w}");
+        say!("warning: {w}");
     }
     Ok(log)
 }

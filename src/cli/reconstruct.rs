@@ -1,5 +1,9 @@
 //! `hindsight reconstruct LOG --out DIR`: the best trajectory the log supports.
 
+use super::console::{out, say};
+mod report;
+
+use super::console;
 use super::{LogArgs, OutputFailed, PolicyArgs};
 use anyhow::{Context, Result};
 use hindsight::contract::Truth;
@@ -300,6 +304,8 @@ struct RunTime {
     forward: f64,
     smoother: f64,
     outputs: f64,
+    /// Drawing report.html and its PNGs (part of `outputs`).
+    report: f64,
     total: f64,
 }
 
@@ -321,10 +327,12 @@ fn tune_noise(
         return (config.clone(), None);
     }
     let started = Instant::now();
-    eprintln!("self-tuning the noise figures ...");
+    say!("self-tuning the noise figures ...");
+    let spinner = console::spinner("self-tuning the noise figures");
     let (tuned, tuning) = tune::tune(streams, mission, config);
+    spinner.finish_and_clear();
     if let Some(t) = &tuning {
-        eprintln!(
+        say!(
             "self-tuning {:.1} s:\n{}",
             started.elapsed().as_secs_f64(),
             indent(&t.to_string())
@@ -404,7 +412,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     super::print_roles(&log);
     let ingest_s = started.elapsed().as_secs_f64();
     let streams = Streams::of(&log);
-    eprintln!(
+    say!(
         "read {} messages in {ingest_s:.1} s; {} IMU samples over {:.0} s",
         log.message_count(),
         streams.imu.len(),
@@ -418,10 +426,17 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     if let Some(t) = &tuning {
         warnings_from_tuning = t.warnings.clone();
     }
-    let pass = recon::forward(&streams, &mission, &config)
-        .with_context(|| format!("reconstructing {}", args.log.log.display()))?;
-    eprintln!("initial state:\n{}", indent(&pass.init.to_string()));
-    eprintln!(
+    let bar = console::fraction_bar("forward filter");
+    let pass = recon::forward_reporting(
+        &streams,
+        &mission,
+        &config,
+        Some(&console::fraction_setter(&bar)),
+    )
+    .with_context(|| format!("reconstructing {}", args.log.log.display()))?;
+    bar.finish_and_clear();
+    say!("initial state:\n{}", indent(&pass.init.to_string()));
+    say!(
         "forward filter {:.1} s ({} epochs, {} measurements)",
         pass.time.as_secs_f64(),
         pass.run.records.len(),
@@ -433,10 +448,10 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     warnings.extend(pass.aid_notes.iter().cloned());
     warnings.extend(warnings_from_tuning);
     if warnings.iter().any(|w| w.starts_with("dvl: mean NIS")) {
-        eprintln!("the DVL's innovations are too large: searching for a clock offset ...");
+        say!("the DVL's innovations are too large: searching for a clock offset ...");
         match recon::clock::suggest_dvl_offset(&streams, &mission, &config) {
             Some(s) => {
-                eprintln!(
+                say!(
                     "... found: --offset /dvl={:.1} fits best (mean NIS {:.1} against {:.1})",
                     s.offset_s, s.mean_nis, s.mean_nis_unshifted
                 );
@@ -446,7 +461,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
                     s.offset_s, s.mean_nis, s.mean_nis_unshifted
                 ));
             }
-            None => eprintln!(
+            None => say!(
                 "... none: no offset within +-{:.0} s fits clearly better, so the DVL's clock is \
                  not the cause",
                 recon::clock::COARSE_SPAN_S
@@ -478,9 +493,27 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         .collect();
     let depth_used = config.depth.enabled && !streams.depth.is_empty();
     let dvl_used = config.dvl.enabled && !streams.dvl.is_empty();
+    let origin = (
+        mission.origin_latitude_deg.to_radians(),
+        mission.origin_longitude_deg.to_radians(),
+    );
+    let from_log = report::FromLog::new(
+        streams.gnss,
+        streams.fixes,
+        streams.truth,
+        streams.dvl,
+        origin,
+    );
     drop(log);
-    let r = recon::finish(pass, &config, depth_used)?;
-    eprintln!("smoother {:.1} s", r.timing.smoother.as_secs_f64());
+    let bar = console::fraction_bar("smoother");
+    let r = recon::finish_reporting(
+        pass,
+        &config,
+        depth_used,
+        Some(&console::fraction_setter(&bar)),
+    )?;
+    bar.finish_and_clear();
+    say!("smoother {:.1} s", r.timing.smoother.as_secs_f64());
 
     let outputs_started = Instant::now();
     let keep: Vec<usize> = (0..r.forward.len())
@@ -494,10 +527,6 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         };
         (errs(&r.forward), errs(&r.smoothed))
     });
-    let origin = (
-        mission.origin_latitude_deg.to_radians(),
-        mission.origin_longitude_deg.to_radians(),
-    );
     std::fs::create_dir_all(&args.out).with_context(|| OutputFailed {
         path: args.out.clone(),
     })?;
@@ -649,6 +678,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             forward: r.timing.forward.as_secs_f64(),
             smoother: r.timing.smoother.as_secs_f64(),
             outputs: outputs_s,
+            report: 0.0,
             total: started.elapsed().as_secs_f64(),
         },
         config,
@@ -662,6 +692,21 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             .with_context(|| OutputFailed { path: path.clone() })?;
         written.push(path);
     }
+    let report_started = Instant::now();
+    let page = report::build(&report::Inputs {
+        summary: &summary,
+        r: &r,
+        keep: &keep,
+        origin_rad: origin,
+        from_log: &from_log,
+        truth_errors: truth_errors.as_ref(),
+        init_text: r.init.to_string(),
+    });
+    super::write_report(&mut staging, &args.out, &page, &mut written)?;
+    let mut summary = summary;
+    summary.run_time_s.report = report_started.elapsed().as_secs_f64();
+    summary.run_time_s.outputs += summary.run_time_s.report;
+    summary.run_time_s.total = started.elapsed().as_secs_f64();
     let path = args.out.join("summary.json");
     super::write_json(&mut staging, &path, &summary)?;
     written.push(path);
@@ -671,7 +716,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
 
     print_report(&summary);
     for p in written {
-        println!("wrote {}", p.display());
+        out!("wrote {}", p.display());
     }
     Ok(())
 }
@@ -685,16 +730,16 @@ fn indent(text: &str) -> String {
 }
 
 fn print_report(s: &Summary) {
-    println!(
+    out!(
         "{:.0} s, {:.0} m travelled (smoothed); {} epochs, {} measurements, {} rejected",
         s.duration_s, s.distance_travelled_m, s.epochs, s.residuals, s.rejected
     );
-    println!(
+    out!(
         "{:<13} {:>8} {:>9} {:>9} {:>10} {:>10}",
         "sensor", "used", "rejected", "mean NIS", "norm mean", "norm var"
     );
     for x in &s.sensors {
-        println!(
+        out!(
             "{:<13} {:>8} {:>9} {:>6.2}/{} {:>10.3} {:>10.3}",
             x.sensor,
             x.count - x.rejected,
@@ -706,7 +751,7 @@ fn print_report(s: &Summary) {
         );
     }
     if s.dvl_out_of_range > 0 {
-        println!(
+        out!(
             "DVL readings out of range (no bottom lock or too high): {}",
             s.dvl_out_of_range
         );
@@ -716,7 +761,7 @@ fn print_report(s: &Summary) {
         ("smoothed", &s.final_sigma.smoothed),
     ] {
         if let Some(x) = sigma {
-            println!(
+            out!(
                 "final 1-sigma ({name}): horizontal {:.2} m, depth {:.2} m, yaw {:.3} deg",
                 x.horizontal_m, x.down_m, x.yaw_deg
             );
@@ -725,7 +770,7 @@ fn print_report(s: &Summary) {
     if let Some(t) = &s.truth {
         for (name, sc) in [("forward", &t.forward), ("smoothed", &t.smoothed)] {
             if let Some(x) = sc {
-                println!(
+                out!(
                     "against /truth ({name}): horizontal RMS {:.2} m, max {:.2} m, final {:.2} m; \
                      yaw RMS {:.3} deg; NEES inside 95 % bounds: horizontal {:.1} %, 3-D {:.1} %",
                     x.horizontal_rms_m,
@@ -739,10 +784,10 @@ fn print_report(s: &Summary) {
         }
     }
     if let Some(d) = &s.dvl_calibration {
-        println!("DVL calibration: {}", dvl_calibration_line(d));
+        out!("DVL calibration: {}", dvl_calibration_line(d));
     }
     if let Some(g) = &s.gyro_scale_factor_z {
-        println!("z gyro scale factor: {}", estimated_text(g, 1.0, 6, ""));
+        out!("z gyro scale factor: {}", estimated_text(g, 1.0, 6, ""));
     }
     let c = &s.consistency;
     let judged: Vec<String> = c
@@ -755,7 +800,7 @@ fn print_report(s: &Summary) {
                 .map(|n| format!("NEES {} {}", n.solution, n.verdict)),
         )
         .collect();
-    println!(
+    out!(
         "uncertainty {}: {}",
         if c.consistent {
             "consistent"
@@ -765,7 +810,7 @@ fn print_report(s: &Summary) {
         judged.join(", ")
     );
     for w in &s.warnings {
-        eprintln!("warning: {w}");
+        say!("warning: {w}");
     }
 }
 

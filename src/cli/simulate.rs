@@ -1,5 +1,6 @@
 //! `hindsight simulate`: a scenario to a log, with truth.
 
+use super::console::{out, say};
 use super::OutputFailed;
 use anyhow::{bail, Context, Result};
 use hindsight::output::atomic::Staging;
@@ -60,11 +61,11 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     if args.list {
         for (name, _) in BUILT_IN {
             let s = Scenario::built_in(name)?;
-            println!("{name:<20} {}", s.description);
+            out!("{name:<20} {}", s.description);
         }
         for name in zigzag::BUILT_IN {
             if let Some(s) = zigzag::ZigzagSpec::built_in(name) {
-                println!("{name:<20} {}", s.description());
+                out!("{name:<20} {}", s.description());
             }
         }
         return Ok(());
@@ -109,10 +110,10 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         writer::WriterOptions::default(),
     )?;
     if let Some(spec) = zigzag {
-        eprintln!("simulating `{}` (seed {}) ...", spec.name, args.seed);
+        say!("simulating `{}` (seed {}) ...", spec.name, args.seed);
         let r = zigzag::run(&spec, args.seed, &mut w)?;
         finish_log(w, staging, &out)?;
-        println!(
+        out!(
             "{}: {} messages, {:.0} s, plane reversals at {} s",
             out.display(),
             r.messages,
@@ -128,7 +129,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     let Some(scenario) = scenario else {
         bail!("give --scenario NAME or --scenario-file FILE")
     };
-    eprintln!("simulating `{}` (seed {}) ...", scenario.name, args.seed);
+    say!("simulating `{}` (seed {}) ...", scenario.name, args.seed);
     let interactive = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let summary = run::run_with_progress(&scenario, args.seed, &mut w, |done| {
         if interactive {
@@ -136,11 +137,11 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         }
     })?;
     if interactive {
-        eprintln!();
+        say!();
     }
     finish_log(w, staging, &out)?;
     let bytes = std::fs::metadata(&out).map(|m| m.len()).unwrap_or(0);
-    println!(
+    out!(
         "{}: {} messages, {:.0} s of mission, {:.1} MB, simulated in {:.1} s",
         out.display(),
         summary.messages,

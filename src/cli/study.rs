@@ -2,19 +2,19 @@
 //! case, in parallel, with the runs' and the cases' tables and a plot of the error against
 //! time.
 
-use super::{commit_and_list, write_parquet, write_png};
+use super::console::{out, say};
+use super::{commit_and_list, write_parquet};
 use anyhow::{Context, Result};
 use hindsight::output::atomic::Staging;
-use hindsight::output::plots::{Series, TrackPlot};
+use hindsight::output::plots::{Plot, Series};
+use hindsight::output::report::{Block, Report, Section};
 use hindsight::output::study_tables::{error_vs_time_batch, runs_batch, summary_batch};
 use hindsight::recon::config::Config;
 use hindsight::sim::scenario::Scenario;
 use hindsight::study::{
     error_vs_time, run_solutions, summarise, Case, RunResult, Solution, TimeRow,
 };
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 /// Monte Carlo study: simulate a scenario with seeds BASE, BASE+1, ..., reconstruct each run
@@ -202,14 +202,7 @@ pub fn run(args: StudyArgs) -> Result<()> {
     let jobs: Vec<(usize, u64)> = (0..cases.len())
         .flat_map(|k| (0..args.runs).map(move |i| (k, args.seed_base + i)))
         .collect();
-    let bar = if std::io::stderr().is_terminal() {
-        ProgressBar::new(jobs.len() as u64).with_style(
-            ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} ({eta} left)")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        )
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = super::console::bar(jobs.len() as u64, "study", "runs");
     let started = std::time::Instant::now();
     let work = || -> Vec<RunResult> {
         jobs.par_iter()
@@ -272,7 +265,6 @@ pub fn run(args: StudyArgs) -> Result<()> {
         || None,
     )?;
     written.push(path);
-    let path = args.out.join("error_vs_time.png");
     let mut names = Vec::new();
     for case in &cases {
         for label in &labels {
@@ -295,45 +287,64 @@ pub fn run(args: StudyArgs) -> Result<()> {
                 .map(|r| (r.t_s / 3600.0, f(r)))
                 .collect()
         };
-        series.push(Series {
-            name: forward,
-            points: pick(|r| r.forward_rms_m),
-        });
-        series.push(Series {
-            name: smoothed,
-            points: pick(|r| r.smoothed_rms_m),
-        });
+        series.push(Series::line(forward.as_str(), pick(|r| r.forward_rms_m)));
+        series.push(Series::line(smoothed.as_str(), pick(|r| r.smoothed_rms_m)));
     }
-    write_png(
-        &mut staging,
-        &path,
-        &TrackPlot {
-            title: "horizontal error, RMS over the runs",
-            x_label: "time from the start, h",
-            y_label: "horizontal error RMS, m",
-            series,
-            marks: Vec::new(),
-            y_down: false,
-            equal_axes: false,
-        },
-    )?;
-    written.push(path);
-    commit_and_list(staging, &written, &args.out)?;
-
-    eprintln!(
+    let mut plot = Plot::new(
+        "horizontal error, RMS over the runs",
+        "time from the start, h",
+        "horizontal error RMS, m",
+    );
+    plot.series = series;
+    let rows = summary_rows(&summaries);
+    let failed: Vec<String> = runs
+        .iter()
+        .filter(|r| r.error.is_some())
+        .map(|r| {
+            format!(
+                "{} seed {}: {}",
+                cases[r.case].label,
+                r.seed,
+                r.error.as_deref().unwrap_or_default()
+            )
+        })
+        .collect();
+    let ran = format!(
         "{} runs in {elapsed_s:.1} s ({} threads)",
         runs.len(),
         rayon::current_num_threads()
     );
-    print_summary(&summaries);
+    let report = Report {
+        title: format!("hindsight study: {}", scenario.name),
+        subtitle: format!(
+            "{} case(s) x {} seed(s) from {}; solutions: {}",
+            cases.len(),
+            args.runs,
+            args.seed_base,
+            labels.join(", ")
+        ),
+        sections: vec![
+            Section::new("Cases")
+                .with(Block::table(SUMMARY_HEADERS, rows.clone()))
+                .with(Block::text(SUMMARY_CAPTION))
+                .with(Block::text(ran.clone())),
+            Section::new("Error against time").with(Block::figure(
+                "error_vs_time",
+                "Horizontal error against /truth, RMS over the runs, per case and solution.",
+                plot,
+            )),
+            Section::new("Warnings").with(Block::Warnings(failed.clone())),
+        ],
+        footer: format!("hindsight {}", env!("CARGO_PKG_VERSION")),
+    };
+    super::write_report(&mut staging, &args.out, &report, &mut written)?;
+    commit_and_list(staging, &written, &args.out)?;
+
+    say!("{ran}");
+    print_summary(&rows);
     print_error_vs_time(&cases, &labels, &curves);
-    for r in runs.iter().filter(|r| r.error.is_some()).take(5) {
-        eprintln!(
-            "warning: {} seed {}: {}",
-            cases[r.case].label,
-            r.seed,
-            r.error.as_deref().unwrap_or_default()
-        );
+    for w in failed.iter().take(5) {
+        say!("warning: {w}");
     }
     Ok(())
 }
@@ -349,7 +360,7 @@ fn print_error_vs_time(cases: &[Case], labels: &[String], curves: &[TimeRow]) {
         .take_while(|&t| t < end_s)
         .chain([end_s])
         .collect();
-    println!(
+    out!(
         "horizontal error RMS over the runs, m (forward / smoothed), and (the mean forward \
          velocity error along the body x axis, m/s):"
     );
@@ -375,49 +386,66 @@ fn print_error_vs_time(cases: &[Case], labels: &[String], curves: &[TimeRow]) {
                     })
                 })
                 .collect();
-            println!("  {} / {label}: {}", case.label, cells.join("  "));
+            out!("  {} / {label}: {}", case.label, cells.join("  "));
         }
     }
 }
 
-fn print_summary(summaries: &[hindsight::study::CaseSummary]) {
+const SUMMARY_HEADERS: [&str; 11] = [
+    "case",
+    "runs",
+    "failed",
+    "aligned",
+    "roll mean",
+    "roll sd",
+    "pitch mean",
+    "pitch sd",
+    "aligned at s",
+    "fwd RMS m",
+    "smo RMS m",
+];
+
+const SUMMARY_CAPTION: &str = "errors after the alignment (estimate minus truth at its middle), \
+     deg; sd: sample standard deviation; RMS: horizontal error against /truth, mean over the runs";
+
+/// The case summaries as table rows (printed, and in the report).
+fn summary_rows(summaries: &[hindsight::study::CaseSummary]) -> Vec<Vec<String>> {
     let f = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:+.3}"));
-    println!(
-        "{:<22} {:>5} {:>6} {:>8} | {:>9} {:>9} | {:>9} {:>9} | {:>11} | {:>9} {:>9}",
-        "case",
-        "runs",
-        "failed",
-        "aligned",
-        "roll mean",
-        "roll sd",
-        "pitch mean",
-        "pitch sd",
-        "aligned at",
-        "fwd RMS",
-        "smo RMS"
-    );
-    for s in summaries {
-        println!(
-            "{:<22} {:>5} {:>6} {:>8} | {:>9} {:>9} | {:>9} {:>9} | {:>9} s | {:>7} m {:>7} m",
-            if s.solution == "default" {
-                s.label.clone()
-            } else {
-                format!("{} {}", s.label, s.solution)
-            },
-            s.runs,
-            s.failed,
-            s.aligned,
-            f(s.roll_error_mean_deg),
-            f(s.roll_error_sigma_deg),
-            f(s.pitch_error_mean_deg),
-            f(s.pitch_error_sigma_deg),
-            s.aligned_after_mean_s
-                .map_or("-".into(), |x| format!("{x:.1}")),
-            s.forward_horizontal_rms_mean_m
-                .map_or("-".into(), |x| format!("{x:.1}")),
-            s.smoothed_horizontal_rms_mean_m
-                .map_or("-".into(), |x| format!("{x:.1}")),
+    let one = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.1}"));
+    summaries
+        .iter()
+        .map(|s| {
+            vec![
+                if s.solution == "default" {
+                    s.label.clone()
+                } else {
+                    format!("{} {}", s.label, s.solution)
+                },
+                s.runs.to_string(),
+                s.failed.to_string(),
+                s.aligned.to_string(),
+                f(s.roll_error_mean_deg),
+                f(s.roll_error_sigma_deg),
+                f(s.pitch_error_mean_deg),
+                f(s.pitch_error_sigma_deg),
+                one(s.aligned_after_mean_s),
+                one(s.forward_horizontal_rms_mean_m),
+                one(s.smoothed_horizontal_rms_mean_m),
+            ]
+        })
+        .collect()
+}
+
+fn print_summary(rows: &[Vec<String>]) {
+    let line = |r: &[&str]| {
+        out!(
+            "{:<22} {:>5} {:>6} {:>8} | {:>9} {:>9} | {:>9} {:>9} | {:>12} | {:>9} {:>9}",
+            r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10]
         );
+    };
+    line(&SUMMARY_HEADERS);
+    for r in rows {
+        line(&r.iter().map(String::as_str).collect::<Vec<_>>());
     }
-    println!("errors after the alignment (estimate minus truth at its middle), deg; sd: sample standard deviation");
+    out!("{SUMMARY_CAPTION}");
 }

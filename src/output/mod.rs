@@ -12,5 +12,6 @@ pub mod identify_tables;
 pub mod parquet;
 pub mod plots;
 pub mod recon_tables;
+pub mod report;
 pub mod study_tables;
 pub mod tables;

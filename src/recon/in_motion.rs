@@ -65,6 +65,7 @@ fn inputs_until<'a>(inputs: &Inputs<'a>, end_ns: i64) -> Inputs<'a> {
     Inputs {
         imu: &inputs.imu[..inputs.imu.partition_point(|m| m.stamp_ns <= end_ns)],
         output_stamps_ns: &[],
+        progress: None,
         ..*inputs
     }
 }

@@ -27,7 +27,8 @@ use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs}
 use crate::filters::ins::record::Solution;
 use crate::filters::velocity::model_aided::{AttitudeAt, ModelAidedFilter};
 use crate::ingest::Mission;
-use crate::smooth::rts::{smooth, SmoothError};
+use crate::progress::Progress;
+use crate::smooth::rts::{smooth_reporting, SmoothError};
 use config::Config;
 use init::{InitError, InitSettings, Initialisation};
 use std::sync::Arc;
@@ -138,17 +139,29 @@ pub fn forward(
     mission: &Mission,
     config: &Config,
 ) -> Result<ForwardPass, ReconError> {
-    forward_sharing(streams, mission, config, None)
+    forward_sharing(streams, mission, config, None, None)
+}
+
+/// [`forward`], telling `progress` how far the filter has come.
+pub fn forward_reporting(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    progress: Progress<'_>,
+) -> Result<ForwardPass, ReconError> {
+    forward_sharing(streams, mission, config, None, progress)
 }
 
 /// [`forward`], the model-aided velocity driven by `shared_attitude` when it is given (the
 /// [`ForwardPass::model_attitude`] of a reconstruction of the same log whose settings differ
-/// only in `[model_velocity]`) instead of a pass of its own.
+/// only in `[model_velocity]`) instead of a pass of its own. `progress` is told how far the
+/// final pass has come.
 pub fn forward_sharing(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
     shared_attitude: Option<AttitudeTrack>,
+    progress: Progress<'_>,
 ) -> Result<ForwardPass, ReconError> {
     let mut settings = config.settings();
     let mag = if config.mag.enabled {
@@ -214,6 +227,7 @@ pub fn forward_sharing(
         imu: streams.imu,
         aids: &aids,
         output_stamps_ns: &stamps,
+        progress: None,
     };
     let started = Instant::now();
     if config.alignment.enabled {
@@ -256,6 +270,7 @@ pub fn forward_sharing(
                 imu: streams.imu,
                 aids: &aids,
                 output_stamps_ns: &stamps,
+                progress,
             };
             (
                 run_forward(&settings, &inputs, init.estimate)?,
@@ -264,9 +279,13 @@ pub fn forward_sharing(
         }
         Some(Err(why)) => {
             aid_notes.push(format!("model_velocity: not used: {why}"));
+            let inputs = Inputs { progress, ..inputs };
             (run_forward(&settings, &inputs, init.estimate)?, None)
         }
-        None => (run_forward(&settings, &inputs, init.estimate)?, None),
+        None => {
+            let inputs = Inputs { progress, ..inputs };
+            (run_forward(&settings, &inputs, init.estimate)?, None)
+        }
     };
     aid_notes.extend(aids.iter().flat_map(|aid| aid.notes()));
     drop(aids); // it borrows the magnetometer's readings
@@ -377,7 +396,7 @@ pub fn reconstruct_sharing(
     config: &Config,
     shared_attitude: Option<AttitudeTrack>,
 ) -> Result<(Reconstruction, Option<AttitudeTrack>), ReconError> {
-    let pass = forward_sharing(streams, mission, config, shared_attitude)?;
+    let pass = forward_sharing(streams, mission, config, shared_attitude, None)?;
     let attitude = pass.model_attitude.clone();
     let depth_used = config.depth.enabled && !streams.depth.is_empty();
     Ok((finish(pass, config, depth_used)?, attitude))
@@ -390,6 +409,16 @@ pub fn finish(
     config: &Config,
     depth_used: bool,
 ) -> Result<Reconstruction, ReconError> {
+    finish_reporting(pass, config, depth_used, None)
+}
+
+/// [`finish`], telling `progress` how far the smoother has come.
+pub fn finish_reporting(
+    pass: ForwardPass,
+    config: &Config,
+    depth_used: bool,
+    progress: Progress<'_>,
+) -> Result<Reconstruction, ReconError> {
     let ForwardPass {
         init,
         mag,
@@ -399,7 +428,7 @@ pub fn finish(
         model_attitude: _,
     } = pass;
     let started = Instant::now();
-    let mut smoothed = smooth(&run.records)?;
+    let mut smoothed = smooth_reporting(&run.records, progress)?;
     let smoother_time = started.elapsed();
     let mut forward: Vec<Solution> = run.records.iter().map(Solution::forward).collect();
     if depth_used {

@@ -8,6 +8,28 @@ use crate::geodesy;
 use crate::recon::init::Initialisation;
 use serde::Serialize;
 
+/// Stretches without a usable DVL reading (no bottom lock, or no reading at all) longer than
+/// `min_s`: from the last usable reading before to the first after, in ns. A log that ends
+/// (or starts) without lock has a stretch to its last (from its first) reading.
+pub fn dvl_outages(dvl: &[crate::contract::Dvl], min_s: f64) -> Vec<(i64, i64)> {
+    let min_ns = (min_s * 1e9) as i64;
+    let mut spans = Vec::new();
+    let (Some(first), Some(last)) = (dvl.first(), dvl.last()) else {
+        return spans;
+    };
+    let mut from = first.stamp_ns;
+    for d in dvl.iter().filter(|d| d.valid) {
+        if d.stamp_ns - from > min_ns {
+            spans.push((from, d.stamp_ns));
+        }
+        from = d.stamp_ns;
+    }
+    if last.stamp_ns - from > min_ns {
+        spans.push((from, last.stamp_ns));
+    }
+    spans
+}
+
 /// Innovation statistics of one sensor.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SensorStats {

@@ -53,8 +53,17 @@ impl ForwardEpoch<{ error_state::N }> for EpochRecord {
 
 /// Smoothed solutions, one per record.
 pub fn smooth(records: &[EpochRecord]) -> Result<Vec<Solution>, SmoothError> {
+    smooth_reporting(records, None)
+}
+
+/// [`smooth`], telling `progress` the fraction of the records smoothed.
+pub fn smooth_reporting(
+    records: &[EpochRecord],
+    progress: crate::progress::Progress<'_>,
+) -> Result<Vec<Solution>, SmoothError> {
     let mut out = Vec::with_capacity(records.len());
     backward(records, |k, dx, p| {
+        crate::progress::tell(progress, records.len() - k, records.len(), 1 << 14);
         let rec = &records[k];
         let post = &rec.posterior;
         let point = NavPoint {

@@ -58,6 +58,8 @@ pub struct Inputs<'a> {
     /// Times at which the solution is wanted (an epoch is recorded at the first IMU sample at
     /// or after each).
     pub output_stamps_ns: &'a [i64],
+    /// Told the fraction of the IMU samples integrated, now and then.
+    pub progress: crate::progress::Progress<'a>,
 }
 
 /// One aiding measurement as the filter saw it.
@@ -241,7 +243,9 @@ pub fn run_forward(
 
     let usual_dt = usual_imu_interval_s(inputs.imu).unwrap_or(0.01);
     let gap_s = settings.propagation.imu_gap_s.max(3.0 * usual_dt);
-    for pair in inputs.imu.windows(2) {
+    let samples = inputs.imu.len();
+    for (k, pair) in inputs.imu.windows(2).enumerate() {
+        crate::progress::tell(inputs.progress, k, samples, 1 << 16);
         let (a, b) = (&pair[0], &pair[1]);
         let dt = (b.stamp_ns - a.stamp_ns) as f64 * 1e-9;
         if dt <= 0.0 {
