@@ -15,3 +15,22 @@ pub fn tell(progress: Progress<'_>, done: usize, total: usize, every: usize) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Mutex;
+
+    #[test]
+    fn tells_every_nth_step_as_a_fraction() {
+        let told = Mutex::new(Vec::new());
+        let record = |f: f64| told.lock().unwrap().push(f);
+        for k in 0..1000 {
+            tell(Some(&record), k, 1000, 250);
+        }
+        assert_eq!(*told.lock().unwrap(), [0.0, 0.25, 0.5, 0.75]);
+        tell(Some(&record), 5, 0, 1);
+        tell(None, 0, 10, 1);
+        assert_eq!(told.lock().unwrap().len(), 4, "nothing for an empty total or no listener");
+    }
+}

@@ -131,6 +131,7 @@ fn pool_log_gives_every_output() {
         [
             "attitude.parquet",
             "attitude_summary.parquet",
+            "report.html",
             "tracks_xy.png",
             "tracks_xz.png"
         ]

@@ -170,6 +170,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
         imu: streams.imu,
         aids: &aids,
         output_stamps_ns: &output_stamps,
+        progress: None,
     };
 
     let initial = initial_from_truth(&truth[0], &scenario, 3.0, 0.2, 2.0, 25.0);
@@ -271,6 +272,7 @@ fn position_fixes_bound_the_error_without_dvl() {
             imu: streams.imu,
             aids: &aids,
             output_stamps_ns: &stamps,
+            progress: None,
         };
         let run = run_forward(&settings, &inputs, initial).unwrap();
         let mut k = 0;

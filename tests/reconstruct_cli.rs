@@ -129,15 +129,18 @@ fn reconstruct_writes_trajectory_residuals_errors_and_summary() {
     );
     let errors = read_parquet(&out.join("errors.parquet"));
     assert_eq!(rows(&errors), 2 * per_solution);
+    // Besides the report's pictures (tests/report.rs checks those against its figures).
     let mut names: Vec<String> = std::fs::read_dir(&out)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.ends_with(".png"))
         .collect();
     names.sort();
     assert_eq!(
         names,
         [
             "errors.parquet",
+            "report.html",
             "residuals.parquet",
             "summary.json",
             "trajectory.mcap",

@@ -25,7 +25,10 @@ use std::time::{Duration, Instant};
 ///
 /// With --reconstruct: the scenario (default long-dive, 5.5 h; seed 0) is simulated, then
 /// ingest, forward filter and smoother are timed (medians, and their ratio to ingest), and
-/// the peak memory of one whole reconstruction is printed.
+/// the peak memory of one whole reconstruction is printed. With --report besides: the
+/// `reconstruct` command itself is run on that log --repeat times (with the scenario's
+/// configuration) and the time of its report.html and PNGs is set against the command's
+/// (medians).
 ///
 /// With --attitude: every attitude method on a 1-hour 100 Hz AHRS log (pool-circle flown
 /// for an hour), each on one thread and all in parallel (medians).
@@ -62,6 +65,10 @@ pub struct BenchArgs {
     #[arg(long)]
     pub reconstruct: bool,
 
+    /// With --reconstruct: also time report.html and its PNGs within `reconstruct` runs.
+    #[arg(long, requires = "reconstruct")]
+    pub report: bool,
+
     /// Benchmark every attitude method on a 1-hour 100 Hz AHRS log (simulated) instead.
     #[arg(long, conflicts_with = "reconstruct")]
     pub attitude: bool,
@@ -94,7 +101,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     if args.reconstruct {
         let scenario = args.scenario.as_deref().unwrap_or("long-dive");
-        return super::bench_reconstruct::run(scenario, args.repeat, args.keep.as_deref());
+        return super::bench_reconstruct::run(
+            scenario,
+            args.repeat,
+            args.keep.as_deref(),
+            args.report,
+        );
     }
     if args.simulate {
         let scenario = args.scenario.as_deref().unwrap_or("long-dive-dynamic");

@@ -14,15 +14,73 @@ const LONG_DIVE_CONFIG: &str = include_str!("../../configs/long-dive.toml");
 /// Simulates `scenario` (seed 0) to a temporary file, then times ingest, the forward filter
 /// and the smoother over `repeat` runs each (medians), and the peak memory of one whole
 /// reconstruction (ingest, forward, smoother).
-pub fn run(scenario_name: &str, repeat: usize, keep: Option<&Path>) -> Result<()> {
+pub fn run(scenario_name: &str, repeat: usize, keep: Option<&Path>, report: bool) -> Result<()> {
     let scenario =
         Scenario::built_in(scenario_name).with_context(|| format!("scenario `{scenario_name}`"))?;
     eprintln!("simulating `{scenario_name}` (seed 0) ...");
     super::bench::with_log_file(
         keep,
         |w| Ok(hindsight::sim::run::run(&scenario, 0, w).map(|_| ())?),
-        |path| measure(path, repeat, scenario_name),
+        |path| {
+            measure(path, repeat, scenario_name)?;
+            if report {
+                report_cost(path, repeat, scenario_name)?;
+            }
+            Ok(())
+        },
     )
+}
+
+/// Runs `hindsight reconstruct` (this executable, `--quiet`) on the log `repeat` times and
+/// prints the medians of the command's wall time and of its report's share (report.html and
+/// the PNGs, as summary.json's `run_time_s.report` gives it).
+fn report_cost(log: &Path, repeat: usize, scenario: &str) -> Result<()> {
+    let dir = std::env::temp_dir().join(format!("hindsight-bench-report-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let config = dir.join("config.toml");
+    std::fs::write(
+        &config,
+        if scenario == "long-dive" {
+            LONG_DIVE_CONFIG
+        } else {
+            ""
+        },
+    )?;
+    let exe = std::env::current_exe().context("locating this executable")?;
+    let out = dir.join("out");
+    let (mut wall, mut report, mut html_mb) = (Vec::new(), Vec::new(), 0.0);
+    for _ in 0..repeat {
+        let t = Instant::now();
+        let status = std::process::Command::new(&exe)
+            .arg("reconstruct")
+            .arg(log)
+            .arg("--out")
+            .arg(&out)
+            .arg("--config")
+            .arg(&config)
+            .arg("--quiet")
+            .status()?;
+        wall.push(t.elapsed().as_secs_f64());
+        anyhow::ensure!(status.success(), "reconstruct failed on the bench log");
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json"))?)?;
+        report.push(summary["run_time_s"]["report"].as_f64().unwrap_or(f64::NAN));
+        html_mb = std::fs::metadata(out.join("report.html"))?.len() as f64 / 1e6;
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (wall, report) = (median(&mut wall), median(&mut report));
+    println!(
+        "reconstruct command {wall:.2} s, of which report.html and its PNGs {report:.2} s: \
+         {:.1} % of the run, {:.1} % on top of the run without them (medians of {repeat}); \
+         report.html {html_mb:.2} MB",
+        100.0 * report / wall,
+        100.0 * report / (wall - report)
+    );
+    Ok(())
 }
 
 /// Peak resident memory of this process since the last reset, bytes (Linux; `None`

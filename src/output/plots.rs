@@ -232,15 +232,16 @@ fn draw<DB: DrawingBackend>(plot: &Plot, root: DrawingArea<DB, Shift>) -> Result
             }
         }
     }
+    // The data units of one pixel on each axis (an upper bound).
+    let pixel = (
+        (x1 - x0).abs() / PLOT_AREA_PX.0,
+        (y1 - y0).abs() / PLOT_AREA_PX.1,
+    );
     for (i, s) in plot.series.iter().enumerate() {
         let c = s.colour.unwrap_or(colour::CYCLE[i % colour::CYCLE.len()]);
         let drawn = match s.style {
             Style::Line => {
                 let line = c.stroke_width(2);
-                let pixel = (
-                    (x1 - x0).abs() / PLOT_AREA_PX.0,
-                    (y1 - y0).abs() / PLOT_AREA_PX.1,
-                );
                 chart
                     .draw_series(
                         segments(&s.points)
@@ -248,14 +249,22 @@ fn draw<DB: DrawingBackend>(plot: &Plot, root: DrawingArea<DB, Shift>) -> Result
                     )
                     .map_err(draw_error)?
             }
-            Style::Dots => chart
-                .draw_series(
-                    s.points
-                        .iter()
-                        .filter(|(x, y)| x.is_finite() && y.is_finite())
-                        .map(|&p| Circle::new(p, 2, c.filled())),
-                )
-                .map_err(draw_error)?,
+            Style::Dots => {
+                // One dot per pixel: dense clouds (innovations) would only repaint it.
+                let mut painted = std::collections::HashSet::new();
+                let dots: Vec<(f64, f64)> = s
+                    .points
+                    .iter()
+                    .filter(|(x, y)| x.is_finite() && y.is_finite())
+                    .filter(|(x, y)| {
+                        painted.insert(((x / pixel.0).round() as i64, (y / pixel.1).round() as i64))
+                    })
+                    .copied()
+                    .collect();
+                chart
+                    .draw_series(dots.into_iter().map(|p| Circle::new(p, 2, c.filled())))
+                    .map_err(draw_error)?
+            }
         };
         let style = s.style;
         drawn.label(&s.name).legend(move |(x, y)| match style {

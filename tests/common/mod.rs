@@ -103,6 +103,12 @@ pub const SAMPLE: &str = concat!(
     "/sample-logs/survey-short-seed1.mcap"
 );
 
+/// The shipped pool sample log (attitude).
+pub const POOL_SAMPLE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/sample-logs/pool-rectangle-seed1.mcap"
+);
+
 /// Every batch of a Parquet file.
 pub fn read_parquet(path: &std::path::Path) -> Vec<arrow_array::RecordBatch> {
     let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
