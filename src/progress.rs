@@ -10,7 +10,7 @@ pub type Progress<'a> = Option<&'a (dyn Fn(f64) + Sync)>;
 #[inline]
 pub fn tell(progress: Progress<'_>, done: usize, total: usize, every: usize) {
     if let Some(f) = progress {
-        if done % every.max(1) == 0 && total > 0 {
+        if done.is_multiple_of(every.max(1)) && total > 0 {
             f((done as f64 / total as f64).clamp(0.0, 1.0));
         }
     }
@@ -31,6 +31,10 @@ mod tests {
         assert_eq!(*told.lock().unwrap(), [0.0, 0.25, 0.5, 0.75]);
         tell(Some(&record), 5, 0, 1);
         tell(None, 0, 10, 1);
-        assert_eq!(told.lock().unwrap().len(), 4, "nothing for an empty total or no listener");
+        assert_eq!(
+            told.lock().unwrap().len(),
+            4,
+            "nothing for an empty total or no listener"
+        );
     }
 }

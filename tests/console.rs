@@ -16,8 +16,14 @@ fn no_progress_when_stderr_is_not_a_terminal() {
     let out = scratch_dir("console-pipe");
     let run = hindsight(&["reconstruct", SAMPLE, "--out", out.to_str().unwrap()]);
     assert!(run.status.success(), "{}", stderr(&run));
-    let (said, printed) = (stderr(&run), String::from_utf8_lossy(&run.stdout).into_owned());
-    assert!(said.contains("forward filter") && printed.contains("wrote"), "{said}");
+    let (said, printed) = (
+        stderr(&run),
+        String::from_utf8_lossy(&run.stdout).into_owned(),
+    );
+    assert!(
+        said.contains("forward filter") && printed.contains("wrote"),
+        "{said}"
+    );
     assert!(!has_progress(&said), "progress drawn into a pipe:\n{said}");
     assert!(!has_progress(&printed));
 }
@@ -25,18 +31,37 @@ fn no_progress_when_stderr_is_not_a_terminal() {
 #[test]
 fn quiet_prints_nothing_but_errors() {
     let out = scratch_dir("console-quiet");
-    let run = hindsight(&["reconstruct", SAMPLE, "--out", out.to_str().unwrap(), "--quiet"]);
+    let run = hindsight(&[
+        "reconstruct",
+        SAMPLE,
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
     assert!(run.status.success(), "{}", stderr(&run));
     assert_eq!(stderr(&run), "", "stderr under --quiet");
-    assert_eq!(String::from_utf8_lossy(&run.stdout), "", "stdout under --quiet");
-    for file in ["trajectory.parquet", "summary.json", "report.html", "track.png"] {
+    assert_eq!(
+        String::from_utf8_lossy(&run.stdout),
+        "",
+        "stdout under --quiet"
+    );
+    for file in [
+        "trajectory.parquet",
+        "summary.json",
+        "report.html",
+        "track.png",
+    ] {
         assert!(out.join(file).is_file(), "{file} is still written");
     }
     // An error is still said, with its exit status.
     let missing = out.join("missing.mcap");
     let run = hindsight(&["-q", "reconstruct", missing.to_str().unwrap(), "--out", "x"]);
     assert_eq!(run.status.code(), Some(3));
-    assert!(stderr(&run).starts_with("error: reading"), "{}", stderr(&run));
+    assert!(
+        stderr(&run).starts_with("error: reading"),
+        "{}",
+        stderr(&run)
+    );
     assert_eq!(String::from_utf8_lossy(&run.stdout), "");
 }
 
@@ -65,7 +90,10 @@ fn progress_draws_on_a_terminal_unless_quiet() {
         eprintln!("skipped: no `script` to make a terminal");
         return;
     };
-    assert!(has_progress(&terminal), "no progress on a terminal:\n{terminal}");
+    assert!(
+        has_progress(&terminal),
+        "no progress on a terminal:\n{terminal}"
+    );
     assert!(terminal.contains("reading the log") && terminal.contains("smoother"));
     let quiet = on_a_terminal(&format!("{command} --quiet")).unwrap();
     assert_eq!(quiet, "", "--quiet on a terminal");

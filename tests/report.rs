@@ -29,7 +29,12 @@ fn reports() -> &'static [(&'static str, PathBuf)] {
         };
         let path = |p: &Path| p.to_str().unwrap().to_string();
         let out = |name: &str| dir.join(name);
-        run(&["reconstruct", &path(&log), "--out", &path(&out("reconstruct"))]);
+        run(&[
+            "reconstruct",
+            &path(&log),
+            "--out",
+            &path(&out("reconstruct")),
+        ]);
         run(&[
             "attitude",
             common::POOL_SAMPLE,
@@ -37,7 +42,13 @@ fn reports() -> &'static [(&'static str, PathBuf)] {
             &path(&out("attitude")),
         ]);
         let zigzag = dir.join("zz.mcap");
-        run(&["simulate", "--scenario", "zigzag-5-5", "--out", &path(&zigzag)]);
+        run(&[
+            "simulate",
+            "--scenario",
+            "zigzag-5-5",
+            "--out",
+            &path(&zigzag),
+        ]);
         run(&["identify", &path(&zigzag), "--out", &path(&out("identify"))]);
         run(&[
             "study",
@@ -161,7 +172,10 @@ fn reconstruct_report_holds_what_an_engineer_looks_at_first() {
         "innovations_depth",
         "innovations_gnss",
     ] {
-        assert!(stems.iter().any(|s| s == needed), "figure {needed}: {stems:?}");
+        assert!(
+            stems.iter().any(|s| s == needed),
+            "figure {needed}: {stems:?}"
+        );
     }
     assert_pngs_match(&dir, &stems);
     // The log loses bottom lock for 12 s: shaded on the time plots, coloured on the track.
@@ -170,8 +184,7 @@ fn reconstruct_report_holds_what_an_engineer_looks_at_first() {
     // What summary.json says, the page says: inputs, the initial sources, the tuning, the
     // warnings, and the truth scores.
     let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
     let imu = summary["inputs"]
         .as_array()
         .unwrap()
@@ -193,7 +206,9 @@ fn reconstruct_report_holds_what_an_engineer_looks_at_first() {
     if warnings.is_empty() {
         assert!(html.contains("No warnings."));
     }
-    let rms = summary["truth"]["smoothed"]["horizontal_rms_m"].as_f64().unwrap();
+    let rms = summary["truth"]["smoothed"]["horizontal_rms_m"]
+        .as_f64()
+        .unwrap();
     assert!(html.contains(&format!("horizontal RMS {rms:.2} m")));
     let report_s = summary["run_time_s"]["report"].as_f64().unwrap();
     assert!(report_s > 0.0 && report_s <= summary["run_time_s"]["total"].as_f64().unwrap());
@@ -204,7 +219,12 @@ fn attitude_identify_and_study_reports_hold_their_results() {
     for (command, sections, stems) in [
         (
             "attitude",
-            &["Comparison", "Inputs, calibration and notes", "Dead-reckoned tracks", "Warnings"][..],
+            &[
+                "Comparison",
+                "Inputs, calibration and notes",
+                "Dead-reckoned tracks",
+                "Warnings",
+            ][..],
             &["tracks_xy", "tracks_xz"][..],
         ),
         (
@@ -227,11 +247,17 @@ fn attitude_identify_and_study_reports_hold_their_results() {
     // The tables carry the results: every method of the comparison, every coefficient.
     let (html, _) = page("attitude");
     for method in ["raw", "ekf", "ukf", "cf", "mekf", "mekf-smoothed"] {
-        assert!(html.contains(&format!("<td class=\"t\">{method}</td>")), "{method}");
+        assert!(
+            html.contains(&format!("<td class=\"t\">{method}</td>")),
+            "{method}"
+        );
     }
     let (html, _) = page("identify");
     for name in hindsight::vehicle::heave_pitch::NAMES {
-        assert!(html.contains(&format!("<td class=\"t\">{name}</td>")), "{name}");
+        assert!(
+            html.contains(&format!("<td class=\"t\">{name}</td>")),
+            "{name}"
+        );
     }
 }
 

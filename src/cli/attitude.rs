@@ -230,7 +230,8 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         return Err(compare::InputError::NoMagnetometer)
             .with_context(|| format!("attitude from {}", log_path.display()));
     }
-    let declination_rad = declination_deg(args.declination, &mission, imu[0].stamp_ns, &mut said).to_radians();
+    let declination_rad =
+        declination_deg(args.declination, &mission, imu[0].stamp_ns, &mut said).to_radians();
     let inputs = AhrsInputs {
         imu,
         mag: &mag,
@@ -251,7 +252,9 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     let start = mark("start");
     let end = mark("end");
     if !dvl.is_empty() && start.is_none() {
-        said.note("no `start` mark on /position_fix: dead reckoning from the mission origin".into());
+        said.note(
+            "no `start` mark on /position_fix: dead reckoning from the mission origin".into(),
+        );
     }
     if dvl.is_empty() {
         said.note("no DVL readings: dead reckoning skipped, attitude scored only".into());
@@ -412,12 +415,19 @@ fn write_outputs(
         subtitle: format!("{}: attitude methods compared", page.log.display()),
         sections: vec![
             Section::new("Comparison")
-                .with(Block::table(page.table.headers.clone(), page.table.rows.clone()))
+                .with(Block::table(
+                    page.table.headers.clone(),
+                    page.table.rows.clone(),
+                ))
                 .with(Block::text(page.table.caption.clone())),
             Section::new("Inputs, calibration and notes")
                 .with(Block::text(page.read.clone()))
                 .with(Block::Facts(
-                    page.said.notes.iter().map(|n| ("note".to_string(), n.clone())).collect(),
+                    page.said
+                        .notes
+                        .iter()
+                        .map(|n| ("note".to_string(), n.clone()))
+                        .collect(),
                 )),
         ],
         footer: format!("hindsight {}", env!("CARGO_PKG_VERSION")),
@@ -456,7 +466,10 @@ fn write_outputs(
                     Series::line(s.method.name(), thin(&points, 4000))
                 })
                 .collect();
-            plot.marks = marks.iter().map(|(n, p)| (n.to_string(), pick(p))).collect();
+            plot.marks = marks
+                .iter()
+                .map(|(n, p)| (n.to_string(), pick(p)))
+                .collect();
             plot.y_down = y_down;
             plot.equal_axes = !y_down;
             tracks.push(Block::figure(stem, title, plot));
@@ -568,12 +581,28 @@ impl Table {
         let h = &self.headers;
         out!(
             "\n{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   {}",
-            h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]
+            h[0],
+            h[1],
+            h[2],
+            h[3],
+            h[4],
+            h[5],
+            h[6],
+            h[7],
+            h[8]
         );
         for r in &self.rows {
             out!(
                 "{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   {}",
-                r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8]
+                r[0],
+                r[1],
+                r[2],
+                r[3],
+                r[4],
+                r[5],
+                r[6],
+                r[7],
+                r[8]
             );
         }
         out!("({})\n", self.caption);

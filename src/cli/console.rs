@@ -54,9 +54,13 @@ pub fn bar(len: u64, what: &str, unit: &str) -> ProgressBar {
     if !drawing() {
         return ProgressBar::hidden();
     }
-    let template = format!("{{msg:18}} {{bar:40}} {{pos}}/{{len}} {unit}, {{elapsed}} ({{eta}} left)");
-    let style = ProgressStyle::with_template(&template).unwrap_or_else(|_| ProgressStyle::default_bar());
-    let bar = ProgressBar::new(len).with_style(style).with_message(what.to_string());
+    let template =
+        format!("{{msg:18}} {{bar:40}} {{pos}}/{{len}} {unit}, {{elapsed}} ({{eta}} left)");
+    let style =
+        ProgressStyle::with_template(&template).unwrap_or_else(|_| ProgressStyle::default_bar());
+    let bar = ProgressBar::new(len)
+        .with_style(style)
+        .with_message(what.to_string());
     bar.enable_steady_tick(Duration::from_millis(200));
     bar
 }
@@ -71,7 +75,9 @@ pub fn bytes_bar(len: u64, what: &str) -> ProgressBar {
         "{msg:18} {bar:40} {bytes}/{total_bytes}, {elapsed} ({eta} left)",
     )
     .unwrap_or_else(|_| ProgressStyle::default_bar());
-    let bar = ProgressBar::new(len).with_style(style).with_message(what.to_string());
+    let bar = ProgressBar::new(len)
+        .with_style(style)
+        .with_message(what.to_string());
     bar.enable_steady_tick(Duration::from_millis(200));
     bar
 }
@@ -82,9 +88,12 @@ pub fn fraction_bar(what: &str) -> ProgressBar {
     if !drawing() {
         return ProgressBar::hidden();
     }
-    let style = ProgressStyle::with_template("{msg:18} {bar:40} {percent:>3} %, {elapsed} ({eta} left)")
-        .unwrap_or_else(|_| ProgressStyle::default_bar());
-    let bar = ProgressBar::new(100).with_style(style).with_message(what.to_string());
+    let style =
+        ProgressStyle::with_template("{msg:18} {bar:40} {percent:>3} %, {elapsed} ({eta} left)")
+            .unwrap_or_else(|_| ProgressStyle::default_bar());
+    let bar = ProgressBar::new(100)
+        .with_style(style)
+        .with_message(what.to_string());
     bar.enable_steady_tick(Duration::from_millis(200));
     bar
 }
@@ -96,7 +105,9 @@ pub fn spinner(what: &str) -> ProgressBar {
     }
     let style = ProgressStyle::with_template("{spinner} {msg} {elapsed}")
         .unwrap_or_else(|_| ProgressStyle::default_spinner());
-    let bar = ProgressBar::new_spinner().with_style(style).with_message(what.to_string());
+    let bar = ProgressBar::new_spinner()
+        .with_style(style)
+        .with_message(what.to_string());
     bar.enable_steady_tick(Duration::from_millis(120));
     bar
 }

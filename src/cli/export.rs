@@ -1,6 +1,6 @@
 //! `hindsight export LOG --out DIR`: every topic to Parquet, plus all streams on one clock.
 
-use super::console::{out};
+use super::console::out;
 use super::{LogArgs, OutputFailed, PolicyArgs};
 use anyhow::{bail, Context, Result};
 use hindsight::ingest::{Log, Stream};

@@ -241,11 +241,11 @@ fn write_outputs(
         "ratio",
     );
     convergence.series = (0..10)
-            .filter(|&i| settings.fixed[i].is_none())
-            .map(|i| Series::line(
+        .filter(|&i| settings.fixed[i].is_none())
+        .map(|i| {
+            Series::line(
                 NAMES[i],
-                id
-                    .ekf
+                id.ekf
                     .history
                     .iter()
                     .map(|p| {
@@ -255,8 +255,9 @@ fn write_outputs(
                         )
                     })
                     .collect(),
-            ))
-            .collect();
+            )
+        })
+        .collect();
     let labels: Vec<(String, String)> = records
         .iter()
         .map(|r| (format!("{} measured", r.name), format!("{} model", r.name)))
@@ -447,12 +448,26 @@ impl Findings {
         let h = COEFFICIENT_HEADERS;
         out!(
             "\n{:<8} {:>12} {:>12} {:>12} {:>12} {:>9} {:>14} {:<9}",
-            h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7]
+            h[0],
+            h[1],
+            h[2],
+            h[3],
+            h[4],
+            h[5],
+            h[6],
+            h[7]
         );
         for r in &self.coefficients {
             out!(
                 "{:<8} {:>12} {:>12} {:>12} {:>12} {:>9} {:>14} {:<9}",
-                r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]
+                r[0],
+                r[1],
+                r[2],
+                r[3],
+                r[4],
+                r[5],
+                r[6],
+                r[7]
             );
         }
         out!("\nfit of the identified model (normalised RMS: residual RMS over the sensor's sigma; fit %):");
@@ -487,7 +502,10 @@ impl Findings {
                 Section::new("Coefficients")
                     .with(Block::table(COEFFICIENT_HEADERS, self.coefficients.clone())),
                 Section::new("Inputs").with(Block::Facts(
-                    self.logs.iter().map(|l| ("log".to_string(), l.clone())).collect(),
+                    self.logs
+                        .iter()
+                        .map(|l| ("log".to_string(), l.clone()))
+                        .collect(),
                 )),
                 fit,
                 Section::new("Warnings").with(Block::Warnings(self.warnings.clone())),

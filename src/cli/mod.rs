@@ -21,11 +21,11 @@ mod vehicle;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
+use console::{out, say};
 use hindsight::align::{AlignError, ClockOffset};
 use hindsight::ingest::{IngestError, IngestOptions, Log, MissionError};
 use hindsight::recon::config::ConfigError;
 use hindsight::recon::ReconError;
-use console::{out, say};
 use std::path::{Path, PathBuf};
 
 /// Exit status: a bad command line or configuration file.

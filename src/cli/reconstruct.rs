@@ -453,7 +453,9 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             Some(s) => {
                 say!(
                     "... found: --offset /dvl={:.1} fits best (mean NIS {:.1} against {:.1})",
-                    s.offset_s, s.mean_nis, s.mean_nis_unshifted
+                    s.offset_s,
+                    s.mean_nis,
+                    s.mean_nis_unshifted
                 );
                 warnings.push(format!(
                     "dvl: its innovations are smallest with --offset /dvl={:.1} (mean NIS {:.1} \
@@ -732,11 +734,20 @@ fn indent(text: &str) -> String {
 fn print_report(s: &Summary) {
     out!(
         "{:.0} s, {:.0} m travelled (smoothed); {} epochs, {} measurements, {} rejected",
-        s.duration_s, s.distance_travelled_m, s.epochs, s.residuals, s.rejected
+        s.duration_s,
+        s.distance_travelled_m,
+        s.epochs,
+        s.residuals,
+        s.rejected
     );
     out!(
         "{:<13} {:>8} {:>9} {:>9} {:>10} {:>10}",
-        "sensor", "used", "rejected", "mean NIS", "norm mean", "norm var"
+        "sensor",
+        "used",
+        "rejected",
+        "mean NIS",
+        "norm mean",
+        "norm var"
     );
     for x in &s.sensors {
         out!(
@@ -763,7 +774,9 @@ fn print_report(s: &Summary) {
         if let Some(x) = sigma {
             out!(
                 "final 1-sigma ({name}): horizontal {:.2} m, depth {:.2} m, yaw {:.3} deg",
-                x.horizontal_m, x.down_m, x.yaw_deg
+                x.horizontal_m,
+                x.down_m,
+                x.yaw_deg
             );
         }
     }

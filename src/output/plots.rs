@@ -268,7 +268,9 @@ fn draw<DB: DrawingBackend>(plot: &Plot, root: DrawingArea<DB, Shift>) -> Result
         };
         let style = s.style;
         drawn.label(&s.name).legend(move |(x, y)| match style {
-            Style::Line => PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(3)).into_dyn(),
+            Style::Line => {
+                PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(3)).into_dyn()
+            }
             Style::Dots => Circle::new((x + 10, y), 4, c.filled()).into_dyn(),
         });
     }
@@ -276,7 +278,11 @@ fn draw<DB: DrawingBackend>(plot: &Plot, root: DrawingArea<DB, Shift>) -> Result
         // Labels stacked so that marks at the same place stay readable.
         let mark = EmptyElement::at((*x, *y))
             + Circle::new((0, 0), 6, BLACK.stroke_width(2))
-            + Text::new(name.clone(), (10, 4 + 18 * i as i32), (FAMILY, 16).into_font());
+            + Text::new(
+                name.clone(),
+                (10, 4 + 18 * i as i32),
+                (FAMILY, 16).into_font(),
+            );
         chart
             .draw_series(std::iter::once(mark))
             .map_err(draw_error)?;
@@ -398,6 +404,29 @@ pub fn min_max(points: &[(f64, f64)], max_points: usize) -> Vec<(f64, f64)> {
     out
 }
 
+/// About `max_points` of a cloud of dots (x increasing) for a picture: every k-th point, so
+/// that the picture's density stays the data's (the extremes alone would draw a cloud as two
+/// bands at its edges), and besides, in each stretch of k points, the one farthest from zero
+/// when it lies beyond `outlier` (so rare large values stay visible).
+pub fn sample_cloud(points: &[(f64, f64)], max_points: usize, outlier: f64) -> Vec<(f64, f64)> {
+    if points.len() <= max_points {
+        return points.to_vec();
+    }
+    let step = points.len().div_ceil(max_points.max(1));
+    let mut out = Vec::with_capacity(2 * max_points);
+    for chunk in points.chunks(step) {
+        out.push(chunk[0]);
+        let far = chunk[1..]
+            .iter()
+            .filter(|p| p.1.is_finite())
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+        if let Some(p) = far.filter(|p| p.1.abs() > outlier) {
+            out.push(*p);
+        }
+    }
+    out
+}
+
 /// At most about `max_points` of a track (every k-th point and the last), keeping breaks.
 pub fn thin(points: &[(f64, f64)], max_points: usize) -> Vec<(f64, f64)> {
     if points.len() <= max_points {
@@ -407,7 +436,10 @@ pub fn thin(points: &[(f64, f64)], max_points: usize) -> Vec<(f64, f64)> {
     let mut out: Vec<(f64, f64)> = Vec::with_capacity(max_points + 2);
     for chunk in points.chunks(step) {
         out.push(chunk[0]);
-        if let Some(gap) = chunk[1..].iter().find(|p| !(p.0.is_finite() && p.1.is_finite())) {
+        if let Some(gap) = chunk[1..]
+            .iter()
+            .find(|p| !(p.0.is_finite() && p.1.is_finite()))
+        {
             out.push(*gap);
         }
     }
@@ -453,11 +485,25 @@ mod tests {
     #[test]
     fn draws_an_inline_svg() {
         let svg = to_svg(&circle()).unwrap();
-        assert!(svg.starts_with("<svg viewBox=\"0 0 1000 800\""), "{}", &svg[..80]);
+        assert!(
+            svg.starts_with("<svg viewBox=\"0 0 1000 800\""),
+            "{}",
+            &svg[..80]
+        );
         assert!(svg.trim_end().ends_with("</svg>"));
         assert!(!svg.contains("http"), "no namespace URL or other reference");
-        for text in ["test", "circle", "fixes", "no bottom lock", "bounds", "start"] {
-            assert!(svg.contains(&format!(">\n{text}\n</text>")), "{text} is drawn");
+        for text in [
+            "test",
+            "circle",
+            "fixes",
+            "no bottom lock",
+            "bounds",
+            "start",
+        ] {
+            assert!(
+                svg.contains(&format!(">\n{text}\n</text>")),
+                "{text} is drawn"
+            );
         }
     }
 
@@ -471,9 +517,30 @@ mod tests {
         assert!(thinned.len() <= 210, "{}", thinned.len());
         assert!(thinned.contains(&(1234.0, 50.0)) && thinned.contains(&(7777.0, -30.0)));
         assert!(thinned.iter().any(|p| p.1.is_nan()));
-        let finite: Vec<f64> = thinned.iter().filter(|p| p.1.is_finite()).map(|p| p.0).collect();
+        let finite: Vec<f64> = thinned
+            .iter()
+            .filter(|p| p.1.is_finite())
+            .map(|p| p.0)
+            .collect();
         assert!(finite.windows(2).all(|w| w[0] < w[1]), "x stays in order");
         assert_eq!(min_max(&points[..100], 200), points[..100].to_vec());
+    }
+
+    #[test]
+    fn a_sampled_cloud_keeps_its_spread_and_its_outliers() {
+        // A deterministic cloud spread evenly over (-2, 2) (the golden-ratio sequence, even
+        // in any stride), with two outliers.
+        let mut points: Vec<(f64, f64)> = (0..100_000)
+            .map(|k| (k as f64, (k as f64 * 0.618_033_988_75).fract() * 4.0 - 2.0))
+            .collect();
+        points[4242].1 = 6.0;
+        points[77_777].1 = -5.0;
+        let sampled = sample_cloud(&points, 2000, 3.0);
+        assert!(sampled.len() <= 2010, "{}", sampled.len());
+        assert!(sampled.contains(&(4242.0, 6.0)) && sampled.contains(&(77_777.0, -5.0)));
+        // The inner half holds about half the dots, as in the data (min/max would hold none).
+        let inner = sampled.iter().filter(|p| p.1.abs() < 1.0).count() as f64;
+        assert!((inner / sampled.len() as f64 - 0.5).abs() < 0.05, "{inner}");
     }
 
     #[test]

@@ -41,7 +41,10 @@ pub enum Block {
     /// A paragraph of plain text.
     Text(String),
     /// A verdict, green when `good`.
-    Verdict { good: bool, text: String },
+    Verdict {
+        good: bool,
+        text: String,
+    },
     /// Name-value pairs.
     Facts(Vec<(String, String)>),
     /// A table with a header row.
@@ -53,7 +56,8 @@ pub enum Block {
     Pre(String),
     /// Warnings (an empty list says "none").
     Warnings(Vec<String>),
-    Figure(Figure),
+    /// Boxed: a plot is far larger than the other blocks.
+    Figure(Box<Figure>),
 }
 
 impl Section {
@@ -79,8 +83,15 @@ impl Block {
         Block::Text(t.into())
     }
 
-    pub fn facts<K: Into<String>, V: Into<String>>(pairs: impl IntoIterator<Item = (K, V)>) -> Self {
-        Block::Facts(pairs.into_iter().map(|(k, v)| (k.into(), v.into())).collect())
+    pub fn facts<K: Into<String>, V: Into<String>>(
+        pairs: impl IntoIterator<Item = (K, V)>,
+    ) -> Self {
+        Block::Facts(
+            pairs
+                .into_iter()
+                .map(|(k, v)| (k.into(), v.into()))
+                .collect(),
+        )
     }
 
     pub fn table<H: Into<String>>(
@@ -94,11 +105,11 @@ impl Block {
     }
 
     pub fn figure(stem: &str, caption: impl Into<String>, plot: Plot) -> Self {
-        Block::Figure(Figure {
+        Block::Figure(Box::new(Figure {
             stem: stem.to_string(),
             caption: caption.into(),
             plot,
-        })
+        }))
     }
 }
 
@@ -109,7 +120,7 @@ impl Report {
             .iter()
             .flat_map(|s| &s.blocks)
             .filter_map(|b| match b {
-                Block::Figure(f) => Some(f),
+                Block::Figure(f) => Some(&**f),
                 _ => None,
             })
     }
@@ -172,7 +183,12 @@ fn block_html(html: &mut String, block: &Block, svgs: &mut impl Iterator<Item = 
         Block::Facts(pairs) => {
             html.push_str("<table class=\"facts\">\n");
             for (k, v) in pairs {
-                let _ = writeln!(html, "<tr><th>{}</th><td>{}</td></tr>", escape(k), escape(v));
+                let _ = writeln!(
+                    html,
+                    "<tr><th>{}</th><td>{}</td></tr>",
+                    escape(k),
+                    escape(v)
+                );
             }
             html.push_str("</table>\n");
         }
@@ -222,7 +238,10 @@ fn block_html(html: &mut String, block: &Block, svgs: &mut impl Iterator<Item = 
 /// A cell that reads as a number (right-aligned; text is left-aligned).
 fn is_number(cell: &str) -> bool {
     let c = cell.trim();
-    matches!(c, "-" | "N/A") || c.split_whitespace().next().is_some_and(|w| w.parse::<f64>().is_ok())
+    matches!(c, "-" | "N/A")
+        || c.split_whitespace()
+            .next()
+            .is_some_and(|w| w.parse::<f64>().is_ok())
 }
 
 /// Text made safe for HTML content and attribute values.
@@ -311,7 +330,10 @@ mod tests {
         let html = report.to_html().unwrap();
         assert!(html.starts_with("<!doctype html>"));
         assert!(html.contains("<title>run of a&amp;b</title>"));
-        assert!(html.contains("<td class=\"t\">&lt;12&gt;</td>"), "text, left-aligned");
+        assert!(
+            html.contains("<td class=\"t\">&lt;12&gt;</td>"),
+            "text, left-aligned"
+        );
         assert!(html.contains("<h2>Track</h2>") && html.contains("<h2>Warnings</h2>"));
         assert!(html.contains("<li>dvl: late</li>"));
         assert_eq!(html.matches("<svg ").count(), 1);

@@ -7,7 +7,7 @@ use hindsight::filters::ins::aiding::Sensor;
 use hindsight::filters::ins::driver::Residual;
 use hindsight::filters::ins::record::Solution;
 use hindsight::geodesy::local_north_east_m;
-use hindsight::output::plots::{colour, min_max, thin, Plot, Series};
+use hindsight::output::plots::{colour, min_max, sample_cloud, thin, Plot, Series};
 use hindsight::output::report::{Block, Report, Section};
 use hindsight::recon::score::{self, EpochError};
 use hindsight::recon::Reconstruction;
@@ -16,6 +16,8 @@ use hindsight::recon::Reconstruction;
 const LINE_POINTS: usize = 4000;
 /// Dots per innovation component.
 const DOT_POINTS: usize = 3000;
+/// Normalised innovations beyond this are kept in the pictures however many there are.
+const OUTLIER: f64 = 3.0;
 /// DVL outages shorter than this are not shaded.
 pub const OUTAGE_MIN_S: f64 = 2.0;
 
@@ -214,13 +216,21 @@ fn overview(s: &Summary) -> Section {
         .innovations
         .iter()
         .map(|i| format!("{} {}", i.sensor, i.verdict))
-        .chain(c.nees.iter().map(|n| format!("NEES {} {}", n.solution, n.verdict)))
+        .chain(
+            c.nees
+                .iter()
+                .map(|n| format!("NEES {} {}", n.solution, n.verdict)),
+        )
         .collect();
     let verdict = Block::Verdict {
         good: c.consistent,
         text: format!(
             "uncertainty {}: {}",
-            if c.consistent { "consistent" } else { "NOT consistent" },
+            if c.consistent {
+                "consistent"
+            } else {
+                "NOT consistent"
+            },
             judged.join(", ")
         ),
     };
@@ -241,7 +251,10 @@ fn overview(s: &Summary) -> Section {
         ),
         (
             "duration, distance".into(),
-            format!("{:.0} s, {:.0} m (smoothed)", s.duration_s, s.distance_travelled_m),
+            format!(
+                "{:.0} s, {:.0} m (smoothed)",
+                s.duration_s, s.distance_travelled_m
+            ),
         ),
         (
             "filter".into(),
@@ -305,19 +318,31 @@ fn inputs(s: &Summary, init_text: &str) -> Section {
         })
         .collect();
     let mut section = Section::new("Inputs and initialisation")
-        .with(Block::table(["role", "log topic", "messages", "used"], rows))
+        .with(Block::table(
+            ["role", "log topic", "messages", "used"],
+            rows,
+        ))
         .with(Block::facts([
             (
                 "position",
-                format!("{} (1-sigma {:.2} m)", i.position_source, i.position_sigma_m),
+                format!(
+                    "{} (1-sigma {:.2} m)",
+                    i.position_source, i.position_sigma_m
+                ),
             ),
             (
                 "velocity",
-                format!("{} (1-sigma {:.3} m/s)", i.velocity_source, i.velocity_sigma_m_s),
+                format!(
+                    "{} (1-sigma {:.3} m/s)",
+                    i.velocity_source, i.velocity_sigma_m_s
+                ),
             ),
             (
                 "heading",
-                format!("{} (1-sigma {:.2} deg)", i.heading_source, i.heading_sigma_deg),
+                format!(
+                    "{} (1-sigma {:.2} deg)",
+                    i.heading_source, i.heading_sigma_deg
+                ),
             ),
             ("tilt 1-sigma", format!("{:.2} deg", i.tilt_sigma_deg)),
         ]))
@@ -338,7 +363,8 @@ fn inputs(s: &Summary, init_text: &str) -> Section {
 fn track_plot(x: &Inputs<'_>, fwd: &[&Solution], smo: &[&Solution]) -> Plot {
     let en = |s: &Solution| {
         let n = &s.point.nav;
-        let (north, east) = local_north_east_m(x.origin_rad.0, x.origin_rad.1, n.lat_rad, n.lon_rad);
+        let (north, east) =
+            local_north_east_m(x.origin_rad.0, x.origin_rad.1, n.lat_rad, n.lon_rad);
         (east, north)
     };
     let mut plot = Plot::new("track, plan view", "east (m)", "north (m)");
@@ -427,8 +453,13 @@ fn sigma_plot(axis: &TimeAxis, fwd: &[&Solution], smo: &[&Solution]) -> Plot {
     let horizontal = |s: &Solution| s.sigma[0].hypot(s.sigma[1]);
     let down = |s: &Solution| s.sigma[2];
     axis.plot("position 1-sigma", "1-sigma (m)")
-        .with(Series::line("forward, horizontal", series(fwd, horizontal)).coloured(colour::FORWARD))
-        .with(Series::line("smoothed, horizontal", series(smo, horizontal)).coloured(colour::SMOOTHED))
+        .with(
+            Series::line("forward, horizontal", series(fwd, horizontal)).coloured(colour::FORWARD),
+        )
+        .with(
+            Series::line("smoothed, horizontal", series(smo, horizontal))
+                .coloured(colour::SMOOTHED),
+        )
         .with(Series::line("forward, depth", series(fwd, down)).coloured(colour::CYAN))
         .with(Series::line("smoothed, depth", series(smo, down)).coloured(colour::PINK))
 }
@@ -441,10 +472,17 @@ fn error_plot(axis: &TimeAxis, fwd: &[EpochError], smo: &[EpochError]) -> Plot {
         let points: Vec<(f64, f64)> = rows.iter().map(|e| (axis.at(e.stamp_ns), f(e))).collect();
         min_max(&points, LINE_POINTS)
     };
-    let radius = |e: &EpochError| CIRCLE_95 * e.position_sigma_m.x.hypot(e.position_sigma_m.y) / 2f64.sqrt();
+    let radius =
+        |e: &EpochError| CIRCLE_95 * e.position_sigma_m.x.hypot(e.position_sigma_m.y) / 2f64.sqrt();
     axis.plot("horizontal error against /truth", "horizontal error (m)")
-        .with(Series::line("forward", series(fwd, &EpochError::horizontal_m)).coloured(colour::FORWARD))
-        .with(Series::line("smoothed", series(smo, &EpochError::horizontal_m)).coloured(colour::SMOOTHED))
+        .with(
+            Series::line("forward", series(fwd, &EpochError::horizontal_m))
+                .coloured(colour::FORWARD),
+        )
+        .with(
+            Series::line("smoothed", series(smo, &EpochError::horizontal_m))
+                .coloured(colour::SMOOTHED),
+        )
         .with(Series::line("forward 95 % radius", series(fwd, &radius)).coloured(colour::CYAN))
         .with(Series::line("smoothed 95 % radius", series(smo, &radius)).coloured(colour::PINK))
 }
@@ -458,7 +496,8 @@ fn nees_plot(axis: &TimeAxis, fwd: &[EpochError], smo: &[EpochError]) -> Plot {
         min_max(&points, LINE_POINTS)
     };
     let (lo, hi) = score::bounds_95(2);
-    let mut plot = axis.plot("horizontal NEES", "NEES (2 dof)")
+    let mut plot = axis
+        .plot("horizontal NEES", "NEES (2 dof)")
         .with(Series::line("forward", series(fwd)).coloured(colour::FORWARD))
         .with(Series::line("smoothed", series(smo)).coloured(colour::SMOOTHED));
     plot.hlines = vec![lo, hi];
@@ -472,6 +511,7 @@ fn components(sensor: Sensor, dims: usize) -> &'static [&'static str] {
         (Sensor::Gnss | Sensor::PositionFix, 2) => &["north", "east"],
         (Sensor::PositionFix, 3) => &["north", "east", "down"],
         (Sensor::Magnetometer, 1) => &["heading"],
+        (Sensor::Depth, 1) => &["depth"],
         (_, 1) => &["speed"],
         (_, 2) => &["x", "y"],
         _ => &["x", "y", "z"],
@@ -504,10 +544,21 @@ fn innovations(s: &Summary, residuals: &[Residual], axis: &TimeAxis) -> Section 
     let mut section = Section::new("Innovations").with(Block::text(
         "Each aiding measurement's innovation over its predicted 1-sigma. A consistent filter's \
          normalised innovations have mean 0 and variance 1, and 95 % of them lie within \
-         +-1.96; the mean NIS equals the measurement's size. Rejected: outside the gate.",
+         +-1.96; the mean NIS equals the measurement's size. Rejected: outside the gate. On long \
+         missions each picture shows an even sample of at most 3000 per component (so the \
+         density is the data's) and, of each stretch between two sampled ones, the largest \
+         beyond +-3.",
     ));
     section.push(Block::table(
-        ["sensor", "used", "rejected", "mean NIS", "norm mean", "norm var", "verdict"],
+        [
+            "sensor",
+            "used",
+            "rejected",
+            "mean NIS",
+            "norm mean",
+            "norm var",
+            "verdict",
+        ],
         rows,
     ));
     for sensor in Sensor::ALL {
@@ -525,7 +576,10 @@ fn innovations(s: &Summary, residuals: &[Residual], axis: &TimeAxis) -> Section 
                 .filter(|r| r.accepted && r.sigma[i] > 0.0)
                 .map(|r| (axis.at(r.stamp_ns), r.innovation[i] / r.sigma[i]))
                 .collect();
-            plot.series.push(Series::dots(*name, min_max(&points, DOT_POINTS)));
+            plot.series.push(Series::dots(
+                *name,
+                sample_cloud(&points, DOT_POINTS, OUTLIER),
+            ));
         }
         let rejected: Vec<(f64, f64)> = mine
             .iter()
@@ -534,8 +588,11 @@ fn innovations(s: &Summary, residuals: &[Residual], axis: &TimeAxis) -> Section 
             .collect();
         if !rejected.is_empty() {
             plot.series.push(
-                Series::dots("rejected (first component)", min_max(&rejected, DOT_POINTS))
-                    .coloured(colour::BLACK),
+                Series::dots(
+                    "rejected (first component)",
+                    sample_cloud(&rejected, DOT_POINTS, OUTLIER),
+                )
+                .coloured(colour::BLACK),
             );
         }
         plot.hlines = vec![-1.96, 1.96];
