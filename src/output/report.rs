@@ -41,10 +41,7 @@ pub enum Block {
     /// A paragraph of plain text.
     Text(String),
     /// A verdict, green when `good`.
-    Verdict {
-        good: bool,
-        text: String,
-    },
+    Verdict { good: bool, text: String },
     /// Name-value pairs.
     Facts(Vec<(String, String)>),
     /// A table with a header row.
