@@ -578,33 +578,8 @@ impl Table {
     }
 
     fn print(&self) {
-        let h = &self.headers;
-        out!(
-            "\n{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   {}",
-            h[0],
-            h[1],
-            h[2],
-            h[3],
-            h[4],
-            h[5],
-            h[6],
-            h[7],
-            h[8]
-        );
-        for r in &self.rows {
-            out!(
-                "{:<14} {:>10} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9}   {}",
-                r[0],
-                r[1],
-                r[2],
-                r[3],
-                r[4],
-                r[5],
-                r[6],
-                r[7],
-                r[8]
-            );
-        }
+        out!();
+        console::print_table(&self.headers, &self.rows, &[-14, 10, 9, 8, 9, 9, 9, 9, -2]);
         out!("({})\n", self.caption);
     }
 }

@@ -38,6 +38,32 @@ macro_rules! out {
 
 pub(crate) use {out, say};
 
+/// One line of a console table: each cell padded to its width (positive: right-aligned,
+/// negative: left-aligned, 0: as it is), joined by single spaces.
+pub fn row<S: AsRef<str>>(cells: &[S], widths: &[i32]) -> String {
+    cells
+        .iter()
+        .zip(widths.iter().chain(std::iter::repeat(&0)))
+        .map(|(c, &w)| {
+            let (c, n) = (c.as_ref(), w.unsigned_abs() as usize);
+            match w {
+                w if w > 0 => format!("{c:>n$}"),
+                w if w < 0 => format!("{c:<n$}"),
+                _ => c.to_string(),
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Prints a table: the header, then each row, laid out by [`row`].
+pub fn print_table<H: AsRef<str>, S: AsRef<str>>(headers: &[H], rows: &[Vec<S>], widths: &[i32]) {
+    out!("{}", row(headers, widths));
+    for r in rows {
+        out!("{}", row(r, widths));
+    }
+}
+
 /// Says `warning: <text>` and keeps the text for the report.
 pub fn warn(kept: &mut Vec<String>, text: String) {
     say!("warning: {text}");

@@ -445,31 +445,12 @@ impl Findings {
 
     /// The console table, the fit and the warnings.
     fn print(&self) {
-        let h = COEFFICIENT_HEADERS;
-        out!(
-            "\n{:<8} {:>12} {:>12} {:>12} {:>12} {:>9} {:>14} {:<9}",
-            h[0],
-            h[1],
-            h[2],
-            h[3],
-            h[4],
-            h[5],
-            h[6],
-            h[7]
+        out!();
+        super::console::print_table(
+            &COEFFICIENT_HEADERS,
+            &self.coefficients,
+            &[-8, 12, 12, 12, 12, 9, 14, -9],
         );
-        for r in &self.coefficients {
-            out!(
-                "{:<8} {:>12} {:>12} {:>12} {:>12} {:>9} {:>14} {:<9}",
-                r[0],
-                r[1],
-                r[2],
-                r[3],
-                r[4],
-                r[5],
-                r[6],
-                r[7]
-            );
-        }
         out!("\nfit of the identified model (normalised RMS: residual RMS over the sensor's sigma; fit %):");
         for (name, cells) in &self.fit {
             out!("  {:<24} {}", name, cells.join(", "));

@@ -802,26 +802,7 @@ fn print_report(s: &Summary) {
     if let Some(g) = &s.gyro_scale_factor_z {
         out!("z gyro scale factor: {}", estimated_text(g, 1.0, 6, ""));
     }
-    let c = &s.consistency;
-    let judged: Vec<String> = c
-        .innovations
-        .iter()
-        .map(|i| format!("{} {}", i.sensor, i.verdict))
-        .chain(
-            c.nees
-                .iter()
-                .map(|n| format!("NEES {} {}", n.solution, n.verdict)),
-        )
-        .collect();
-    out!(
-        "uncertainty {}: {}",
-        if c.consistent {
-            "consistent"
-        } else {
-            "NOT consistent"
-        },
-        judged.join(", ")
-    );
+    out!("{}", s.consistency.verdict_line());
     for w in &s.warnings {
         say!("warning: {w}");
     }

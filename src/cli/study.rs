@@ -437,25 +437,10 @@ fn summary_rows(summaries: &[hindsight::study::CaseSummary]) -> Vec<Vec<String>>
 }
 
 fn print_summary(rows: &[Vec<String>]) {
-    let line = |r: &[&str]| {
-        out!(
-            "{:<22} {:>5} {:>6} {:>8} | {:>9} {:>9} | {:>9} {:>9} | {:>12} | {:>9} {:>9}",
-            r[0],
-            r[1],
-            r[2],
-            r[3],
-            r[4],
-            r[5],
-            r[6],
-            r[7],
-            r[8],
-            r[9],
-            r[10]
-        );
-    };
-    line(&SUMMARY_HEADERS);
-    for r in rows {
-        line(&r.iter().map(String::as_str).collect::<Vec<_>>());
-    }
+    super::console::print_table(
+        &SUMMARY_HEADERS,
+        rows,
+        &[-22, 5, 6, 8, 10, 9, 10, 9, 12, 11, 9],
+    );
     out!("{SUMMARY_CAPTION}");
 }

@@ -125,6 +125,30 @@ pub fn assess(
 }
 
 impl Consistency {
+    /// The verdicts in one line: `uncertainty consistent: dvl consistent, ..., NEES forward
+    /// consistent` (or `NOT consistent`).
+    pub fn verdict_line(&self) -> String {
+        let judged: Vec<String> = self
+            .innovations
+            .iter()
+            .map(|i| format!("{} {}", i.sensor, i.verdict))
+            .chain(
+                self.nees
+                    .iter()
+                    .map(|n| format!("NEES {} {}", n.solution, n.verdict)),
+            )
+            .collect();
+        format!(
+            "uncertainty {}: {}",
+            if self.consistent {
+                "consistent"
+            } else {
+                "NOT consistent"
+            },
+            judged.join(", ")
+        )
+    }
+
     /// The warnings of the NEES checks (the innovations' are the sensors' own warnings).
     pub fn warnings(&self) -> Vec<String> {
         self.nees

@@ -211,28 +211,9 @@ fn file_name(path: &str) -> &str {
 }
 
 fn overview(s: &Summary) -> Section {
-    let c = &s.consistency;
-    let judged: Vec<String> = c
-        .innovations
-        .iter()
-        .map(|i| format!("{} {}", i.sensor, i.verdict))
-        .chain(
-            c.nees
-                .iter()
-                .map(|n| format!("NEES {} {}", n.solution, n.verdict)),
-        )
-        .collect();
     let verdict = Block::Verdict {
-        good: c.consistent,
-        text: format!(
-            "uncertainty {}: {}",
-            if c.consistent {
-                "consistent"
-            } else {
-                "NOT consistent"
-            },
-            judged.join(", ")
-        ),
+        good: s.consistency.consistent,
+        text: s.consistency.verdict_line(),
     };
     let mut facts = vec![
         ("log".to_string(), s.log.clone()),
