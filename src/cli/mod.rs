@@ -4,6 +4,7 @@
 //! process exit status.
 
 mod attitude;
+mod batch;
 mod bench;
 mod bench_attitude;
 mod bench_identify;
@@ -64,6 +65,7 @@ pub struct Args {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     Reconstruct(reconstruct::ReconstructArgs),
+    Batch(batch::BatchArgs),
     Attitude(attitude::AttitudeArgs),
     Identify(identify::IdentifyArgs),
     Vehicle(vehicle::VehicleArgs),
@@ -172,6 +174,7 @@ pub fn run(args: Args) -> Result<()> {
     console::set_quiet(args.quiet);
     match args.command {
         Command::Reconstruct(a) => reconstruct::run(a),
+        Command::Batch(a) => batch::run(a),
         Command::Attitude(a) => attitude::run(a),
         Command::Identify(a) => identify::run(a),
         Command::Vehicle(a) => vehicle::run(a),
@@ -190,6 +193,7 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
     if err.downcast_ref::<OutputFailed>().is_some() {
         EXIT_OUTPUT
     } else if err.downcast_ref::<IngestError>().is_some()
+        || err.downcast_ref::<batch::MissionsFailed>().is_some()
         || err.downcast_ref::<AlignError>().is_some()
         || err.downcast_ref::<MissionError>().is_some()
         || err.downcast_ref::<ReconError>().is_some()
@@ -213,6 +217,7 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
             .downcast_ref::<identify::CoefficientArgError>()
             .is_some()
         || err.downcast_ref::<simulate::SimulateArgError>().is_some()
+        || err.downcast_ref::<batch::ArchiveError>().is_some()
         || err
             .downcast_ref::<hindsight::sim::scenario::ScenarioError>()
             .is_some()

@@ -6,6 +6,7 @@
 
 pub mod atomic;
 pub mod attitude_tables;
+pub mod batch_tables;
 mod columns;
 pub mod foxglove;
 pub mod identify_tables;

@@ -1,0 +1,427 @@
+//! `hindsight batch LOG_OR_DIR... --out DIR`: every log of an archive reconstructed, in
+//! parallel across logs, each into its own hive-style partition, with one summary table.
+
+use super::console;
+use super::reconstruct::{self, ReconstructArgs};
+use super::OutputFailed;
+use anyhow::{Context, Result};
+use clap::Parser;
+use hindsight::output::atomic::Staging;
+use hindsight::output::batch_tables::{batch_summary, MissionRow};
+use hindsight::output::report::{Block, Report, Section};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Reconstruct every log of an archive: in parallel across logs, resumable, shardable.
+///
+/// Each LOG (an .mcap file) or DIR (every .mcap file under it, recursively) is reconstructed
+/// as `hindsight reconstruct` would, with --config, into DIR/mission=<log file stem>/ (a
+/// hive-style partition: DuckDB, polars and pyarrow read DIR/mission=*/trajectory.parquet
+/// with the mission as a column). Then:
+///
+///   batch_summary.parquet   one row per mission: status (done, complete, failed), error,
+///                           run time, duration, distance, final 1-sigma, the verdict on the
+///                           uncertainty, and the truth scores when the log has /truth
+///                           (a shard writes batch_summary.shard-I-of-N.parquet)
+///
+/// A mission whose outputs are complete (its summary.json, written last, names the same
+/// log) is not run again: a rerun resumes. A log that fails is reported and the others go
+/// on; the exit status is then 3.
+///
+/// --shard I/N takes the logs whose place in the sorted list is I modulo N (I from 0), so that
+/// N machines split an archive without coordinating: a Slurm array job passes
+/// --shard $SLURM_ARRAY_TASK_ID/N, a Kubernetes indexed job --shard $JOB_COMPLETION_INDEX/N.
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct BatchArgs {
+    /// Logs (.mcap) and folders holding them.
+    #[arg(required = true, value_name = "LOG_OR_DIR")]
+    pub logs: Vec<PathBuf>,
+
+    /// Output folder: one mission=<name> folder per log, and the batch summary.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+
+    /// Logs reconstructed at once [default: the number of cores]. Each takes the memory of
+    /// one reconstruction.
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
+
+    /// This machine's share of the logs: I/N takes every N-th log from the I-th (0 <= I < N).
+    #[arg(long, value_name = "I/N", value_parser = parse_shard)]
+    pub shard: Option<(usize, usize)>,
+
+    /// Settings file for every mission (see `hindsight config`).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+
+    /// Reconstruct complete missions again.
+    #[arg(long)]
+    pub force: bool,
+}
+
+fn parse_shard(text: &str) -> Result<(usize, usize), String> {
+    let (i, n) = text
+        .split_once('/')
+        .ok_or_else(|| format!("`{text}`: give I/N, e.g. 0/4"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<usize>()
+            .map_err(|_| format!("`{text}`: `{v}` is not a whole number"))
+    };
+    let (i, n) = (parse(i)?, parse(n)?);
+    if n == 0 || i >= n {
+        return Err(format!("`{text}`: I must be in 0..N and N at least 1"));
+    }
+    Ok((i, n))
+}
+
+/// The batch's logs cannot be listed as given (exit status 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct ArchiveError(String);
+
+/// The logs of the arguments, sorted: files as given, folders searched for `.mcap` files.
+pub fn collect_logs(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut logs = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let before = logs.len();
+            walk(p, &mut logs).with_context(|| format!("listing {}", p.display()))?;
+            if logs.len() == before {
+                return Err(ArchiveError(format!("no .mcap file under {}", p.display())).into());
+            }
+        } else if p.is_file() {
+            logs.push(p.clone());
+        } else {
+            return Err(ArchiveError(format!("{}: no such file or folder", p.display())).into());
+        }
+    }
+    logs.sort();
+    logs.dedup();
+    Ok(logs)
+}
+
+fn walk(dir: &Path, logs: &mut Vec<PathBuf>) -> std::io::Result<()> {
+    for entry in std::fs::read_dir(dir)? {
+        let path = entry?.path();
+        if path.is_dir() {
+            walk(&path, logs)?;
+        } else if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
+        {
+            logs.push(path);
+        }
+    }
+    Ok(())
+}
+
+/// Each log with its mission name (the file stem); two logs of one name are refused.
+fn missions(logs: &[PathBuf]) -> Result<Vec<(String, PathBuf)>> {
+    let mut named: Vec<(String, PathBuf)> = logs
+        .iter()
+        .map(|l| {
+            let stem = l
+                .file_stem()
+                .map_or_else(|| "log".to_string(), |s| s.to_string_lossy().into_owned());
+            (stem, l.clone())
+        })
+        .collect();
+    named.sort();
+    if let Some(w) = named.windows(2).find(|w| w[0].0 == w[1].0) {
+        return Err(ArchiveError(format!(
+            "two logs would both be mission `{}`: {} and {}; rename one, or run them in \
+             separate batches",
+            w[0].0,
+            w[0].1.display(),
+            w[1].1.display()
+        ))
+        .into());
+    }
+    Ok(named)
+}
+
+/// The logs of shard `i` of `n`: those whose place in the list is `i` modulo `n`.
+pub fn shard<T: Clone>(items: &[T], i: usize, n: usize) -> Vec<T> {
+    items.iter().skip(i).step_by(n.max(1)).cloned().collect()
+}
+
+/// A mission's summary.json, if it is there and names `log`: its outputs are complete (the
+/// summary is renamed into place last).
+fn complete_summary(dir: &Path, log: &Path) -> Option<serde_json::Value> {
+    let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
+    let summary: serde_json::Value = serde_json::from_str(&text).ok()?;
+    (summary["log"].as_str() == Some(&log.display().to_string())).then_some(summary)
+}
+
+fn row_from(mission: &str, log: &Path, summary: &serde_json::Value) -> MissionRow {
+    let f = |path: &[&str]| {
+        path.iter()
+            .try_fold(summary, |v, k| v.get(*k))
+            .and_then(|v| v.as_f64())
+    };
+    MissionRow {
+        mission: mission.to_string(),
+        log: log.display().to_string(),
+        duration_s: f(&["duration_s"]),
+        distance_travelled_m: f(&["distance_travelled_m"]),
+        final_horizontal_sigma_forward_m: f(&["final_sigma", "forward", "horizontal_m"]),
+        final_horizontal_sigma_smoothed_m: f(&["final_sigma", "smoothed", "horizontal_m"]),
+        consistent: summary["consistency"]["consistent"].as_bool(),
+        forward_horizontal_rms_m: f(&["truth", "forward", "horizontal_rms_m"]),
+        smoothed_horizontal_rms_m: f(&["truth", "smoothed", "horizontal_rms_m"]),
+        ..MissionRow::default()
+    }
+}
+
+/// `reconstruct`'s arguments for one mission, parsed as its command line would be.
+fn mission_args(log: &Path, out: &Path, config: Option<&Path>) -> Result<ReconstructArgs> {
+    #[derive(Parser)]
+    struct One {
+        #[command(flatten)]
+        args: ReconstructArgs,
+    }
+    let mut line = vec![
+        "reconstruct".into(),
+        log.as_os_str().to_owned(),
+        "--out".into(),
+        out.as_os_str().to_owned(),
+    ];
+    if let Some(c) = config {
+        line.push("--config".into());
+        line.push(c.as_os_str().to_owned());
+    }
+    Ok(One::try_parse_from(line)?.args)
+}
+
+/// Reconstructs one mission; a panic is reported as a failure, not carried into the others.
+fn run_mission(log: &Path, dir: &Path, config: Option<&Path>) -> Result<()> {
+    let args = mission_args(log, dir, config)?;
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| reconstruct::run(args))) {
+        Ok(result) => result,
+        Err(_) => anyhow::bail!("internal error (a panic) while reconstructing: please report it"),
+    }
+}
+
+/// Some missions of a batch failed (exit status 3); the others are complete.
+#[derive(Debug, thiserror::Error)]
+#[error("{failed} of {total} missions failed (see batch_summary: status, error)")]
+pub struct MissionsFailed {
+    pub failed: usize,
+    pub total: usize,
+}
+
+pub fn run(args: BatchArgs) -> Result<()> {
+    let started = Instant::now();
+    if let Some(c) = &args.config {
+        // A bad configuration fails every mission: say so once, up front.
+        let text = std::fs::read_to_string(c)
+            .with_context(|| format!("reading the configuration {}", c.display()))?;
+        hindsight::recon::config::Config::from_toml(&text)
+            .with_context(|| format!("configuration {}", c.display()))?;
+    }
+    let all = missions(&collect_logs(&args.logs)?)?;
+    let (i, n) = args.shard.unwrap_or((0, 1));
+    let mine = shard(&all, i, n);
+    std::fs::create_dir_all(&args.out).with_context(|| OutputFailed {
+        path: args.out.clone(),
+    })?;
+    let user_quiet = console::quiet();
+    let tell = |text: String| {
+        if !user_quiet {
+            eprintln!("{text}");
+        }
+    };
+    tell(format!(
+        "{} logs{}; {} here",
+        all.len(),
+        args.shard
+            .map(|(i, n)| format!(", shard {i}/{n}"))
+            .unwrap_or_default(),
+        mine.len()
+    ));
+    let bar = console::bar(mine.len() as u64, "batch", "missions");
+    // The missions' own messages would interleave: each says its outcome in one line.
+    console::set_quiet(true);
+    let one = |(name, log): &(String, PathBuf)| -> MissionRow {
+        let dir = args.out.join(format!("mission={name}"));
+        let row = match complete_summary(&dir, log).filter(|_| !args.force) {
+            Some(summary) => MissionRow {
+                status: "complete",
+                ..row_from(name, log, &summary)
+            },
+            None => {
+                let t = Instant::now();
+                let outcome = run_mission(log, &dir, args.config.as_deref());
+                let run_time_s = Some(t.elapsed().as_secs_f64());
+                match outcome.and_then(|()| {
+                    complete_summary(&dir, log).context("no summary.json after the run")
+                }) {
+                    Ok(summary) => MissionRow {
+                        status: "done",
+                        run_time_s,
+                        ..row_from(name, log, &summary)
+                    },
+                    Err(e) => MissionRow {
+                        mission: name.clone(),
+                        log: log.display().to_string(),
+                        status: "failed",
+                        error: Some(format!("{e:#}")),
+                        run_time_s,
+                        ..MissionRow::default()
+                    },
+                }
+            }
+        };
+        bar.suspend(|| tell(outcome_line(&row)));
+        bar.inc(1);
+        row
+    };
+    let rows: Vec<MissionRow> = match args.jobs {
+        Some(j) => rayon::ThreadPoolBuilder::new()
+            .num_threads(j.max(1))
+            .build()
+            .context("starting the worker threads")?
+            .install(|| mine.par_iter().map(one).collect()),
+        None => mine.par_iter().map(one).collect(),
+    };
+    bar.finish_and_clear();
+    console::set_quiet(user_quiet);
+
+    let name = match args.shard {
+        Some((i, n)) => format!("batch_summary.shard-{i}-of-{n}.parquet"),
+        None => "batch_summary.parquet".to_string(),
+    };
+    let path = args.out.join(name);
+    let mut staging = Staging::new();
+    super::write_parquet(&mut staging, &path, batch_summary(&rows)?, || None)?;
+    let page = args.out.join(match args.shard {
+        Some((i, n)) => format!("report.shard-{i}-of-{n}.html"),
+        None => "report.html".to_string(),
+    });
+    let html = report(&rows, &args.out)
+        .to_html()
+        .with_context(|| OutputFailed { path: page.clone() })?;
+    let mut file = staging
+        .create(&page)
+        .with_context(|| OutputFailed { path: page.clone() })?;
+    std::io::Write::write_all(&mut file, html.as_bytes())
+        .with_context(|| OutputFailed { path: page.clone() })?;
+    staging
+        .commit()
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    let failed = rows.iter().filter(|r| r.status == "failed").count();
+    let count = |s: &str| rows.iter().filter(|r| r.status == s).count();
+    console::say!(
+        "{} missions in {:.1} s: {} done, {} complete already, {failed} failed; wrote {}",
+        rows.len(),
+        started.elapsed().as_secs_f64(),
+        count("done"),
+        count("complete"),
+        path.display()
+    );
+    if failed > 0 {
+        return Err(MissionsFailed {
+            failed,
+            total: rows.len(),
+        }
+        .into());
+    }
+    Ok(())
+}
+
+/// The batch's page: every mission's outcome (each mission's own report.html is in its
+/// folder).
+fn report(rows: &[MissionRow], out: &Path) -> Report {
+    let na = |v: Option<f64>, digits: usize| v.map_or("-".to_string(), |v| format!("{v:.digits$}"));
+    let table = rows
+        .iter()
+        .map(|r| {
+            vec![
+                r.mission.clone(),
+                r.status.to_string(),
+                na(r.duration_s, 0),
+                na(r.distance_travelled_m, 0),
+                na(r.final_horizontal_sigma_smoothed_m, 2),
+                r.consistent
+                    .map_or("-", |c| if c { "yes" } else { "NO" })
+                    .to_string(),
+                na(r.smoothed_horizontal_rms_m, 2),
+                na(r.run_time_s, 1),
+            ]
+        })
+        .collect();
+    let failed: Vec<String> = rows
+        .iter()
+        .filter_map(|r| Some(format!("mission={}: {}", r.mission, r.error.as_ref()?)))
+        .collect();
+    Report {
+        title: format!("hindsight batch: {} missions", rows.len()),
+        subtitle: out.display().to_string(),
+        sections: vec![
+            Section::new("Missions")
+                .with(Block::text(
+                    "Each mission's outputs and its own report.html are in mission=<name>/. \
+                     complete: its outputs were there already (not run again).",
+                ))
+                .with(Block::table(
+                    [
+                        "mission",
+                        "status",
+                        "duration s",
+                        "distance m",
+                        "final 1-sigma m",
+                        "consistent",
+                        "RMS vs truth m",
+                        "run time s",
+                    ],
+                    table,
+                )),
+            Section::new("Failed missions").with(Block::Warnings(failed)),
+        ],
+        footer: format!("hindsight {}", env!("CARGO_PKG_VERSION")),
+    }
+}
+
+fn outcome_line(r: &MissionRow) -> String {
+    match r.status {
+        "failed" => format!(
+            "failed    mission={}: {}",
+            r.mission,
+            r.error.as_deref().unwrap_or_default()
+        ),
+        status => format!(
+            "{status:<9} mission={}: {:.0} s, {:.0} m, final 1-sigma {:.2} m{}{}",
+            r.mission,
+            r.duration_s.unwrap_or(f64::NAN),
+            r.distance_travelled_m.unwrap_or(f64::NAN),
+            r.final_horizontal_sigma_smoothed_m.unwrap_or(f64::NAN),
+            r.smoothed_horizontal_rms_m
+                .map(|e| format!(", {e:.2} m RMS against /truth"))
+                .unwrap_or_default(),
+            r.run_time_s
+                .map(|t| format!(" ({t:.1} s)"))
+                .unwrap_or_default()
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shards_cover_every_log_once() {
+        let logs: Vec<usize> = (0..23).collect();
+        for n in 1..=7 {
+            let mut seen: Vec<usize> = (0..n).flat_map(|i| shard(&logs, i, n)).collect();
+            seen.sort();
+            assert_eq!(seen, logs, "{n} shards");
+        }
+        assert_eq!(parse_shard("2/4"), Ok((2, 4)));
+        assert!(parse_shard("4/4").is_err() && parse_shard("1/0").is_err());
+        assert!(parse_shard("x").is_err() && parse_shard("a/2").is_err());
+    }
+}

@@ -1,0 +1,73 @@
+//! Arrow table of `hindsight batch`: one row per mission.
+
+use super::columns::Columns;
+use arrow_array::{ArrayRef, BooleanArray, RecordBatch, StringArray};
+use arrow_schema::{ArrowError, DataType, Field};
+use std::sync::Arc;
+
+/// What became of one mission of a batch.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MissionRow {
+    /// The mission's name: its partition is `mission=<name>`.
+    pub mission: String,
+    pub log: String,
+    /// `done` (reconstructed now), `complete` (its outputs were already there) or `failed`.
+    pub status: &'static str,
+    /// Why it failed.
+    pub error: Option<String>,
+    /// Seconds this run spent on it (none for a complete mission).
+    pub run_time_s: Option<f64>,
+    pub duration_s: Option<f64>,
+    pub distance_travelled_m: Option<f64>,
+    pub final_horizontal_sigma_forward_m: Option<f64>,
+    pub final_horizontal_sigma_smoothed_m: Option<f64>,
+    /// The run's verdict on its uncertainty.
+    pub consistent: Option<bool>,
+    /// Against `/truth`, when the log has it.
+    pub forward_horizontal_rms_m: Option<f64>,
+    pub smoothed_horizontal_rms_m: Option<f64>,
+}
+
+pub fn batch_summary(rows: &[MissionRow]) -> Result<RecordBatch, ArrowError> {
+    let mut c = Columns::default();
+    c.text("mission", rows.iter().map(|r| r.mission.as_str()).collect());
+    c.text("log", rows.iter().map(|r| r.log.as_str()).collect());
+    c.text("status", rows.iter().map(|r| r.status).collect());
+    c.push(
+        Field::new("error", DataType::Utf8, true),
+        Arc::new(StringArray::from(
+            rows.iter().map(|r| r.error.as_deref()).collect::<Vec<_>>(),
+        )) as ArrayRef,
+    );
+    let opt = |f: fn(&MissionRow) -> Option<f64>| rows.iter().map(f).collect::<Vec<_>>();
+    c.optional("run_time_s", "s", opt(|r| r.run_time_s));
+    c.optional("duration_s", "s", opt(|r| r.duration_s));
+    c.optional("distance_travelled_m", "m", opt(|r| r.distance_travelled_m));
+    c.optional(
+        "final_horizontal_sigma_forward_m",
+        "m",
+        opt(|r| r.final_horizontal_sigma_forward_m),
+    );
+    c.optional(
+        "final_horizontal_sigma_smoothed_m",
+        "m",
+        opt(|r| r.final_horizontal_sigma_smoothed_m),
+    );
+    c.push(
+        Field::new("consistent", DataType::Boolean, true),
+        Arc::new(BooleanArray::from(
+            rows.iter().map(|r| r.consistent).collect::<Vec<_>>(),
+        )),
+    );
+    c.optional(
+        "forward_horizontal_rms_m",
+        "m",
+        opt(|r| r.forward_horizontal_rms_m),
+    );
+    c.optional(
+        "smoothed_horizontal_rms_m",
+        "m",
+        opt(|r| r.smoothed_horizontal_rms_m),
+    );
+    c.finish()
+}
