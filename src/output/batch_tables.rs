@@ -1,9 +1,8 @@
 //! Arrow table of `hindsight batch`: one row per mission.
 
 use super::columns::Columns;
-use arrow_array::{ArrayRef, BooleanArray, RecordBatch, StringArray};
-use arrow_schema::{ArrowError, DataType, Field};
-use std::sync::Arc;
+use arrow_array::RecordBatch;
+use arrow_schema::ArrowError;
 
 /// What became of one mission of a batch.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -33,12 +32,7 @@ pub fn batch_summary(rows: &[MissionRow]) -> Result<RecordBatch, ArrowError> {
     c.text("mission", rows.iter().map(|r| r.mission.as_str()).collect());
     c.text("log", rows.iter().map(|r| r.log.as_str()).collect());
     c.text("status", rows.iter().map(|r| r.status).collect());
-    c.push(
-        Field::new("error", DataType::Utf8, true),
-        Arc::new(StringArray::from(
-            rows.iter().map(|r| r.error.as_deref()).collect::<Vec<_>>(),
-        )) as ArrayRef,
-    );
+    c.optional_text("error", rows.iter().map(|r| r.error.as_deref()).collect());
     let opt = |f: fn(&MissionRow) -> Option<f64>| rows.iter().map(f).collect::<Vec<_>>();
     c.optional("run_time_s", "s", opt(|r| r.run_time_s));
     c.optional("duration_s", "s", opt(|r| r.duration_s));
@@ -53,12 +47,7 @@ pub fn batch_summary(rows: &[MissionRow]) -> Result<RecordBatch, ArrowError> {
         "m",
         opt(|r| r.final_horizontal_sigma_smoothed_m),
     );
-    c.push(
-        Field::new("consistent", DataType::Boolean, true),
-        Arc::new(BooleanArray::from(
-            rows.iter().map(|r| r.consistent).collect::<Vec<_>>(),
-        )),
-    );
+    c.optional_flag("consistent", rows.iter().map(|r| r.consistent).collect());
     c.optional(
         "forward_horizontal_rms_m",
         "m",

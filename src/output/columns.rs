@@ -2,7 +2,9 @@
 //! column's unit is also in its field metadata under `unit`.
 
 use super::tables::timestamp_type;
-use arrow_array::{ArrayRef, Float64Array, RecordBatch, StringArray, TimestampNanosecondArray};
+use arrow_array::{
+    ArrayRef, BooleanArray, Float64Array, RecordBatch, StringArray, TimestampNanosecondArray,
+};
 use arrow_schema::{ArrowError, DataType, Field, Schema};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -31,6 +33,22 @@ impl Columns {
         self.push(
             Field::new(name, DataType::Utf8, false),
             Arc::new(StringArray::from(values)),
+        );
+    }
+
+    /// Text that may be missing (null).
+    pub(crate) fn optional_text(&mut self, name: &str, values: Vec<Option<&str>>) {
+        self.push(
+            Field::new(name, DataType::Utf8, true),
+            Arc::new(StringArray::from(values)),
+        );
+    }
+
+    /// A yes/no that may be missing (null).
+    pub(crate) fn optional_flag(&mut self, name: &str, values: Vec<Option<bool>>) {
+        self.push(
+            Field::new(name, DataType::Boolean, true),
+            Arc::new(BooleanArray::from(values)),
         );
     }
 

@@ -3,7 +3,7 @@
 
 use super::columns::Columns;
 use crate::study::{Case, CaseSummary, RunResult, TimeRow};
-use arrow_array::{ArrayRef, RecordBatch, StringArray, UInt64Array};
+use arrow_array::{ArrayRef, RecordBatch, UInt64Array};
 use arrow_schema::{ArrowError, DataType, Field};
 use std::sync::Arc;
 
@@ -30,12 +30,7 @@ pub fn runs_batch(
             runs.iter().map(|r| r.seed).collect::<Vec<_>>(),
         )) as ArrayRef,
     );
-    c.push(
-        Field::new("error", DataType::Utf8, true),
-        Arc::new(StringArray::from(
-            runs.iter().map(|r| r.error.as_deref()).collect::<Vec<_>>(),
-        )),
-    );
+    c.optional_text("error", runs.iter().map(|r| r.error.as_deref()).collect());
     let opt = |f: fn(&RunResult) -> Option<f64>| runs.iter().map(f).collect::<Vec<_>>();
     c.optional("aligned_after_s", "s", opt(|r| r.aligned_after_s));
     c.optional("roll_error_deg", "deg", opt(|r| r.roll_error_deg));
