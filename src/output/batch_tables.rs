@@ -33,30 +33,42 @@ pub fn batch_summary(rows: &[MissionRow]) -> Result<RecordBatch, ArrowError> {
     c.text("log", rows.iter().map(|r| r.log.as_str()).collect());
     c.text("status", rows.iter().map(|r| r.status).collect());
     c.optional_text("error", rows.iter().map(|r| r.error.as_deref()).collect());
-    let opt = |f: fn(&MissionRow) -> Option<f64>| rows.iter().map(f).collect::<Vec<_>>();
-    c.optional("run_time_s", "s", opt(|r| r.run_time_s));
-    c.optional("duration_s", "s", opt(|r| r.duration_s));
-    c.optional("distance_travelled_m", "m", opt(|r| r.distance_travelled_m));
-    c.optional(
-        "final_horizontal_sigma_forward_m",
-        "m",
-        opt(|r| r.final_horizontal_sigma_forward_m),
-    );
-    c.optional(
-        "final_horizontal_sigma_smoothed_m",
-        "m",
-        opt(|r| r.final_horizontal_sigma_smoothed_m),
+    numbers(
+        &mut c,
+        rows,
+        &[
+            ("run_time_s", "s", |r| r.run_time_s),
+            ("duration_s", "s", |r| r.duration_s),
+            ("distance_travelled_m", "m", |r| r.distance_travelled_m),
+            ("final_horizontal_sigma_forward_m", "m", |r| {
+                r.final_horizontal_sigma_forward_m
+            }),
+            ("final_horizontal_sigma_smoothed_m", "m", |r| {
+                r.final_horizontal_sigma_smoothed_m
+            }),
+        ],
     );
     c.optional_flag("consistent", rows.iter().map(|r| r.consistent).collect());
-    c.optional(
-        "forward_horizontal_rms_m",
-        "m",
-        opt(|r| r.forward_horizontal_rms_m),
-    );
-    c.optional(
-        "smoothed_horizontal_rms_m",
-        "m",
-        opt(|r| r.smoothed_horizontal_rms_m),
+    numbers(
+        &mut c,
+        rows,
+        &[
+            ("forward_horizontal_rms_m", "m", |r| {
+                r.forward_horizontal_rms_m
+            }),
+            ("smoothed_horizontal_rms_m", "m", |r| {
+                r.smoothed_horizontal_rms_m
+            }),
+        ],
     );
     c.finish()
+}
+
+/// A number column (name, unit, value) per entry, null where a row has no value.
+type Column<'a> = (&'a str, &'a str, fn(&MissionRow) -> Option<f64>);
+
+fn numbers(c: &mut Columns, rows: &[MissionRow], columns: &[Column<'_>]) {
+    for (name, unit, f) in columns {
+        c.optional(name, unit, rows.iter().map(f).collect());
+    }
 }
