@@ -20,6 +20,7 @@ pub mod progress;
 pub mod recon;
 pub mod sim;
 pub mod smooth;
+pub mod spill;
 pub mod study;
 pub mod time;
 pub mod vehicle;

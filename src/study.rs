@@ -9,7 +9,7 @@ use crate::align::latest_at;
 use crate::contract::Truth;
 use crate::ingest::{read_log_from, IngestOptions};
 use crate::recon::config::Config;
-use crate::recon::score::{epoch_error, scores};
+use crate::recon::score::scores;
 use crate::recon::{reconstruct_sharing, AttitudeTrack, Streams};
 use crate::sim::scenario::Scenario;
 use crate::sim::writer::{to_bytes, Compression, WriterOptions};
@@ -176,14 +176,11 @@ fn score_run(
 ) -> Result<(RunResult, Option<AttitudeTrack>), StudyError> {
     let (r, attitude) = reconstruct_sharing(streams, mission, config, shared_attitude)
         .map_err(|e| StudyError::Reconstruct(e.to_string()))?;
-    let pick = |sol: &[crate::filters::ins::record::Solution]| {
-        sol.iter()
-            .zip(&r.output)
-            .filter(|(_, &out)| out)
-            .filter_map(|(s, _)| epoch_error(streams.truth, s))
-            .collect::<Vec<_>>()
+    let pick = |sol| {
+        crate::recon::score::errors(streams.truth, sol, &r.output)
+            .map_err(|e| StudyError::Reconstruct(format!("reading the solutions back: {e}")))
     };
-    let (fwd, smo) = (pick(&r.forward), pick(&r.smoothed));
+    let (fwd, smo) = (pick(&r.forward)?, pick(&r.smoothed)?);
     let (Some(f), Some(s)) = (scores(&fwd), scores(&smo)) else {
         return Err(StudyError::Reconstruct(
             "no epoch to score against /truth".into(),

@@ -40,7 +40,7 @@ fn scale_and_misalignment_are_estimated() {
     let true_heading_deg = spec.misalignment_deg[1];
     let streams = Streams::of(&log);
     let r = reconstruct(&streams, &log.mission().unwrap(), &survey_config()).unwrap();
-    let last = r.forward.last().unwrap();
+    let last = r.forward.last().unwrap().unwrap();
     let (scale, scale_sigma) = (last.point.dvl[0], last.sigma[idx::DVL_SCALE]);
     let (heading, heading_sigma) = (
         last.point.dvl[2].to_degrees(),

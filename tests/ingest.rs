@@ -421,3 +421,51 @@ fn unusable_readings_and_held_values_are_counted() {
         "{text}"
     );
 }
+
+/// Decoding on other threads (the default on a machine with more than one core) reads the
+/// same log as decoding on the reading thread, counts, statistics and issues included, on a
+/// survey long enough for many batches per topic, with late, repeated and invalid messages.
+#[test]
+fn decoding_on_other_threads_reads_the_same_log() {
+    use hindsight::sim::synthetic::{write_survey, SurveySpec};
+    let spec = SurveySpec {
+        duration_s: 900.0,
+        seed: 11,
+        ..SurveySpec::default()
+    };
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        write_survey(w, &spec)?;
+        for (i, &s) in [5, 20, 20, 700_000].iter().enumerate() {
+            w.write("/imu", &imu(s, i as f64), i as u64)?;
+        }
+        let mut wild = imu(30_000, 0.0);
+        wild.angular_velocity[1] = 1e6; // beyond any gyro: invalid
+        w.write("/imu", &wild, 30_000)
+    })
+    .unwrap();
+    let read = |threads: usize, keep_messages: bool| {
+        read_log_from(
+            &bytes[..],
+            &IngestOptions {
+                decode_threads: threads,
+                keep_messages,
+                ..IngestOptions::default()
+            },
+        )
+        .unwrap()
+    };
+    for keep_messages in [true, false] {
+        let (one, many) = (read(1, keep_messages), read(4, keep_messages));
+        common::assert_same_content(&one, &many);
+        for (a, b) in one.streams.iter().zip(&many.streams) {
+            assert_eq!(a.counts, b.counts, "{}", a.topic);
+            assert_eq!(a.timing, b.timing, "{}", a.topic);
+            assert_eq!(a.issues, b.issues, "{}", a.topic);
+        }
+        let imu_counts = &one.stream("/imu").unwrap().counts;
+        assert_eq!(imu_counts.invalid, 1);
+        assert!(imu_counts.out_of_order >= 3 && imu_counts.duplicates >= 1);
+        let received: u64 = one.streams.iter().map(|s| s.counts.received).sum();
+        assert!(received > 100_000, "many batches per topic");
+    }
+}

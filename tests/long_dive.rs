@@ -171,13 +171,15 @@ fn run_seed(scenario: &Scenario, config: &Config, seed: u64) -> Outcome {
             aids: &aids,
             output_stamps_ns: &stamps,
             progress: None,
+            keep_records: true,
         };
         let run = run_forward(&settings, &inputs, start).unwrap();
         let errors: Vec<_> = run
             .records
             .iter()
+            .map(Result::unwrap)
             .filter(|r| r.output)
-            .filter_map(|r| epoch_error(streams.truth, &Solution::forward(r)))
+            .filter_map(|r| epoch_error(streams.truth, &Solution::forward(&r)))
             .collect();
         let t0 = errors[0].stamp_ns;
         let north: Vec<(f64, f64)> = errors

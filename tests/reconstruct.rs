@@ -173,7 +173,9 @@ fn bad_input_is_reported_or_handled() {
     let sigma_at = |t: i64| {
         let s = gapped
             .forward
-            .iter()
+            .to_vec()
+            .unwrap()
+            .into_iter()
             .rev()
             .find(|s| s.stamp_ns <= t)
             .unwrap();
@@ -309,6 +311,7 @@ fn biases_not_estimated_are_carried_but_never_moved() {
     let moved = |r: &Reconstruction| {
         r.forward
             .iter()
+            .map(Result::unwrap)
             .map(|s| {
                 s.point
                     .gyro_bias
@@ -321,8 +324,8 @@ fn biases_not_estimated_are_carried_but_never_moved() {
     assert!(moved(&estimated) > 0.0, "the default estimates the biases");
     assert_eq!(moved(&held), 0.0);
     // Without updates to them, the biases' sigma can only grow (their walk).
-    let first = held.forward.first().unwrap().sigma;
-    let last = held.forward.last().unwrap().sigma;
+    let first = held.forward.first().unwrap().unwrap().sigma;
+    let last = held.forward.last().unwrap().unwrap().sigma;
     for i in 9..15 {
         assert!(
             last[i] >= first[i] * (1.0 - 1e-9),

@@ -258,3 +258,44 @@ fn bad_configuration_and_logs_without_imu_are_clear_errors() {
     assert!(!stderr(&o).contains("panicked"));
     assert!(!out.exists() || std::fs::read_dir(&out).unwrap().next().is_none());
 }
+
+/// The epoch records of the sample log (3600 epochs) go to a temporary file beyond their
+/// first block. Where no temporary file can be made (a full disk, a missing TMPDIR) the run
+/// holds them in memory, says so, and writes the very same trajectory.
+#[test]
+fn without_a_temporary_file_the_records_stay_in_memory_and_the_result_is_the_same() {
+    let run = |name: &str, tmpdir: Option<&std::path::Path>| {
+        let out = common::scratch_dir(name);
+        let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_hindsight"));
+        command.args(["reconstruct", SAMPLE, "--out", out.to_str().unwrap()]);
+        if let Some(dir) = tmpdir {
+            command.env("TMPDIR", dir);
+        }
+        let o = command.output().unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        let warnings: Vec<String> = summary["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w.as_str().unwrap().to_string())
+            .collect();
+        (
+            std::fs::read(out.join("trajectory.parquet")).unwrap(),
+            warnings,
+        )
+    };
+    let (spilled, spilled_warnings) = run("spill-normal", None);
+    let missing = std::env::temp_dir().join("hindsight-no-such-dir/deeper");
+    let (held, held_warnings) = run("spill-missing", Some(&missing));
+    assert_eq!(spilled, held, "the same trajectory either way");
+    assert!(!spilled_warnings.iter().any(|w| w.starts_with("memory:")));
+    let said: Vec<&String> = held_warnings
+        .iter()
+        .filter(|w| w.starts_with("memory:"))
+        .collect();
+    assert_eq!(said.len(), 1, "{held_warnings:?}");
+    assert!(said[0].contains("hindsight-no-such-dir"), "{}", said[0]);
+}

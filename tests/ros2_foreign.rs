@@ -177,7 +177,8 @@ fn largest_difference(a: &Reconstruction, b: &Reconstruction) -> f64 {
             })
             .fold(0.0, f64::max)
     };
-    pairs(&a.forward, &b.forward).max(pairs(&a.smoothed, &b.smoothed))
+    let all = |s: &hindsight::filters::ins::solutions::Solutions| s.to_vec().unwrap();
+    pairs(&all(&a.forward), &all(&b.forward)).max(pairs(&all(&a.smoothed), &all(&b.smoothed)))
 }
 
 #[test]

@@ -188,7 +188,7 @@ fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
                 .map(|x| x.accepted)
                 .collect();
             let rejected = dvl.iter().filter(|a| !**a).count() as f64 / dvl.len() as f64;
-            let length = distance_travelled_m(&r.smoothed) / truth_length_m;
+            let length = distance_travelled_m(r.smoothed.iter()).unwrap() / truth_length_m;
             let imu_blamed = warnings(&r.run, &r.init, &sensor_stats(&r.run.residuals))
                 .iter()
                 .any(|w| w.contains("the IMU is probably much noisier"));

@@ -87,12 +87,16 @@ impl MagCalibration {
 
     /// The readings calibrated (stamps kept).
     pub fn applied(&self, mag: &[MagneticField]) -> Vec<MagneticField> {
-        mag.iter()
-            .map(|m| MagneticField {
-                magnetic_field: self.apply(&Vector3::from(m.magnetic_field)).into(),
-                ..m.clone()
-            })
-            .collect()
+        let mut out = mag.to_vec();
+        self.apply_to(&mut out);
+        out
+    }
+
+    /// Applies the calibration to `mag` in place (no copy of a long log's readings).
+    pub fn apply_to(&self, mag: &mut [MagneticField]) {
+        for m in mag {
+            m.magnetic_field = self.apply(&Vector3::from(m.magnetic_field)).into();
+        }
     }
 }
 

@@ -19,6 +19,15 @@ pub fn without_saturation(
     mag: &[MagneticField],
     repeats: usize,
 ) -> (Vec<MagneticField>, Vec<SaturatedSpan>) {
+    without_saturation_owned(mag.to_vec(), repeats)
+}
+
+/// [`without_saturation`], taking the readings out of `mag` in place (no copy of a long
+/// log's readings).
+pub fn without_saturation_owned(
+    mut mag: Vec<MagneticField>,
+    repeats: usize,
+) -> (Vec<MagneticField>, Vec<SaturatedSpan>) {
     let mut flagged = vec![false; mag.len()];
     for axis in 0..3 {
         let value = |k: usize| mag[k].magnetic_field[axis];
@@ -61,13 +70,9 @@ pub fn without_saturation(
         }
         previous_flagged = f;
     }
-    let kept = mag
-        .iter()
-        .zip(&flagged)
-        .filter(|(_, &f)| !f)
-        .map(|(m, _)| m.clone())
-        .collect();
-    (kept, spans)
+    let mut flags = flagged.iter();
+    mag.retain(|_| !flags.next().copied().unwrap_or(false));
+    (mag, spans)
 }
 
 #[cfg(test)]

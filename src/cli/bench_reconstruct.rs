@@ -12,8 +12,8 @@ use std::time::{Duration, Instant};
 const LONG_DIVE_CONFIG: &str = include_str!("../../configs/long-dive.toml");
 
 /// Simulates `scenario` (seed 0) to a temporary file, then times ingest, the forward filter
-/// and the smoother over `repeat` runs each (medians), and the peak memory of one whole
-/// reconstruction (ingest, forward, smoother).
+/// and the smoother over `repeat` runs each (medians), and runs the `reconstruct` command once
+/// for its peak memory.
 pub fn run(scenario_name: &str, repeat: usize, keep: Option<&Path>, report: bool) -> Result<()> {
     let scenario =
         Scenario::built_in(scenario_name).with_context(|| format!("scenario `{scenario_name}`"))?;
@@ -35,33 +35,11 @@ pub fn run(scenario_name: &str, repeat: usize, keep: Option<&Path>, report: bool
 /// prints the medians of the command's wall time and of its report's share (report.html and
 /// the PNGs, as summary.json's `run_time_s.report` gives it).
 fn report_cost(log: &Path, repeat: usize, scenario: &str) -> Result<()> {
-    let dir = std::env::temp_dir().join(format!("hindsight-bench-report-{}", std::process::id()));
-    std::fs::create_dir_all(&dir)?;
-    let config = dir.join("config.toml");
-    std::fs::write(
-        &config,
-        if scenario == "long-dive" {
-            LONG_DIVE_CONFIG
-        } else {
-            ""
-        },
-    )?;
-    let exe = std::env::current_exe().context("locating this executable")?;
+    let (dir, config) = scratch(scenario, "report")?;
     let out = dir.join("out");
     let (mut wall, mut report, mut html_mb) = (Vec::new(), Vec::new(), 0.0);
     for _ in 0..repeat {
-        let t = Instant::now();
-        let status = std::process::Command::new(&exe)
-            .arg("reconstruct")
-            .arg(log)
-            .arg("--out")
-            .arg(&out)
-            .arg("--config")
-            .arg(&config)
-            .arg("--quiet")
-            .status()?;
-        wall.push(t.elapsed().as_secs_f64());
-        anyhow::ensure!(status.success(), "reconstruct failed on the bench log");
+        wall.push(run_command(log, &config, &out)?.0);
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("summary.json"))?)?;
         report.push(summary["run_time_s"]["report"].as_f64().unwrap_or(f64::NAN));
@@ -83,18 +61,56 @@ fn report_cost(log: &Path, repeat: usize, scenario: &str) -> Result<()> {
     Ok(())
 }
 
-/// Peak resident memory of this process since the last reset, bytes (Linux; `None`
-/// elsewhere).
-fn peak_rss_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
+/// Runs `hindsight reconstruct` (this executable, `--quiet`, self-tuning as by default) on
+/// `log` into `out`: its wall time, s, and its peak resident memory, bytes (`None` off Unix).
+fn run_command(log: &Path, config: &Path, out: &Path) -> Result<(f64, Option<u64>)> {
+    let exe = std::env::current_exe().context("locating this executable")?;
+    let t = Instant::now();
+    let status = std::process::Command::new(&exe)
+        .arg("reconstruct")
+        .arg(log)
+        .arg("--out")
+        .arg(out)
+        .arg("--config")
+        .arg(config)
+        .arg("--quiet")
+        .status()?;
+    let wall = t.elapsed().as_secs_f64();
+    anyhow::ensure!(status.success(), "reconstruct failed on the bench log");
+    Ok((wall, children_peak_rss_bytes()))
 }
 
-/// Resets the peak-memory mark (Linux 4.0 and later).
-fn reset_peak_rss() -> bool {
-    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+/// The largest peak resident memory of the child processes waited for so far.
+#[cfg(unix)]
+fn children_peak_rss_bytes() -> Option<u64> {
+    // SAFETY: getrusage writes one `rusage` into the zeroed struct it is given.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let ok = unsafe { libc::getrusage(libc::RUSAGE_CHILDREN, &mut usage) } == 0;
+    // Linux reports kilobytes, macOS bytes.
+    let unit = if cfg!(target_os = "macos") { 1 } else { 1024 };
+    ok.then(|| u64::try_from(usage.ru_maxrss).ok().map(|v| v * unit))
+        .flatten()
+}
+
+#[cfg(not(unix))]
+fn children_peak_rss_bytes() -> Option<u64> {
+    None
+}
+
+/// A scratch directory holding the bench's configuration file.
+fn scratch(scenario: &str, name: &str) -> Result<(std::path::PathBuf, std::path::PathBuf)> {
+    let dir = std::env::temp_dir().join(format!("hindsight-bench-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let config = dir.join("config.toml");
+    std::fs::write(
+        &config,
+        if scenario == "long-dive" {
+            LONG_DIVE_CONFIG
+        } else {
+            ""
+        },
+    )?;
+    Ok((dir, config))
 }
 
 fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
@@ -103,48 +119,38 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
     } else {
         Config::default()
     };
-    let opts = IngestOptions::default();
+    // As `reconstruct` reads a log.
+    let opts = IngestOptions {
+        keep_log_times: false,
+        ..IngestOptions::default()
+    };
     let file_mb = std::fs::metadata(path)?.len() as f64 / 1e6;
 
-    // One whole reconstruction first, for the peak memory.
-    let reset = reset_peak_rss();
-    let (ingest_once, forward_once, smoother_once, epochs) = {
-        let t = Instant::now();
-        let log = ingest::read_log(path, &opts)?;
-        let ingest = t.elapsed();
-        let mission = log.mission()?;
-        let streams = Streams::of(&log);
-        let pass = recon::forward(&streams, &mission, &config)?;
-        let depth_used = !streams.depth.is_empty();
-        drop(log);
-        let epochs = pass.run.records.len();
-        let r = recon::finish(pass, &config, depth_used)?;
-        (ingest, r.timing.forward, r.timing.smoother, epochs)
-    };
-    let peak = peak_rss_bytes().filter(|_| reset);
-
-    let mut ingest_t = vec![ingest_once];
-    let mut forward_t = vec![forward_once];
-    let mut smoother_t = vec![smoother_once];
+    let mut ingest_t = Vec::new();
+    let mut forward_t = Vec::new();
+    let mut smoother_t = Vec::new();
     let mut tune_t = Vec::new();
-    for k in 0..repeat {
+    let mut epochs = 0;
+    for _ in 0..repeat {
         let t = Instant::now();
         let log = ingest::read_log(path, &opts)?;
-        if k > 0 {
-            ingest_t.push(t.elapsed());
-        }
+        ingest_t.push(t.elapsed());
         let mission = log.mission()?;
         let streams = Streams::of(&log);
         // Self-tuning as `reconstruct` runs it by default (its candidates in parallel).
         let t = Instant::now();
         let (tuned, _) = recon::tune::tune(&streams, &mission, &config);
         tune_t.push(t.elapsed());
-        if k > 0 {
-            let r = recon::reconstruct(&streams, &mission, &tuned)?;
-            forward_t.push(r.timing.forward);
-            smoother_t.push(r.timing.smoother);
-        }
+        let r = recon::reconstruct(&streams, &mission, &tuned)?;
+        forward_t.push(r.timing.forward);
+        smoother_t.push(r.timing.smoother);
+        epochs = r.forward.len();
     }
+    // The command a user runs, once, for its peak memory (and its wall time).
+    let (dir, config_path) = scratch(scenario, "peak")?;
+    let command = run_command(path, &config_path, &dir.join("out"));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (command_s, peak) = command?;
     let median = |v: &mut Vec<Duration>| {
         v.sort();
         v[v.len() / 2].as_secs_f64()
@@ -156,7 +162,7 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
         median(&mut tune_t),
     );
     println!(
-        "log: {scenario} (seed 0), {file_mb:.1} MB; {epochs} filter epochs; medians of {repeat} runs, one thread"
+        "log: {scenario} (seed 0), {file_mb:.1} MB; {epochs} filter epochs; medians of {repeat} runs; filter and smoother on one thread, ingest decoding on its threads"
     );
     println!(
         "{:<22} {:>9} {:>16}",
@@ -181,10 +187,14 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
     );
     match peak {
         Some(bytes) => println!(
-            "peak memory of one reconstruction (ingest, forward, smoother): {:.0} MB",
+            "`hindsight reconstruct` on this log: {command_s:.1} s, peak memory {:.0} MB \
+             (self-tuning, forward, smoother and every output)",
             bytes as f64 / 1e6
         ),
-        None => println!("peak memory: not available on this system"),
+        None => println!(
+            "`hindsight reconstruct` on this log: {command_s:.1} s; peak memory not available \
+             on this system"
+        ),
     }
     Ok(())
 }

@@ -347,6 +347,7 @@ fn ingest_options(args: &ReconstructArgs, config: &Config) -> hindsight::ingest:
     options.topics = config.topics.clone();
     options.frame_conventions = config.frames.clone();
     options.ros2 = config.ros2;
+    options.keep_log_times = false;
     args.log.source.apply(&mut options);
     options
 }
@@ -372,26 +373,32 @@ fn write_trajectory_mcap(
             format!("/hindsight/{name}/pose"),
         )
     });
-    for &k in keep {
-        for ((name, solutions), (fix_topic, pose_topic)) in solutions.iter().zip(&topics) {
-            let s = &solutions[k];
-            let t = u64::try_from(s.stamp_ns).unwrap_or(0);
-            w.write_raw(
-                fix_topic,
-                "foxglove.LocationFix",
-                LOCATION_FIX_SCHEMA,
-                "json",
-                &location_fix(s, name),
-                t,
-            )?;
-            w.write_raw(
-                pose_topic,
-                "foxglove.PoseInFrame",
-                POSE_IN_FRAME_SCHEMA,
-                "json",
-                &pose_in_frame(s, origin_rad, "map"),
-                t,
-            )?;
+    for rows in keep.chunks(ROWS_PER_BATCH) {
+        let picked = solutions.map(|(_, sol)| sol.pick(rows));
+        let [fwd, smo] = picked;
+        let (fwd, smo) = (fwd?, smo?);
+        for (f, s) in fwd.iter().zip(&smo) {
+            for ((name, s), (fix_topic, pose_topic)) in
+                [("forward", f), ("smoothed", s)].iter().zip(&topics)
+            {
+                let t = u64::try_from(s.stamp_ns).unwrap_or(0);
+                w.write_raw(
+                    fix_topic,
+                    "foxglove.LocationFix",
+                    LOCATION_FIX_SCHEMA,
+                    "json",
+                    &location_fix(s, name),
+                    t,
+                )?;
+                w.write_raw(
+                    pose_topic,
+                    "foxglove.PoseInFrame",
+                    POSE_IN_FRAME_SCHEMA,
+                    "json",
+                    &pose_in_frame(s, origin_rad, "map"),
+                    t,
+                )?;
+            }
         }
     }
     std::io::Write::flush(&mut w.finish()?)?;
@@ -401,7 +408,7 @@ fn write_trajectory_mcap(
 pub fn run(args: ReconstructArgs) -> Result<()> {
     let started = Instant::now();
     let config = args.config()?;
-    let log = super::load(
+    let mut log = super::load(
         &args.log.log,
         &ingest_options(&args, &config),
         &args.log.offsets,
@@ -426,12 +433,29 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     if let Some(t) = &tuning {
         warnings_from_tuning = t.warnings.clone();
     }
+    let inputs = input_counts(&log, &streams, &config);
+    let depth_used = config.depth.enabled && !streams.depth.is_empty();
+    let dvl_used = config.dvl.enabled && !streams.dvl.is_empty();
+    // What the filter does not need, or needs prepared, leaves the log: a day's truth waits
+    // on disk, and its magnetometer is prepared in place (each would be 150 MB held twice).
+    let parked_truth = park_truth(&mut log, &config);
+    let prepared_mag = config.mag.enabled.then(|| {
+        recon::magnetometer::prepare_owned(
+            log.take_role::<hindsight::contract::MagneticField>(),
+            &config.mag,
+        )
+    });
+    let streams = Streams::of(&log);
     let bar = console::fraction_bar("forward filter");
-    let pass = recon::forward_reporting(
+    let pass = recon::forward_with(
         &streams,
         &mission,
         &config,
-        Some(&console::fraction_setter(&bar)),
+        recon::PassOptions {
+            progress: Some(&console::fraction_setter(&bar)),
+            mag: prepared_mag,
+            ..recon::PassOptions::default()
+        },
     )
     .with_context(|| format!("reconstructing {}", args.log.log.display()))?;
     bar.finish_and_clear();
@@ -449,6 +473,10 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     warnings.extend(warnings_from_tuning);
     if warnings.iter().any(|w| w.starts_with("dvl: mean NIS")) {
         say!("the DVL's innovations are too large: searching for a clock offset ...");
+        let streams = Streams {
+            mag: &pass.mag.readings,
+            ..streams
+        };
         match recon::clock::suggest_dvl_offset(&streams, &mission, &config) {
             Some(s) => {
                 say!(
@@ -471,42 +499,27 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         }
     }
     // What the outputs need from the log; the log itself is freed before smoothing.
-    let truth: Vec<Truth> = streams.truth.to_vec();
-    let count = |topic: &'static str, messages, used: bool| InputCount {
-        topic,
-        log_topic: log
-            .roles
-            .iter()
-            .find(|c| c.role == topic.trim_start_matches('/'))
-            .map(|c| c.topic.clone()),
-        messages,
-        used: used && messages > 0,
-    };
-    let inputs: Vec<InputCount> = std::iter::once(count("/imu", streams.imu.len(), true))
-        .chain(
-            Sensor::ALL
-                .into_iter()
-                .map(|s| count(s.topic(), s.readings(&streams), config.uses(s))),
-        )
-        .chain([
-            count("/altimeter", streams.altimeter.len(), true),
-            count("/truth", streams.truth.len(), false),
-        ])
-        .collect();
-    let depth_used = config.depth.enabled && !streams.depth.is_empty();
-    let dvl_used = config.dvl.enabled && !streams.dvl.is_empty();
     let origin = (
         mission.origin_latitude_deg.to_radians(),
         mission.origin_longitude_deg.to_radians(),
     );
-    let from_log = report::FromLog::new(
-        streams.gnss,
-        streams.fixes,
-        streams.truth,
-        streams.dvl,
-        origin,
-    );
+    let from_log = report::FromLog::new(streams.gnss, streams.fixes, streams.dvl, origin);
+    let log_truth = parked_truth.is_none().then(|| streams.truth.to_vec());
     drop(log);
+    let truth: Vec<Truth> = match (log_truth, &parked_truth) {
+        (Some(truth), _) => truth,
+        (None, Some(parked)) => parked.to_vec().context("reading the truth back")?,
+        (None, None) => Vec::new(),
+    };
+    drop(parked_truth);
+    let from_log = from_log.with_truth(&truth);
+    let spill_failures: Vec<String> = pass
+        .run
+        .records
+        .spill_failure()
+        .map(str::to_owned)
+        .into_iter()
+        .collect();
     let bar = console::fraction_bar("smoother");
     let r = recon::finish_reporting(
         pass,
@@ -517,18 +530,32 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     bar.finish_and_clear();
     say!("smoother {:.1} s", r.timing.smoother.as_secs_f64());
 
+    // A full disk is no reason to fail: the run held in memory what it meant to spill.
+    for why in spill_failures
+        .iter()
+        .map(String::as_str)
+        .chain(r.forward.spill_failure())
+        .chain(r.smoothed.spill_failure())
+        .take(1)
+    {
+        warnings.push(format!(
+            "memory: the epoch records or solutions could not go to a temporary file ({why}); \
+             they were held in memory instead (set TMPDIR to a disk with room)"
+        ));
+    }
     let outputs_started = Instant::now();
     let keep: Vec<usize> = (0..r.forward.len())
         .filter(|&k| r.output[k] || config.output.aiding_epochs)
         .collect();
-    let truth_errors = (!truth.is_empty()).then(|| {
-        let errs = |sol: &[Solution]| -> Vec<EpochError> {
-            keep.iter()
-                .filter_map(|&k| score::epoch_error(&truth, &sol[k]))
-                .collect()
-        };
-        (errs(&r.forward), errs(&r.smoothed))
-    });
+    let kept = keep_mask(r.forward.len(), &keep);
+    let truth_errors = if truth.is_empty() {
+        None
+    } else {
+        Some((
+            score::errors(&truth, &r.forward, &kept)?,
+            score::errors(&truth, &r.smoothed, &kept)?,
+        ))
+    };
     std::fs::create_dir_all(&args.out).with_context(|| OutputFailed {
         path: args.out.clone(),
     })?;
@@ -580,6 +607,8 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     warnings.extend(consistency.warnings());
     let nav = r.init.estimate.nav;
     let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
+    let (first_forward, last_forward) = (r.forward.first()?, r.forward.last()?);
+    let last_smoothed = r.smoothed.last()?;
     let outputs_s = outputs_started.elapsed().as_secs_f64();
     let summary = Summary {
         hindsight_version: env!("CARGO_PKG_VERSION"),
@@ -612,7 +641,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             in_motion_alignment: r.init.in_motion.clone(),
         },
         magnetometer: MagSummary {
-            readings_used: r.mag.readings.len(),
+            readings_used: r.mag.used,
             saturated_spans: r.mag.saturated.clone(),
             calibrated: r.mag.calibration.is_some(),
             calibration_skipped: r.mag.calibration_skipped.clone(),
@@ -628,12 +657,12 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         rejected: r.run.residuals.iter().filter(|x| !x.accepted).count(),
         dvl_out_of_range: r.run.unused[Sensor::Dvl],
         dvl_calibration: dvl_used
-            .then(|| r.forward.last())
+            .then_some(last_forward.as_ref())
             .flatten()
             .map(|last| calibration::report(last, &config.dvl.calibration_sigma())),
         water: (config.eml.enabled
             && !r.run.residuals.iter().all(|x| x.sensor != Sensor::SpeedLog))
-        .then(|| r.forward.last())
+        .then_some(last_forward.as_ref())
         .flatten()
         .map(|last| {
             calibration::water_report(
@@ -645,9 +674,8 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
                 ],
             )
         }),
-        gyro_scale_factor_z: r
-            .forward
-            .last()
+        gyro_scale_factor_z: last_forward
+            .as_ref()
             .map(|last| calibration::gyro_scale_report(last, config.imu.spec().gyro_scale())),
         depth_skipped_by_interval: r.run.by_interval[Sensor::Depth],
         eml_too_slow: r.run.unused[Sensor::SpeedLog],
@@ -663,14 +691,14 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             })
             .collect(),
         sensors,
-        duration_s: match (r.forward.first(), r.forward.last()) {
+        duration_s: match (&first_forward, &last_forward) {
             (Some(a), Some(b)) => (b.stamp_ns - a.stamp_ns) as f64 * 1e-9,
             _ => 0.0,
         },
-        distance_travelled_m: stats::distance_travelled_m(&r.smoothed),
+        distance_travelled_m: stats::distance_travelled_m(r.smoothed.iter())?,
         final_sigma: FinalSigma {
-            forward: final_sigma(r.forward.last()),
-            smoothed: final_sigma(r.smoothed.last()),
+            forward: final_sigma(last_forward.as_ref()),
+            smoothed: final_sigma(last_smoothed.as_ref()),
         },
         truth,
         consistency,
@@ -703,7 +731,8 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         from_log: &from_log,
         truth_errors: truth_errors.as_ref(),
         init_text: r.init.to_string(),
-    });
+    })
+    .context("reading the solutions back for report.html")?;
     super::write_report(&mut staging, &args.out, &page, &mut written)?;
     let mut summary = summary;
     summary.run_time_s.report = report_started.elapsed().as_secs_f64();
@@ -808,6 +837,47 @@ fn print_report(s: &Summary) {
     }
 }
 
+/// The messages of each input, and whether the run used them.
+fn input_counts(
+    log: &hindsight::ingest::Log,
+    streams: &Streams<'_>,
+    config: &Config,
+) -> Vec<InputCount> {
+    let count = |topic: &'static str, messages, used: bool| InputCount {
+        topic,
+        log_topic: log
+            .roles
+            .iter()
+            .find(|c| c.role == topic.trim_start_matches('/'))
+            .map(|c| c.topic.clone()),
+        messages,
+        used: used && messages > 0,
+    };
+    std::iter::once(count("/imu", streams.imu.len(), true))
+        .chain(
+            Sensor::ALL
+                .into_iter()
+                .map(|s| count(s.topic(), s.readings(streams), config.uses(s))),
+        )
+        .chain([
+            count("/altimeter", streams.altimeter.len(), true),
+            count("/truth", streams.truth.len(), false),
+        ])
+        .collect()
+}
+
+/// The log's truth moved to a temporary file (it is for the scores, after the filter), unless
+/// the run starts from it.
+fn park_truth(
+    log: &mut hindsight::ingest::Log,
+    config: &Config,
+) -> Option<hindsight::spill::Spilled<Truth>> {
+    if config.initial.from_truth {
+        return None;
+    }
+    Some(log.take_role::<Truth>().into_iter().collect())
+}
+
 fn write_trajectory(
     file: std::fs::File,
     r: &Reconstruction,
@@ -818,13 +888,28 @@ fn write_trajectory(
         .into_iter()
         .flat_map(|(name, sol)| {
             keep.chunks(ROWS_PER_BATCH)
-                .map(move |c| (name, c.iter().map(|&k| sol[k]).collect::<Vec<_>>()))
+                .map(move |c| (name, sol.pick(c)))
         });
-    let batch =
-        |(name, rows): (&str, Vec<Solution>)| recon_tables::trajectory_batch(name, &rows, origin);
-    let first = batch(chunks.next().unwrap_or(("forward", Vec::new())))?;
+    let batch = |(name, rows): (&str, std::io::Result<Vec<Solution>>)| {
+        recon_tables::trajectory_batch(name, &rows.map_err(arrow_error)?, origin)
+    };
+    let first = batch(chunks.next().unwrap_or(("forward", Ok(Vec::new()))))?;
     write_batches(file, first, || chunks.next().map(batch))?;
     Ok(())
+}
+
+/// A failed read of the solutions' temporary file, as the table writer's error.
+fn arrow_error(e: std::io::Error) -> arrow_schema::ArrowError {
+    arrow_schema::ArrowError::IoError(format!("reading the solutions back: {e}"), e)
+}
+
+/// One flag per epoch: whether it is among `keep` (ascending).
+fn keep_mask(epochs: usize, keep: &[usize]) -> Vec<bool> {
+    let mut mask = vec![false; epochs];
+    for &k in keep {
+        mask[k] = true;
+    }
+    mask
 }
 
 fn write_chunks<T>(

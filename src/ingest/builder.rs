@@ -11,18 +11,26 @@ use super::samples::Samples;
 use super::stats;
 use mcap::records::Record;
 use std::collections::{BTreeMap, HashMap};
+use std::sync::{Arc, Mutex};
 
 /// How many issues are kept per topic for the report (all are counted).
 const ISSUES_KEPT_PER_TOPIC: usize = 5;
 
 /// Accumulates records into streams.
-pub(super) struct Builder<'o> {
+pub(super) struct Builder<'o, 's> {
     options: &'o IngestOptions,
     /// Name, encoding and text of each schema.
     schemas: HashMap<u16, (String, String, Vec<u8>)>,
     /// Slot of each channel id (a channel id is a u16: a direct table beats hashing).
     channel_to_slot: Vec<Option<usize>>,
-    slots: Vec<Slot>,
+    /// The topics, each decoded by one thread at a time (in file order).
+    slots: Vec<Arc<Mutex<Slot>>>,
+    /// Whether each slot refuses its messages (kept here, read per message without a lock).
+    refusing: Vec<bool>,
+    /// Messages of each slot not yet handed to the decoding threads.
+    pending: Vec<Batch>,
+    /// The decoding threads (`None`: messages are decoded as they are read).
+    pool: Option<DecodePool<'s>>,
     metadata: BTreeMap<String, BTreeMap<String, String>>,
     library: String,
     profile: String,
@@ -38,7 +46,10 @@ struct Slot {
     message_encoding: String,
     decoder: Option<TopicDecoder>,
     samples: Option<Box<dyn Samples>>,
+    /// Stamps of the messages read, when the messages themselves are not kept (else their
+    /// stamps are read from them).
     stamps_ns: Vec<i64>,
+    /// Log times, when kept.
     log_time_ns: Vec<u64>,
     counts: StreamCounts,
     latest_stamp_ns: i64,
@@ -51,6 +62,67 @@ struct Slot {
     holding: Held,
     /// The field where a message says whether it is usable.
     valid_property: Option<usize>,
+}
+
+impl Slot {
+    /// Decodes, validates and counts one message.
+    fn on_message(&mut self, options: &IngestOptions, log_time_ns: u64, data: &[u8]) {
+        let s = self;
+        s.counts.received += 1;
+        if let Some(layout) = s.layout.as_mut() {
+            layout.check(&s.topic, log_time_ns, data);
+        }
+        let (Some(decoder), Some(samples)) = (s.decoder.as_ref(), s.samples.as_mut()) else {
+            return;
+        };
+        match decoder.get().decode_into(data, samples.as_mut()) {
+            Ok(()) => {
+                let last = samples.len() - 1;
+                let stamp = samples.stamp_ns(last);
+                if let Some(valid) = s.valid_property {
+                    s.counts.flagged += u64::from(samples.flagged_invalid(last, valid));
+                }
+                if last > 0 && samples.same_values(last - 1, last) {
+                    s.holding.repeats += 1;
+                    s.holding.to_ns = stamp;
+                    if s.holding.repeats > s.counts.held.repeats {
+                        s.counts.held = s.holding;
+                    }
+                } else {
+                    s.holding = Held {
+                        repeats: 0,
+                        from_ns: stamp,
+                        to_ns: stamp,
+                    };
+                }
+                if !options.keep_messages {
+                    // The last message stays, to compare the next with.
+                    samples.keep_last();
+                }
+                if stamp < s.latest_stamp_ns {
+                    s.counts.out_of_order += 1;
+                }
+                s.latest_stamp_ns = s.latest_stamp_ns.max(stamp);
+                if !options.keep_messages {
+                    s.stamps_ns.push(stamp);
+                }
+                if options.keep_log_times {
+                    s.log_time_ns.push(log_time_ns);
+                }
+            }
+            Err(issue) => {
+                s.counts.invalid += 1;
+                if s.issues.len() < ISSUES_KEPT_PER_TOPIC {
+                    s.issues.push(MessageIssue {
+                        topic: s.topic.clone(),
+                        log_time_ns,
+                        field: issue.field,
+                        reason: issue.reason,
+                    });
+                }
+            }
+        }
+    }
 }
 
 /// The layout check of a skipped cdr topic.
@@ -125,13 +197,16 @@ enum Refusal {
     Schema(String),
 }
 
-impl<'o> Builder<'o> {
-    pub(super) fn new(options: &'o IngestOptions) -> Self {
+impl<'o, 's> Builder<'o, 's> {
+    pub(super) fn new(options: &'o IngestOptions, pool: Option<DecodePool<'s>>) -> Self {
         Builder {
             options,
             schemas: HashMap::new(),
             channel_to_slot: vec![None; usize::from(u16::MAX) + 1],
             slots: Vec::new(),
+            refusing: Vec::new(),
+            pending: Vec::new(),
+            pool,
             metadata: BTreeMap::new(),
             library: String::new(),
             profile: String::new(),
@@ -176,11 +251,10 @@ impl<'o> Builder<'o> {
             .get(&c.schema_id)
             .map(|(name, _, text)| (name.clone(), text.as_slice()))
             .unwrap_or_default();
-        let slot = match self
-            .slots
-            .iter()
-            .position(|s| s.topic == c.topic && s.schema_name == schema_name)
-        {
+        let slot = match self.slots.iter().position(|s| {
+            let s = lock(s);
+            s.topic == c.topic && s.schema_name == schema_name
+        }) {
             Some(i) => i,
             None => {
                 let (decoder, refusal) = match decode::for_topic(
@@ -205,7 +279,9 @@ impl<'o> Builder<'o> {
                     && c.message_encoding == "cdr")
                     .then(|| Layout::of(&schema_name, schema_text));
                 let samples = decoder.as_ref().map(|d| d.get().new_samples());
-                self.slots.push(Slot {
+                self.refusing.push(refusal.is_some());
+                self.pending.push(Batch::default());
+                self.slots.push(Arc::new(Mutex::new(Slot {
                     topic: c.topic,
                     schema_name,
                     message_encoding: c.message_encoding,
@@ -220,7 +296,7 @@ impl<'o> Builder<'o> {
                     layout,
                     refusal,
                     holding: Held::default(),
-                });
+                })));
                 self.slots.len() - 1
             }
         };
@@ -245,7 +321,7 @@ impl<'o> Builder<'o> {
     }
 
     fn refused(&self, slot: usize, log_time_ns: u64) -> Option<IngestError> {
-        let s = &self.slots[slot];
+        let s = lock(&self.slots[slot]);
         Some(match s.refusal.as_ref()? {
             Refusal::Unknown => IngestError::UnknownSchema {
                 topic: s.topic.clone(),
@@ -277,67 +353,47 @@ impl<'o> Builder<'o> {
             self.orphan_messages += 1;
             return Ok(());
         };
-        if let Some(e) = self.refused(slot, log_time_ns) {
-            return Err(e);
-        }
-        let s = &mut self.slots[slot];
-        s.counts.received += 1;
-        if let Some(layout) = s.layout.as_mut() {
-            layout.check(&s.topic, log_time_ns, data);
-        }
-        let (Some(decoder), Some(samples)) = (s.decoder.as_ref(), s.samples.as_mut()) else {
-            return Ok(());
-        };
-        match decoder.get().decode_into(data, samples.as_mut()) {
-            Ok(()) => {
-                let last = samples.len() - 1;
-                let stamp = samples.stamp_ns(last);
-                if let Some(valid) = s.valid_property {
-                    s.counts.flagged += u64::from(samples.flagged_invalid(last, valid));
-                }
-                if last > 0 && samples.same_values(last - 1, last) {
-                    s.holding.repeats += 1;
-                    s.holding.to_ns = stamp;
-                    if s.holding.repeats > s.counts.held.repeats {
-                        s.counts.held = s.holding;
-                    }
-                } else {
-                    s.holding = Held {
-                        repeats: 0,
-                        from_ns: stamp,
-                        to_ns: stamp,
-                    };
-                }
-                if !self.options.keep_messages {
-                    // The last message stays, to compare the next with.
-                    samples.keep_last();
-                }
-                if stamp < s.latest_stamp_ns {
-                    s.counts.out_of_order += 1;
-                }
-                s.latest_stamp_ns = s.latest_stamp_ns.max(stamp);
-                s.stamps_ns.push(stamp);
-                s.log_time_ns.push(log_time_ns);
+        if self.refusing[slot] {
+            if let Some(e) = self.refused(slot, log_time_ns) {
+                return Err(e);
             }
-            Err(issue) => {
-                s.counts.invalid += 1;
-                if s.issues.len() < ISSUES_KEPT_PER_TOPIC {
-                    s.issues.push(MessageIssue {
-                        topic: s.topic.clone(),
-                        log_time_ns,
-                        field: issue.field,
-                        reason: issue.reason,
-                    });
+        }
+        match &self.pool {
+            Some(pool) => {
+                let batch = &mut self.pending[slot];
+                batch.push(log_time_ns, data);
+                if batch.data.len() >= BATCH_BYTES {
+                    pool.send(slot, self.slots[slot].clone(), std::mem::take(batch));
                 }
             }
+            None => lock(&self.slots[slot]).on_message(self.options, log_time_ns, data),
         }
         Ok(())
     }
 
-    pub(super) fn finish(self, ending: Ending, bytes_read: u64) -> Result<Log, IngestError> {
+    /// Hands every batch still pending to the decoding threads.
+    pub(super) fn flush(&mut self) {
+        if let Some(pool) = &self.pool {
+            for (slot, batch) in self.pending.iter_mut().enumerate() {
+                if !batch.log_times.is_empty() {
+                    pool.send(slot, self.slots[slot].clone(), std::mem::take(batch));
+                }
+            }
+        }
+    }
+
+    pub(super) fn finish(mut self, ending: Ending, bytes_read: u64) -> Result<Log, IngestError> {
+        self.flush();
+        if let Some(pool) = self.pool.take() {
+            pool.finish();
+        }
         let mut streams = Vec::new();
         let mut skipped = Vec::new();
         for slot in self.slots {
+            let slot = Arc::into_inner(slot)
+                .expect("the decoding threads have ended")
+                .into_inner()
+                .unwrap_or_else(|e| e.into_inner());
             let Some(mut samples) = slot.samples else {
                 skipped.push(SkippedTopic {
                     topic: slot.topic,
@@ -361,12 +417,20 @@ impl<'o> Builder<'o> {
                     first: Box::new(slot.issues[0].clone()),
                 });
             }
-            let stamps = slot.stamps_ns;
-            let (order, duplicates) = stats::sorted_unique_order(&stamps);
+            let stamps = if self.options.keep_messages {
+                (0..samples.len()).map(|i| samples.stamp_ns(i)).collect()
+            } else {
+                slot.stamps_ns
+            };
+            // Most streams are already in order without repeats: no index of a day's IMU.
+            let in_order = stamps.windows(2).all(|w| w[0] < w[1]);
+            let (order, duplicates) = if in_order {
+                (Vec::new(), 0)
+            } else {
+                stats::sorted_unique_order(&stamps)
+            };
             counts.duplicates = duplicates;
-            counts.kept = order.len() as u64;
-            let in_order =
-                order.iter().enumerate().all(|(k, &i)| k == i) && order.len() == stamps.len();
+            counts.kept = if in_order { stamps.len() } else { order.len() } as u64;
             let (mut log_time_ns, sorted) = if in_order {
                 (slot.log_time_ns, stamps)
             } else {
@@ -374,7 +438,10 @@ impl<'o> Builder<'o> {
                     samples.permute(&order);
                 }
                 (
-                    order.iter().map(|&i| slot.log_time_ns[i]).collect(),
+                    order
+                        .iter()
+                        .filter_map(|&i| slot.log_time_ns.get(i).copied())
+                        .collect(),
                     order.iter().map(|&i| stamps[i]).collect(),
                 )
             };
@@ -413,4 +480,90 @@ impl<'o> Builder<'o> {
             },
         })
     }
+}
+
+/// Bytes of messages gathered for a slot before they are handed to its decoding thread.
+const BATCH_BYTES: usize = 256 * 1024;
+
+/// Batches queued per decoding thread before the reader waits (bounds the memory in flight).
+const QUEUED_BATCHES: usize = 8;
+
+/// Messages of one slot, in file order.
+#[derive(Debug, Default)]
+pub(super) struct Batch {
+    log_times: Vec<u64>,
+    /// End of each message's bytes in `data`.
+    ends: Vec<usize>,
+    data: Vec<u8>,
+}
+
+impl Batch {
+    fn push(&mut self, log_time_ns: u64, data: &[u8]) {
+        self.log_times.push(log_time_ns);
+        self.data.extend_from_slice(data);
+        self.ends.push(self.data.len());
+    }
+
+    fn messages(&self) -> impl Iterator<Item = (u64, &[u8])> {
+        let starts = std::iter::once(0).chain(self.ends.iter().copied());
+        self.log_times
+            .iter()
+            .zip(starts.zip(&self.ends))
+            .map(|(&t, (a, &b))| (t, &self.data[a..b]))
+    }
+}
+
+type Job = (Arc<Mutex<Slot>>, Batch);
+
+/// Threads that decode the messages while the reader reads and decompresses the next ones.
+/// A slot always goes to the same thread, so its messages are decoded in file order.
+pub(super) struct DecodePool<'s> {
+    queues: Vec<std::sync::mpsc::SyncSender<Job>>,
+    threads: Vec<std::thread::ScopedJoinHandle<'s, ()>>,
+}
+
+impl<'s> DecodePool<'s> {
+    /// `threads` decoding threads in `scope`.
+    pub(super) fn start<'e>(
+        scope: &'s std::thread::Scope<'s, 'e>,
+        options: &'e IngestOptions,
+        threads: usize,
+    ) -> Self {
+        let (queues, threads) = (0..threads.max(1))
+            .map(|_| {
+                let (queue, jobs) = std::sync::mpsc::sync_channel::<Job>(QUEUED_BATCHES);
+                let thread = scope.spawn(move || {
+                    for (slot, batch) in jobs {
+                        let mut slot = lock(&slot);
+                        for (log_time_ns, data) in batch.messages() {
+                            slot.on_message(options, log_time_ns, data);
+                        }
+                    }
+                });
+                (queue, thread)
+            })
+            .unzip();
+        DecodePool { queues, threads }
+    }
+
+    fn send(&self, slot: usize, to: Arc<Mutex<Slot>>, batch: Batch) {
+        // A thread ends only when its queue closes, so the send cannot fail while the pool
+        // lives; were it to, the thread panicked, which `finish` passes on.
+        let _ = self.queues[slot % self.queues.len()].send((to, batch));
+    }
+
+    /// Closes the queues and waits for the threads to decode what was queued.
+    fn finish(self) {
+        drop(self.queues);
+        for t in self.threads {
+            if let Err(panic) = t.join() {
+                std::panic::resume_unwind(panic);
+            }
+        }
+    }
+}
+
+/// Locks a slot (a poisoned lock still holds what was decoded).
+fn lock(slot: &Mutex<Slot>) -> std::sync::MutexGuard<'_, Slot> {
+    slot.lock().unwrap_or_else(|e| e.into_inner())
 }

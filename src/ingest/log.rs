@@ -21,6 +21,12 @@ pub struct IngestOptions {
     /// only stamps and counts (what `info` needs): memory then stays at 8 bytes per message
     /// and the streams hold no messages.
     pub keep_messages: bool,
+    /// Keep each message's log time ([`Stream::log_time_ns`]; what `export` writes). `false`
+    /// saves 8 bytes per message (a reconstruction does not need them).
+    pub keep_log_times: bool,
+    /// Threads that decode messages beside the one reading the file (at most the machine's
+    /// cores; `1` decodes on the reading thread).
+    pub decode_threads: usize,
     /// How ROS 2 messages are converted (pressure to depth, fixes without a covariance).
     pub ros2: crate::ingest::ros2::map::Ros2Settings,
     /// A topic's frame convention, where its `frame_id` should not decide it.
@@ -41,6 +47,8 @@ impl Default for IngestOptions {
             skip_unknown: false,
             max_invalid_fraction: 0.01,
             keep_messages: true,
+            keep_log_times: true,
+            decode_threads: 2,
             ros2: Default::default(),
             frame_conventions: Default::default(),
             check_layouts: false,
@@ -221,6 +229,21 @@ impl Log {
             .iter()
             .find(|c| c.schema_name == T::SCHEMA_NAME)
             .map(|c| c.topic.as_str())
+    }
+
+    /// Moves the messages of the role of type `T` out of the log, for a caller that holds
+    /// them elsewhere (a long mission's truth or magnetometer need not be held twice). The
+    /// stream keeps its counts and timing; its messages are gone.
+    pub fn take_role<T: Message>(&mut self) -> Vec<T> {
+        let Some(topic) = self.role_topic::<T>().map(str::to_owned) else {
+            return Vec::new();
+        };
+        self.streams
+            .iter_mut()
+            .find(|s| s.topic == topic)
+            .and_then(|s| s.samples.as_any_mut().downcast_mut::<Vec<T>>())
+            .map(std::mem::take)
+            .unwrap_or_default()
     }
 
     /// The messages of the role of type `T`: at the topic named for it, its default topic,

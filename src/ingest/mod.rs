@@ -41,8 +41,34 @@ pub fn read_log(path: &Path, options: &IngestOptions) -> Result<Log, IngestError
 }
 
 /// Reads a log from any byte source (a file, a slice in tests).
+///
+/// With more than one core, the messages are decoded on other threads (up to
+/// [`IngestOptions::decode_threads`]) while this one reads and decompresses the next chunks;
+/// the log read is the same.
 pub fn read_log_from<R: Read>(input: R, options: &IngestOptions) -> Result<Log, IngestError> {
-    let mut b = Builder::new(options);
+    let threads = options.decode_threads.min(
+        std::thread::available_parallelism()
+            .map(usize::from)
+            .unwrap_or(1),
+    );
+    if threads <= 1 {
+        return read_with(input, options, None);
+    }
+    std::thread::scope(|scope| {
+        read_with(
+            input,
+            options,
+            Some(builder::DecodePool::start(scope, options, threads)),
+        )
+    })
+}
+
+fn read_with<R: Read>(
+    input: R,
+    options: &IngestOptions,
+    pool: Option<builder::DecodePool<'_>>,
+) -> Result<Log, IngestError> {
+    let mut b = Builder::new(options, pool);
     let (ending, bytes_read) = reader::for_each_record(input, |record| b.on_record(record))?;
     b.finish(ending, bytes_read)
 }

@@ -21,6 +21,9 @@ pub fn write_batches<W: Write + Send>(
     let props = WriterProperties::builder()
         .set_compression(Compression::ZSTD(ZstdLevel::default()))
         .set_created_by(concat!("hindsight ", env!("CARGO_PKG_VERSION")).to_string())
+        // A row group is held in memory until it is written: bounded, so that a day-long
+        // mission's tables stream out.
+        .set_max_row_group_row_count(Some(2 * ROWS_PER_BATCH))
         .build();
     let mut writer = ArrowWriter::try_new(out, first.schema(), Some(props))?;
     writer.write(&first)?;

@@ -3,7 +3,7 @@
 //! mission with the DVL stamps shifted, and say which shift fits best.
 
 use super::config::Config;
-use super::{forward, Streams};
+use super::{forward_scored, Streams};
 use crate::contract::{Dvl, Imu};
 use crate::filters::ins::aiding::Sensor;
 use crate::ingest::Mission;
@@ -49,7 +49,7 @@ fn dvl_fit(
         dvl: &dvl,
         ..*streams
     };
-    let run = forward(&shifted, mission, config).ok()?.run;
+    let run = forward_scored(&shifted, mission, config).ok()?.run;
     let nis: Vec<f64> = run
         .residuals
         .iter()

@@ -19,7 +19,11 @@ pub const DEVIATION_MAGNITUDE_VARIATION: f64 = 0.005;
 /// Readings ready for use, with what was done to them.
 #[derive(Debug, Clone, Default)]
 pub struct PreparedMag {
+    /// The readings to use; emptied once the forward pass has used them (a day at 50 Hz is
+    /// 160 MB), [`PreparedMag::used`] still counting them.
     pub readings: Vec<MagneticField>,
+    /// How many readings were prepared for use.
+    pub used: usize,
     pub saturated: Vec<SaturatedSpan>,
     /// The calibration applied, or why none was.
     pub calibration: Option<MagCalibration>,
@@ -39,14 +43,22 @@ pub struct PreparedMag {
 /// Saturation check, then the calibration (when asked and the turns allow), then the
 /// reference magnitude and the deviation check.
 pub fn prepare(mag: &[MagneticField], cfg: &MagConfig) -> PreparedMag {
+    prepare_owned(mag.to_vec(), cfg)
+}
+
+/// [`prepare`], the readings moved in and prepared in place (a day at 50 Hz is 160 MB).
+pub fn prepare_owned(mag: Vec<MagneticField>, cfg: &MagConfig) -> PreparedMag {
     if mag.is_empty() {
         return PreparedMag::default();
     }
-    let (clean, saturated) = mag_checks::without_saturation(mag, cfg.saturation_repeats);
+    let (mut clean, saturated) = mag_checks::without_saturation_owned(mag, cfg.saturation_repeats);
     let (readings, calibration, calibration_skipped) = if cfg.calibrate {
         match mag_calibration::fit(&clean) {
             Ok(c) => match c.trusted() {
-                Ok(()) => (c.applied(&clean), Some(c), None),
+                Ok(()) => {
+                    c.apply_to(&mut clean);
+                    (clean, Some(c), None)
+                }
                 Err(why) => (clean, None, Some(format!("fitted, but not applied: {why}"))),
             },
             Err(e) => (clean, None, Some(e.to_string())),
@@ -66,6 +78,7 @@ pub fn prepare(mag: &[MagneticField], cfg: &MagConfig) -> PreparedMag {
     norms.sort_by(f64::total_cmp);
     let reference_norm_t = norms.get(norms.len() / 2).copied().unwrap_or(0.0);
     PreparedMag {
+        used: readings.len(),
         readings,
         saturated,
         calibration,

@@ -25,10 +25,11 @@ use crate::contract::Imu;
 use crate::filters::ins::aiding::{MagAiding, Sensor};
 use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs};
 use crate::filters::ins::record::Solution;
+use crate::filters::ins::solutions::Solutions;
 use crate::filters::velocity::model_aided::{AttitudeAt, ModelAidedFilter};
 use crate::ingest::Mission;
 use crate::progress::Progress;
-use crate::smooth::rts::{smooth_reporting, SmoothError};
+use crate::smooth::rts::{smooth_each, SmoothError};
 use config::Config;
 use init::{InitError, InitSettings, Initialisation};
 use std::sync::Arc;
@@ -67,7 +68,7 @@ impl From<SmoothError> for ReconError {
 }
 
 /// What a reconstruction produced.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Reconstruction {
     pub init: Initialisation,
     /// The magnetometer's readings as used (saturation, calibration).
@@ -75,8 +76,10 @@ pub struct Reconstruction {
     /// Residuals, counts and gaps of the forward pass (its records are turned into
     /// `forward` once smoothed, to free their memory).
     pub run: ForwardRun,
-    pub forward: Vec<Solution>,
-    pub smoothed: Vec<Solution>,
+    /// One per filter epoch, on temporary files beyond a block (a long mission's would not
+    /// fit in memory).
+    pub forward: Solutions,
+    pub smoothed: Solutions,
     /// Whether each solution falls on an output time (else only on a measurement).
     pub output: Vec<bool>,
     pub timing: Timing,
@@ -104,19 +107,16 @@ pub fn output_stamps(imu: &[Imu], rate_hz: f64) -> Vec<i64> {
 }
 
 /// Adds the depth sensor's constant offset, which nothing in the log can estimate (the depth
-/// is the only vertical reference), to the depth uncertainty of every solution: a Schmidt
+/// is the only vertical reference), to the depth uncertainty of a solution: a Schmidt
 /// "consider" term. The estimate itself is unchanged; the offset's error is the same at
 /// every epoch, so it adds `sigma^2` to the down variance.
-pub fn consider_depth_bias(solutions: &mut [Solution], bias_sigma_m: f64) {
-    let v = bias_sigma_m * bias_sigma_m;
-    for s in solutions {
-        s.position_cov[(2, 2)] += v;
-        s.sigma[2] = s.position_cov[(2, 2)].sqrt();
-    }
+pub fn consider_depth_bias(s: &mut Solution, bias_sigma_m: f64) {
+    s.position_cov[(2, 2)] += bias_sigma_m * bias_sigma_m;
+    s.sigma[2] = s.position_cov[(2, 2)].sqrt();
 }
 
 /// What the forward pass started from and produced.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct ForwardPass {
     pub init: Initialisation,
     pub mag: magnetometer::PreparedMag,
@@ -142,6 +142,49 @@ pub fn forward(
     forward_sharing(streams, mission, config, None, None)
 }
 
+/// [`forward`] for a pass that is only scored (residuals, likelihood): it keeps no epoch
+/// records, so it cannot be smoothed.
+pub fn forward_scored(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+) -> Result<ForwardPass, ReconError> {
+    forward_with(
+        streams,
+        mission,
+        config,
+        PassOptions {
+            keep_records: false,
+            ..PassOptions::default()
+        },
+    )
+}
+
+/// How a forward pass is made, beyond its log and configuration.
+pub struct PassOptions<'a> {
+    /// The attitude the model-aided velocity is driven by (see [`forward_sharing`]).
+    pub shared_attitude: Option<AttitudeTrack>,
+    /// Told how far the final pass has come.
+    pub progress: Progress<'a>,
+    /// The magnetometer's readings already prepared ([`magnetometer::prepare_owned`], moved
+    /// out of the log so that a long mission's are not held twice), used instead of
+    /// `streams.mag`; the pass keeps them in [`ForwardPass::mag`].
+    pub mag: Option<magnetometer::PreparedMag>,
+    /// Keep the epoch records for the smoother.
+    pub keep_records: bool,
+}
+
+impl Default for PassOptions<'_> {
+    fn default() -> Self {
+        PassOptions {
+            shared_attitude: None,
+            progress: None,
+            mag: None,
+            keep_records: true,
+        }
+    }
+}
+
 /// [`forward`], telling `progress` how far the filter has come.
 pub fn forward_reporting(
     streams: &Streams<'_>,
@@ -163,11 +206,37 @@ pub fn forward_sharing(
     shared_attitude: Option<AttitudeTrack>,
     progress: Progress<'_>,
 ) -> Result<ForwardPass, ReconError> {
+    forward_with(
+        streams,
+        mission,
+        config,
+        PassOptions {
+            shared_attitude,
+            progress,
+            ..PassOptions::default()
+        },
+    )
+}
+
+/// Initialises from the log and runs the forward filter as `options` say.
+pub fn forward_with(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    options: PassOptions<'_>,
+) -> Result<ForwardPass, ReconError> {
+    let PassOptions {
+        shared_attitude,
+        progress,
+        mag: prepared,
+        keep_records,
+    } = options;
+    let keep_mag = prepared.is_some();
     let mut settings = config.settings();
-    let mag = if config.mag.enabled {
-        magnetometer::prepare(streams.mag, &config.mag)
-    } else {
-        magnetometer::PreparedMag::default()
+    let mag = match prepared {
+        Some(mag) if config.mag.enabled => mag,
+        _ if config.mag.enabled => magnetometer::prepare(streams.mag, &config.mag),
+        _ => magnetometer::PreparedMag::default(),
     };
     // A sensor the configuration leaves out is an empty stream from here on; the
     // magnetometer's are its prepared readings.
@@ -228,6 +297,7 @@ pub fn forward_sharing(
         aids: &aids,
         output_stamps_ns: &stamps,
         progress: None,
+        keep_records,
     };
     let started = Instant::now();
     if config.alignment.enabled {
@@ -247,9 +317,20 @@ pub fn forward_sharing(
         Some(Ok(model)) => {
             let attitude = match shared_attitude {
                 Some(track) => track,
-                None => Arc::new(model_velocity::attitude_track(
-                    &run_forward(&settings, &inputs, init.estimate)?.records,
-                )),
+                None => Arc::new(
+                    model_velocity::attitude_track(
+                        &run_forward(
+                            &settings,
+                            &Inputs {
+                                keep_records: true,
+                                ..inputs
+                            },
+                            init.estimate,
+                        )?
+                        .records,
+                    )
+                    .map_err(|e| SmoothError::Records(e.to_string()))?,
+                ),
             };
             let dvl_in_range = settings.aiding.dvl(&streams).in_range_body_velocities();
             let filter = ModelAidedFilter {
@@ -271,6 +352,7 @@ pub fn forward_sharing(
                 aids: &aids,
                 output_stamps_ns: &stamps,
                 progress,
+                keep_records,
             };
             (
                 run_forward(&settings, &inputs, init.estimate)?,
@@ -289,6 +371,16 @@ pub fn forward_sharing(
     };
     aid_notes.extend(aids.iter().flat_map(|aid| aid.notes()));
     drop(aids); // it borrows the magnetometer's readings
+                // Readings prepared here are a copy of the log's: freed. Readings handed in are kept
+                // (the log no longer has them).
+    let mag = if keep_mag {
+        mag
+    } else {
+        magnetometer::PreparedMag {
+            readings: Vec::new(),
+            ..mag
+        }
+    };
     Ok(ForwardPass {
         init,
         mag,
@@ -421,22 +513,30 @@ pub fn finish_reporting(
 ) -> Result<Reconstruction, ReconError> {
     let ForwardPass {
         init,
-        mag,
+        mut mag,
         mut run,
         aid_notes: _,
         time: forward_time,
         model_attitude: _,
     } = pass;
+    mag.readings = Vec::new();
     let started = Instant::now();
-    let mut smoothed = smooth_reporting(&run.records, progress)?;
+    let (mut forward, mut smoothed) = (Solutions::new(), Solutions::new());
+    let mut output = Vec::with_capacity(run.records.len());
+    let depth_bias = |mut s: Solution| {
+        if depth_used {
+            consider_depth_bias(&mut s, config.depth.bias_sigma_m);
+        }
+        s
+    };
+    smooth_each(&run.records, progress, |_, record, smooth| {
+        forward.push_earlier(depth_bias(Solution::forward(record)));
+        smoothed.push_earlier(depth_bias(smooth));
+        output.push(record.output);
+    })?;
+    output.reverse();
     let smoother_time = started.elapsed();
-    let mut forward: Vec<Solution> = run.records.iter().map(Solution::forward).collect();
-    if depth_used {
-        consider_depth_bias(&mut forward, config.depth.bias_sigma_m);
-        consider_depth_bias(&mut smoothed, config.depth.bias_sigma_m);
-    }
-    let output = run.records.iter().map(|r| r.output).collect();
-    run.records = Vec::new();
+    run.records = Default::default();
     Ok(Reconstruction {
         init,
         mag,

@@ -10,6 +10,7 @@ use crate::filters::velocity::model_aided::{
     self, AttitudeAt, BodyVelocityReading, Mode, ModelAidedFilter,
 };
 use crate::ingest::Mission;
+use crate::spill::Spilled;
 use crate::vehicle::six_dof::description::{Vehicle, BUILT_IN};
 use crate::vehicle::six_dof::model::SixDof;
 
@@ -72,13 +73,15 @@ pub fn model_for(
 }
 
 /// The attitude of a forward pass's epochs.
-pub fn attitude_track(records: &[EpochRecord]) -> Vec<AttitudeAt> {
+pub fn attitude_track(records: &Spilled<EpochRecord>) -> std::io::Result<Vec<AttitudeAt>> {
     records
         .iter()
-        .map(|r| AttitudeAt {
-            stamp_ns: r.stamp_ns,
-            ned_from_body: r.posterior.nav.ned_from_body,
-            lat_rad: r.posterior.nav.lat_rad,
+        .map(|r| {
+            r.map(|r| AttitudeAt {
+                stamp_ns: r.stamp_ns,
+                ned_from_body: r.posterior.nav.ned_from_body,
+                lat_rad: r.posterior.nav.lat_rad,
+            })
         })
         .collect()
 }

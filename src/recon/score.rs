@@ -6,8 +6,10 @@ use crate::align::interpolate;
 use crate::angle::wrap_pi;
 use crate::contract::Truth;
 use crate::filters::ins::record::Solution;
+use crate::filters::ins::solutions::Solutions;
 use crate::filters::kalman::chi_square_quantile;
 use crate::geodesy;
+use crate::spill::{Decoder, Encoder, Fixed};
 use nalgebra::{Matrix2, Vector2, Vector3};
 use serde::Serialize;
 
@@ -34,6 +36,65 @@ impl EpochError {
     pub fn horizontal_m(&self) -> f64 {
         self.position_m.x.hypot(self.position_m.y)
     }
+}
+
+/// The truth can wait on a temporary file while the filter runs (`spill`): it is for the
+/// scores only, and a day of it at 10 Hz is 140 MB.
+impl Fixed for Truth {
+    const BYTES: usize = 8 * 18;
+
+    fn encode(&self, out: &mut Encoder) {
+        out.i64(self.stamp_ns);
+        out.f64s(&[
+            self.latitude_deg,
+            self.longitude_deg,
+            self.north_m,
+            self.east_m,
+            self.down_m,
+        ]);
+        for v in [
+            &self.velocity_body,
+            &self.velocity_ned,
+            &self.attitude,
+            &self.angular_velocity,
+        ] {
+            out.f64s(v);
+        }
+    }
+
+    fn decode(d: &mut Decoder<'_>) -> Self {
+        let stamp_ns = d.i64();
+        let [latitude_deg, longitude_deg, north_m, east_m, down_m] = d.f64s();
+        Truth {
+            stamp_ns,
+            latitude_deg,
+            longitude_deg,
+            north_m,
+            east_m,
+            down_m,
+            velocity_body: d.f64s(),
+            velocity_ned: d.f64s(),
+            attitude: d.f64s(),
+            angular_velocity: d.f64s(),
+        }
+    }
+}
+
+/// The errors of the solutions whose `keep` flag is set (one flag per solution), in time
+/// order, skipping epochs the truth does not cover.
+pub fn errors(
+    truth: &[Truth],
+    solutions: &Solutions,
+    keep: &[bool],
+) -> std::io::Result<Vec<EpochError>> {
+    let mut out = Vec::new();
+    for (s, &kept) in solutions.iter().zip(keep) {
+        let s = s?;
+        if kept {
+            out.extend(epoch_error(truth, &s));
+        }
+    }
+    Ok(out)
 }
 
 /// The error of `solution` against the truth at its stamp (`None` outside the truth's span
@@ -123,4 +184,30 @@ pub fn scores(errors: &[EpochError]) -> Option<Scores> {
             .sqrt()
             .to_degrees(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn truth_encodes_exactly() {
+        let t = Truth {
+            stamp_ns: 1_700_000_000_000_000_001,
+            latitude_deg: 35.1,
+            longitude_deg: 129.05,
+            north_m: 1.5,
+            east_m: -2.25,
+            down_m: 30.125,
+            velocity_body: [1.5, 0.01, -0.02],
+            velocity_ned: [0.3, 1.4, 0.0],
+            attitude: [0.01, -0.02, 2.5],
+            angular_velocity: [1e-3, -2e-3, 3e-3],
+        };
+        let mut out = Encoder::default();
+        t.encode(&mut out);
+        let bytes = out.into_bytes();
+        assert_eq!(bytes.len(), Truth::BYTES);
+        assert_eq!(Truth::decode(&mut Decoder::new(&bytes)), t);
+    }
 }

@@ -166,15 +166,21 @@ pub fn warnings(run: &ForwardRun, init: &Initialisation, sensors: &[SensorStats]
 }
 
 /// Horizontal distance along a solution, m.
-pub fn distance_travelled_m(solutions: &[Solution]) -> f64 {
-    solutions
-        .windows(2)
-        .map(|w| {
-            let (a, b) = (&w[0].point.nav, &w[1].point.nav);
+pub fn distance_travelled_m<E>(
+    solutions: impl IntoIterator<Item = Result<Solution, E>>,
+) -> Result<f64, E> {
+    let mut total = 0.0;
+    let mut previous: Option<Solution> = None;
+    for s in solutions {
+        let s = s?;
+        if let Some(p) = previous {
+            let (a, b) = (&p.point.nav, &s.point.nav);
             let (n, e) = geodesy::local_north_east_m(a.lat_rad, a.lon_rad, b.lat_rad, b.lon_rad);
-            n.hypot(e)
-        })
-        .sum()
+            total += n.hypot(e);
+        }
+        previous = Some(s);
+    }
+    Ok(total)
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@
 
 use super::rts::SmoothError;
 use nalgebra::{SMatrix, SVector};
+use std::borrow::Borrow;
 
 /// What the backward pass needs from one forward epoch.
 pub trait ForwardEpoch<const N: usize> {
@@ -24,8 +25,6 @@ pub trait ForwardEpoch<const N: usize> {
     fn correction(&self) -> SVector<f64, N>;
 }
 
-/// Runs the backward pass, calling `emit(k, dx_k|N, P_k|N)` for k from the last epoch down
-/// to 0.
 /// `cov` with a unit variance in place of each exactly zero one. A state held at its value
 /// (zero prior variance, no process noise) has a zero row and column, which would make the
 /// covariance singular; its gain row, `P Phi^T` times the inverse, is zero either way, so the
@@ -40,32 +39,53 @@ fn held_states_unit<const N: usize>(cov: &SMatrix<f64, N, N>) -> SMatrix<f64, N,
     c
 }
 
+/// Runs the backward pass, calling `emit(k, dx_k|N, P_k|N)` for k from the last epoch down
+/// to 0.
 pub fn backward<const N: usize, E: ForwardEpoch<N>>(
     epochs: &[E],
     mut emit: impl FnMut(usize, &SVector<f64, N>, &SMatrix<f64, N, N>),
 ) -> Result<(), SmoothError> {
-    let Some(last) = epochs.last() else {
+    backward_from_last(
+        epochs.len(),
+        epochs.iter().rev().map(Ok),
+        |k, _: &E, dx, p| emit(k, dx, p),
+    )
+}
+
+/// [`backward`] over `n` epochs handed over last first (read back from a file, say), calling
+/// `emit(k, epoch_k, dx_k|N, P_k|N)`. An epoch that cannot be had ends the pass with its error.
+pub fn backward_from_last<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
+    n: usize,
+    last_first: impl IntoIterator<Item = Result<B, SmoothError>>,
+    mut emit: impl FnMut(usize, &E, &SVector<f64, N>, &SMatrix<f64, N, N>),
+) -> Result<(), SmoothError> {
+    let mut epochs = last_first.into_iter();
+    let Some(last) = epochs.next() else {
         return Ok(());
     };
-    let n = epochs.len();
+    let mut next = last?;
+    let mut k = n.saturating_sub(1);
     let mut dx_next = SVector::<f64, N>::zeros();
-    let mut p_next = last.posterior_cov();
-    emit(n - 1, &dx_next, &p_next);
-    for k in (0..n - 1).rev() {
-        let next = &epochs[k + 1];
-        let p = epochs[k].posterior_cov();
-        let prior_cov = next.prior_cov(&p);
+    let mut p_next = next.borrow().posterior_cov();
+    emit(k, next.borrow(), &dx_next, &p_next);
+    for epoch in epochs {
+        let epoch = epoch?;
+        k = k.saturating_sub(1);
+        let (this, after) = (epoch.borrow(), next.borrow());
+        let p = this.posterior_cov();
+        let prior_cov = after.prior_cov(&p);
         let chol = held_states_unit(&prior_cov)
             .cholesky()
             .ok_or(SmoothError::SingularPrior { epoch: k + 1 })?;
         // C = P Phi^T Pp^-1  =>  C^T = Pp^-1 Phi P.
-        let gain = chol.solve(&next.phi_times(&p)).transpose();
-        let dx = gain * (dx_next + next.correction());
+        let gain = chol.solve(&after.phi_times(&p)).transpose();
+        let dx = gain * (dx_next + after.correction());
         let p_smooth = p + gain * (p_next - prior_cov) * gain.transpose();
         let p_smooth = (p_smooth + p_smooth.transpose()) * 0.5;
-        emit(k, &dx, &p_smooth);
+        emit(k, this, &dx, &p_smooth);
         dx_next = dx;
         p_next = p_smooth;
+        next = epoch;
     }
     Ok(())
 }

@@ -19,18 +19,22 @@
 //! `x+_k (+) dx_{k|N}`. The reset Jacobian is taken as the identity, as in the forward filter.
 //!
 //! Memory: the forward pass keeps one compact record per filter epoch (measurement or output
-//! time), never per IMU sample (`filters::ins::record`); the backward pass holds one full
-//! covariance at a time and returns compact solutions.
+//! time), never per IMU sample (`filters::ins::record`), on a temporary file beyond a block
+//! (`spill`); the backward pass reads them back a block at a time, holds one full covariance,
+//! and hands each compact solution on as it is made.
 
-use super::error_rts::{backward, ForwardEpoch};
+use super::error_rts::{backward_from_last, ForwardEpoch};
 use crate::filters::ins::error_state::{self, idx, ErrorMatrix, ErrorState};
 use crate::filters::ins::record::{EpochRecord, NavPoint, PackedCov, Solution};
+use crate::spill::Spilled;
 
 /// Why smoothing failed.
-#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SmoothError {
     #[error("predicted covariance at epoch {epoch} is not invertible")]
     SingularPrior { epoch: usize },
+    #[error("reading the forward records back: {0}")]
+    Records(String),
 }
 
 impl ForwardEpoch<{ error_state::N }> for EpochRecord {
@@ -51,20 +55,28 @@ impl ForwardEpoch<{ error_state::N }> for EpochRecord {
     }
 }
 
-/// Smoothed solutions, one per record.
-pub fn smooth(records: &[EpochRecord]) -> Result<Vec<Solution>, SmoothError> {
-    smooth_reporting(records, None)
+/// Smoothed solutions, one per record, in time order.
+pub fn smooth(records: &Spilled<EpochRecord>) -> Result<Vec<Solution>, SmoothError> {
+    let mut out = Vec::with_capacity(records.len());
+    smooth_each(records, None, |_, _, s| out.push(s))?;
+    out.reverse();
+    Ok(out)
 }
 
-/// [`smooth`], telling `progress` the fraction of the records smoothed.
-pub fn smooth_reporting(
-    records: &[EpochRecord],
+/// Runs the smoother, calling `each(k, record_k, smoothed_k)` from the last record to the
+/// first and telling `progress` the fraction done. The records are read back a block at a
+/// time, so memory does not grow with the mission.
+pub fn smooth_each(
+    records: &Spilled<EpochRecord>,
     progress: crate::progress::Progress<'_>,
-) -> Result<Vec<Solution>, SmoothError> {
-    let mut out = Vec::with_capacity(records.len());
-    backward(records, |k, dx, p| {
-        crate::progress::tell(progress, records.len() - k, records.len(), 1 << 14);
-        let rec = &records[k];
+    mut each: impl FnMut(usize, &EpochRecord, Solution),
+) -> Result<(), SmoothError> {
+    let n = records.len();
+    let last_first = records
+        .iter_rev()
+        .map(|r| r.map_err(|e| SmoothError::Records(e.to_string())));
+    backward_from_last(n, last_first, |k, rec: &EpochRecord, dx, p| {
+        crate::progress::tell(progress, n - k, n, 1 << 14);
         let post = &rec.posterior;
         let point = NavPoint {
             nav: error_state::inject(&post.nav, dx),
@@ -74,8 +86,10 @@ pub fn smooth_reporting(
             water: post.water + dx.fixed_rows::<{ error_state::WATER_STATES }>(idx::WATER),
             gyro_scale_z: post.gyro_scale_z + dx[idx::GYRO_SCALE_Z],
         };
-        out.push(Solution::new(rec.stamp_ns, point, &PackedCov::pack(p)));
-    })?;
-    out.reverse();
-    Ok(out)
+        each(
+            k,
+            rec,
+            Solution::new(rec.stamp_ns, point, &PackedCov::pack(p)),
+        );
+    })
 }

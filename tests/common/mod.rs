@@ -151,12 +151,6 @@ pub fn output_errors(
     Vec<hindsight::recon::score::EpochError>,
     Vec<hindsight::recon::score::EpochError>,
 ) {
-    let pick = |sol: &[hindsight::filters::ins::record::Solution]| {
-        sol.iter()
-            .zip(&r.output)
-            .filter(|(_, &out)| out)
-            .filter_map(|(s, _)| hindsight::recon::score::epoch_error(truth, s))
-            .collect::<Vec<_>>()
-    };
+    let pick = |sol| hindsight::recon::score::errors(truth, sol, &r.output).unwrap();
     (pick(&r.forward), pick(&r.smoothed))
 }

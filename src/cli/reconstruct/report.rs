@@ -38,7 +38,6 @@ impl FromLog {
     pub fn new(
         gnss: &[GnssFix],
         fixes: &[PositionFix],
-        truth: &[Truth],
         dvl: &[hindsight::contract::Dvl],
         origin_rad: (f64, f64),
     ) -> Self {
@@ -59,11 +58,19 @@ impl FromLog {
                 .iter()
                 .map(|f| (f.label.clone(), f.east_m, f.north_m))
                 .collect(),
+            truth: Vec::new(),
+            dvl_outages: hindsight::recon::stats::dvl_outages(dvl, OUTAGE_MIN_S),
+        }
+    }
+
+    /// With the truth's track (read back after the filter).
+    pub fn with_truth(self, truth: &[Truth]) -> Self {
+        FromLog {
             truth: truth
                 .iter()
                 .map(|t| (t.stamp_ns, [t.east_m, t.north_m, t.down_m]))
                 .collect(),
-            dvl_outages: hindsight::recon::stats::dvl_outages(dvl, OUTAGE_MIN_S),
+            ..self
         }
     }
 }
@@ -111,9 +118,11 @@ pub struct Inputs<'a> {
     pub init_text: String,
 }
 
-pub fn build(x: &Inputs<'_>) -> Report {
+pub fn build(x: &Inputs<'_>) -> std::io::Result<Report> {
     let s = x.summary;
-    let (fwd, smo) = (pick(&x.r.forward, x.keep), pick(&x.r.smoothed, x.keep));
+    let rows = spread(x.keep, REPORT_ROWS);
+    let (fwd, smo) = (x.r.forward.pick(&rows)?, x.r.smoothed.pick(&rows)?);
+    let (fwd, smo): (Vec<&Solution>, Vec<&Solution>) = (fwd.iter().collect(), smo.iter().collect());
     let axis = TimeAxis::new(fwd.first().map_or(0, |s| s.stamp_ns), s.duration_s);
     let bands: Vec<(f64, f64)> = x
         .from_log
@@ -187,7 +196,7 @@ pub fn build(x: &Inputs<'_>) -> Report {
     sections.push(innovations(s, &x.r.run.residuals, &axis));
     sections.push(calibration(s));
     sections.push(Section::new("Warnings").with(Block::Warnings(s.warnings.clone())));
-    Report {
+    Ok(Report {
         title: format!("hindsight reconstruct: {}", file_name(&s.log)),
         subtitle: format!(
             "{}: {:.0} s, {:.0} m travelled (smoothed)",
@@ -198,12 +207,22 @@ pub fn build(x: &Inputs<'_>) -> Report {
             "hindsight {}; every setting of the run is in summary.json",
             s.hindsight_version
         ),
-    }
+    })
 }
 
 /// The output rows of a solution.
-fn pick<'a>(solutions: &'a [Solution], keep: &[usize]) -> Vec<&'a Solution> {
-    keep.iter().map(|&k| &solutions[k]).collect()
+/// Output rows read back for the page's pictures: a picture thins to a few thousand points
+/// anyway, and a day-long mission has a million rows.
+const REPORT_ROWS: usize = 50_000;
+
+/// At most `n` of `keep`, evenly spread, the first and last among them.
+fn spread(keep: &[usize], n: usize) -> Vec<usize> {
+    if keep.len() <= n || n < 2 {
+        return keep.to_vec();
+    }
+    (0..n)
+        .map(|i| keep[i * (keep.len() - 1) / (n - 1)])
+        .collect()
 }
 
 fn file_name(path: &str) -> &str {

@@ -27,6 +27,7 @@ use super::record::EpochRecord;
 use crate::contract::Imu;
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
 use crate::geodesy;
+use crate::spill::Spilled;
 use nalgebra::Vector3;
 
 /// How the covariance is carried between epochs and across IMU gaps.
@@ -60,6 +61,9 @@ pub struct Inputs<'a> {
     pub output_stamps_ns: &'a [i64],
     /// Told the fraction of the IMU samples integrated, now and then.
     pub progress: crate::progress::Progress<'a>,
+    /// Keep the epoch records (for a smoother); a pass that is only scored (its residuals and
+    /// likelihood) keeps none.
+    pub keep_records: bool,
 }
 
 /// One aiding measurement as the filter saw it.
@@ -104,9 +108,11 @@ pub struct ImuGap {
 }
 
 /// What the forward pass produced.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Default)]
 pub struct ForwardRun {
-    pub records: Vec<EpochRecord>,
+    /// One per epoch, on a temporary file beyond a block; empty unless
+    /// [`Inputs::keep_records`].
+    pub records: Spilled<EpochRecord>,
     pub residuals: Vec<Residual>,
     /// Readings the filter reached but did not use: a DVL without bottom lock or above its
     /// maximum altitude (its own or the echo sounder's), an EM log below 0.1 m/s forward
@@ -232,7 +238,7 @@ pub fn run_forward(
         pass.run.by_interval[aid.sensor()] += left.by_interval;
         pass.run.disturbed[aid.sensor()] += left.disturbed;
     }
-    pass.run.records.push(EpochRecord::new(
+    pass.keep(EpochRecord::new(
         t0,
         true,
         &ErrorMatrix::identity(),
@@ -275,6 +281,12 @@ pub fn run_forward(
 }
 
 impl Pass<'_> {
+    fn keep(&mut self, record: EpochRecord) {
+        if self.inputs.keep_records {
+            self.run.records.push(record);
+        }
+    }
+
     /// One step of the nominal state to tick `t` (IMU `a` to `b` over `dt`), then the
     /// measurements and outputs due at `t`.
     fn advance(
@@ -306,7 +318,7 @@ impl Pass<'_> {
                 .get(self.at.out)
                 .is_some_and(|&s| s <= t);
             self.apply_measurements(t)?;
-            self.run.records.push(EpochRecord::new(
+            self.keep(EpochRecord::new(
                 t,
                 output,
                 &self.step_phi,

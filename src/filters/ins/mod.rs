@@ -9,3 +9,4 @@ pub mod error_state;
 pub mod forward;
 pub mod mechanization;
 pub mod record;
+pub mod solutions;

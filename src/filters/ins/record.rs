@@ -15,7 +15,8 @@ use super::error_state::{
 };
 use super::forward::Estimate;
 use super::mechanization::NavState;
-use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use crate::spill::{Decoder, Encoder, Fixed};
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
 /// Number of numbers in the upper triangle of an N x N matrix.
 const PACKED: usize = N * (N + 1) / 2;
@@ -276,6 +277,94 @@ pub fn correction_between(prior: &Estimate, posterior: &Estimate) -> ErrorState 
     d
 }
 
+/// NavPoint as numbers: position, velocity, attitude quaternion (i, j, k, w), biases, DVL
+/// calibration, water states, z gyro scale.
+const NAV_POINT_NUMBERS: usize = 3 + 3 + 4 + 3 + 3 + DVL_STATES + WATER_STATES + 1;
+
+impl NavPoint {
+    fn encode(&self, out: &mut Encoder) {
+        let n = &self.nav;
+        out.f64s(&[n.lat_rad, n.lon_rad, n.height_m]);
+        out.f64s(n.vel_ned_m_s.as_slice());
+        out.f64s(n.ned_from_body.as_ref().coords.as_slice());
+        out.f64s(self.gyro_bias.as_slice());
+        out.f64s(self.accel_bias.as_slice());
+        out.f64s(self.dvl.as_slice());
+        out.f64s(self.water.as_slice());
+        out.f64(self.gyro_scale_z);
+    }
+
+    fn decode(d: &mut Decoder<'_>) -> Self {
+        let [lat_rad, lon_rad, height_m] = d.f64s();
+        let vel_ned_m_s = Vector3::from(d.f64s::<3>());
+        let [i, j, k, w] = d.f64s();
+        NavPoint {
+            nav: NavState {
+                lat_rad,
+                lon_rad,
+                height_m,
+                vel_ned_m_s,
+                ned_from_body: UnitQuaternion::new_unchecked(Quaternion::new(w, i, j, k)),
+            },
+            gyro_bias: Vector3::from(d.f64s::<3>()),
+            accel_bias: Vector3::from(d.f64s::<3>()),
+            dvl: DvlCalibration::from(d.f64s::<DVL_STATES>()),
+            water: WaterState::from(d.f64s::<WATER_STATES>()),
+            gyro_scale_z: d.f64(),
+        }
+    }
+}
+
+impl Fixed for EpochRecord {
+    const BYTES: usize = 8 * (2 + NAV_ROWS * N + N + N + NAV_POINT_NUMBERS + PACKED);
+
+    fn encode(&self, out: &mut Encoder) {
+        out.i64(self.stamp_ns);
+        out.i64(i64::from(self.output));
+        out.f64s(self.phi_from_previous.0.as_slice());
+        out.f64s(self.process_noise.as_slice());
+        out.f64s(self.correction.as_slice());
+        self.posterior.encode(out);
+        out.f64s(&self.posterior_cov.0);
+    }
+
+    fn decode(d: &mut Decoder<'_>) -> Self {
+        EpochRecord {
+            stamp_ns: d.i64(),
+            output: d.i64() != 0,
+            phi_from_previous: PackedTransition(TransitionRows::from_column_slice(
+                &d.f64s::<{ NAV_ROWS * N }>(),
+            )),
+            process_noise: ErrorState::from(d.f64s::<N>()),
+            correction: ErrorState::from(d.f64s::<N>()),
+            posterior: NavPoint::decode(d),
+            posterior_cov: PackedCov(d.f64s()),
+        }
+    }
+}
+
+impl Fixed for Solution {
+    const BYTES: usize = 8 * (1 + NAV_POINT_NUMBERS + N + 9 + 9);
+
+    fn encode(&self, out: &mut Encoder) {
+        out.i64(self.stamp_ns);
+        self.point.encode(out);
+        out.f64s(self.sigma.as_slice());
+        out.f64s(self.position_cov.as_slice());
+        out.f64s(self.attitude_cov.as_slice());
+    }
+
+    fn decode(d: &mut Decoder<'_>) -> Self {
+        Solution {
+            stamp_ns: d.i64(),
+            point: NavPoint::decode(d),
+            sigma: ErrorState::from(d.f64s::<N>()),
+            position_cov: Matrix3::from_column_slice(&d.f64s::<9>()),
+            attitude_cov: Matrix3::from_column_slice(&d.f64s::<9>()),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -293,5 +382,45 @@ mod tests {
         phi.fixed_view_mut::<NAV_ROWS, N>(0, 0)
             .copy_from(&a.fixed_view::<NAV_ROWS, N>(0, 0));
         assert_eq!(PackedTransition::pack(&phi).unpack(), phi);
+    }
+
+    fn encoded<T: Fixed>(r: &T) -> Vec<u8> {
+        let mut out = Encoder::default();
+        r.encode(&mut out);
+        out.into_bytes()
+    }
+
+    #[test]
+    fn records_and_solutions_encode_exactly() {
+        let a = ErrorMatrix::from_fn(|i, j| ((i * 31 + j * 7) as f64 * 0.37).sin());
+        let mut phi = ErrorMatrix::identity();
+        phi.fixed_view_mut::<NAV_ROWS, N>(0, 0)
+            .copy_from(&a.fixed_view::<NAV_ROWS, N>(0, 0));
+        let est = Estimate {
+            nav: NavState {
+                lat_rad: 0.61,
+                lon_rad: 2.25,
+                height_m: -31.5,
+                vel_ned_m_s: Vector3::new(1.5, -0.2, 0.01),
+                ned_from_body: UnitQuaternion::from_euler_angles(0.1, -0.2, 2.9),
+            },
+            gyro_bias: Vector3::new(1e-6, -2e-6, 3e-6),
+            accel_bias: Vector3::new(-1e-4, 2e-4, 5e-5),
+            dvl: DvlCalibration::from_fn(|i, _| i as f64 * 1e-3),
+            water: WaterState::new(0.01, 0.2, -0.1),
+            gyro_scale_z: 1e-4,
+            cov: a * a.transpose(),
+        };
+        let mut prior = est;
+        prior.nav.lat_rad += 1e-7;
+        let q = ErrorState::from_fn(|i, _| i as f64 * 1e-9);
+        let rec = EpochRecord::new(1_700_000_000_123_456_789, true, &phi, &q, &prior, &est);
+        let bytes = encoded(&rec);
+        assert_eq!(bytes.len(), EpochRecord::BYTES);
+        assert_eq!(EpochRecord::decode(&mut Decoder::new(&bytes)), rec);
+        let sol = Solution::forward(&rec);
+        let bytes = encoded(&sol);
+        assert_eq!(bytes.len(), Solution::BYTES);
+        assert_eq!(Solution::decode(&mut Decoder::new(&bytes)), sol);
     }
 }

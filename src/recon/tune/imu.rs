@@ -11,7 +11,7 @@ use super::stationary::StillNoise;
 use crate::ingest::Mission;
 use crate::recon::config::{Config, ImuConfig, ImuGrade, ImuSpec};
 use crate::recon::init::InitError;
-use crate::recon::{forward, ReconError, Streams};
+use crate::recon::{forward_scored, ReconError, Streams};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -174,10 +174,10 @@ fn score(
 ) -> Option<f64> {
     let mut cfg = with_candidate(config, c, still);
     cfg.alignment.enabled = false;
-    let pass = match forward(streams, mission, &cfg) {
+    let pass = match forward_scored(streams, mission, &cfg) {
         Err(ReconError::Init(InitError::NoHeading(_))) if config.alignment.enabled => {
             cfg.alignment.enabled = true;
-            forward(streams, mission, &cfg)
+            forward_scored(streams, mission, &cfg)
         }
         other => other,
     };
