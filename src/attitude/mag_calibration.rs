@@ -18,7 +18,7 @@
 //! its in-plane magnitude (2-D), before and after; and the heading coverage of the readings.
 
 use crate::contract::MagneticField;
-use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, SymmetricEigen, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, SymmetricEigen, Vector2, Vector3};
 
 /// Below this ratio of the least to the largest spread of the readings, the fit is 2-D.
 pub const MIN_SPREAD_RATIO: f64 = 0.25;
@@ -139,14 +139,12 @@ pub fn fit(mag: &[MagneticField]) -> Result<MagCalibration, CalibrationError> {
     if mag.len() < 50 {
         return Err(CalibrationError::TooFew(mag.len()));
     }
-    let points: Vec<Vector3<f64>> = mag
-        .iter()
-        .map(|m| Vector3::from(m.magnetic_field))
-        .collect();
-    let n = points.len() as f64;
-    let mean = points.iter().sum::<Vector3<f64>>() / n;
-    let scatter: Matrix3<f64> = points
-        .iter()
+    // Every pass goes over the readings themselves: a day at 50 Hz is millions of them, and
+    // no copy of them is made.
+    let points = || mag.iter().map(|m| Vector3::from(m.magnetic_field));
+    let n = mag.len() as f64;
+    let mean = points().sum::<Vector3<f64>>() / n;
+    let scatter: Matrix3<f64> = points()
         .map(|p| (p - mean) * (p - mean).transpose())
         .sum::<Matrix3<f64>>()
         / n;
@@ -156,22 +154,19 @@ pub fn fit(mag: &[MagneticField]) -> Result<MagCalibration, CalibrationError> {
     let axes = Matrix3::from_columns(&order.map(|i| eig.eigenvectors.column(i).into_owned()));
     let spreads = order.map(|i| eig.eigenvalues[i].max(0.0).sqrt());
     // Express the readings in the spread axes (largest first), scaled to order one.
-    let scale = points.iter().map(|p| p.norm()).sum::<f64>() / n;
-    let local: Vec<Vector3<f64>> = points
-        .iter()
-        .map(|p| axes.transpose() * p / scale)
-        .collect();
-    let sectors = sectors_covered(&local, &(axes.transpose() * mean / scale));
+    let scale = points().map(|p| p.norm()).sum::<f64>() / n;
+    let local = || points().map(|p| axes.transpose() * p / scale);
+    let sectors = sectors_covered(local(), &(axes.transpose() * mean / scale));
     if sectors < MIN_SECTORS {
         return Err(CalibrationError::NotEnoughTurning(sectors));
     }
     let (kind, hard_local, correction_local) = if spreads[2] < MIN_SPREAD_RATIO * spreads[0] {
-        let (centre, w) = fit_ellipse(&local)?;
+        let (centre, w) = fit_ellipse(local())?;
         let mut w3 = Matrix3::identity();
         w3.fixed_view_mut::<2, 2>(0, 0).copy_from(&w);
         (FitKind::Ellipse, Vector3::new(centre.x, centre.y, 0.0), w3)
     } else {
-        let (centre, w) = fit_ellipsoid(&local)?;
+        let (centre, w) = fit_ellipsoid(local())?;
         (FitKind::Ellipsoid, centre, w)
     };
     let hard_iron = axes * hard_local * scale;
@@ -180,25 +175,22 @@ pub fn fit(mag: &[MagneticField]) -> Result<MagCalibration, CalibrationError> {
         FitKind::Ellipsoid => v.norm(),
         FitKind::Ellipse => (axes.transpose() * v).xy().norm(),
     };
-    let before: Vec<f64> = points.iter().map(&magnitude).collect();
-    let after: Vec<f64> = points
-        .iter()
-        .map(|p| magnitude(&(correction * (p - hard_iron))))
-        .collect();
+    let before = || points().map(|p| magnitude(&p));
+    let after = || points().map(|p| magnitude(&(correction * (p - hard_iron))));
     Ok(MagCalibration {
         kind,
         hard_iron,
         correction,
-        scatter_before: relative_scatter(&before),
-        scatter_after: relative_scatter(&after),
+        scatter_before: relative_scatter(before),
+        scatter_after: relative_scatter(after),
         sectors_covered: sectors,
-        readings: points.len(),
+        readings: mag.len(),
         mean_magnitude_t: scale,
     })
 }
 
 /// Ten-degree sectors covered by the in-plane (first two axes) directions about `centre`.
-fn sectors_covered(local: &[Vector3<f64>], centre: &Vector3<f64>) -> usize {
+fn sectors_covered(local: impl Iterator<Item = Vector3<f64>>, centre: &Vector3<f64>) -> usize {
     let mut hit = [false; 36];
     for p in local {
         let d = p - centre;
@@ -208,29 +200,36 @@ fn sectors_covered(local: &[Vector3<f64>], centre: &Vector3<f64>) -> usize {
     hit.iter().filter(|&&h| h).count()
 }
 
-fn relative_scatter(values: &[f64]) -> f64 {
-    let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
+/// The spread of the values over their mean, from a pass that can be made twice.
+fn relative_scatter<I: Iterator<Item = f64>>(values: impl Fn() -> I) -> f64 {
+    let n = values().count() as f64;
+    let mean = values().sum::<f64>() / n;
+    let var = values().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
     var.sqrt() / mean
 }
 
-/// Least squares for `rows * coefficients = 1`.
-fn least_squares(rows: Vec<Vec<f64>>) -> Option<DVector<f64>> {
-    let (m, k) = (rows.len(), rows[0].len());
-    let a = DMatrix::from_fn(m, k, |i, j| rows[i][j]);
-    let ata = a.transpose() * &a;
-    let atb = a.transpose() * DVector::from_element(m, 1.0);
+/// Least squares for `rows * coefficients = 1`, through the normal equations summed row by
+/// row (no design matrix: a day of readings is millions of rows).
+fn least_squares<const K: usize>(
+    rows: impl Iterator<Item = SVector<f64, K>>,
+) -> Option<SVector<f64, K>> {
+    let mut ata = SMatrix::<f64, K, K>::zeros();
+    let mut atb = SVector::<f64, K>::zeros();
+    for r in rows {
+        ata += r * r.transpose();
+        atb += r;
+    }
     ata.cholesky().map(|c| c.solve(&atb))
 }
 
 /// The ellipse `x^T M x + 2 g^T x = 1` through the first two coordinates: its centre and
 /// the symmetric `W` that maps it onto a circle of its mean radius.
-fn fit_ellipse(local: &[Vector3<f64>]) -> Result<(Vector2<f64>, Matrix2<f64>), CalibrationError> {
-    let rows = local
-        .iter()
-        .map(|p| vec![p.x * p.x, p.y * p.y, 2.0 * p.x * p.y, 2.0 * p.x, 2.0 * p.y])
-        .collect();
+fn fit_ellipse(
+    local: impl Iterator<Item = Vector3<f64>>,
+) -> Result<(Vector2<f64>, Matrix2<f64>), CalibrationError> {
+    let rows = local.map(|p| {
+        SVector::<f64, 5>::from([p.x * p.x, p.y * p.y, 2.0 * p.x * p.y, 2.0 * p.x, 2.0 * p.y])
+    });
     let c = least_squares(rows).ok_or(CalibrationError::NotAnEllipsoid)?;
     let m = Matrix2::new(c[0], c[2], c[2], c[1]);
     let g = Vector2::new(c[3], c[4]);
@@ -250,23 +249,22 @@ fn fit_ellipse(local: &[Vector3<f64>]) -> Result<(Vector2<f64>, Matrix2<f64>), C
 }
 
 /// The ellipsoid `x^T M x + 2 g^T x = 1`: its centre and `W`, as [`fit_ellipse`].
-fn fit_ellipsoid(local: &[Vector3<f64>]) -> Result<(Vector3<f64>, Matrix3<f64>), CalibrationError> {
-    let rows = local
-        .iter()
-        .map(|p| {
-            vec![
-                p.x * p.x,
-                p.y * p.y,
-                p.z * p.z,
-                2.0 * p.x * p.y,
-                2.0 * p.x * p.z,
-                2.0 * p.y * p.z,
-                2.0 * p.x,
-                2.0 * p.y,
-                2.0 * p.z,
-            ]
-        })
-        .collect();
+fn fit_ellipsoid(
+    local: impl Iterator<Item = Vector3<f64>>,
+) -> Result<(Vector3<f64>, Matrix3<f64>), CalibrationError> {
+    let rows = local.map(|p| {
+        SVector::<f64, 9>::from([
+            p.x * p.x,
+            p.y * p.y,
+            p.z * p.z,
+            2.0 * p.x * p.y,
+            2.0 * p.x * p.z,
+            2.0 * p.y * p.z,
+            2.0 * p.x,
+            2.0 * p.y,
+            2.0 * p.z,
+        ])
+    });
     let c = least_squares(rows).ok_or(CalibrationError::NotAnEllipsoid)?;
     let m = Matrix3::new(c[0], c[3], c[4], c[3], c[1], c[5], c[4], c[5], c[2]);
     let g = Vector3::new(c[6], c[7], c[8]);

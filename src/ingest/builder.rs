@@ -417,33 +417,39 @@ impl<'o, 's> Builder<'o, 's> {
                     first: Box::new(slot.issues[0].clone()),
                 });
             }
-            let stamps = if self.options.keep_messages {
-                (0..samples.len()).map(|i| samples.stamp_ns(i)).collect()
+            let keep = self.options.keep_messages;
+            let n = if keep {
+                samples.len()
             } else {
-                slot.stamps_ns
+                slot.stamps_ns.len()
             };
-            // Most streams are already in order without repeats: no index of a day's IMU.
-            let in_order = stamps.windows(2).all(|w| w[0] < w[1]);
-            let (order, duplicates) = if in_order {
-                (Vec::new(), 0)
-            } else {
-                stats::sorted_unique_order(&stamps)
+            let stamp = |i: usize| {
+                if keep {
+                    samples.stamp_ns(i)
+                } else {
+                    slot.stamps_ns[i]
+                }
             };
-            counts.duplicates = duplicates;
-            counts.kept = if in_order { stamps.len() } else { order.len() } as u64;
-            let (mut log_time_ns, sorted) = if in_order {
-                (slot.log_time_ns, stamps)
+            // Most streams are already in order without repeats: then no copy of a day's
+            // stamps and no index is made.
+            let in_order = (1..n).all(|i| stamp(i - 1) < stamp(i));
+            let (mut log_time_ns, timing) = if in_order {
+                counts.kept = n as u64;
+                (slot.log_time_ns, stats::timing_by(n, stamp))
             } else {
-                if self.options.keep_messages {
+                let stamps: Vec<i64> = (0..n).map(stamp).collect();
+                let (order, duplicates) = stats::sorted_unique_order(&stamps);
+                counts.duplicates = duplicates;
+                counts.kept = order.len() as u64;
+                if keep {
                     samples.permute(&order);
                 }
-                (
-                    order
-                        .iter()
-                        .filter_map(|&i| slot.log_time_ns.get(i).copied())
-                        .collect(),
-                    order.iter().map(|&i| stamps[i]).collect(),
-                )
+                let sorted: Vec<i64> = order.iter().map(|&i| stamps[i]).collect();
+                let log_times = order
+                    .iter()
+                    .filter_map(|&i| slot.log_time_ns.get(i).copied())
+                    .collect();
+                (log_times, stats::timing(&sorted))
             };
             if !self.options.keep_messages {
                 log_time_ns = Vec::new();
@@ -456,7 +462,7 @@ impl<'o, 's> Builder<'o, 's> {
                 samples,
                 log_time_ns,
                 counts,
-                timing: stats::timing(&sorted),
+                timing,
                 issues: slot.issues,
             });
         }

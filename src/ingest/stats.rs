@@ -44,36 +44,47 @@ impl Timing {
 
 /// Timing of strictly increasing stamps.
 pub fn timing(sorted_unique_ns: &[i64]) -> Timing {
-    let (Some(&first), Some(&last)) = (sorted_unique_ns.first(), sorted_unique_ns.last()) else {
+    timing_by(sorted_unique_ns.len(), |i| sorted_unique_ns[i])
+}
+
+/// [`timing`] of `n` sorted unique stamps read through `stamp` (no copy of a long stream's).
+pub fn timing_by(n: usize, stamp: impl Fn(usize) -> i64) -> Timing {
+    if n == 0 {
         return Timing::default();
-    };
-    let mut intervals: Vec<i64> = sorted_unique_ns.windows(2).map(|w| w[1] - w[0]).collect();
-    if intervals.is_empty() {
+    }
+    let (first, last) = (stamp(0), stamp(n - 1));
+    let interval = |i: usize| stamp(i + 1) - stamp(i);
+    if n == 1 {
         return Timing {
             span_ns: Some((first, last)),
             ..Timing::default()
         };
     }
-    let median_ns = median_in_place(&mut intervals);
-    drop(intervals); // a day of IMU intervals is 80 MB
+    // The intervals are copied to find their median: as 32-bit numbers where they fit (a
+    // day of IMU intervals is then 40 MB, not 80).
+    let median_ns = if (0..n - 1).all(|i| interval(i) <= i64::from(i32::MAX)) {
+        let mut v: Vec<i32> = (0..n - 1).map(|i| interval(i) as i32).collect();
+        median_in_place(&mut v, f64::from)
+    } else {
+        let mut v: Vec<i64> = (0..n - 1).map(interval).collect();
+        median_in_place(&mut v, |x| x as f64)
+    };
     let gap_threshold_ns = GAP_FACTOR * median_ns;
-    let gaps: Vec<Gap> = sorted_unique_ns
-        .windows(2)
-        .filter(|w| (w[1] - w[0]) as f64 > gap_threshold_ns)
-        .map(|w| Gap {
-            after_ns: w[0],
-            duration_ns: w[1] - w[0],
+    let gaps: Vec<Gap> = (0..n - 1)
+        .filter(|&i| interval(i) as f64 > gap_threshold_ns)
+        .map(|i| Gap {
+            after_ns: stamp(i),
+            duration_ns: interval(i),
         })
         .collect();
     let regular = || {
-        sorted_unique_ns
-            .windows(2)
-            .map(|w| (w[1] - w[0]) as f64)
+        (0..n - 1)
+            .map(|i| interval(i) as f64)
             .filter(|&d| d <= gap_threshold_ns)
     };
-    let n = regular().count() as f64;
-    let mean = regular().sum::<f64>() / n;
-    let var = regular().map(|d| (d - mean).powi(2)).sum::<f64>() / n;
+    let count = regular().count() as f64;
+    let mean = regular().sum::<f64>() / count;
+    let var = regular().map(|d| (d - mean).powi(2)).sum::<f64>() / count;
     Timing {
         span_ns: Some((first, last)),
         median_period_s: Some(median_ns * 1e-9),
@@ -82,16 +93,16 @@ pub fn timing(sorted_unique_ns: &[i64]) -> Timing {
     }
 }
 
-/// Median of a non-empty slice (mean of the two middle values for an even count).
-/// (Reorders `v`, so that a long stream's intervals are not copied.)
-fn median_in_place(v: &mut [i64]) -> f64 {
+/// Median of a non-empty slice (mean of the two middle values for an even count), reordering
+/// `v` instead of copying it.
+fn median_in_place<T: Ord + Copy>(v: &mut [T], to_f64: impl Fn(T) -> f64) -> f64 {
     let mid = v.len() / 2;
     let (_, &mut upper, _) = v.select_nth_unstable(mid);
     if v.len() % 2 == 1 {
-        upper as f64
+        to_f64(upper)
     } else {
         let lower = *v[..mid].iter().max().unwrap_or(&upper);
-        (lower as f64 + upper as f64) / 2.0
+        (to_f64(lower) + to_f64(upper)) / 2.0
     }
 }
 
@@ -137,8 +148,8 @@ mod tests {
 
     #[test]
     fn median_of_even_count_is_midpoint() {
-        assert_eq!(median_in_place(&mut [1, 3, 2, 4]), 2.5);
-        assert_eq!(median_in_place(&mut [7]), 7.0);
+        assert_eq!(median_in_place(&mut [1i64, 3, 2, 4], |x| x as f64), 2.5);
+        assert_eq!(median_in_place(&mut [7i32], f64::from), 7.0);
     }
 
     #[test]
