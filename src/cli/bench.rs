@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 ///
 /// With --reconstruct: the scenario (default long-dive, 5.5 h; seed 0) is simulated, then
 /// ingest, forward filter and smoother are timed (medians, and their ratio to ingest), and
-/// the peak memory of one whole reconstruction is printed. With --report besides: the
+/// the `reconstruct` command is run once for its wall time and peak memory. With --report besides: the
 /// `reconstruct` command itself is run on that log --repeat times (with the scenario's
 /// configuration) and the time of its report.html and PNGs is set against the command's
 /// (medians).
