@@ -167,6 +167,12 @@ impl<T: Fixed> Spilled<T> {
     where
         T: Clone,
     {
+        if range.start > range.end || range.end > self.len() {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!("records {range:?} of {}", self.len()),
+            ));
+        }
         let mut out = Vec::with_capacity(range.len());
         let from_file = range.start.min(self.on_file)..range.end.min(self.on_file);
         if !from_file.is_empty() {
@@ -191,8 +197,8 @@ impl<T: Fixed> Spilled<T> {
     where
         T: Clone,
     {
-        if k >= self.on_file {
-            return Ok(self.tail[k - self.on_file].clone());
+        if let Some(r) = k.checked_sub(self.on_file).and_then(|i| self.tail.get(i)) {
+            return Ok(r.clone());
         }
         Ok(self.read(k..k + 1)?.remove(0))
     }
@@ -383,6 +389,7 @@ mod tests {
         assert_eq!(s.get(48).unwrap(), pairs(50)[48]);
         assert_eq!(s.get(49).unwrap(), pairs(50)[49]);
         assert_eq!(s.last().unwrap(), Some(pairs(50)[49]));
+        assert!(s.get(50).is_err() && s.read(40..51).is_err());
         let seen: Vec<Pair> = s.iter().map(Result::unwrap).collect();
         assert_eq!(seen, pairs(50));
         let backwards: Vec<Pair> = s.iter_rev().map(Result::unwrap).collect();

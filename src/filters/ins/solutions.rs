@@ -49,14 +49,18 @@ impl Solutions {
     /// Solutions `range` (time order).
     pub fn read(&self, range: Range<usize>) -> io::Result<Vec<Solution>> {
         let n = self.len();
-        let mut out = self.last_first.read(n - range.end..n - range.start)?;
+        let flipped = n.checked_sub(range.end).zip(n.checked_sub(range.start));
+        let (start, end) = flipped.ok_or(io::ErrorKind::InvalidInput)?;
+        let mut out = self.last_first.read(start..end)?;
         out.reverse();
         Ok(out)
     }
 
     /// Solution `k` (time order).
     pub fn get(&self, k: usize) -> io::Result<Solution> {
-        self.last_first.get(self.len() - 1 - k)
+        let flipped = self.len().checked_sub(k + 1);
+        self.last_first
+            .get(flipped.ok_or(io::ErrorKind::InvalidInput)?)
     }
 
     pub fn first(&self) -> io::Result<Option<Solution>> {
@@ -148,5 +152,6 @@ mod tests {
         assert_eq!(picked, ks.map(|k| all[k]));
         assert_eq!(Solutions::from_time_order(&all).to_vec().unwrap(), all);
         assert_eq!(Solutions::new().last().unwrap(), None);
+        assert!(s.get(40).is_err() && s.read(30..41).is_err());
     }
 }
