@@ -39,9 +39,57 @@ fn held_states_unit<const N: usize>(cov: &SMatrix<f64, N, N>) -> SMatrix<f64, N,
     c
 }
 
+/// The RTS gain `C = P Phi^T Pp^-1`, given the lower Cholesky factor `L` of `Pp` (only its
+/// lower triangle is read) and `Phi P`.
+///
+/// With `G = P Phi^T = (Phi P)^T`, `C L L^T = G` is solved in two triangular sweeps over whole
+/// columns, `W L^T = G` then `C L = W`: each step subtracts a multiple of one contiguous
+/// column from another, which the compiler turns into vector instructions (a general solve
+/// goes column by right-hand side through dot products of varying length, several times
+/// slower at this size).
+fn rts_gain<const N: usize>(
+    l: &SMatrix<f64, N, N>,
+    phi_p: &SMatrix<f64, N, N>,
+) -> SMatrix<f64, N, N> {
+    // Columns of G, then of W, then of C.
+    let mut cols: [[f64; N]; N] = phi_p.transpose().data.0;
+    for i in 0..N {
+        let (done, rest) = cols.split_at_mut(i);
+        let col = &mut rest[0];
+        for (j, w_j) in done.iter().enumerate() {
+            axpy(col, -l[(i, j)], w_j);
+        }
+        scale(col, 1.0 / l[(i, i)]);
+    }
+    for i in (0..N).rev() {
+        let (head, done) = cols.split_at_mut(i + 1);
+        let col = &mut head[i];
+        for (offset, c_j) in done.iter().enumerate() {
+            axpy(col, -l[(i + 1 + offset, i)], c_j);
+        }
+        scale(col, 1.0 / l[(i, i)]);
+    }
+    SMatrix::from_data(nalgebra::ArrayStorage(cols))
+}
+
+/// `y += a x`.
+fn axpy<const N: usize>(y: &mut [f64; N], a: f64, x: &[f64; N]) {
+    if a != 0.0 {
+        for (y, x) in y.iter_mut().zip(x) {
+            *y += a * x;
+        }
+    }
+}
+
+fn scale<const N: usize>(y: &mut [f64; N], a: f64) {
+    for y in y.iter_mut() {
+        *y *= a;
+    }
+}
+
 /// Runs the backward pass, calling `emit(k, dx_k|N, P_k|N)` for k from the last epoch down
 /// to 0.
-pub fn backward<const N: usize, E: ForwardEpoch<N>>(
+pub fn backward<const N: usize, E: ForwardEpoch<N> + Sync>(
     epochs: &[E],
     mut emit: impl FnMut(usize, &SVector<f64, N>, &SMatrix<f64, N, N>),
 ) -> Result<(), SmoothError> {
@@ -52,40 +100,366 @@ pub fn backward<const N: usize, E: ForwardEpoch<N>>(
     )
 }
 
+/// Below this many states the backward pass runs on the calling thread alone: handing the
+/// epochs between threads would cost more than the work it shares.
+const TWO_THREADS_FROM_STATES: usize = 9;
+
+/// Epochs handed from the preparing thread to the recursion at a time.
+const BATCH: usize = 64;
+
 /// [`backward`] over `n` epochs handed over last first (read back from a file, say), calling
 /// `emit(k, epoch_k, dx_k|N, P_k|N)`. An epoch that cannot be had ends the pass with its error.
-pub fn backward_from_last<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
+///
+/// The work splits in two: each epoch's gain depends on the forward records alone
+/// ([`Prepare`]), and only the recursion through the smoothed estimates is sequential. With
+/// [`TWO_THREADS_FROM_STATES`] states or more, the gains are computed on a second thread while
+/// the calling thread runs the recursion; the result is the same either way.
+pub fn backward_from_last<const N: usize, E, B>(
     n: usize,
-    last_first: impl IntoIterator<Item = Result<B, SmoothError>>,
+    last_first: impl IntoIterator<Item = Result<B, SmoothError>, IntoIter: Send>,
+    emit: impl FnMut(usize, &E, &SVector<f64, N>, &SMatrix<f64, N, N>),
+) -> Result<(), SmoothError>
+where
+    E: ForwardEpoch<N>,
+    B: Borrow<E> + Send,
+{
+    let prepared = Prepare::<_, _, E, N>::new(n, last_first.into_iter());
+    if N < TWO_THREADS_FROM_STATES {
+        return recursion(n, prepared, emit);
+    }
+    std::thread::scope(|scope| {
+        let (to_recursion, from_prepare) = std::sync::mpsc::sync_channel::<Vec<_>>(4);
+        scope.spawn(move || {
+            let mut batch = Vec::with_capacity(BATCH);
+            for item in prepared {
+                let failed = item.is_err();
+                batch.push(item);
+                if batch.len() == BATCH || failed {
+                    let full = std::mem::replace(&mut batch, Vec::with_capacity(BATCH));
+                    // The recursion hung up (it failed): nothing more to do.
+                    if to_recursion.send(full).is_err() || failed {
+                        return;
+                    }
+                }
+            }
+            let _ = to_recursion.send(batch);
+        });
+        recursion(n, from_prepare.into_iter().flatten(), emit)
+    })
+}
+
+/// One epoch with what the recursion needs from the forward records alone.
+struct Prepared<B, const N: usize> {
+    epoch: B,
+    posterior_cov: SMatrix<f64, N, N>,
+    /// The gain `C_k` and the predicted covariance `P_{k+1|k}` that link this epoch to the
+    /// next one; `None` at the last epoch.
+    link: Option<(SMatrix<f64, N, N>, SMatrix<f64, N, N>)>,
+}
+
+/// The epochs, last first, prepared: an epoch goes out once the one before it has been read,
+/// since its link needs that one's posterior covariance.
+struct Prepare<I, B, E, const N: usize> {
+    epochs: I,
+    /// The type the epochs are borrowed as.
+    epoch_type: std::marker::PhantomData<fn() -> E>,
+    /// The epoch read last, not yet handed out.
+    pending: Option<Result<Prepared<B, N>, SmoothError>>,
+    /// Index of the pending epoch.
+    k: usize,
+}
+
+impl<I, B, E, const N: usize> Prepare<I, B, E, N> {
+    fn new(n: usize, mut epochs: I) -> Self
+    where
+        I: Iterator<Item = Result<B, SmoothError>>,
+        E: ForwardEpoch<N>,
+        B: Borrow<E>,
+    {
+        let pending = epochs.next().map(|last| {
+            last.map(|epoch| Prepared {
+                posterior_cov: epoch.borrow().posterior_cov(),
+                epoch,
+                link: None,
+            })
+        });
+        Prepare {
+            epochs,
+            epoch_type: std::marker::PhantomData,
+            pending,
+            k: n.saturating_sub(1),
+        }
+    }
+}
+
+impl<I, B, E, const N: usize> Iterator for Prepare<I, B, E, N>
+where
+    I: Iterator<Item = Result<B, SmoothError>>,
+    E: ForwardEpoch<N>,
+    B: Borrow<E>,
+{
+    type Item = Result<Prepared<B, N>, SmoothError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let pending = match self.pending.take()? {
+            Ok(pending) => pending,
+            Err(e) => return Some(Err(e)),
+        };
+        let Some(epoch) = self.epochs.next() else {
+            return Some(Ok(pending));
+        };
+        let this_k = self.k.saturating_sub(1);
+        self.pending = Some(epoch.and_then(|epoch| {
+            let p = epoch.borrow().posterior_cov();
+            let link = link(&p, pending.epoch.borrow(), self.k)?;
+            Ok(Prepared {
+                epoch,
+                posterior_cov: p,
+                link: Some(link),
+            })
+        }));
+        self.k = this_k;
+        Some(Ok(pending))
+    }
+}
+
+/// The gain `C_k = P_k Phi^T P_{k+1|k}^-1` and `P_{k+1|k}`, from the posterior covariance
+/// `p` of epoch k and epoch k+1 (`after`, at index `k_after`).
+fn link<const N: usize, E: ForwardEpoch<N>>(
+    p: &SMatrix<f64, N, N>,
+    after: &E,
+    k_after: usize,
+) -> Result<(SMatrix<f64, N, N>, SMatrix<f64, N, N>), SmoothError> {
+    let prior_cov = after.prior_cov(p);
+    let chol = held_states_unit(&prior_cov)
+        .cholesky()
+        .ok_or(SmoothError::SingularPrior { epoch: k_after })?;
+    Ok((rts_gain(chol.l_dirty(), &after.phi_times(p)), prior_cov))
+}
+
+/// The sequential part: `dx_k|N = C_k (dx_{k+1|N} + D_{k+1})` and
+/// `P_k|N = P_k + C_k (P_{k+1|N} - P_{k+1|k}) C_k^T`, from the last epoch down.
+fn recursion<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
+    n: usize,
+    prepared: impl IntoIterator<Item = Result<Prepared<B, N>, SmoothError>>,
     mut emit: impl FnMut(usize, &E, &SVector<f64, N>, &SMatrix<f64, N, N>),
 ) -> Result<(), SmoothError> {
-    let mut epochs = last_first.into_iter();
-    let Some(last) = epochs.next() else {
-        return Ok(());
-    };
-    let mut next = last?;
-    let mut k = n.saturating_sub(1);
-    let mut dx_next = SVector::<f64, N>::zeros();
-    let mut p_next = next.borrow().posterior_cov();
-    emit(k, next.borrow(), &dx_next, &p_next);
-    for epoch in epochs {
-        let epoch = epoch?;
-        k = k.saturating_sub(1);
-        let (this, after) = (epoch.borrow(), next.borrow());
-        let p = this.posterior_cov();
-        let prior_cov = after.prior_cov(&p);
-        let chol = held_states_unit(&prior_cov)
-            .cholesky()
-            .ok_or(SmoothError::SingularPrior { epoch: k + 1 })?;
-        // C = P Phi^T Pp^-1  =>  C^T = Pp^-1 Phi P.
-        let gain = chol.solve(&after.phi_times(&p)).transpose();
-        let dx = gain * (dx_next + after.correction());
-        let p_smooth = p + gain * (p_next - prior_cov) * gain.transpose();
-        let p_smooth = (p_smooth + p_smooth.transpose()) * 0.5;
-        emit(k, this, &dx, &p_smooth);
-        dx_next = dx;
-        p_next = p_smooth;
-        next = epoch;
+    let mut next: Option<(B, SVector<f64, N>, SMatrix<f64, N, N>)> = None;
+    for (item, k) in prepared.into_iter().zip((0..n).rev()) {
+        let item = item?;
+        let (dx, p_smooth) = match (&item.link, &next) {
+            (Some((gain, prior_cov)), Some((after, dx_next, p_next))) => {
+                let dx = gain * (dx_next + after.borrow().correction());
+                let p_smooth = item.posterior_cov + gain * (p_next - prior_cov) * gain.transpose();
+                (dx, (p_smooth + p_smooth.transpose()) * 0.5)
+            }
+            _ => (SVector::zeros(), item.posterior_cov),
+        };
+        emit(k, item.epoch.borrow(), &dx, &p_smooth);
+        next = Some((item.epoch, dx, p_smooth));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    type M<const N: usize> = SMatrix<f64, N, N>;
+    type V<const N: usize> = SVector<f64, N>;
+
+    fn random_matrix<const R: usize, const C: usize>(rng: &mut ChaCha8Rng) -> SMatrix<f64, R, C> {
+        SMatrix::from_fn(|_, _| rng.random_range(-1.0..1.0))
+    }
+
+    fn random_spd<const K: usize>(rng: &mut ChaCha8Rng) -> SMatrix<f64, K, K> {
+        let a = random_matrix::<K, K>(rng);
+        a * a.transpose() + SMatrix::<f64, K, K>::identity() * 0.1
+    }
+
+    #[test]
+    fn gain_matches_a_general_solve() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for _ in 0..20 {
+            let pp = random_spd::<25>(&mut rng);
+            let phi_p = random_matrix::<25, 25>(&mut rng);
+            let chol = pp.cholesky().unwrap();
+            let want = chol.solve(&phi_p).transpose();
+            let got = rts_gain(chol.l_dirty(), &phi_p);
+            assert!(
+                (got - want).amax() < 1e-9 * want.amax(),
+                "{}",
+                (got - want).amax()
+            );
+        }
+    }
+
+    /// One epoch of a linear Kalman filter with a scalar-free 2-D measurement, kept as the
+    /// backward pass wants it (its mean is the nominal, the correction its update).
+    struct Epoch<const N: usize> {
+        phi: M<N>,
+        q: M<N>,
+        posterior: V<N>,
+        posterior_cov: M<N>,
+        correction: V<N>,
+    }
+
+    impl<const N: usize> ForwardEpoch<N> for Epoch<N> {
+        fn posterior_cov(&self) -> M<N> {
+            self.posterior_cov
+        }
+        fn phi(&self) -> M<N> {
+            self.phi
+        }
+        fn prior_cov(&self, previous_posterior: &M<N>) -> M<N> {
+            self.phi * previous_posterior * self.phi.transpose() + self.q
+        }
+        fn correction(&self) -> V<N> {
+            self.correction
+        }
+    }
+
+    /// The backward pass over a linear model equals the batch solution: the joint posterior
+    /// of all states given all measurements, from one information matrix.
+    #[test]
+    fn backward_pass_equals_the_batch_solution_of_a_linear_model() {
+        // On the calling thread alone, and with the gains on a second thread.
+        assert!(4 < TWO_THREADS_FROM_STATES && 10 >= TWO_THREADS_FROM_STATES);
+        equals_the_batch_solution::<4>(3, 25);
+        equals_the_batch_solution::<10>(4, 2 * BATCH + 13);
+    }
+
+    fn equals_the_batch_solution<const N: usize>(seed: u64, epochs_n: usize) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (m0, p0) = (V::<N>::from_fn(|i, _| i as f64), random_spd::<N>(&mut rng));
+        let h = random_matrix::<2, N>(&mut rng);
+        let r = random_spd::<2>(&mut rng);
+        let (mut epochs, mut ys, mut phis, mut qs) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut mean, mut cov) = (m0, p0);
+        for k in 0..epochs_n {
+            let (phi, q) = if k == 0 {
+                (M::<N>::identity(), M::<N>::zeros())
+            } else {
+                (
+                    M::<N>::identity() + random_matrix::<N, N>(&mut rng) * 0.2,
+                    random_spd::<N>(&mut rng) * 0.05,
+                )
+            };
+            let prior_mean = phi * mean;
+            let prior_cov = phi * cov * phi.transpose() + q;
+            let y = SVector::<f64, 2>::from_fn(|_, _| rng.random_range(-3.0..3.0));
+            let s = h * prior_cov * h.transpose() + r;
+            let gain = prior_cov * h.transpose() * s.try_inverse().unwrap();
+            mean = prior_mean + gain * (y - h * prior_mean);
+            cov = (M::<N>::identity() - gain * h) * prior_cov;
+            cov = (cov + cov.transpose()) * 0.5;
+            epochs.push(Epoch {
+                phi,
+                q,
+                posterior: mean,
+                posterior_cov: cov,
+                correction: mean - prior_mean,
+            });
+            ys.push(y);
+            phis.push(phi);
+            qs.push(q);
+        }
+        let mut smoothed = vec![(V::<N>::zeros(), M::<N>::zeros()); epochs_n];
+        backward(&epochs, |k, dx, p| {
+            smoothed[k] = (epochs[k].posterior + dx, *p)
+        })
+        .unwrap();
+
+        // Batch: minimise the sum of the prior, process and measurement terms over all states.
+        let dim = N * epochs_n;
+        let (mut info, mut rhs) = (
+            DMatrix::<f64>::zeros(dim, dim),
+            nalgebra::DVector::<f64>::zeros(dim),
+        );
+        let mut add =
+            |rows: &[(usize, DMatrix<f64>)], w: &DMatrix<f64>, z: &nalgebra::DVector<f64>| {
+                // A term (sum_i A_i x_i - z)^T W (sum_i A_i x_i - z).
+                for (bi, ai) in rows {
+                    for (bj, aj) in rows {
+                        let block = ai.transpose() * w * aj;
+                        let mut view = info.view_mut((bi * N, bj * N), (N, N));
+                        view += block;
+                    }
+                    let mut view = rhs.rows_mut(bi * N, N);
+                    view += ai.transpose() * w * z;
+                }
+            };
+        let dm = |m: &M<N>| DMatrix::from_column_slice(N, N, m.as_slice());
+        let inv = |m: &M<N>| dm(&m.try_inverse().unwrap());
+        add(
+            &[(0, dm(&M::<N>::identity()))],
+            &inv(&p0),
+            &nalgebra::DVector::from_column_slice(m0.as_slice()),
+        );
+        let h_d = DMatrix::from_column_slice(2, N, h.as_slice());
+        let r_inv = DMatrix::from_column_slice(2, 2, r.try_inverse().unwrap().as_slice());
+        for k in 0..epochs_n {
+            if k > 0 {
+                let z = nalgebra::DVector::zeros(N);
+                add(
+                    &[(k, dm(&M::<N>::identity())), (k - 1, -dm(&phis[k]))],
+                    &inv(&qs[k]),
+                    &z,
+                );
+            }
+            add(
+                &[(k, h_d.clone())],
+                &r_inv,
+                &nalgebra::DVector::from_column_slice(ys[k].as_slice()),
+            );
+        }
+        let joint_cov = info.try_inverse().unwrap();
+        let joint_mean = &joint_cov * &rhs;
+        for (k, (mean, cov)) in smoothed.iter().enumerate() {
+            let want_mean = joint_mean.rows(k * N, N);
+            let want_cov = joint_cov.view((k * N, k * N), (N, N));
+            assert!(
+                (mean - want_mean).amax() < 1e-8,
+                "epoch {k}: mean {mean} against {want_mean}"
+            );
+            assert!(
+                (cov - want_cov).amax() < 1e-8,
+                "epoch {k}: cov {cov} against {want_cov}"
+            );
+        }
+    }
+
+    #[test]
+    fn an_epoch_that_cannot_be_read_ends_the_pass_with_its_error() {
+        fails_after_four_epochs::<4>();
+        fails_after_four_epochs::<10>();
+    }
+
+    fn fails_after_four_epochs<const N: usize>() {
+        let epoch = || Epoch::<N> {
+            phi: M::<N>::identity(),
+            q: M::<N>::identity(),
+            posterior: V::<N>::zeros(),
+            posterior_cov: M::<N>::identity(),
+            correction: V::<N>::zeros(),
+        };
+        let last_first = (0..2 * BATCH).map(|i| {
+            if i == 4 {
+                Err(SmoothError::Records("disk gone".into()))
+            } else {
+                Ok(epoch())
+            }
+        });
+        let mut emitted = Vec::new();
+        let result = backward_from_last(2 * BATCH, last_first, |k, _: &Epoch<N>, _, _| {
+            emitted.push(k)
+        });
+        assert_eq!(result, Err(SmoothError::Records("disk gone".into())));
+        let n = 2 * BATCH;
+        assert_eq!(emitted, vec![n - 1, n - 2, n - 3, n - 4]);
+    }
 }
