@@ -12,10 +12,14 @@
 //! is explicit and needs no `unsafe`.
 
 use std::fs::File;
-use std::io::{self, Write};
+use std::io;
+use std::marker::PhantomData;
 use std::ops::Range;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
 
 /// Bytes of records kept in memory before they are written out.
 pub const BLOCK_BYTES: usize = 8 << 20;
@@ -74,16 +78,108 @@ impl<'a> Decoder<'a> {
     }
 }
 
-/// Records `0..on_file` on the file, the rest in memory.
+/// Records `0..on_file` on the file, then whole blocks kept in memory, then the tail.
+///
+/// Whole blocks are written by a thread of their own while the caller goes on pushing (the
+/// copy into the system's cache is as costly as the work that makes a filter's records); a
+/// read first waits for the writes in flight.
 #[derive(Debug)]
 pub struct Spilled<T> {
-    tail: Vec<T>,
-    file: Option<TempFile>,
-    on_file: usize,
+    /// Records not yet a whole block, encoded.
+    tail: Vec<u8>,
+    /// Where the whole blocks are, and the writes in flight.
+    store: Mutex<Store>,
     /// Records per block.
     block: usize,
     spill: bool,
+    record_type: PhantomData<fn() -> T>,
+}
+
+/// The whole blocks of a [`Spilled`].
+#[derive(Debug, Default)]
+struct Store {
+    file: Option<Arc<TempFile>>,
+    /// Records on the file, or handed to the writer for it.
+    on_file: usize,
+    /// Encoded whole blocks after those on the file (a write failed, or spilling is off).
+    kept: Vec<Vec<u8>>,
+    writer: Option<Writer>,
     failure: Option<String>,
+}
+
+/// The thread that writes blocks to the file, in order, from `from_offset`.
+#[derive(Debug)]
+struct Writer {
+    to_write: SyncSender<Vec<u8>>,
+    /// Buffers written, for reuse.
+    written: Receiver<Vec<u8>>,
+    done: JoinHandle<WriterEnd>,
+}
+
+/// What a writer did: the blocks it wrote, and the first error with the blocks it then kept.
+#[derive(Debug, Default)]
+struct WriterEnd {
+    blocks_written: usize,
+    error: Option<io::Error>,
+    unwritten: Vec<Vec<u8>>,
+}
+
+impl Writer {
+    fn start(file: Arc<TempFile>, from_offset: u64) -> Writer {
+        let (to_write, blocks) = sync_channel::<Vec<u8>>(1);
+        let (give_back, written) = sync_channel(2);
+        let done = std::thread::spawn(move || {
+            let (mut end, mut offset) = (WriterEnd::default(), from_offset);
+            for block in blocks {
+                if end.error.is_some() {
+                    end.unwritten.push(block);
+                    continue;
+                }
+                match write_all_at(&file.file, &block, offset) {
+                    Ok(()) => {
+                        offset += block.len() as u64;
+                        end.blocks_written += 1;
+                        let _ = give_back.try_send(block);
+                    }
+                    Err(e) => {
+                        end.error = Some(e);
+                        end.unwritten.push(block);
+                    }
+                }
+            }
+            end
+        });
+        Writer {
+            to_write,
+            written,
+            done,
+        }
+    }
+}
+
+impl Store {
+    /// Waits for the writes in flight; blocks a write failed on stay in memory.
+    fn settle(&mut self, record_bytes: usize) {
+        let Some(writer) = self.writer.take() else {
+            return;
+        };
+        let Writer { to_write, done, .. } = writer;
+        drop(to_write);
+        let end = done.join().unwrap_or_else(|_| WriterEnd {
+            error: Some(io::Error::other("the writing thread stopped")),
+            ..WriterEnd::default()
+        });
+        if let Some(e) = end.error {
+            // Blocks handed over but not written: count them back into memory.
+            let unwritten_records: usize =
+                end.unwritten.iter().map(Vec::len).sum::<usize>() / record_bytes.max(1);
+            self.on_file -= unwritten_records;
+            let mut kept = end.unwritten;
+            kept.append(&mut self.kept);
+            self.kept = kept;
+            self.failure = Some(format!("temporary file in {}: {e}", temp_dir().display()));
+        }
+    }
 }
 
 impl<T: Fixed> Default for Spilled<T> {
@@ -110,16 +206,24 @@ impl<T: Fixed> Spilled<T> {
     pub fn with_block(records: usize) -> Self {
         Spilled {
             tail: Vec::new(),
-            file: None,
-            on_file: 0,
+            store: Mutex::default(),
             block: records.max(1),
             spill: true,
-            failure: None,
+            record_type: PhantomData,
         }
     }
 
+    fn store(&self) -> MutexGuard<'_, Store> {
+        let mut store = self.store.lock().unwrap_or_else(|e| e.into_inner());
+        store.settle(T::BYTES);
+        store
+    }
+
     pub fn len(&self) -> usize {
-        self.on_file + self.tail.len()
+        // Counted without waiting for the writer: a block it fails on moves from the file's
+        // count to memory's.
+        let store = self.store.lock().unwrap_or_else(|e| e.into_inner());
+        store.on_file + store.kept.len() * self.block + self.tail.len() / T::BYTES
     }
 
     pub fn is_empty(&self) -> bool {
@@ -128,93 +232,117 @@ impl<T: Fixed> Spilled<T> {
 
     /// Records on the temporary file.
     pub fn on_file(&self) -> usize {
-        self.on_file
+        self.store().on_file
     }
 
-    /// Why the records could not be written out (they are then all in memory).
-    pub fn spill_failure(&self) -> Option<&str> {
-        self.failure.as_deref()
+    /// Why the records could not be written out (they are then kept in memory).
+    pub fn spill_failure(&self) -> Option<String> {
+        self.store().failure.clone()
     }
 
     pub fn push(&mut self, record: T) {
-        self.tail.push(record);
-        if self.spill && self.tail.len() >= self.block {
-            if let Err(e) = self.write_tail() {
-                self.spill = false;
-                self.failure = Some(format!("temporary file in {}: {e}", temp_dir().display()));
-            }
+        if self.tail.capacity() == 0 {
+            self.tail.reserve_exact(self.block * T::BYTES);
+        }
+        let mut out = Encoder(std::mem::take(&mut self.tail));
+        record.encode(&mut out);
+        self.tail = out.0;
+        if self.tail.len() >= self.block * T::BYTES {
+            self.hand_over_tail();
         }
     }
 
-    fn write_tail(&mut self) -> io::Result<()> {
-        let file = match &mut self.file {
-            Some(f) => f,
-            None => self.file.insert(TempFile::create()?),
-        };
-        let mut out = Encoder(Vec::with_capacity(self.tail.len() * T::BYTES));
-        for r in &self.tail {
-            r.encode(&mut out);
+    /// Hands the tail, a whole block, to the file's writer (or keeps it in memory).
+    fn hand_over_tail(&mut self) {
+        let (spill, block, bytes) = (self.spill, self.block, self.block * T::BYTES);
+        let store = self.store.get_mut().unwrap_or_else(|e| e.into_inner());
+        if !spill || store.failure.is_some() {
+            let full = std::mem::replace(&mut self.tail, Vec::with_capacity(bytes));
+            store.kept.push(full);
+            return;
         }
-        debug_assert_eq!(out.0.len(), self.tail.len() * T::BYTES);
-        file.file.write_all(&out.0)?;
-        self.on_file += self.tail.len();
-        self.tail.clear();
+        if store.writer.is_none() {
+            let file = match &store.file {
+                Some(f) => Arc::clone(f),
+                None => match TempFile::create() {
+                    Ok(f) => Arc::clone(store.file.insert(Arc::new(f))),
+                    Err(e) => {
+                        store.failure =
+                            Some(format!("temporary file in {}: {e}", temp_dir().display()));
+                        return self.hand_over_tail();
+                    }
+                },
+            };
+            store.writer = Some(Writer::start(file, (store.on_file * T::BYTES) as u64));
+        }
+        let writer = store.writer.as_ref().expect("started above");
+        let mut next = writer.written.try_recv().unwrap_or_default();
+        next.clear();
+        next.reserve_exact(bytes);
+        let full = std::mem::replace(&mut self.tail, next);
+        // A writer that has stopped keeps nothing: the settle that follows says why.
+        if writer.to_write.send(full).is_ok() {
+            store.on_file += block;
+        }
+    }
+
+    /// Appends the encoded records `range` (checked by the caller) to `out`.
+    fn read_bytes(&self, store: &Store, range: Range<usize>, out: &mut Vec<u8>) -> io::Result<()> {
+        let from_file = range.start.min(store.on_file)..range.end.min(store.on_file);
+        if !from_file.is_empty() {
+            let file = store.file.as_ref().expect("records on file have a file");
+            let at = out.len();
+            out.resize(at + from_file.len() * T::BYTES, 0);
+            read_exact_at(
+                &file.file,
+                &mut out[at..],
+                (from_file.start * T::BYTES) as u64,
+            )?;
+        }
+        let mut k = range.start.max(store.on_file);
+        while k < range.end {
+            let in_memory = k - store.on_file;
+            let (block, within) = (in_memory / self.block, in_memory % self.block);
+            let bytes = store.kept.get(block).unwrap_or(&self.tail);
+            let take = (self.block - within).min(range.end - k);
+            out.extend_from_slice(&bytes[within * T::BYTES..(within + take) * T::BYTES]);
+            k += take;
+        }
+        Ok(())
+    }
+
+    fn check(&self, range: &Range<usize>, len: usize) -> io::Result<()> {
+        if range.start > range.end || range.end > len {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!("records {range:?} of {len}"),
+            ));
+        }
         Ok(())
     }
 
     /// Records `range`, in order.
-    pub fn read(&self, range: Range<usize>) -> io::Result<Vec<T>>
-    where
-        T: Clone,
-    {
-        if range.start > range.end || range.end > self.len() {
-            return Err(io::Error::new(
-                io::ErrorKind::InvalidInput,
-                format!("records {range:?} of {}", self.len()),
-            ));
-        }
-        let mut out = Vec::with_capacity(range.len());
-        let from_file = range.start.min(self.on_file)..range.end.min(self.on_file);
-        if !from_file.is_empty() {
-            let file = self.file.as_ref().expect("records on file have a file");
-            let mut bytes = vec![0u8; from_file.len() * T::BYTES];
-            read_exact_at(&file.file, &mut bytes, (from_file.start * T::BYTES) as u64)?;
-            out.extend(
-                bytes
-                    .chunks_exact(T::BYTES)
-                    .map(|c| T::decode(&mut Decoder(c))),
-            );
-        }
-        let in_memory = range.start.max(self.on_file)..range.end.max(self.on_file);
-        out.extend_from_slice(
-            &self.tail[in_memory.start - self.on_file..in_memory.end - self.on_file],
-        );
-        Ok(out)
+    pub fn read(&self, range: Range<usize>) -> io::Result<Vec<T>> {
+        self.check(&range, self.len())?;
+        let mut bytes = Vec::new();
+        self.read_bytes(&self.store(), range, &mut bytes)?;
+        Ok(bytes
+            .chunks_exact(T::BYTES)
+            .map(|c| T::decode(&mut Decoder(c)))
+            .collect())
     }
 
     /// Record `k`.
-    pub fn get(&self, k: usize) -> io::Result<T>
-    where
-        T: Clone,
-    {
-        if let Some(r) = k.checked_sub(self.on_file).and_then(|i| self.tail.get(i)) {
-            return Ok(r.clone());
-        }
+    pub fn get(&self, k: usize) -> io::Result<T> {
         Ok(self.read(k..k + 1)?.remove(0))
     }
 
-    pub fn last(&self) -> io::Result<Option<T>>
-    where
-        T: Clone,
-    {
+    pub fn last(&self) -> io::Result<Option<T>> {
         self.len().checked_sub(1).map(|k| self.get(k)).transpose()
     }
 
     /// The blocks of records from the first to the last: `(start, records)`.
-    pub fn blocks(&self) -> impl Iterator<Item = io::Result<(usize, Vec<T>)>> + '_
-    where
-        T: Clone,
-    {
+    pub fn blocks(&self) -> impl Iterator<Item = io::Result<(usize, Vec<T>)>> + '_ {
         let n = self.len();
         (0..n.div_ceil(self.block)).map(move |b| {
             let start = b * self.block;
@@ -224,10 +352,7 @@ impl<T: Fixed> Spilled<T> {
     }
 
     /// The blocks of records from the last to the first, each in order: `(start, records)`.
-    pub fn blocks_rev(&self) -> impl Iterator<Item = io::Result<(usize, Vec<T>)>> + '_
-    where
-        T: Clone,
-    {
+    pub fn blocks_rev(&self) -> impl Iterator<Item = io::Result<(usize, Vec<T>)>> + '_ {
         let n = self.len();
         (0..n.div_ceil(self.block)).rev().map(move |b| {
             let start = b * self.block;
@@ -237,27 +362,84 @@ impl<T: Fixed> Spilled<T> {
     }
 
     /// Every record in order, read a block at a time; a failed read ends it with its error.
-    pub fn iter(&self) -> impl Iterator<Item = io::Result<T>> + '_
-    where
-        T: Clone,
-    {
-        self.blocks().flat_map(|b| flatten(b, false))
+    pub fn iter(&self) -> Records<'_, T> {
+        Records::new(self, false)
     }
 
     /// Every record from the last to the first, read a block at a time.
-    pub fn iter_rev(&self) -> impl Iterator<Item = io::Result<T>> + '_
-    where
-        T: Clone,
-    {
-        self.blocks_rev().flat_map(|b| flatten(b, true))
+    pub fn iter_rev(&self) -> Records<'_, T> {
+        Records::new(self, true)
     }
 
     /// Every record in memory (for short sequences and tests).
-    pub fn to_vec(&self) -> io::Result<Vec<T>>
-    where
-        T: Clone,
-    {
+    pub fn to_vec(&self) -> io::Result<Vec<T>> {
         self.read(0..self.len())
+    }
+}
+
+/// The records of a [`Spilled`] one at a time, forwards or backwards, read a block at a time
+/// into one buffer and decoded as they are taken.
+#[derive(Debug)]
+pub struct Records<'a, T> {
+    source: &'a Spilled<T>,
+    /// Blocks not yet read.
+    blocks: Range<usize>,
+    rev: bool,
+    /// The block read last, encoded, and the records in it not yet taken.
+    bytes: Vec<u8>,
+    left: Range<usize>,
+    len: usize,
+    failed: bool,
+}
+
+impl<'a, T: Fixed> Records<'a, T> {
+    fn new(source: &'a Spilled<T>, rev: bool) -> Self {
+        let len = source.len();
+        Records {
+            source,
+            blocks: 0..len.div_ceil(source.block),
+            rev,
+            bytes: Vec::new(),
+            left: 0..0,
+            len,
+            failed: false,
+        }
+    }
+}
+
+impl<T: Fixed> Iterator for Records<'_, T> {
+    type Item = io::Result<T>;
+
+    fn next(&mut self) -> Option<io::Result<T>> {
+        if self.failed {
+            return None;
+        }
+        if self.left.is_empty() {
+            let b = if self.rev {
+                self.blocks.next_back()?
+            } else {
+                self.blocks.next()?
+            };
+            let start = b * self.source.block;
+            let range = start..(start + self.source.block).min(self.len);
+            self.bytes.clear();
+            let store = self.source.store();
+            if let Err(e) = self
+                .source
+                .read_bytes(&store, range.clone(), &mut self.bytes)
+            {
+                self.failed = true;
+                return Some(Err(e));
+            }
+            self.left = 0..range.len();
+        }
+        let i = if self.rev {
+            self.left.next_back()?
+        } else {
+            self.left.next()?
+        };
+        let bytes = &self.bytes[i * T::BYTES..(i + 1) * T::BYTES];
+        Some(Ok(T::decode(&mut Decoder(bytes))))
     }
 }
 
@@ -269,27 +451,6 @@ impl<T: Fixed> FromIterator<T> for Spilled<T> {
         }
         s
     }
-}
-
-/// A block's records as items, reversed when `rev`.
-type Items<T> = std::iter::Chain<
-    std::iter::Map<std::vec::IntoIter<T>, fn(T) -> io::Result<T>>,
-    std::option::IntoIter<io::Result<T>>,
->;
-
-/// A block's records as items (reversed when `rev`), or its error as the one item.
-fn flatten<T>(block: io::Result<(usize, Vec<T>)>, rev: bool) -> Items<T> {
-    let (mut records, error) = match block {
-        Ok((_, records)) => (records, None),
-        Err(e) => (Vec::new(), Some(Err(e))),
-    };
-    if rev {
-        records.reverse();
-    }
-    records
-        .into_iter()
-        .map(Ok as fn(T) -> io::Result<T>)
-        .chain(error)
 }
 
 /// Where temporary files go.
@@ -329,6 +490,26 @@ impl Drop for TempFile {
             let _ = std::fs::remove_file(p);
         }
     }
+}
+
+#[cfg(unix)]
+fn write_all_at(file: &File, buf: &[u8], offset: u64) -> io::Result<()> {
+    std::os::unix::fs::FileExt::write_all_at(file, buf, offset)
+}
+
+#[cfg(windows)]
+fn write_all_at(file: &File, mut buf: &[u8], mut offset: u64) -> io::Result<()> {
+    use std::os::windows::fs::FileExt;
+    while !buf.is_empty() {
+        match file.seek_write(buf, offset)? {
+            0 => return Err(io::ErrorKind::WriteZero.into()),
+            n => {
+                buf = &buf[n..];
+                offset += n as u64;
+            }
+        }
+    }
+    Ok(())
 }
 
 #[cfg(unix)]
@@ -412,5 +593,30 @@ mod tests {
         assert_eq!(kept.to_vec().unwrap(), pairs(100));
         assert!(Spilled::<Pair>::new().last().unwrap().is_none());
         assert_eq!(Spilled::<Pair>::new().blocks_rev().count(), 0);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn blocks_a_write_fails_on_stay_in_memory_in_order() {
+        let mut s = Spilled::with_block(7);
+        // A file open for reading only: every write to it fails.
+        let read_only = File::open("/dev/null").unwrap();
+        s.store.get_mut().unwrap().file = Some(Arc::new(TempFile {
+            file: read_only,
+            path: None,
+        }));
+        for p in pairs(50) {
+            s.push(p);
+        }
+        assert_eq!(s.to_vec().unwrap(), pairs(50));
+        assert!(s.spill_failure().is_some());
+        assert_eq!(s.on_file(), 0);
+        let backwards: Vec<Pair> = s.iter_rev().map(Result::unwrap).collect();
+        assert_eq!(backwards, pairs(50).into_iter().rev().collect::<Vec<_>>());
+        // Pushed after the failure: kept in memory too, after the others.
+        for p in pairs(60).into_iter().skip(50) {
+            s.push(p);
+        }
+        assert_eq!(s.to_vec().unwrap(), pairs(60));
     }
 }

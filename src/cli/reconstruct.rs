@@ -518,13 +518,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     };
     drop(parked_truth);
     let from_log = from_log.with_truth(&truth);
-    let spill_failures: Vec<String> = pass
-        .run
-        .records
-        .spill_failure()
-        .map(str::to_owned)
-        .into_iter()
-        .collect();
+    let records_failure = pass.run.records.spill_failure();
     let bar = console::fraction_bar("smoother");
     let r = recon::finish_reporting(
         pass,
@@ -536,9 +530,8 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     say!("smoother {:.1} s", r.timing.smoother.as_secs_f64());
 
     // A full disk is no reason to fail: the run held in memory what it meant to spill.
-    for why in spill_failures
-        .iter()
-        .map(String::as_str)
+    for why in records_failure
+        .into_iter()
         .chain(r.forward.spill_failure())
         .chain(r.smoothed.spill_failure())
         .take(1)

@@ -148,10 +148,10 @@ where
     })
 }
 
-/// One epoch with what the recursion needs from the forward records alone.
+/// One epoch with what the recursion needs from the forward records alone (boxed where it
+/// is handed on: the matrices are kilobytes).
 struct Prepared<B, const N: usize> {
     epoch: B,
-    posterior_cov: SMatrix<f64, N, N>,
     /// The gain `C_k` and the predicted covariance `P_{k+1|k}` that link this epoch to the
     /// next one; `None` at the last epoch.
     link: Option<(SMatrix<f64, N, N>, SMatrix<f64, N, N>)>,
@@ -164,7 +164,7 @@ struct Prepare<I, B, E, const N: usize> {
     /// The type the epochs are borrowed as.
     epoch_type: std::marker::PhantomData<fn() -> E>,
     /// The epoch read last, not yet handed out.
-    pending: Option<Result<Prepared<B, N>, SmoothError>>,
+    pending: Option<Result<Box<Prepared<B, N>>, SmoothError>>,
     /// Index of the pending epoch.
     k: usize,
 }
@@ -176,13 +176,9 @@ impl<I, B, E, const N: usize> Prepare<I, B, E, N> {
         E: ForwardEpoch<N>,
         B: Borrow<E>,
     {
-        let pending = epochs.next().map(|last| {
-            last.map(|epoch| Prepared {
-                posterior_cov: epoch.borrow().posterior_cov(),
-                epoch,
-                link: None,
-            })
-        });
+        let pending = epochs
+            .next()
+            .map(|last| last.map(|epoch| Box::new(Prepared { epoch, link: None })));
         Prepare {
             epochs,
             epoch_type: std::marker::PhantomData,
@@ -198,7 +194,7 @@ where
     E: ForwardEpoch<N>,
     B: Borrow<E>,
 {
-    type Item = Result<Prepared<B, N>, SmoothError>;
+    type Item = Result<Box<Prepared<B, N>>, SmoothError>;
 
     fn next(&mut self) -> Option<Self::Item> {
         let pending = match self.pending.take()? {
@@ -212,11 +208,10 @@ where
         self.pending = Some(epoch.and_then(|epoch| {
             let p = epoch.borrow().posterior_cov();
             let link = link(&p, pending.epoch.borrow(), self.k)?;
-            Ok(Prepared {
+            Ok(Box::new(Prepared {
                 epoch,
-                posterior_cov: p,
                 link: Some(link),
-            })
+            }))
         }));
         self.k = this_k;
         Some(Ok(pending))
@@ -241,22 +236,23 @@ fn link<const N: usize, E: ForwardEpoch<N>>(
 /// `P_k|N = P_k + C_k (P_{k+1|N} - P_{k+1|k}) C_k^T`, from the last epoch down.
 fn recursion<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
     n: usize,
-    prepared: impl IntoIterator<Item = Result<Prepared<B, N>, SmoothError>>,
+    prepared: impl IntoIterator<Item = Result<Box<Prepared<B, N>>, SmoothError>>,
     mut emit: impl FnMut(usize, &E, &SVector<f64, N>, &SMatrix<f64, N, N>),
 ) -> Result<(), SmoothError> {
-    let mut next: Option<(B, SVector<f64, N>, SMatrix<f64, N, N>)> = None;
+    let mut next: Option<(Box<Prepared<B, N>>, SVector<f64, N>, SMatrix<f64, N, N>)> = None;
     for (item, k) in prepared.into_iter().zip((0..n).rev()) {
         let item = item?;
+        let p = item.epoch.borrow().posterior_cov();
         let (dx, p_smooth) = match (&item.link, &next) {
             (Some((gain, prior_cov)), Some((after, dx_next, p_next))) => {
-                let dx = gain * (dx_next + after.borrow().correction());
-                let p_smooth = item.posterior_cov + gain * (p_next - prior_cov) * gain.transpose();
+                let dx = gain * (dx_next + after.epoch.borrow().correction());
+                let p_smooth = p + gain * (p_next - prior_cov) * gain.transpose();
                 (dx, (p_smooth + p_smooth.transpose()) * 0.5)
             }
-            _ => (SVector::zeros(), item.posterior_cov),
+            _ => (SVector::zeros(), p),
         };
         emit(k, item.epoch.borrow(), &dx, &p_smooth);
-        next = Some((item.epoch, dx, p_smooth));
+        next = Some((item, dx, p_smooth));
     }
     Ok(())
 }

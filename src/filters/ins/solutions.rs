@@ -42,7 +42,7 @@ impl Solutions {
     }
 
     /// Why they could not go to a temporary file (they are then all in memory).
-    pub fn spill_failure(&self) -> Option<&str> {
+    pub fn spill_failure(&self) -> Option<String> {
         self.last_first.spill_failure()
     }
 
