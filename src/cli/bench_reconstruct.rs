@@ -162,7 +162,7 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
         median(&mut tune_t),
     );
     println!(
-        "log: {scenario} (seed 0), {file_mb:.1} MB; {epochs} filter epochs; medians of {repeat} runs; filter and smoother on one thread, ingest decoding on its threads"
+        "log: {scenario} (seed 0), {file_mb:.1} MB; {epochs} filter epochs; medians of {repeat} runs; forward filter on one thread (its temporary file written from a second), smoother's gains on a second thread beside its recursion, ingest decoding on its threads"
     );
     println!(
         "{:<22} {:>9} {:>16}",

@@ -239,7 +239,9 @@ fn recursion<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
     prepared: impl IntoIterator<Item = Result<Box<Prepared<B, N>>, SmoothError>>,
     mut emit: impl FnMut(usize, &E, &SVector<f64, N>, &SMatrix<f64, N, N>),
 ) -> Result<(), SmoothError> {
-    let mut next: Option<(Box<Prepared<B, N>>, SVector<f64, N>, SMatrix<f64, N, N>)> = None;
+    // The epoch after the current one, with its smoothed error and covariance.
+    type Smoothed<B, const N: usize> = (Box<Prepared<B, N>>, SVector<f64, N>, SMatrix<f64, N, N>);
+    let mut next: Option<Smoothed<B, N>> = None;
     for (item, k) in prepared.into_iter().zip((0..n).rev()) {
         let item = item?;
         let p = item.epoch.borrow().posterior_cov();
@@ -323,7 +325,7 @@ mod tests {
     #[test]
     fn backward_pass_equals_the_batch_solution_of_a_linear_model() {
         // On the calling thread alone, and with the gains on a second thread.
-        assert!(4 < TWO_THREADS_FROM_STATES && 10 >= TWO_THREADS_FROM_STATES);
+        const { assert!(4 < TWO_THREADS_FROM_STATES && 10 >= TWO_THREADS_FROM_STATES) };
         equals_the_batch_solution::<4>(3, 25);
         equals_the_batch_solution::<10>(4, 2 * BATCH + 13);
     }
