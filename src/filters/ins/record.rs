@@ -1,13 +1,14 @@
 //! What the forward pass keeps per filter epoch for the smoother, stored compactly: a
-//! 5.5-hour mission at 10 Hz has about 200 000 epochs, and three full 15x15 matrices per
-//! epoch would need 1.1 GB (these records take 2.4 kB each).
+//! 5.5-hour mission at 10 Hz has about 200 000 epochs, and three full 25x25 matrices per
+//! epoch would need 3 GB (these records take 4.4 kB each, and go to a temporary file).
 //!
-//! - Covariances are symmetric: only the upper triangle is kept (120 of 225 numbers).
+//! - Covariances are symmetric: only the upper triangle is kept (325 of 625 numbers).
 //! - The predicted covariance is not kept: one covariance step separates two epochs, so it
-//!   is `Phi P Phi^T + Q` again, and `Q` is diagonal (15 numbers).
-//! - The transition matrix's bias rows are always `[0 I]` (the biases are random walks, so
-//!   the rows of `F` for them are zero and every power of `F` keeps them so): only the top
-//!   nine rows are kept (135 of 225).
+//!   is `Phi P Phi^T + Q` again, and `Q` is diagonal (25 numbers).
+//! - The transition matrix's rows below the navigation errors are always `[0 I]` (biases,
+//!   calibrations and current are constants or random walks, so the rows of `F` for them are
+//!   zero and every power of `F` keeps them so): only the top nine rows are kept, and of
+//!   them only the 16 columns that can be non-zero ([`PHI_COLUMNS`]): 144 of 625 numbers.
 
 use super::error_state::{
     self, idx, DvlCalibration, ErrorMatrix, ErrorState, TransitionRows, WaterState, DVL_STATES, N,
@@ -72,6 +73,22 @@ impl PackedCov {
     }
 }
 
+/// Columns of the transition's top rows that can be non-zero: the navigation errors, the
+/// IMU biases and the z gyro's scale. Nothing in the navigation errors' dynamics involves the
+/// DVL's calibration or the water (they enter the measurements only), so their columns of
+/// `F` are zero, and so are they in every `Phi` and product of them (`[A B; 0 I]` keeps the
+/// zero columns of `B`). The records keep the other 16 of 25 columns.
+const PHI_COLUMNS: [usize; 16] = {
+    let mut c = [0; 16];
+    let mut i = 0;
+    while i < idx::DVL {
+        c[i] = i;
+        i += 1;
+    }
+    c[idx::DVL] = idx::GYRO_SCALE_Z;
+    c
+};
+
 /// A transition matrix whose bias rows are `[0 I]`, stored as its top nine rows.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PackedTransition(TransitionRows);
@@ -85,6 +102,10 @@ impl PackedTransition {
             .amax()
                 == 0.0,
             "transition's bias rows are not [0 I]"
+        );
+        debug_assert!(
+            (idx::DVL..idx::GYRO_SCALE_Z).all(|c| phi.column(c).rows(0, NAV_ROWS).amax() == 0.0),
+            "transition's top rows involve the DVL or water states"
         );
         PackedTransition(phi.fixed_view::<NAV_ROWS, N>(0, 0).into_owned())
     }
@@ -316,12 +337,15 @@ impl NavPoint {
 }
 
 impl Fixed for EpochRecord {
-    const BYTES: usize = 8 * (2 + NAV_ROWS * N + N + N + NAV_POINT_NUMBERS + PACKED);
+    const BYTES: usize =
+        8 * (2 + NAV_ROWS * PHI_COLUMNS.len() + N + N + NAV_POINT_NUMBERS + PACKED);
 
     fn encode(&self, out: &mut Encoder) {
         out.i64(self.stamp_ns);
         out.i64(i64::from(self.output));
-        out.f64s(self.phi_from_previous.0.as_slice());
+        for c in PHI_COLUMNS {
+            out.f64s(self.phi_from_previous.0.column(c).as_slice());
+        }
         out.f64s(self.process_noise.as_slice());
         out.f64s(self.correction.as_slice());
         self.posterior.encode(out);
@@ -332,9 +356,13 @@ impl Fixed for EpochRecord {
         EpochRecord {
             stamp_ns: d.i64(),
             output: d.i64() != 0,
-            phi_from_previous: PackedTransition(TransitionRows::from_column_slice(
-                &d.f64s::<{ NAV_ROWS * N }>(),
-            )),
+            phi_from_previous: {
+                let mut top = TransitionRows::zeros();
+                for c in PHI_COLUMNS {
+                    top.set_column(c, &d.f64s::<NAV_ROWS>().into());
+                }
+                PackedTransition(top)
+            },
             process_noise: ErrorState::from(d.f64s::<N>()),
             correction: ErrorState::from(d.f64s::<N>()),
             posterior: NavPoint::decode(d),
@@ -381,6 +409,8 @@ mod tests {
         let mut phi = ErrorMatrix::identity();
         phi.fixed_view_mut::<NAV_ROWS, N>(0, 0)
             .copy_from(&a.fixed_view::<NAV_ROWS, N>(0, 0));
+        phi.view_mut((0, idx::DVL), (NAV_ROWS, idx::GYRO_SCALE_Z - idx::DVL))
+            .fill(0.0);
         assert_eq!(PackedTransition::pack(&phi).unpack(), phi);
     }
 
@@ -396,6 +426,8 @@ mod tests {
         let mut phi = ErrorMatrix::identity();
         phi.fixed_view_mut::<NAV_ROWS, N>(0, 0)
             .copy_from(&a.fixed_view::<NAV_ROWS, N>(0, 0));
+        phi.view_mut((0, idx::DVL), (NAV_ROWS, idx::GYRO_SCALE_Z - idx::DVL))
+            .fill(0.0);
         let est = Estimate {
             nav: NavState {
                 lat_rad: 0.61,
@@ -422,5 +454,31 @@ mod tests {
         let bytes = encoded(&sol);
         assert_eq!(bytes.len(), Solution::BYTES);
         assert_eq!(Solution::decode(&mut Decoder::new(&bytes)), sol);
+    }
+
+    /// The columns the records leave out are zero in the model's transitions, over one
+    /// interval and over several.
+    #[test]
+    fn transitions_never_involve_the_dvl_or_water_states() {
+        let nav = NavState {
+            lat_rad: 0.61,
+            lon_rad: 2.25,
+            height_m: -31.5,
+            vel_ned_m_s: Vector3::new(1.5, -0.2, 0.01),
+            ned_from_body: UnitQuaternion::from_euler_angles(0.1, -0.2, 2.9),
+        };
+        let f = error_state::continuous_matrix(
+            &nav,
+            &Vector3::new(0.1, -0.3, -9.8),
+            &Vector3::new(0.01, -0.02, 0.05),
+        );
+        let phi = error_state::transition(&f, 0.1);
+        let phi3 = phi * phi * phi;
+        for m in [phi, phi3] {
+            for c in 0..N {
+                let zero = m.column(c).rows(0, NAV_ROWS).amax() == 0.0;
+                assert_eq!(zero, !PHI_COLUMNS.contains(&c), "column {c}");
+            }
+        }
     }
 }
