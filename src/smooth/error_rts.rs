@@ -21,6 +21,17 @@ pub trait ForwardEpoch<const N: usize> {
     }
     /// Covariance predicted to this epoch from the previous epoch's posterior.
     fn prior_cov(&self, previous_posterior: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N>;
+    /// [`ForwardEpoch::prior_cov`] and [`ForwardEpoch::phi_times`] of the previous posterior
+    /// (a filter can share the work of the two).
+    fn prior_cov_and_phi_times(
+        &self,
+        previous_posterior: &SMatrix<f64, N, N>,
+    ) -> (SMatrix<f64, N, N>, SMatrix<f64, N, N>) {
+        (
+            self.prior_cov(previous_posterior),
+            self.phi_times(previous_posterior),
+        )
+    }
     /// Correction this epoch's updates applied, prior to posterior.
     fn correction(&self) -> SVector<f64, N>;
 }
@@ -225,11 +236,11 @@ fn link<const N: usize, E: ForwardEpoch<N>>(
     after: &E,
     k_after: usize,
 ) -> Result<(SMatrix<f64, N, N>, SMatrix<f64, N, N>), SmoothError> {
-    let prior_cov = after.prior_cov(p);
+    let (prior_cov, phi_p) = after.prior_cov_and_phi_times(p);
     let chol = held_states_unit(&prior_cov)
         .cholesky()
         .ok_or(SmoothError::SingularPrior { epoch: k_after })?;
-    Ok((rts_gain(chol.l_dirty(), &after.phi_times(p)), prior_cov))
+    Ok((rts_gain(chol.l_dirty(), &phi_p), prior_cov))
 }
 
 /// The sequential part: `dx_k|N = C_k (dx_{k+1|N} + D_{k+1})` and

@@ -50,6 +50,16 @@ impl ForwardEpoch<{ error_state::N }> for EpochRecord {
     fn prior_cov(&self, previous_posterior: &ErrorMatrix) -> ErrorMatrix {
         EpochRecord::prior_cov(self, previous_posterior)
     }
+    fn prior_cov_and_phi_times(
+        &self,
+        previous_posterior: &ErrorMatrix,
+    ) -> (ErrorMatrix, ErrorMatrix) {
+        error_state::predicted_cov_and_phi_p(
+            self.phi_from_previous.top_rows(),
+            previous_posterior,
+            &self.process_noise,
+        )
+    }
     fn correction(&self) -> ErrorState {
         self.correction
     }

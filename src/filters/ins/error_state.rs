@@ -236,8 +236,13 @@ pub fn transition(f: &ErrorMatrix, dt_s: f64) -> ErrorMatrix {
 
 /// `Phi P` for a transition whose rows below [`NAV_ROWS`] are `[0 I]`, given its top rows.
 pub fn transition_times(phi_top: &TransitionRows, p: &ErrorMatrix) -> ErrorMatrix {
+    with_top_rows(p, &(phi_top * p))
+}
+
+/// `p` with its top rows replaced by `x`.
+fn with_top_rows(p: &ErrorMatrix, x: &TransitionRows) -> ErrorMatrix {
     let mut out = *p;
-    out.fixed_rows_mut::<NAV_ROWS>(0).copy_from(&(phi_top * p));
+    out.fixed_rows_mut::<NAV_ROWS>(0).copy_from(x);
     out
 }
 
@@ -246,7 +251,29 @@ pub fn transition_times(phi_top: &TransitionRows, p: &ErrorMatrix) -> ErrorMatri
 /// rows of `Phi P`), the top-left block is `X [T M]^T`, the top-right `X`'s right block, and
 /// the bottom-right `P`'s.
 pub fn predicted_cov(phi_top: &TransitionRows, p: &ErrorMatrix, q: &ErrorState) -> ErrorMatrix {
+    predicted_from_top_rows(&(phi_top * p), phi_top, p, q)
+}
+
+/// [`predicted_cov`] and [`transition_times`] together, sharing `X = [T M] P`.
+pub fn predicted_cov_and_phi_p(
+    phi_top: &TransitionRows,
+    p: &ErrorMatrix,
+    q: &ErrorState,
+) -> (ErrorMatrix, ErrorMatrix) {
     let x = phi_top * p;
+    (
+        predicted_from_top_rows(&x, phi_top, p, q),
+        with_top_rows(p, &x),
+    )
+}
+
+/// [`predicted_cov`] given `x = phi_top p`.
+fn predicted_from_top_rows(
+    x: &TransitionRows,
+    phi_top: &TransitionRows,
+    p: &ErrorMatrix,
+    q: &ErrorState,
+) -> ErrorMatrix {
     let top_left = x * phi_top.transpose();
     let mut out = *p;
     out.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
@@ -334,6 +361,10 @@ mod tests {
         let q = ErrorState::from_fn(|i, _| 0.1 * i as f64);
         let full = full_phi * p * full_phi.transpose() + ErrorMatrix::from_diagonal(&q);
         let got = predicted_cov(&top, &p, &q);
+        assert_eq!(
+            predicted_cov_and_phi_p(&top, &p, &q),
+            (got, transition_times(&top, &p))
+        );
         assert!(
             (got - full).amax() < 1e-12 * full.amax(),
             "{}",

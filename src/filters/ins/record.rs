@@ -120,6 +120,11 @@ impl PackedTransition {
         m
     }
 
+    /// The top rows.
+    pub fn top_rows(&self) -> &TransitionRows {
+        &self.0
+    }
+
     /// `Phi P`.
     pub fn times(&self, p: &ErrorMatrix) -> ErrorMatrix {
         error_state::transition_times(&self.0, p)
