@@ -161,6 +161,29 @@ impl Writer {
 }
 
 impl Store {
+    /// The writer of the file, started (and the file made) if need be; `None` once writing
+    /// has failed.
+    fn writer(&mut self, record_bytes: usize) -> Option<&Writer> {
+        if self.failure.is_some() {
+            return None;
+        }
+        if self.writer.is_none() {
+            let file = match &self.file {
+                Some(f) => Arc::clone(f),
+                None => match TempFile::create() {
+                    Ok(f) => Arc::clone(self.file.insert(Arc::new(f))),
+                    Err(e) => {
+                        self.failure = Some(failure_text(&e));
+                        return None;
+                    }
+                },
+            };
+            let from_offset = (self.on_file * record_bytes) as u64;
+            self.writer = Some(Writer::start(file, from_offset));
+        }
+        self.writer.as_ref()
+    }
+
     /// Waits for the writes in flight; blocks a write failed on stay in memory.
     fn settle(&mut self, record_bytes: usize) {
         let Some(writer) = self.writer.take() else {
@@ -180,9 +203,14 @@ impl Store {
             let mut kept = end.unwritten;
             kept.append(&mut self.kept);
             self.kept = kept;
-            self.failure = Some(format!("temporary file in {}: {e}", temp_dir().display()));
+            self.failure = Some(failure_text(&e));
         }
     }
+}
+
+/// What a failed temporary file is reported as.
+fn failure_text(e: &io::Error) -> String {
+    format!("temporary file in {}: {e}", temp_dir().display())
 }
 
 impl<T: Fixed> Default for Spilled<T> {
@@ -257,28 +285,13 @@ impl<T: Fixed> Spilled<T> {
 
     /// Hands the tail, a whole block, to the file's writer (or keeps it in memory).
     fn hand_over_tail(&mut self) {
-        let (spill, block, bytes) = (self.spill, self.block, self.block * T::BYTES);
+        let (block, bytes) = (self.block, self.block * T::BYTES);
         let store = self.store.get_mut().unwrap_or_else(|e| e.into_inner());
-        if !spill || store.failure.is_some() {
+        let Some(writer) = self.spill.then(|| store.writer(T::BYTES)).flatten() else {
             let full = std::mem::replace(&mut self.tail, Vec::with_capacity(bytes));
             store.kept.push(full);
             return;
-        }
-        if store.writer.is_none() {
-            let file = match &store.file {
-                Some(f) => Arc::clone(f),
-                None => match TempFile::create() {
-                    Ok(f) => Arc::clone(store.file.insert(Arc::new(f))),
-                    Err(e) => {
-                        store.failure =
-                            Some(format!("temporary file in {}: {e}", temp_dir().display()));
-                        return self.hand_over_tail();
-                    }
-                },
-            };
-            store.writer = Some(Writer::start(file, (store.on_file * T::BYTES) as u64));
-        }
-        let writer = store.writer.as_ref().expect("started above");
+        };
         let mut next = writer.written.try_recv().unwrap_or_default();
         next.clear();
         next.reserve_exact(bytes);

@@ -255,6 +255,8 @@ fn recursion<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
     let mut next: Option<Smoothed<B, N>> = None;
     for (item, k) in prepared.into_iter().zip((0..n).rev()) {
         let item = item?;
+        // Unpacked again here rather than handed over with the gain: on this side of the
+        // threads it costs less than moving another matrix.
         let p = item.epoch.borrow().posterior_cov();
         let (dx, p_smooth) = match (&item.link, &next) {
             (Some((gain, prior_cov)), Some((after, dx_next, p_next))) => {
@@ -306,7 +308,7 @@ mod tests {
         }
     }
 
-    /// One epoch of a linear Kalman filter with a scalar-free 2-D measurement, kept as the
+    /// One epoch of a linear Kalman filter with a 2-D measurement, kept as the
     /// backward pass wants it (its mean is the nominal, the correction its update).
     struct Epoch<const N: usize> {
         phi: M<N>,
