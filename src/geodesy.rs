@@ -22,88 +22,163 @@ pub const M_RATIO: f64 = 0.003_449_786_506_84;
 /// Standard gravity, m/s^2 (for unit conversions only, not for navigation).
 pub const G0_M_S2: f64 = 9.806_65;
 
+/// What the navigation equations need at one latitude and height, with the trigonometry
+/// and square root done once: the mechanization evaluates Earth rate, transport rate, gravity
+/// and position rates four times per IMU sample, and each alone took its own sines.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Local {
+    pub sin_lat: f64,
+    pub cos_lat: f64,
+    pub height_m: f64,
+    /// `sqrt(1 - e^2 sin^2 lat)`.
+    root: f64,
+    /// Meridian radius of curvature R_N, m.
+    pub meridian_radius_m: f64,
+    /// Prime-vertical radius of curvature R_E, m.
+    pub prime_vertical_radius_m: f64,
+}
+
+impl Local {
+    pub fn at(lat_rad: f64, height_m: f64) -> Local {
+        let (sin_lat, cos_lat) = lat_rad.sin_cos();
+        let w = 1.0 - E2 * sin_lat * sin_lat;
+        let root = w.sqrt();
+        Local {
+            sin_lat,
+            cos_lat,
+            height_m,
+            root,
+            meridian_radius_m: A_M * (1.0 - E2) / (w * root),
+            prime_vertical_radius_m: A_M / root,
+        }
+    }
+
+    /// R_N + h and R_E + h, m.
+    pub fn radii_plus_height_m(&self) -> (f64, f64) {
+        (
+            self.meridian_radius_m + self.height_m,
+            self.prime_vertical_radius_m + self.height_m,
+        )
+    }
+
+    /// d R_N / d latitude, m/rad.
+    pub fn meridian_radius_derivative(&self) -> f64 {
+        let (s, c) = (self.sin_lat, self.cos_lat);
+        3.0 * A_M * (1.0 - E2) * E2 * s * c / self.root.powi(5)
+    }
+
+    /// d R_E / d latitude, m/rad.
+    pub fn prime_vertical_radius_derivative(&self) -> f64 {
+        let (s, c) = (self.sin_lat, self.cos_lat);
+        A_M * E2 * s * c / self.root.powi(3)
+    }
+
+    /// Normal gravity magnitude (Somigliana's formula with the second-order free-air
+    /// correction of NIMA TR8350.2 eq. 4-3), m/s^2.
+    pub fn normal_gravity_m_s2(&self) -> f64 {
+        let (s2, h) = (self.sin_lat * self.sin_lat, self.height_m);
+        let gamma0 = GAMMA_EQUATOR_M_S2 * (1.0 + SOMIGLIANA_K * s2) / self.root;
+        gamma0
+            * (1.0 - 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2) * h + 3.0 * h * h / (A_M * A_M))
+    }
+
+    /// Partial derivatives of the normal gravity: (per rad of latitude, per m of height).
+    pub fn normal_gravity_partials(&self) -> (f64, f64) {
+        let (s, c, root) = (self.sin_lat, self.cos_lat, self.root);
+        let s2 = s * s;
+        let gamma0 = GAMMA_EQUATOR_M_S2 * (1.0 + SOMIGLIANA_K * s2) / root;
+        let dgamma0 = GAMMA_EQUATOR_M_S2
+            * (2.0 * SOMIGLIANA_K * s * c / root
+                + (1.0 + SOMIGLIANA_K * s2) * E2 * s * c / root.powi(3));
+        let c1 = 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2);
+        let dc1 = -8.0 * F * s * c / A_M;
+        let h = self.height_m;
+        let factor = 1.0 - c1 * h + 3.0 * h * h / (A_M * A_M);
+        (
+            dgamma0 * factor - gamma0 * dc1 * h,
+            gamma0 * (-c1 + 6.0 * h / (A_M * A_M)),
+        )
+    }
+
+    /// Gravity (gravitation plus centrifugal) in NED: `[0, 0, gamma]`.
+    pub fn gravity_ned_m_s2(&self) -> Vector3<f64> {
+        Vector3::new(0.0, 0.0, self.normal_gravity_m_s2())
+    }
+
+    /// Earth rate in NED, omega_ie^n, rad/s.
+    pub fn earth_rate_ned(&self) -> Vector3<f64> {
+        Vector3::new(
+            OMEGA_IE_RAD_S * self.cos_lat,
+            0.0,
+            -OMEGA_IE_RAD_S * self.sin_lat,
+        )
+    }
+
+    /// Transport rate omega_en^n (rotation of NED over the ellipsoid), rad/s.
+    pub fn transport_rate_ned(&self, vel_ned: &Vector3<f64>) -> Vector3<f64> {
+        let (rn, re) = self.radii_plus_height_m();
+        Vector3::new(
+            vel_ned.y / re,
+            -vel_ned.x / rn,
+            -vel_ned.y * (self.sin_lat / self.cos_lat) / re,
+        )
+    }
+
+    /// Rates of latitude, longitude (rad/s) and height (m/s) for a NED velocity.
+    pub fn position_rates(&self, vel_ned: &Vector3<f64>) -> Vector3<f64> {
+        let (rn, re) = self.radii_plus_height_m();
+        Vector3::new(vel_ned.x / rn, vel_ned.y / (re * self.cos_lat), -vel_ned.z)
+    }
+}
+
 /// Meridian radius of curvature R_N (north-south), m.
 pub fn meridian_radius_m(lat_rad: f64) -> f64 {
-    let s2 = lat_rad.sin().powi(2);
-    A_M * (1.0 - E2) / (1.0 - E2 * s2).powf(1.5)
+    Local::at(lat_rad, 0.0).meridian_radius_m
 }
 
 /// Prime-vertical radius of curvature R_E (east-west), m.
 pub fn prime_vertical_radius_m(lat_rad: f64) -> f64 {
-    A_M / (1.0 - E2 * lat_rad.sin().powi(2)).sqrt()
+    Local::at(lat_rad, 0.0).prime_vertical_radius_m
 }
 
-/// Normal gravity magnitude at latitude and ellipsoidal height (Somigliana's formula with the
-/// second-order free-air correction of NIMA TR8350.2 eq. 4-3), m/s^2.
+/// Normal gravity magnitude at latitude and ellipsoidal height, m/s^2 ([`Local`]).
 pub fn normal_gravity_m_s2(lat_rad: f64, height_m: f64) -> f64 {
-    let s2 = lat_rad.sin().powi(2);
-    let gamma0 = GAMMA_EQUATOR_M_S2 * (1.0 + SOMIGLIANA_K * s2) / (1.0 - E2 * s2).sqrt();
-    gamma0
-        * (1.0 - 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2) * height_m
-            + 3.0 * height_m * height_m / (A_M * A_M))
+    Local::at(lat_rad, height_m).normal_gravity_m_s2()
 }
 
 /// d R_N / d latitude, m/rad.
 pub fn meridian_radius_derivative(lat_rad: f64) -> f64 {
-    let (s, c) = lat_rad.sin_cos();
-    3.0 * A_M * (1.0 - E2) * E2 * s * c / (1.0 - E2 * s * s).powf(2.5)
+    Local::at(lat_rad, 0.0).meridian_radius_derivative()
 }
 
 /// d R_E / d latitude, m/rad.
 pub fn prime_vertical_radius_derivative(lat_rad: f64) -> f64 {
-    let (s, c) = lat_rad.sin_cos();
-    A_M * E2 * s * c / (1.0 - E2 * s * s).powf(1.5)
+    Local::at(lat_rad, 0.0).prime_vertical_radius_derivative()
 }
 
 /// Partial derivatives of [`normal_gravity_m_s2`]: (d gamma / d lat per rad, d gamma / d h per m).
 pub fn normal_gravity_partials(lat_rad: f64, height_m: f64) -> (f64, f64) {
-    let (s, c) = lat_rad.sin_cos();
-    let s2 = s * s;
-    let root = (1.0 - E2 * s2).sqrt();
-    let gamma0 = GAMMA_EQUATOR_M_S2 * (1.0 + SOMIGLIANA_K * s2) / root;
-    let dgamma0 = GAMMA_EQUATOR_M_S2
-        * (2.0 * SOMIGLIANA_K * s * c / root
-            + (1.0 + SOMIGLIANA_K * s2) * E2 * s * c / root.powi(3));
-    let c1 = 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2);
-    let dc1 = -8.0 * F * s * c / A_M;
-    let h = height_m;
-    let factor = 1.0 - c1 * h + 3.0 * h * h / (A_M * A_M);
-    (
-        dgamma0 * factor - gamma0 * dc1 * h,
-        gamma0 * (-c1 + 6.0 * h / (A_M * A_M)),
-    )
+    Local::at(lat_rad, height_m).normal_gravity_partials()
 }
 
 /// Gravity (gravitation plus centrifugal) in NED: `[0, 0, gamma]`, along the ellipsoid normal.
 pub fn gravity_ned_m_s2(lat_rad: f64, height_m: f64) -> Vector3<f64> {
-    Vector3::new(0.0, 0.0, normal_gravity_m_s2(lat_rad, height_m))
+    Local::at(lat_rad, height_m).gravity_ned_m_s2()
 }
 
 /// Earth rate in NED, omega_ie^n, rad/s.
 pub fn earth_rate_ned(lat_rad: f64) -> Vector3<f64> {
-    Vector3::new(
-        OMEGA_IE_RAD_S * lat_rad.cos(),
-        0.0,
-        -OMEGA_IE_RAD_S * lat_rad.sin(),
-    )
+    Local::at(lat_rad, 0.0).earth_rate_ned()
 }
 
 /// Transport rate omega_en^n (rotation of NED over the ellipsoid), rad/s.
 pub fn transport_rate_ned(lat_rad: f64, height_m: f64, vel_ned: &Vector3<f64>) -> Vector3<f64> {
-    let re = prime_vertical_radius_m(lat_rad) + height_m;
-    let rn = meridian_radius_m(lat_rad) + height_m;
-    Vector3::new(
-        vel_ned.y / re,
-        -vel_ned.x / rn,
-        -vel_ned.y * lat_rad.tan() / re,
-    )
+    Local::at(lat_rad, height_m).transport_rate_ned(vel_ned)
 }
 
 /// Rates of latitude, longitude (rad/s) and height (m/s) for a NED velocity.
 pub fn position_rates(lat_rad: f64, height_m: f64, vel_ned: &Vector3<f64>) -> Vector3<f64> {
-    let re = prime_vertical_radius_m(lat_rad) + height_m;
-    let rn = meridian_radius_m(lat_rad) + height_m;
-    Vector3::new(vel_ned.x / rn, vel_ned.y / (re * lat_rad.cos()), -vel_ned.z)
+    Local::at(lat_rad, height_m).position_rates(vel_ned)
 }
 
 /// North and east offsets (m) of a position from an origin, on the local tangent of the

@@ -10,6 +10,7 @@ pub mod align;
 pub mod angle;
 pub mod attitude;
 pub mod contract;
+pub mod dense;
 pub mod filters;
 pub mod geodesy;
 pub mod geomag;

@@ -130,7 +130,7 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
     let mut forward_t = Vec::new();
     let mut smoother_t = Vec::new();
     let mut tune_t = Vec::new();
-    let mut epochs = 0;
+    let (mut epochs, mut direct) = (0, false);
     for _ in 0..repeat {
         let t = Instant::now();
         let log = ingest::read_log(path, &opts)?;
@@ -145,6 +145,7 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
         forward_t.push(r.timing.forward);
         smoother_t.push(r.timing.smoother);
         epochs = r.forward.len();
+        direct = r.smoothed.is_direct();
     }
     // The command a user runs, once, for its peak memory (and its wall time).
     let (dir, config_path) = scratch(scenario, "peak")?;
@@ -162,8 +163,8 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
         median(&mut tune_t),
     );
     println!(
-        "log: {scenario} (seed 0), {file_mb:.1} MB; {epochs} filter epochs; medians of {repeat} runs; forward filter on one thread (its temporary file written from a second), smoother's gains on a second thread beside its recursion, ingest decoding on its threads"
-    );
+        "log: {scenario} (seed 0), {file_mb:.1} MB; {epochs} filter epochs; medians of {repeat} runs; forward filter on one thread (its temporary file written from a second), smoother's gains on a second thread beside its recursion, ingest decoding on its threads; temporary files {}"
+    , if direct { "past the system's cache (O_DIRECT)" } else { "through the system's cache" });
     println!(
         "{:<22} {:>9} {:>16}",
         "stage", "median s", "ratio to ingest"

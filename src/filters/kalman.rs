@@ -9,6 +9,7 @@
 //!
 //! Pure functions: an estimate goes in, an estimate (and a record of the step) comes out.
 
+use crate::dense;
 use nalgebra::{SMatrix, SVector};
 
 /// A Gaussian estimate: mean and covariance.
@@ -81,8 +82,8 @@ pub fn update_considering<const N: usize, const M: usize>(
     gate: Option<f64>,
     considered: Option<&[bool; N]>,
 ) -> Result<(Gaussian<N>, UpdateRecord<M>), KalmanError> {
-    let pht = prior.cov * h.transpose();
-    let s = symmetrised(&(h * pht + r));
+    let pht = dense::mul_transpose(&prior.cov, h);
+    let s = symmetrised(&(dense::mul(h, &pht) + r));
     let chol = s
         .cholesky()
         .ok_or(KalmanError::InnovationNotPositiveDefinite)?;
@@ -115,8 +116,9 @@ pub fn update_considering<const N: usize, const M: usize>(
     }
     // Joseph form, in products with N x M factors only: with A = I - K H and P symmetric,
     // A P = P - K (P H^T)^T and (A P) A^T = A P - (A P H^T) K^T.
-    let a_p = prior.cov - k * pht.transpose();
-    let cov = a_p - (a_p * h.transpose()) * k.transpose() + k * r * k.transpose();
+    let a_p = prior.cov - dense::mul_transpose(&k, &pht);
+    let cov = a_p - dense::mul_transpose(&dense::mul_transpose(&a_p, h), &k)
+        + dense::mul_transpose(&dense::mul(&k, r), &k);
     Ok((
         Gaussian {
             mean: prior.mean + k * y,

@@ -6,6 +6,7 @@
 //! `dx` into its own nominal state.
 
 use super::rts::SmoothError;
+use crate::dense;
 use nalgebra::{SMatrix, SVector};
 use std::borrow::Borrow;
 
@@ -51,51 +52,13 @@ fn held_states_unit<const N: usize>(cov: &SMatrix<f64, N, N>) -> SMatrix<f64, N,
 }
 
 /// The RTS gain `C = P Phi^T Pp^-1`, given the lower Cholesky factor `L` of `Pp` (only its
-/// lower triangle is read) and `Phi P`.
-///
-/// With `G = P Phi^T = (Phi P)^T`, `C L L^T = G` is solved in two triangular sweeps over whole
-/// columns, `W L^T = G` then `C L = W`: each step subtracts a multiple of one contiguous
-/// column from another, which the compiler turns into vector instructions (a general solve
-/// goes column by right-hand side through dot products of varying length, several times
-/// slower at this size).
+/// lower triangle is read) and `Phi P`: `G = P Phi^T = (Phi P)^T` divided by `L L^T` from the
+/// right.
 fn rts_gain<const N: usize>(
     l: &SMatrix<f64, N, N>,
     phi_p: &SMatrix<f64, N, N>,
 ) -> SMatrix<f64, N, N> {
-    // Columns of G, then of W, then of C.
-    let mut cols: [[f64; N]; N] = phi_p.transpose().data.0;
-    for i in 0..N {
-        let (done, rest) = cols.split_at_mut(i);
-        let col = &mut rest[0];
-        for (j, w_j) in done.iter().enumerate() {
-            axpy(col, -l[(i, j)], w_j);
-        }
-        scale(col, 1.0 / l[(i, i)]);
-    }
-    for i in (0..N).rev() {
-        let (head, done) = cols.split_at_mut(i + 1);
-        let col = &mut head[i];
-        for (offset, c_j) in done.iter().enumerate() {
-            axpy(col, -l[(i + 1 + offset, i)], c_j);
-        }
-        scale(col, 1.0 / l[(i, i)]);
-    }
-    SMatrix::from_data(nalgebra::ArrayStorage(cols))
-}
-
-/// `y += a x`.
-fn axpy<const N: usize>(y: &mut [f64; N], a: f64, x: &[f64; N]) {
-    if a != 0.0 {
-        for (y, x) in y.iter_mut().zip(x) {
-            *y += a * x;
-        }
-    }
-}
-
-fn scale<const N: usize>(y: &mut [f64; N], a: f64) {
-    for y in y.iter_mut() {
-        *y *= a;
-    }
+    dense::right_divide_by_factor(&phi_p.transpose(), l)
 }
 
 /// Runs the backward pass, calling `emit(k, dx_k|N, P_k|N)` for k from the last epoch down
@@ -261,7 +224,8 @@ fn recursion<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
         let (dx, p_smooth) = match (&item.link, &next) {
             (Some((gain, prior_cov)), Some((after, dx_next, p_next))) => {
                 let dx = gain * (dx_next + after.epoch.borrow().correction());
-                let p_smooth = p + gain * (p_next - prior_cov) * gain.transpose();
+                let spread = dense::mul(gain, &(p_next - prior_cov));
+                let p_smooth = p + dense::mul_transpose(&spread, gain);
                 (dx, (p_smooth + p_smooth.transpose()) * 0.5)
             }
             _ => (SVector::zeros(), p),

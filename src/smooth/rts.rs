@@ -25,7 +25,7 @@
 
 use super::error_rts::{backward_from_last, ForwardEpoch};
 use crate::filters::ins::error_state::{self, idx, ErrorMatrix, ErrorState};
-use crate::filters::ins::record::{EpochRecord, NavPoint, PackedCov, Solution};
+use crate::filters::ins::record::{EpochRecord, NavPoint, Solution};
 use crate::spill::Spilled;
 
 /// Why smoothing failed.
@@ -96,10 +96,6 @@ pub fn smooth_each(
             water: post.water + dx.fixed_rows::<{ error_state::WATER_STATES }>(idx::WATER),
             gyro_scale_z: post.gyro_scale_z + dx[idx::GYRO_SCALE_Z],
         };
-        each(
-            k,
-            rec,
-            Solution::new(rec.stamp_ns, point, &PackedCov::pack(p)),
-        );
+        each(k, rec, Solution::from_cov(rec.stamp_ns, point, p));
     })
 }

@@ -335,8 +335,8 @@ impl Pass<'_> {
     /// omega_en)`.
     fn omega_nb(&self, imu: &ImuSample) -> Vector3<f64> {
         let nav = &self.est.nav;
-        let w_in = geodesy::earth_rate_ned(nav.lat_rad)
-            + geodesy::transport_rate_ned(nav.lat_rad, nav.height_m, &nav.vel_ned_m_s);
+        let local = geodesy::Local::at(nav.lat_rad, nav.height_m);
+        let w_in = local.earth_rate_ned() + local.transport_rate_ned(&nav.vel_ned_m_s);
         self.est.corrected(imu).omega_ib_body - nav.ned_from_body.inverse() * w_in
     }
 

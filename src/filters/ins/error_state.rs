@@ -33,6 +33,7 @@
 //! dvl' = 0, water' = 0 (the current a random walk through Q)
 
 use super::mechanization::NavState;
+use crate::dense;
 use crate::geodesy;
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
@@ -93,18 +94,18 @@ pub fn continuous_matrix(
     let (lat, h) = (nav.lat_rad, nav.height_m);
     let v = nav.vel_ned_m_s;
     let (vn, ve, vd) = (v.x, v.y, v.z);
-    let (s, c) = lat.sin_cos();
+    let local = geodesy::Local::at(lat, h);
+    let (s, c) = (local.sin_lat, local.cos_lat);
     let t = s / c;
-    let rho_n = geodesy::meridian_radius_m(lat) + h;
-    let rho_e = geodesy::prime_vertical_radius_m(lat) + h;
-    let dr_n = geodesy::meridian_radius_derivative(lat);
-    let dr_e = geodesy::prime_vertical_radius_derivative(lat);
+    let (rho_n, rho_e) = local.radii_plus_height_m();
+    let dr_n = local.meridian_radius_derivative();
+    let dr_e = local.prime_vertical_radius_derivative();
     let omega = geodesy::OMEGA_IE_RAD_S;
-    let w_ie = geodesy::earth_rate_ned(lat);
-    let w_en = geodesy::transport_rate_ned(lat, h, &v);
+    let w_ie = local.earth_rate_ned();
+    let w_en = local.transport_rate_ned(&v);
     let ned_from_body = nav.ned_from_body.to_rotation_matrix().into_inner();
     let f_ned = ned_from_body * f_body;
-    let (dg_dlat, dg_dh) = geodesy::normal_gravity_partials(lat, h);
+    let (dg_dlat, dg_dh) = local.normal_gravity_partials();
 
     // Partial derivatives of the transport rate.
     let den_dlat = Vector3::new(
@@ -211,32 +212,66 @@ const HELD_ROWS: usize = N - NAV_ROWS;
 /// The transition's rows that are not `[0 I]`.
 pub type TransitionRows = SMatrix<f64, NAV_ROWS, N>;
 
+/// Columns of a transition's top rows that can be non-zero: the navigation errors, the IMU
+/// biases and the z gyro's scale. Nothing in the navigation errors' dynamics involves the
+/// DVL's calibration or the water (they enter the measurements only), so their columns of `F`
+/// are zero, and so are they in every `Phi` and product of them (`[A B; 0 I]` keeps the zero
+/// columns of `B`).
+pub const TRANSITION_COLUMNS: [usize; MOVED_BY] = {
+    let mut c = [0; MOVED_BY];
+    let mut i = 0;
+    while i < idx::DVL {
+        c[i] = i;
+        i += 1;
+    }
+    c[idx::DVL] = idx::GYRO_SCALE_Z;
+    c
+};
+/// Number of [`TRANSITION_COLUMNS`].
+pub const MOVED_BY: usize = 16;
+
 /// Discrete transition `Phi = exp(F dt)` (Taylor series to fourth order: F dt is small at IMU
 /// rate) for one interval. With `F dt = [A B; 0 0]`, `(F dt)^k = [A^k A^(k-1) B; 0 0]`, so
-/// only the top rows are summed: `[sum A^k/k!  sum A^(k-1) B/k!; 0 I]`.
+/// only the top rows are summed: `[sum A^k/k!  sum A^(k-1) B/k!; 0 I]`, in Horner's form:
+/// with `T = I + A/2 (I + A/3 (I + A/4))`, the top rows are `[I + A T  T B]`.
 pub fn transition(f: &ErrorMatrix, dt_s: f64) -> ErrorMatrix {
     debug_assert!(
         f.fixed_rows::<HELD_ROWS>(NAV_ROWS).amax() == 0.0,
         "F's rows below the attitude are not zero"
     );
-    let a = f.fixed_view::<NAV_ROWS, NAV_ROWS>(0, 0) * dt_s;
+    type Square = SMatrix<f64, NAV_ROWS, NAV_ROWS>;
+    let a: Square = f.fixed_view::<NAV_ROWS, NAV_ROWS>(0, 0) * dt_s;
     let b = f.fixed_view::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS) * dt_s;
-    let mut a_power = SMatrix::<f64, NAV_ROWS, NAV_ROWS>::identity(); // A^(k-1) / (k-1)!
+    let i = Square::identity();
+    let t = i + dense::mul(&a, &(i + dense::mul(&a, &(i + a * 0.25)) * (1.0 / 3.0))) * 0.5;
     let mut phi = ErrorMatrix::identity();
-    for k in 1..=4 {
-        let over_k = 1.0 / k as f64;
-        let mut top_right = phi.fixed_view_mut::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS);
-        top_right += a_power * b * over_k;
-        a_power = a_power * a * over_k;
-        let mut top_left = phi.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0);
-        top_left += a_power;
-    }
+    phi.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
+        .copy_from(&(i + dense::mul(&a, &t)));
+    phi.fixed_view_mut::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS)
+        .copy_from(&dense::mul(&t, &b));
     phi
 }
 
 /// `Phi P` for a transition whose rows below [`NAV_ROWS`] are `[0 I]`, given its top rows.
 pub fn transition_times(phi_top: &TransitionRows, p: &ErrorMatrix) -> ErrorMatrix {
-    with_top_rows(p, &(phi_top * p))
+    with_top_rows(p, &top_rows_times(phi_top, p))
+}
+
+/// `[T M] P`, over the [`TRANSITION_COLUMNS`] of `[T M]` (the others are zero); `P` is
+/// symmetric, so its rows are its columns.
+fn top_rows_times(phi_top: &TransitionRows, p: &ErrorMatrix) -> TransitionRows {
+    debug_assert!(
+        (0..N)
+            .filter(|c| !TRANSITION_COLUMNS.contains(c))
+            .all(|c| phi_top.column(c).amax() == 0.0),
+        "the transition involves the DVL or water states"
+    );
+    dense::mul_transpose(&moved_columns(p), &moved_columns(phi_top)).transpose()
+}
+
+/// The [`TRANSITION_COLUMNS`] of `m`.
+fn moved_columns<const R: usize>(m: &SMatrix<f64, R, N>) -> SMatrix<f64, R, MOVED_BY> {
+    SMatrix::from_fn(|r, k| m[(r, TRANSITION_COLUMNS[k])])
 }
 
 /// `p` with its top rows replaced by `x`.
@@ -251,7 +286,7 @@ fn with_top_rows(p: &ErrorMatrix, x: &TransitionRows) -> ErrorMatrix {
 /// rows of `Phi P`), the top-left block is `X [T M]^T`, the top-right `X`'s right block, and
 /// the bottom-right `P`'s.
 pub fn predicted_cov(phi_top: &TransitionRows, p: &ErrorMatrix, q: &ErrorState) -> ErrorMatrix {
-    predicted_from_top_rows(&(phi_top * p), phi_top, p, q)
+    predicted_from_top_rows(&top_rows_times(phi_top, p), phi_top, p, q)
 }
 
 /// [`predicted_cov`] and [`transition_times`] together, sharing `X = [T M] P`.
@@ -260,7 +295,7 @@ pub fn predicted_cov_and_phi_p(
     p: &ErrorMatrix,
     q: &ErrorState,
 ) -> (ErrorMatrix, ErrorMatrix) {
-    let x = phi_top * p;
+    let x = top_rows_times(phi_top, p);
     (
         predicted_from_top_rows(&x, phi_top, p, q),
         with_top_rows(p, &x),
@@ -274,7 +309,7 @@ fn predicted_from_top_rows(
     p: &ErrorMatrix,
     q: &ErrorState,
 ) -> ErrorMatrix {
-    let top_left = x * phi_top.transpose();
+    let top_left = dense::mul_transpose(&moved_columns(x), &moved_columns(phi_top));
     let mut out = *p;
     out.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
         .copy_from(&((top_left + top_left.transpose()) * 0.5));
@@ -318,13 +353,13 @@ mod tests {
 
     /// Each column of Phi by a central difference of the mechanization itself: propagate a
     /// corrected state and the nominal over dt and take their difference.
-    /// A continuous matrix of the model's shape (rows below the attitude zero) with
-    /// entries of mixed sizes, and a covariance from it.
+    /// A continuous matrix of the model's shape (rows below the attitude zero, and the DVL
+    /// and water columns) with entries of mixed sizes, and a covariance from it.
     fn structured_f_and_cov() -> (ErrorMatrix, ErrorMatrix) {
         let (nav, imu) = nominal();
         let mut f = continuous_matrix(&nav, &imu.specific_force_body, &imu.omega_ib_body);
         for r in 0..NAV_ROWS {
-            for c in 0..N {
+            for c in TRANSITION_COLUMNS {
                 f[(r, c)] += 1e-3 * ((r * 31 + c * 17) % 13) as f64 - 6e-3;
             }
         }

@@ -93,8 +93,9 @@ fn derivative(y: &Y, imu: &ImuSample, damping: Option<(HeightDamping, f64)>) -> 
     let q = Quaternion::new(y[0], y[1], y[2], y[3]);
     let v = Vector3::new(y[4], y[5], y[6]);
     let (lat, h) = (y[7], y[9]);
-    let w_ie = geodesy::earth_rate_ned(lat);
-    let w_en = geodesy::transport_rate_ned(lat, h, &v);
+    let local = geodesy::Local::at(lat, h);
+    let w_ie = local.earth_rate_ned();
+    let w_en = local.transport_rate_ned(&v);
     let w_in = w_ie + w_en;
     let wb = imu.omega_ib_body;
     let q_dot = (q * Quaternion::new(0.0, wb.x, wb.y, wb.z)
@@ -102,9 +103,9 @@ fn derivative(y: &Y, imu: &ImuSample, damping: Option<(HeightDamping, f64)>) -> 
         * 0.5;
     // Rotate f by the (not yet unit) quaternion, normalised.
     let unit = UnitQuaternion::from_quaternion(q);
-    let mut v_dot = unit * imu.specific_force_body - (2.0 * w_ie + w_en).cross(&v)
-        + geodesy::gravity_ned_m_s2(lat, h);
-    let mut p_dot = geodesy::position_rates(lat, h, &v);
+    let mut v_dot =
+        unit * imu.specific_force_body - (2.0 * w_ie + w_en).cross(&v) + local.gravity_ned_m_s2();
+    let mut p_dot = local.position_rates(&v);
     if let Some((d, h_ref)) = damping {
         let e = h - h_ref;
         p_dot.z -= d.k1_per_s * e;

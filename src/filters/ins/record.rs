@@ -8,11 +8,11 @@
 //! - The transition matrix's rows below the navigation errors are always `[0 I]` (biases,
 //!   calibrations and current are constants or random walks, so the rows of `F` for them are
 //!   zero and every power of `F` keeps them so): only the top nine rows are kept, and of
-//!   them only the 16 columns that can be non-zero ([`PHI_COLUMNS`]): 144 of 625 numbers.
+//!   them only the 16 columns that can be non-zero ([`TRANSITION_COLUMNS`]): 144 of 625 numbers.
 
 use super::error_state::{
     self, idx, DvlCalibration, ErrorMatrix, ErrorState, TransitionRows, WaterState, DVL_STATES, N,
-    NAV_ROWS, WATER_STATES,
+    NAV_ROWS, TRANSITION_COLUMNS, WATER_STATES,
 };
 use super::forward::Estimate;
 use super::mechanization::NavState;
@@ -72,22 +72,6 @@ impl PackedCov {
         Matrix3::from_fn(|i, j| self.get(at + i, at + j))
     }
 }
-
-/// Columns of the transition's top rows that can be non-zero: the navigation errors, the
-/// IMU biases and the z gyro's scale. Nothing in the navigation errors' dynamics involves the
-/// DVL's calibration or the water (they enter the measurements only), so their columns of
-/// `F` are zero, and so are they in every `Phi` and product of them (`[A B; 0 I]` keeps the
-/// zero columns of `B`). The records keep the other 16 of 25 columns.
-const PHI_COLUMNS: [usize; 16] = {
-    let mut c = [0; 16];
-    let mut i = 0;
-    while i < idx::DVL {
-        c[i] = i;
-        i += 1;
-    }
-    c[idx::DVL] = idx::GYRO_SCALE_Z;
-    c
-};
 
 /// A transition matrix whose bias rows are `[0 I]`, stored as its top nine rows.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -252,6 +236,17 @@ impl Solution {
         }
     }
 
+    /// [`Solution::new`] from the whole covariance, symmetric (no packing on the way).
+    pub fn from_cov(stamp_ns: i64, point: NavPoint, cov: &ErrorMatrix) -> Self {
+        Solution {
+            stamp_ns,
+            point,
+            sigma: cov.diagonal().map(|v| v.max(0.0).sqrt()),
+            position_cov: cov.fixed_view::<3, 3>(idx::POS, idx::POS).into_owned(),
+            attitude_cov: cov.fixed_view::<3, 3>(idx::ATT, idx::ATT).into_owned(),
+        }
+    }
+
     /// Roll, pitch and yaw, rad (Z-Y-X).
     pub fn euler_rad(&self) -> [f64; 3] {
         let (r, p, y) = self.point.nav.ned_from_body.euler_angles();
@@ -343,12 +338,12 @@ impl NavPoint {
 
 impl Fixed for EpochRecord {
     const BYTES: usize =
-        8 * (2 + NAV_ROWS * PHI_COLUMNS.len() + N + N + NAV_POINT_NUMBERS + PACKED);
+        8 * (2 + NAV_ROWS * TRANSITION_COLUMNS.len() + N + N + NAV_POINT_NUMBERS + PACKED);
 
     fn encode(&self, out: &mut Encoder) {
         out.i64(self.stamp_ns);
         out.i64(i64::from(self.output));
-        for c in PHI_COLUMNS {
+        for c in TRANSITION_COLUMNS {
             out.f64s(self.phi_from_previous.0.column(c).as_slice());
         }
         out.f64s(self.process_noise.as_slice());
@@ -363,7 +358,7 @@ impl Fixed for EpochRecord {
             output: d.i64() != 0,
             phi_from_previous: {
                 let mut top = TransitionRows::zeros();
-                for c in PHI_COLUMNS {
+                for c in TRANSITION_COLUMNS {
                     top.set_column(c, &d.f64s::<NAV_ROWS>().into());
                 }
                 PackedTransition(top)
@@ -482,7 +477,7 @@ mod tests {
         for m in [phi, phi3] {
             for c in 0..N {
                 let zero = m.column(c).rows(0, NAV_ROWS).amax() == 0.0;
-                assert_eq!(zero, !PHI_COLUMNS.contains(&c), "column {c}");
+                assert_eq!(zero, !TRANSITION_COLUMNS.contains(&c), "column {c}");
             }
         }
     }

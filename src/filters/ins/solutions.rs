@@ -41,6 +41,11 @@ impl Solutions {
         self.last_first.is_empty()
     }
 
+    /// Whether their temporary file is read and written past the system's cache.
+    pub fn is_direct(&self) -> bool {
+        self.last_first.is_direct()
+    }
+
     /// Why they could not go to a temporary file (they are then all in memory).
     pub fn spill_failure(&self) -> Option<String> {
         self.last_first.spill_failure()
