@@ -835,7 +835,10 @@ mod tests {
         let first: Vec<Pair> = s.iter().take(10).map(Result::unwrap).collect();
         assert_eq!(first, pairs(10));
         let last: Vec<Pair> = s.iter_rev().take(10).map(Result::unwrap).collect();
-        assert_eq!(last, pairs(200)[190..].iter().rev().copied().collect::<Vec<_>>());
+        assert_eq!(
+            last,
+            pairs(200)[190..].iter().rev().copied().collect::<Vec<_>>()
+        );
         // Records of the same sequence read while another iteration is under way.
         let mut outer = s.iter();
         assert_eq!(outer.nth(50).unwrap().unwrap(), pairs(200)[50]);
