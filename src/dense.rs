@@ -64,25 +64,28 @@ fn right_divide_avx2<const N: usize>(
     right_divide(columns, l)
 }
 
-/// [`right_divide_by_factor`] on the columns of `g`, in place.
+/// [`right_divide_by_factor`] on the columns of `g`, in place. Each column is accumulated
+/// in a local copy (kept in registers) and stored once.
 #[inline(always)]
 fn right_divide<const N: usize>(mut cols: [[f64; N]; N], l: &SMatrix<f64, N, N>) -> [[f64; N]; N] {
+    let l_columns = &l.data.0;
+    let l_rows = l.transpose().data.0;
     // Columns of g, then of W, then of x.
     for i in 0..N {
-        let (done, rest) = cols.split_at_mut(i);
-        let col = &mut rest[0];
-        for (j, w_j) in done.iter().enumerate() {
-            add_scaled_nonzero(col, w_j, -l[(i, j)]);
+        let mut column = cols[i];
+        for (j, w_j) in cols[..i].iter().enumerate() {
+            add_scaled_nonzero(&mut column, w_j, -l_rows[i][j]);
         }
-        scale(col, 1.0 / l[(i, i)]);
+        scale(&mut column, 1.0 / l_columns[i][i]);
+        cols[i] = column;
     }
     for i in (0..N).rev() {
-        let (head, done) = cols.split_at_mut(i + 1);
-        let col = &mut head[i];
-        for (offset, x_j) in done.iter().enumerate() {
-            add_scaled_nonzero(col, x_j, -l[(i + 1 + offset, i)]);
+        let mut column = cols[i];
+        for (j, x_j) in cols.iter().enumerate().skip(i + 1) {
+            add_scaled_nonzero(&mut column, x_j, -l_columns[i][j]);
         }
-        scale(col, 1.0 / l[(i, i)]);
+        scale(&mut column, 1.0 / l_columns[i][i]);
+        cols[i] = column;
     }
     cols
 }
