@@ -126,9 +126,27 @@ where
 /// is handed on: the matrices are kilobytes).
 struct Prepared<B, const N: usize> {
     epoch: B,
-    /// The gain `C_k` and the predicted covariance `P_{k+1|k}` that link this epoch to the
-    /// next one; `None` at the last epoch.
-    link: Option<(SMatrix<f64, N, N>, SMatrix<f64, N, N>)>,
+    /// What links this epoch to the next one; `None` at the last epoch.
+    link: Option<Link<N>>,
+}
+
+/// What links epoch k to epoch k+1, from the forward records alone.
+struct Link<const N: usize> {
+    /// The predicted covariance `P_{k+1|k}`.
+    prior_cov: SMatrix<f64, N, N>,
+    /// The lower Cholesky factor of `P_{k+1|k}` (held states' unit variance in place; only
+    /// the lower triangle is meaningful).
+    prior_factor: SMatrix<f64, N, N>,
+    /// `Phi P_k`.
+    phi_p: SMatrix<f64, N, N>,
+}
+
+impl<const N: usize> Link<N> {
+    /// The RTS gain `C_k = P_k Phi^T P_{k+1|k}^-1`, computed on the recursion's side of the
+    /// threads (which balances their work).
+    fn gain(&self) -> SMatrix<f64, N, N> {
+        rts_gain(&self.prior_factor, &self.phi_p)
+    }
 }
 
 /// The epochs, last first, prepared: an epoch goes out once the one before it has been read,
@@ -192,18 +210,22 @@ where
     }
 }
 
-/// The gain `C_k = P_k Phi^T P_{k+1|k}^-1` and `P_{k+1|k}`, from the posterior covariance
-/// `p` of epoch k and epoch k+1 (`after`, at index `k_after`).
+/// The link from epoch k, whose posterior covariance is `p`, to epoch k+1 (`after`, at index
+/// `k_after`).
 fn link<const N: usize, E: ForwardEpoch<N>>(
     p: &SMatrix<f64, N, N>,
     after: &E,
     k_after: usize,
-) -> Result<(SMatrix<f64, N, N>, SMatrix<f64, N, N>), SmoothError> {
+) -> Result<Link<N>, SmoothError> {
     let (prior_cov, phi_p) = after.prior_cov_and_phi_times(p);
     let chol = held_states_unit(&prior_cov)
         .cholesky()
         .ok_or(SmoothError::SingularPrior { epoch: k_after })?;
-    Ok((rts_gain(chol.l_dirty(), &phi_p), prior_cov))
+    Ok(Link {
+        prior_cov,
+        prior_factor: chol.unpack_dirty(),
+        phi_p,
+    })
 }
 
 /// The sequential part: `dx_k|N = C_k (dx_{k+1|N} + D_{k+1})` and
@@ -222,10 +244,11 @@ fn recursion<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
         // threads it costs less than moving another matrix.
         let p = item.epoch.borrow().posterior_cov();
         let (dx, p_smooth) = match (&item.link, &next) {
-            (Some((gain, prior_cov)), Some((after, dx_next, p_next))) => {
+            (Some(link), Some((after, dx_next, p_next))) => {
+                let gain = link.gain();
                 let dx = gain * (dx_next + after.epoch.borrow().correction());
-                let spread = dense::mul(gain, &(p_next - prior_cov));
-                let p_smooth = p + dense::mul_transpose(&spread, gain);
+                let spread = dense::mul(&gain, &(p_next - link.prior_cov));
+                let p_smooth = p + dense::mul_transpose(&spread, &gain);
                 (dx, (p_smooth + p_smooth.transpose()) * 0.5)
             }
             _ => (SVector::zeros(), p),
