@@ -84,10 +84,12 @@ const BATCH: usize = 64;
 /// [`backward`] over `n` epochs handed over last first (read back from a file, say), calling
 /// `emit(k, epoch_k, dx_k|N, P_k|N)`. An epoch that cannot be had ends the pass with its error.
 ///
-/// The work splits in two: each epoch's gain depends on the forward records alone
-/// ([`Prepare`]), and only the recursion through the smoothed estimates is sequential. With
-/// [`TWO_THREADS_FROM_STATES`] states or more, the gains are computed on a second thread while
-/// the calling thread runs the recursion; the result is the same either way.
+/// The work splits in two: each epoch's link to the next (the predicted covariance, its
+/// Cholesky factor, `Phi P`) depends on the forward records alone ([`Prepare`]), and only
+/// the recursion through the smoothed estimates is sequential. With
+/// [`TWO_THREADS_FROM_STATES`] states or more, the links are prepared on a second thread
+/// while the calling thread computes the gains from them and runs the recursion (which
+/// balances the two); the result is the same either way.
 pub fn backward_from_last<const N: usize, E, B>(
     n: usize,
     last_first: impl IntoIterator<Item = Result<B, SmoothError>, IntoIter: Send>,
@@ -324,7 +326,7 @@ mod tests {
     /// of all states given all measurements, from one information matrix.
     #[test]
     fn backward_pass_equals_the_batch_solution_of_a_linear_model() {
-        // On the calling thread alone, and with the gains on a second thread.
+        // On the calling thread alone, and with the links prepared on a second thread.
         const { assert!(4 < TWO_THREADS_FROM_STATES && 10 >= TWO_THREADS_FROM_STATES) };
         equals_the_batch_solution::<4>(3, 25);
         equals_the_batch_solution::<10>(4, 2 * BATCH + 13);
