@@ -254,24 +254,33 @@ pub fn transition(f: &ErrorMatrix, dt_s: f64) -> ErrorMatrix {
 
 /// `Phi P` for a transition whose rows below [`NAV_ROWS`] are `[0 I]`, given its top rows.
 pub fn transition_times(phi_top: &TransitionRows, p: &ErrorMatrix) -> ErrorMatrix {
-    with_top_rows(p, &top_rows_times(phi_top, p))
+    with_top_rows(p, &top_rows_times(&moved_transition_columns(phi_top), p))
 }
 
-/// `[T M] P`, over the [`TRANSITION_COLUMNS`] of `[T M]` (the others are zero); `P` is
+/// `[T M] P`, given the [`TRANSITION_COLUMNS`] of `[T M]` (the others are zero); `P` is
 /// symmetric, so its rows are its columns.
-fn top_rows_times(phi_top: &TransitionRows, p: &ErrorMatrix) -> TransitionRows {
+fn top_rows_times(moved: &MovedColumns, p: &ErrorMatrix) -> TransitionRows {
+    dense::mul_transpose(&moved_columns(p), moved).transpose()
+}
+
+/// The [`TRANSITION_COLUMNS`] of a transition's top rows.
+type MovedColumns = SMatrix<f64, NAV_ROWS, MOVED_BY>;
+
+/// The [`TRANSITION_COLUMNS`] of `m`.
+fn moved_columns<const R: usize>(m: &SMatrix<f64, R, N>) -> SMatrix<f64, R, MOVED_BY> {
+    SMatrix::from_fn(|r, k| m[(r, TRANSITION_COLUMNS[k])])
+}
+
+/// The [`TRANSITION_COLUMNS`] of a transition's top rows, checked to hold all that is not
+/// zero.
+fn moved_transition_columns(phi_top: &TransitionRows) -> MovedColumns {
     debug_assert!(
         (0..N)
             .filter(|c| !TRANSITION_COLUMNS.contains(c))
             .all(|c| phi_top.column(c).amax() == 0.0),
         "the transition involves the DVL or water states"
     );
-    dense::mul_transpose(&moved_columns(p), &moved_columns(phi_top)).transpose()
-}
-
-/// The [`TRANSITION_COLUMNS`] of `m`.
-fn moved_columns<const R: usize>(m: &SMatrix<f64, R, N>) -> SMatrix<f64, R, MOVED_BY> {
-    SMatrix::from_fn(|r, k| m[(r, TRANSITION_COLUMNS[k])])
+    moved_columns(phi_top)
 }
 
 /// `p` with its top rows replaced by `x`.
@@ -286,7 +295,8 @@ fn with_top_rows(p: &ErrorMatrix, x: &TransitionRows) -> ErrorMatrix {
 /// rows of `Phi P`), the top-left block is `X [T M]^T`, the top-right `X`'s right block, and
 /// the bottom-right `P`'s.
 pub fn predicted_cov(phi_top: &TransitionRows, p: &ErrorMatrix, q: &ErrorState) -> ErrorMatrix {
-    predicted_from_top_rows(&top_rows_times(phi_top, p), phi_top, p, q)
+    let moved = moved_transition_columns(phi_top);
+    predicted_from_top_rows(&top_rows_times(&moved, p), &moved, p, q)
 }
 
 /// [`predicted_cov`] and [`transition_times`] together, sharing `X = [T M] P`.
@@ -295,21 +305,22 @@ pub fn predicted_cov_and_phi_p(
     p: &ErrorMatrix,
     q: &ErrorState,
 ) -> (ErrorMatrix, ErrorMatrix) {
-    let x = top_rows_times(phi_top, p);
+    let moved = moved_transition_columns(phi_top);
+    let x = top_rows_times(&moved, p);
     (
-        predicted_from_top_rows(&x, phi_top, p, q),
+        predicted_from_top_rows(&x, &moved, p, q),
         with_top_rows(p, &x),
     )
 }
 
-/// [`predicted_cov`] given `x = phi_top p`.
+/// [`predicted_cov`] given `x = phi_top p` and the moving columns of `phi_top`.
 fn predicted_from_top_rows(
     x: &TransitionRows,
-    phi_top: &TransitionRows,
+    moved: &MovedColumns,
     p: &ErrorMatrix,
     q: &ErrorState,
 ) -> ErrorMatrix {
-    let top_left = dense::mul_transpose(&moved_columns(x), &moved_columns(phi_top));
+    let top_left = dense::mul_transpose(&moved_columns(x), moved);
     let mut out = *p;
     out.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
         .copy_from(&((top_left + top_left.transpose()) * 0.5));
