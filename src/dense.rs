@@ -37,44 +37,55 @@ pub fn mul_transpose<const R: usize, const K: usize, const C: usize>(
 }
 
 /// `x` with `x L L^T = g`, for the lower Cholesky factor `L` of a symmetric matrix (only its
-/// lower triangle is read): `g` times the matrix's inverse from the right.
+/// lower triangle is read): `g` times the matrix's inverse from the right, in place.
 ///
 /// Solved in two triangular sweeps over whole columns, `W L^T = g` then `x L = W`: each step
 /// subtracts a multiple of one contiguous column from another (a general solve goes column by
 /// right-hand side through dot products of varying length, several times slower at this size).
-pub fn right_divide_by_factor<const N: usize>(
-    g: &SMatrix<f64, N, N>,
-    l: &SMatrix<f64, N, N>,
-) -> SMatrix<f64, N, N> {
-    let columns = g.data.0;
+pub fn right_divide_by_factor<const N: usize>(g: &mut SMatrix<f64, N, N>, l: &SMatrix<f64, N, N>) {
+    let (columns, l) = (&mut g.data.0, &l.data.0);
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: as in `mul`.
-        return from_columns(unsafe { right_divide_avx2(columns, l) });
+        return unsafe { right_divide_avx2(columns, l) };
     }
-    from_columns(right_divide(columns, l))
+    right_divide(columns, l)
+}
+
+/// Factors a symmetric positive definite matrix in place into its lower Cholesky factor `L`
+/// (`L L^T` = the matrix; only the lower triangle is read, and the upper triangle is left as
+/// it was). False, with the matrix part-way, when a pivot is not positive.
+pub fn cholesky_in_place<const N: usize>(m: &mut SMatrix<f64, N, N>) -> bool {
+    let columns = &mut m.data.0;
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: as in `mul`.
+        return unsafe { cholesky_avx2(columns) };
+    }
+    cholesky(columns)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn right_divide_avx2<const N: usize>(
-    columns: [[f64; N]; N],
-    l: &SMatrix<f64, N, N>,
-) -> [[f64; N]; N] {
+fn right_divide_avx2<const N: usize>(columns: &mut [[f64; N]; N], l: &[[f64; N]; N]) {
     right_divide(columns, l)
 }
 
-/// [`right_divide_by_factor`] on the columns of `g`, in place. Each column is accumulated
-/// in a local copy (kept in registers) and stored once.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn cholesky_avx2<const N: usize>(columns: &mut [[f64; N]; N]) -> bool {
+    cholesky(columns)
+}
+
+/// [`right_divide_by_factor`] on the columns of `g`. Each column is accumulated in a local
+/// copy (kept in registers) and stored once.
 #[inline(always)]
-fn right_divide<const N: usize>(mut cols: [[f64; N]; N], l: &SMatrix<f64, N, N>) -> [[f64; N]; N] {
-    let l_columns = &l.data.0;
-    let l_rows = l.transpose().data.0;
+fn right_divide<const N: usize>(cols: &mut [[f64; N]; N], l_columns: &[[f64; N]; N]) {
     // Columns of g, then of W, then of x.
     for i in 0..N {
         let mut column = cols[i];
         for (j, w_j) in cols[..i].iter().enumerate() {
-            add_scaled_nonzero(&mut column, w_j, -l_rows[i][j]);
+            add_scaled_nonzero(&mut column, w_j, -l_columns[j][i]);
         }
         scale(&mut column, 1.0 / l_columns[i][i]);
         cols[i] = column;
@@ -87,7 +98,35 @@ fn right_divide<const N: usize>(mut cols: [[f64; N]; N], l: &SMatrix<f64, N, N>)
         scale(&mut column, 1.0 / l_columns[i][i]);
         cols[i] = column;
     }
-    cols
+}
+
+/// [`cholesky_in_place`] on the columns: column j less the multiples of the columns before
+/// it (over the rows from j down), then scaled by its pivot's root.
+#[inline(always)]
+fn cholesky<const N: usize>(cols: &mut [[f64; N]; N]) -> bool {
+    for j in 0..N {
+        let (done, rest) = cols.split_at_mut(j);
+        let column = &mut rest[0];
+        for l_k in done.iter() {
+            let s = -l_k[j];
+            if s != 0.0 {
+                for (y, x) in column[j..].iter_mut().zip(&l_k[j..]) {
+                    *y += x * s;
+                }
+            }
+        }
+        let pivot = column[j];
+        if !(pivot > 0.0) {
+            return false;
+        }
+        let root = pivot.sqrt();
+        let inverse = 1.0 / root;
+        for y in column[j + 1..].iter_mut() {
+            *y *= inverse;
+        }
+        column[j] = root;
+    }
+    true
 }
 
 /// `y += x s`, skipped when `s` is zero (factors of matrices with held states are sparse).
@@ -102,6 +141,18 @@ fn add_scaled_nonzero<const R: usize>(y: &mut [f64; R], x: &[f64; R], s: f64) {
 fn scale<const R: usize>(y: &mut [f64; R], s: f64) {
     for y in y.iter_mut() {
         *y *= s;
+    }
+}
+
+/// Makes `m` symmetric in place: each pair of entries across the diagonal becomes their
+/// mean (the same numbers as `(m + m^T) / 2`, without the two temporaries).
+pub fn symmetrise<const N: usize>(m: &mut SMatrix<f64, N, N>) {
+    for j in 0..N {
+        for i in 0..j {
+            let mean = (m[(i, j)] + m[(j, i)]) * 0.5;
+            m[(i, j)] = mean;
+            m[(j, i)] = mean;
+        }
     }
 }
 
@@ -173,6 +224,50 @@ mod tests {
 
     fn random<const R: usize, const C: usize>(rng: &mut ChaCha8Rng) -> SMatrix<f64, R, C> {
         SMatrix::from_fn(|_, _| rng.random_range(-1.0..1.0))
+    }
+
+    #[test]
+    fn cholesky_matches_nalgebra_and_refuses_what_is_not_positive_definite() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for _ in 0..20 {
+            let a = random::<25, 25>(&mut rng);
+            let spd = a * a.transpose() + SMatrix::<f64, 25, 25>::identity() * 0.01;
+            let want = spd.cholesky().unwrap().unpack();
+            let mut got = spd;
+            assert!(cholesky_in_place(&mut got));
+            let lower = got.lower_triangle();
+            assert!(
+                (lower - want).amax() < 1e-10 * want.amax(),
+                "{}",
+                (lower - want).amax()
+            );
+            for j in 0..25 {
+                for i in 0..j {
+                    assert_eq!(
+                        got[(i, j)],
+                        spd[(i, j)],
+                        "above the diagonal: left as it was"
+                    );
+                }
+            }
+            let mut plain = spd.data.0;
+            assert!(cholesky(&mut plain));
+            assert_eq!(got.data.0, plain);
+        }
+        let mut not_pd = SMatrix::<f64, 3, 3>::identity();
+        not_pd[(2, 2)] = -1e-9;
+        assert!(!cholesky_in_place(&mut not_pd.clone()));
+        not_pd[(2, 2)] = f64::NAN;
+        assert!(!cholesky_in_place(&mut not_pd));
+    }
+
+    #[test]
+    fn symmetrise_gives_the_mean_with_its_transpose() {
+        let mut rng = ChaCha8Rng::seed_from_u64(6);
+        let m = random::<25, 25>(&mut rng);
+        let mut s = m;
+        symmetrise(&mut s);
+        assert_eq!(s, (m + m.transpose()) * 0.5);
     }
 
     #[test]

@@ -111,8 +111,11 @@ impl Encoder {
         self.0.extend_from_slice(&v.to_le_bytes());
     }
     pub fn f64s(&mut self, vs: &[f64]) {
-        for &v in vs {
-            self.f64(v);
+        // Sized once, then filled eight bytes at a time (a plain copy on little-endian).
+        let start = self.0.len();
+        self.0.resize(start + 8 * vs.len(), 0);
+        for (bytes, v) in self.0[start..].chunks_exact_mut(8).zip(vs) {
+            bytes.copy_from_slice(&v.to_le_bytes());
         }
     }
     pub fn into_bytes(self) -> Vec<u8> {
@@ -139,7 +142,13 @@ impl<'a> Decoder<'a> {
         i64::from_le_bytes(head.try_into().expect("8 bytes"))
     }
     pub fn f64s<const K: usize>(&mut self) -> [f64; K] {
-        std::array::from_fn(|_| self.f64())
+        let (head, rest) = self.0.split_at(8 * K);
+        self.0 = rest;
+        let mut out = [0.0; K];
+        for (v, bytes) in out.iter_mut().zip(head.chunks_exact(8)) {
+            *v = f64::from_le_bytes(bytes.try_into().expect("8 bytes"));
+        }
+        out
     }
 }
 

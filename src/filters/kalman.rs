@@ -117,12 +117,13 @@ pub fn update_considering<const N: usize, const M: usize>(
     // Joseph form, in products with N x M factors only: with A = I - K H and P symmetric,
     // A P = P - K (P H^T)^T and (A P) A^T = A P - (A P H^T) K^T.
     let a_p = prior.cov - dense::mul_transpose(&k, &pht);
-    let cov = a_p - dense::mul_transpose(&dense::mul_transpose(&a_p, h), &k)
-        + dense::mul_transpose(&dense::mul(&k, r), &k);
+    let mut cov = a_p - dense::mul_transpose(&dense::mul_transpose(&a_p, h), &k);
+    cov += dense::mul_transpose(&dense::mul(&k, r), &k);
+    dense::symmetrise(&mut cov);
     Ok((
         Gaussian {
             mean: prior.mean + k * y,
-            cov: symmetrised(&cov),
+            cov,
         },
         record,
     ))

@@ -41,24 +41,24 @@ pub trait ForwardEpoch<const N: usize> {
 /// (zero prior variance, no process noise) has a zero row and column, which would make the
 /// covariance singular; its gain row, `P Phi^T` times the inverse, is zero either way, so the
 /// unit stands in for the inverse of nothing.
-fn held_states_unit<const N: usize>(cov: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
-    let mut c = *cov;
+fn held_states_unit<const N: usize>(c: &mut SMatrix<f64, N, N>) {
     for i in 0..N {
         if c[(i, i)] == 0.0 && c.row(i).iter().all(|v| *v == 0.0) {
             c[(i, i)] = 1.0;
         }
     }
-    c
 }
 
-/// The RTS gain `C = P Phi^T Pp^-1`, given the lower Cholesky factor `L` of `Pp` (only its
-/// lower triangle is read) and `Phi P`: `G = P Phi^T = (Phi P)^T` divided by `L L^T` from the
-/// right.
+/// The RTS gain `C = P Phi^T Pp^-1` into `gain`, given the lower Cholesky factor `L` of
+/// `Pp` (only its lower triangle is read) and `Phi P`: `G = P Phi^T = (Phi P)^T` divided by
+/// `L L^T` from the right.
 fn rts_gain<const N: usize>(
+    gain: &mut SMatrix<f64, N, N>,
     l: &SMatrix<f64, N, N>,
     phi_p: &SMatrix<f64, N, N>,
-) -> SMatrix<f64, N, N> {
-    dense::right_divide_by_factor(&phi_p.transpose(), l)
+) {
+    gain.tr_copy_from(phi_p);
+    dense::right_divide_by_factor(gain, l);
 }
 
 /// Runs the backward pass, calling `emit(k, dx_k|N, P_k|N)` for k from the last epoch down
@@ -84,12 +84,13 @@ const BATCH: usize = 64;
 /// [`backward`] over `n` epochs handed over last first (read back from a file, say), calling
 /// `emit(k, epoch_k, dx_k|N, P_k|N)`. An epoch that cannot be had ends the pass with its error.
 ///
-/// The work splits in two: each epoch's link to the next (the predicted covariance, its
-/// Cholesky factor, `Phi P`) depends on the forward records alone ([`Prepare`]), and only
-/// the recursion through the smoothed estimates is sequential. With
+/// The work splits in two: each epoch's link to the next (its posterior covariance, the
+/// predicted covariance and the gain) depends on the forward records alone ([`Prepare`]),
+/// and only the recursion through the smoothed estimates is sequential. With
 /// [`TWO_THREADS_FROM_STATES`] states or more, the links are prepared on a second thread
-/// while the calling thread computes the gains from them and runs the recursion (which
-/// balances the two); the result is the same either way.
+/// while the calling thread runs the recursion; the result is the same either way. The
+/// prepared epochs (kilobytes each) travel in boxes the recursion hands back for reuse, so
+/// nothing that size is allocated or copied per epoch.
 pub fn backward_from_last<const N: usize, E, B>(
     n: usize,
     last_first: impl IntoIterator<Item = Result<B, SmoothError>, IntoIter: Send>,
@@ -99,9 +100,14 @@ where
     E: ForwardEpoch<N>,
     B: Borrow<E> + Send,
 {
-    let prepared = Prepare::<_, _, E, N>::new(n, last_first.into_iter());
+    let (recycle, recycled) = std::sync::mpsc::channel();
+    let prepared = Prepare::<_, _, E, N>::new(n, last_first.into_iter(), recycled);
+    let hand_back = |used| {
+        // The preparing side has finished: the box is simply dropped.
+        let _ = recycle.send(used);
+    };
     if N < TWO_THREADS_FROM_STATES {
-        return recursion(n, prepared, emit);
+        return recursion(n, prepared, emit, hand_back);
     }
     std::thread::scope(|scope| {
         let (to_recursion, from_prepare) = std::sync::mpsc::sync_channel::<Vec<_>>(4);
@@ -120,12 +126,11 @@ where
             }
             let _ = to_recursion.send(batch);
         });
-        recursion(n, from_prepare.into_iter().flatten(), emit)
+        recursion(n, from_prepare.into_iter().flatten(), emit, hand_back)
     })
 }
 
-/// One epoch with what the recursion needs from the forward records alone (boxed where it
-/// is handed on: the matrices are kilobytes).
+/// One epoch with what the recursion needs from the forward records alone.
 struct Prepared<B, const N: usize> {
     epoch: B,
     /// What links this epoch to the next one; `None` at the last epoch.
@@ -134,20 +139,42 @@ struct Prepared<B, const N: usize> {
 
 /// What links epoch k to epoch k+1, from the forward records alone.
 struct Link<const N: usize> {
+    /// The posterior covariance `P_k` (unpacked once, here).
+    posterior_cov: SMatrix<f64, N, N>,
     /// The predicted covariance `P_{k+1|k}`.
     prior_cov: SMatrix<f64, N, N>,
-    /// The lower Cholesky factor of `P_{k+1|k}` (held states' unit variance in place; only
-    /// the lower triangle is meaningful).
-    prior_factor: SMatrix<f64, N, N>,
-    /// `Phi P_k`.
-    phi_p: SMatrix<f64, N, N>,
+    /// The RTS gain `C_k = P_k Phi^T P_{k+1|k}^-1`.
+    gain: SMatrix<f64, N, N>,
 }
 
 impl<const N: usize> Link<N> {
-    /// The RTS gain `C_k = P_k Phi^T P_{k+1|k}^-1`, computed on the recursion's side of the
-    /// threads (which balances their work).
-    fn gain(&self) -> SMatrix<f64, N, N> {
-        rts_gain(&self.prior_factor, &self.phi_p)
+    fn zeros() -> Self {
+        Link {
+            posterior_cov: SMatrix::zeros(),
+            prior_cov: SMatrix::zeros(),
+            gain: SMatrix::zeros(),
+        }
+    }
+
+    /// Fills the link from epoch k (`epoch`) to epoch k+1 (`after`, at index `k_after`) in
+    /// place; `factor` is room for the Cholesky factor of the predicted covariance.
+    fn fill<E: ForwardEpoch<N>>(
+        &mut self,
+        epoch: &E,
+        after: &E,
+        k_after: usize,
+        factor: &mut SMatrix<f64, N, N>,
+    ) -> Result<(), SmoothError> {
+        self.posterior_cov = epoch.posterior_cov();
+        let phi_p;
+        (self.prior_cov, phi_p) = after.prior_cov_and_phi_times(&self.posterior_cov);
+        factor.copy_from(&self.prior_cov);
+        held_states_unit(factor);
+        if !dense::cholesky_in_place(factor) {
+            return Err(SmoothError::SingularPrior { epoch: k_after });
+        }
+        rts_gain(&mut self.gain, factor, &phi_p);
+        Ok(())
     }
 }
 
@@ -161,10 +188,18 @@ struct Prepare<I, B, E, const N: usize> {
     pending: Option<Result<Box<Prepared<B, N>>, SmoothError>>,
     /// Index of the pending epoch.
     k: usize,
+    /// Boxes the recursion has finished with.
+    recycled: std::sync::mpsc::Receiver<Box<Prepared<B, N>>>,
+    /// Room for a Cholesky factor.
+    factor: Box<SMatrix<f64, N, N>>,
 }
 
 impl<I, B, E, const N: usize> Prepare<I, B, E, N> {
-    fn new(n: usize, mut epochs: I) -> Self
+    fn new(
+        n: usize,
+        mut epochs: I,
+        recycled: std::sync::mpsc::Receiver<Box<Prepared<B, N>>>,
+    ) -> Self
     where
         I: Iterator<Item = Result<B, SmoothError>>,
         E: ForwardEpoch<N>,
@@ -178,6 +213,19 @@ impl<I, B, E, const N: usize> Prepare<I, B, E, N> {
             epoch_type: std::marker::PhantomData,
             pending,
             k: n.saturating_sub(1),
+            recycled,
+            factor: Box::new(SMatrix::zeros()),
+        }
+    }
+
+    /// A box for `epoch`: one handed back by the recursion, or a new one.
+    fn boxed(&self, epoch: B) -> Box<Prepared<B, N>> {
+        match self.recycled.try_recv() {
+            Ok(mut used) => {
+                used.epoch = epoch;
+                used
+            }
+            Err(_) => Box::new(Prepared { epoch, link: None }),
         }
     }
 }
@@ -200,63 +248,55 @@ where
         };
         let this_k = self.k.saturating_sub(1);
         self.pending = Some(epoch.and_then(|epoch| {
-            let p = epoch.borrow().posterior_cov();
-            let link = link(&p, pending.epoch.borrow(), self.k)?;
-            Ok(Box::new(Prepared {
-                epoch,
-                link: Some(link),
-            }))
+            let mut item = self.boxed(epoch);
+            let link = item.link.get_or_insert_with(Link::zeros);
+            link.fill(
+                item.epoch.borrow(),
+                pending.epoch.borrow(),
+                self.k,
+                &mut self.factor,
+            )?;
+            Ok(item)
         }));
         self.k = this_k;
         Some(Ok(pending))
     }
 }
 
-/// The link from epoch k, whose posterior covariance is `p`, to epoch k+1 (`after`, at index
-/// `k_after`).
-fn link<const N: usize, E: ForwardEpoch<N>>(
-    p: &SMatrix<f64, N, N>,
-    after: &E,
-    k_after: usize,
-) -> Result<Link<N>, SmoothError> {
-    let (prior_cov, phi_p) = after.prior_cov_and_phi_times(p);
-    let chol = held_states_unit(&prior_cov)
-        .cholesky()
-        .ok_or(SmoothError::SingularPrior { epoch: k_after })?;
-    Ok(Link {
-        prior_cov,
-        prior_factor: chol.unpack_dirty(),
-        phi_p,
-    })
-}
-
 /// The sequential part: `dx_k|N = C_k (dx_{k+1|N} + D_{k+1})` and
-/// `P_k|N = P_k + C_k (P_{k+1|N} - P_{k+1|k}) C_k^T`, from the last epoch down.
+/// `P_k|N = P_k + C_k (P_{k+1|N} - P_{k+1|k}) C_k^T`, from the last epoch down. Each epoch's
+/// box goes to `hand_back` once the recursion is done with it.
 fn recursion<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
     n: usize,
     prepared: impl IntoIterator<Item = Result<Box<Prepared<B, N>>, SmoothError>>,
     mut emit: impl FnMut(usize, &E, &SVector<f64, N>, &SMatrix<f64, N, N>),
+    mut hand_back: impl FnMut(Box<Prepared<B, N>>),
 ) -> Result<(), SmoothError> {
     // The epoch after the current one, with its smoothed error and covariance.
-    type Smoothed<B, const N: usize> = (Box<Prepared<B, N>>, SVector<f64, N>, SMatrix<f64, N, N>);
-    let mut next: Option<Smoothed<B, N>> = None;
+    let mut next: Option<(Box<Prepared<B, N>>, SVector<f64, N>)> = None;
+    let mut p_next = SMatrix::<f64, N, N>::zeros();
     for (item, k) in prepared.into_iter().zip((0..n).rev()) {
         let item = item?;
-        // Unpacked again here rather than handed over with the gain: on this side of the
-        // threads it costs less than moving another matrix.
-        let p = item.epoch.borrow().posterior_cov();
-        let (dx, p_smooth) = match (&item.link, &next) {
-            (Some(link), Some((after, dx_next, p_next))) => {
-                let gain = link.gain();
+        let dx = match (&item.link, &next) {
+            (Some(link), Some((after, dx_next))) => {
+                let gain = &link.gain;
                 let dx = gain * (dx_next + after.epoch.borrow().correction());
-                let spread = dense::mul(&gain, &(p_next - link.prior_cov));
-                let p_smooth = p + dense::mul_transpose(&spread, &gain);
-                (dx, (p_smooth + p_smooth.transpose()) * 0.5)
+                p_next -= &link.prior_cov;
+                let spread = dense::mul(gain, &p_next);
+                p_next = dense::mul_transpose(&spread, gain);
+                p_next += &link.posterior_cov;
+                dense::symmetrise(&mut p_next);
+                dx
             }
-            _ => (SVector::zeros(), p),
+            _ => {
+                p_next = item.epoch.borrow().posterior_cov();
+                SVector::zeros()
+            }
         };
-        emit(k, item.epoch.borrow(), &dx, &p_smooth);
-        next = Some((item, dx, p_smooth));
+        emit(k, item.epoch.borrow(), &dx, &p_next);
+        if let Some((used, _)) = next.replace((item, dx)) {
+            hand_back(used);
+        }
     }
     Ok(())
 }
@@ -288,7 +328,8 @@ mod tests {
             let phi_p = random_matrix::<25, 25>(&mut rng);
             let chol = pp.cholesky().unwrap();
             let want = chol.solve(&phi_p).transpose();
-            let got = rts_gain(chol.l_dirty(), &phi_p);
+            let mut got = M::<25>::zeros();
+            rts_gain(&mut got, chol.l_dirty(), &phi_p);
             assert!(
                 (got - want).amax() < 1e-9 * want.amax(),
                 "{}",

@@ -185,7 +185,7 @@ struct Pass<'a> {
     /// Transition and process-noise diagonal of the last covariance step (one per epoch).
     step_phi: ErrorMatrix,
     step_q: ErrorState,
-    /// Bias-corrected body rate relative to NED at the current tick.
+    /// Bias-corrected body rate relative to NED at the current epoch.
     omega_nb_body: Vector3<f64>,
     at: Cursor,
     run: ForwardRun,
@@ -304,12 +304,13 @@ impl Pass<'_> {
         self.w_dt_sum += corrected.omega_ib_body * dt;
         self.cov_dt_s += dt;
         self.gap_since_cov |= in_gap;
-        self.omega_nb_body = self.omega_nb(b);
 
         // Every covariance step is an epoch, so that each record holds one step (its Q is
         // then diagonal, and the record small).
         let epoch = self.due(t) || self.cov_dt_s >= self.settings.propagation.covariance_interval_s;
         if epoch {
+            // Only the measurements read it (a DVL's lever arm).
+            self.omega_nb_body = self.omega_nb(b);
             self.propagate_covariance();
             let prior = self.est;
             let output = self

@@ -89,11 +89,18 @@ fn unpack(y: &Y) -> NavState {
     }
 }
 
-fn derivative(y: &Y, imu: &ImuSample, damping: Option<(HeightDamping, f64)>) -> Y {
+/// The navigation ODE's right-hand side at `y`; `start` is the geodesy at the interval's
+/// start, from which each stage's is moved ([`geodesy::Local::nearby`]).
+fn derivative(
+    y: &Y,
+    imu: &ImuSample,
+    damping: Option<(HeightDamping, f64)>,
+    start: &geodesy::Local,
+) -> Y {
     let q = Quaternion::new(y[0], y[1], y[2], y[3]);
     let v = Vector3::new(y[4], y[5], y[6]);
     let (lat, h) = (y[7], y[9]);
-    let local = geodesy::Local::at(lat, h);
+    let local = start.nearby(lat, h);
     let w_ie = local.earth_rate_ned();
     let w_en = local.transport_rate_ned(&v);
     let w_in = w_ie + w_en;
@@ -128,9 +135,10 @@ pub fn propagate(
 ) -> NavState {
     let mid = ImuSample::mean(imu0, imu1);
     let y = pack(state);
-    let k1 = derivative(&y, imu0, height_ref);
-    let k2 = derivative(&(y + k1 * (dt_s / 2.0)), &mid, height_ref);
-    let k3 = derivative(&(y + k2 * (dt_s / 2.0)), &mid, height_ref);
-    let k4 = derivative(&(y + k3 * dt_s), imu1, height_ref);
+    let start = geodesy::Local::at(state.lat_rad, state.height_m);
+    let k1 = derivative(&y, imu0, height_ref, &start);
+    let k2 = derivative(&(y + k1 * (dt_s / 2.0)), &mid, height_ref, &start);
+    let k3 = derivative(&(y + k2 * (dt_s / 2.0)), &mid, height_ref, &start);
+    let k4 = derivative(&(y + k3 * dt_s), imu1, height_ref, &start);
     unpack(&(y + (k1 + 2.0 * k2 + 2.0 * k3 + k4) * (dt_s / 6.0)))
 }
