@@ -511,13 +511,6 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     let from_log = report::FromLog::new(streams.gnss, streams.fixes, streams.dvl, origin);
     let log_truth = parked_truth.is_none().then(|| streams.truth.to_vec());
     drop(log);
-    let truth: Vec<Truth> = match (log_truth, &parked_truth) {
-        (Some(truth), _) => truth,
-        (None, Some(parked)) => parked.to_vec().context("reading the truth back")?,
-        (None, None) => Vec::new(),
-    };
-    drop(parked_truth);
-    let from_log = from_log.with_truth(&truth);
     let records_failure = pass.run.records.spill_failure();
     let bar = console::fraction_bar("smoother");
     let r = recon::finish_reporting(
@@ -546,6 +539,15 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         .filter(|&k| r.output[k] || config.output.aiding_epochs)
         .collect();
     let kept = keep_mask(r.forward.len(), &keep);
+    // The truth waited on its temporary file through the smoother; it is held only while
+    // the errors are taken (a day of it is 140 MB).
+    let truth: Vec<Truth> = match (log_truth, &parked_truth) {
+        (Some(truth), _) => truth,
+        (None, Some(parked)) => parked.to_vec().context("reading the truth back")?,
+        (None, None) => Vec::new(),
+    };
+    drop(parked_truth);
+    let from_log = from_log.with_truth(&truth);
     let truth_errors = if truth.is_empty() {
         None
     } else {
@@ -554,6 +556,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             score::errors(&truth, &r.smoothed, &kept)?,
         ))
     };
+    drop(truth);
     std::fs::create_dir_all(&args.out).with_context(|| OutputFailed {
         path: args.out.clone(),
     })?;

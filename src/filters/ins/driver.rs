@@ -23,7 +23,7 @@ use super::aiding::{first_after, Aid, Aiding, Epoch, Measurement, PerSensor, Sen
 use super::error_state::{ErrorMatrix, ErrorState};
 use super::forward::{Estimate, Filter, ImuNoise};
 use super::mechanization::{ImuSample, NavState};
-use super::record::EpochRecord;
+use super::record::{EpochRecord, NavPoint};
 use crate::contract::Imu;
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
 use crate::geodesy;
@@ -243,7 +243,7 @@ pub fn run_forward(
         true,
         &ErrorMatrix::identity(),
         &ErrorState::zeros(),
-        &initial,
+        &NavPoint::from(&initial),
         &initial,
     ));
 
@@ -312,7 +312,7 @@ impl Pass<'_> {
             // Only the measurements read it (a DVL's lever arm).
             self.omega_nb_body = self.omega_nb(b);
             self.propagate_covariance();
-            let prior = self.est;
+            let prior = NavPoint::from(&self.est);
             let output = self
                 .inputs
                 .output_stamps_ns

@@ -94,7 +94,13 @@ pub struct Filter {
 impl Estimate {
     /// The estimate with the correction `dx` injected (the covariance unchanged).
     pub fn corrected_by(&self, dx: &ErrorState) -> Estimate {
+        self.corrected_with_cov(dx, self.cov)
+    }
+
+    /// [`Estimate::corrected_by`] with the covariance `cov` (an update's posterior).
+    fn corrected_with_cov(&self, dx: &ErrorState, cov: ErrorMatrix) -> Estimate {
         Estimate {
+            cov,
             nav: error_state::inject(&self.nav, dx),
             // dbg = true bias - estimate: the estimate moves by the correction.
             gyro_bias: self.gyro_bias + dx.fixed_rows::<3>(idx::GYRO_BIAS),
@@ -102,7 +108,6 @@ impl Estimate {
             dvl: self.dvl + dx.fixed_rows::<DVL_STATES>(idx::DVL),
             water: self.water + dx.fixed_rows::<WATER_STATES>(idx::WATER),
             gyro_scale_z: self.gyro_scale_z + dx[idx::GYRO_SCALE_Z],
-            ..*self
         }
     }
 
@@ -219,10 +224,7 @@ impl Filter {
             .any(|&c| c)
             .then_some(&self.considered);
         let (post, record) = kalman::update_considering(&prior, y, h, r, gate, considered)?;
-        let next = Estimate {
-            cov: post.cov,
-            ..est.corrected_by(&post.mean)
-        };
+        let next = est.corrected_with_cov(&post.mean, post.cov);
         Ok((next, record))
     }
 }

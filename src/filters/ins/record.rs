@@ -147,23 +147,24 @@ pub struct EpochRecord {
 }
 
 impl EpochRecord {
-    /// The record of an epoch whose prior estimate was `prior` and whose updates gave
-    /// `posterior`.
+    /// The record of an epoch whose prior estimate was `prior` (its covariance is not
+    /// needed) and whose updates gave `posterior`.
     pub fn new(
         stamp_ns: i64,
         output: bool,
         phi_from_previous: &ErrorMatrix,
         process_noise: &ErrorState,
-        prior: &Estimate,
+        prior: &NavPoint,
         posterior: &Estimate,
     ) -> Self {
+        let posterior_point = NavPoint::from(posterior);
         EpochRecord {
             stamp_ns,
             output,
             phi_from_previous: PackedTransition::pack(phi_from_previous),
             process_noise: *process_noise,
-            correction: correction_between(prior, posterior),
-            posterior: NavPoint::from(posterior),
+            correction: correction_between(prior, &posterior_point),
+            posterior: posterior_point,
             posterior_cov: PackedCov::pack(&posterior.cov),
         }
     }
@@ -282,7 +283,7 @@ impl Solution {
 }
 
 /// The correction that takes `prior` to `posterior` (both at one epoch).
-pub fn correction_between(prior: &Estimate, posterior: &Estimate) -> ErrorState {
+pub fn correction_between(prior: &NavPoint, posterior: &NavPoint) -> ErrorState {
     let mut d = ErrorState::zeros();
     d.fixed_rows_mut::<9>(0)
         .copy_from(&super::error_state::difference(&posterior.nav, &prior.nav));
@@ -446,6 +447,7 @@ mod tests {
         let mut prior = est;
         prior.nav.lat_rad += 1e-7;
         let q = ErrorState::from_fn(|i, _| i as f64 * 1e-9);
+        let prior = NavPoint::from(&prior);
         let rec = EpochRecord::new(1_700_000_000_123_456_789, true, &phi, &q, &prior, &est);
         let bytes = encoded(&rec);
         assert_eq!(bytes.len(), EpochRecord::BYTES);
