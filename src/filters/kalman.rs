@@ -114,12 +114,7 @@ pub fn update_considering<const N: usize, const M: usize>(
             k.row_mut(i).fill(0.0);
         }
     }
-    // Joseph form, in products with N x M factors only: with A = I - K H and P symmetric,
-    // A P = P - K (P H^T)^T and (A P) A^T = A P - (A P H^T) K^T.
-    let a_p = prior.cov - dense::mul_transpose(&k, &pht);
-    let mut cov = a_p - dense::mul_transpose(&dense::mul_transpose(&a_p, h), &k);
-    cov += dense::mul_transpose(&dense::mul(&k, r), &k);
-    dense::symmetrise(&mut cov);
+    let cov = joseph(&prior.cov, &k, &pht, &s);
     Ok((
         Gaussian {
             mean: prior.mean + k * y,
@@ -127,6 +122,32 @@ pub fn update_considering<const N: usize, const M: usize>(
         },
         record,
     ))
+}
+
+/// The Joseph form `(I - K H) P (I - K H)^T + K R K^T` for any gain `K`, expanded: with
+/// `G = P H^T` and `S = H P H^T + R`, it is `P - K G^T - G K^T + K S K^T`. Summed column by
+/// column in one pass over `P` (each column a contiguous run the compiler vectorises, with
+/// no N x N temporaries), then made exactly symmetric.
+fn joseph<const N: usize, const M: usize>(
+    p: &SMatrix<f64, N, N>,
+    k: &SMatrix<f64, N, M>,
+    g: &SMatrix<f64, N, M>,
+    s: &SMatrix<f64, M, M>,
+) -> SMatrix<f64, N, N> {
+    let w = k * s;
+    let (k, g, w) = (k.as_slice(), g.as_slice(), w.as_slice());
+    let mut cov = *p;
+    for (j, column) in cov.as_mut_slice().chunks_exact_mut(N).enumerate() {
+        for m in 0..M {
+            let (k_m, g_m, w_m) = (&k[m * N..][..N], &g[m * N..][..N], &w[m * N..][..N]);
+            let (k_jm, g_jm) = (k_m[j], g_m[j]);
+            for (((c, &w_i), &k_i), &g_i) in column.iter_mut().zip(w_m).zip(k_m).zip(g_m) {
+                *c += w_i * k_jm - k_i * g_jm - g_i * k_jm;
+            }
+        }
+    }
+    dense::symmetrise(&mut cov);
+    cov
 }
 
 fn symmetrised<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
