@@ -37,6 +37,12 @@ pub struct Local {
     pub meridian_radius_m: f64,
     /// Prime-vertical radius of curvature R_E, m.
     pub prime_vertical_radius_m: f64,
+    /// `1 / root`, `1 / (R_N + h)`, `1 / (R_E + h)` and `1 / cos lat`: the rates multiply by
+    /// these (four divisions here instead of eight across the rates and gravity).
+    inverse_root: f64,
+    inverse_meridian_plus_height: f64,
+    inverse_prime_vertical_plus_height: f64,
+    inverse_cos_lat: f64,
 }
 
 impl Local {
@@ -66,14 +72,21 @@ impl Local {
     fn from_sin_cos(lat_rad: f64, sin_lat: f64, cos_lat: f64, height_m: f64) -> Local {
         let w = 1.0 - E2 * sin_lat * sin_lat;
         let root = w.sqrt();
+        let inverse_root = 1.0 / root;
+        let meridian_radius_m = A_M * (1.0 - E2) * inverse_root * inverse_root * inverse_root;
+        let prime_vertical_radius_m = A_M * inverse_root;
         Local {
             lat_rad,
             sin_lat,
             cos_lat,
             height_m,
             root,
-            meridian_radius_m: A_M * (1.0 - E2) / (w * root),
-            prime_vertical_radius_m: A_M / root,
+            meridian_radius_m,
+            prime_vertical_radius_m,
+            inverse_root,
+            inverse_meridian_plus_height: 1.0 / (meridian_radius_m + height_m),
+            inverse_prime_vertical_plus_height: 1.0 / (prime_vertical_radius_m + height_m),
+            inverse_cos_lat: 1.0 / cos_lat,
         }
     }
 
@@ -101,7 +114,7 @@ impl Local {
     /// correction of NIMA TR8350.2 eq. 4-3), m/s^2.
     pub fn normal_gravity_m_s2(&self) -> f64 {
         let (s2, h) = (self.sin_lat * self.sin_lat, self.height_m);
-        let gamma0 = GAMMA_EQUATOR_M_S2 * (1.0 + SOMIGLIANA_K * s2) / self.root;
+        let gamma0 = GAMMA_EQUATOR_M_S2 * (1.0 + SOMIGLIANA_K * s2) * self.inverse_root;
         gamma0
             * (1.0 - 2.0 / A_M * (1.0 + F + M_RATIO - 2.0 * F * s2) * h + 3.0 * h * h / (A_M * A_M))
     }
@@ -140,18 +153,21 @@ impl Local {
 
     /// Transport rate omega_en^n (rotation of NED over the ellipsoid), rad/s.
     pub fn transport_rate_ned(&self, vel_ned: &Vector3<f64>) -> Vector3<f64> {
-        let (rn, re) = self.radii_plus_height_m();
+        let east = vel_ned.y * self.inverse_prime_vertical_plus_height;
         Vector3::new(
-            vel_ned.y / re,
-            -vel_ned.x / rn,
-            -vel_ned.y * (self.sin_lat / self.cos_lat) / re,
+            east,
+            -vel_ned.x * self.inverse_meridian_plus_height,
+            -east * self.sin_lat * self.inverse_cos_lat,
         )
     }
 
     /// Rates of latitude, longitude (rad/s) and height (m/s) for a NED velocity.
     pub fn position_rates(&self, vel_ned: &Vector3<f64>) -> Vector3<f64> {
-        let (rn, re) = self.radii_plus_height_m();
-        Vector3::new(vel_ned.x / rn, vel_ned.y / (re * self.cos_lat), -vel_ned.z)
+        Vector3::new(
+            vel_ned.x * self.inverse_meridian_plus_height,
+            vel_ned.y * self.inverse_prime_vertical_plus_height * self.inverse_cos_lat,
+            -vel_ned.z,
+        )
     }
 }
 
