@@ -116,7 +116,8 @@ fn cholesky<const N: usize>(cols: &mut [[f64; N]; N]) -> bool {
             }
         }
         let pivot = column[j];
-        if !(pivot > 0.0) {
+        // Not positive, or not a number.
+        if pivot.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return false;
         }
         let root = pivot.sqrt();

@@ -163,7 +163,7 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
         median(&mut tune_t),
     );
     println!(
-        "log: {scenario} (seed 0), {file_mb:.1} MB; {epochs} filter epochs; medians of {repeat} runs; forward filter on one thread (its temporary file written from a second), smoother's predicted covariances and their factors on a second thread beside its gains and recursion, ingest decoding on its threads; temporary files {}"
+        "log: {scenario} (seed 0), {file_mb:.1} MB; {epochs} filter epochs; medians of {repeat} runs; forward filter on one thread (its temporary file written from a second), smoother's links (predicted covariances and gains) on a second thread beside its recursion, ingest decoding on its threads; temporary files {}"
     , if direct { "past the system's cache (O_DIRECT)" } else { "through the system's cache" });
     println!(
         "{:<22} {:>9} {:>16}",
