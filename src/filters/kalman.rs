@@ -82,7 +82,37 @@ pub fn update_considering<const N: usize, const M: usize>(
     gate: Option<f64>,
     considered: Option<&[bool; N]>,
 ) -> Result<(Gaussian<N>, UpdateRecord<M>), KalmanError> {
-    let pht = dense::mul_transpose(&prior.cov, h);
+    let (correction, record) = correction_considering(&prior.cov, y, h, r, gate, considered)?;
+    let posterior = match correction {
+        Some((dx, cov)) => Gaussian {
+            mean: prior.mean + dx,
+            cov,
+        },
+        None => *prior,
+    };
+    Ok((posterior, record))
+}
+
+/// [`update_considering`] given the prior covariance alone (an error-state filter's mean
+/// is zero before each update, so it need not be copied into a [`Gaussian`]): the
+/// correction to the mean and the posterior covariance, or `None` when the gate rejected
+/// the measurement.
+#[allow(clippy::type_complexity)]
+pub fn correction_considering<const N: usize, const M: usize>(
+    prior_cov: &SMatrix<f64, N, N>,
+    y: &SVector<f64, M>,
+    h: &SMatrix<f64, M, N>,
+    r: &SMatrix<f64, M, M>,
+    gate: Option<f64>,
+    considered: Option<&[bool; N]>,
+) -> Result<
+    (
+        Option<(SVector<f64, N>, SMatrix<f64, N, N>)>,
+        UpdateRecord<M>,
+    ),
+    KalmanError,
+> {
+    let pht = dense::mul_transpose(prior_cov, h);
     let s = symmetrised(&(dense::mul(h, &pht) + r));
     let chol = s
         .cholesky()
@@ -105,7 +135,7 @@ pub fn update_considering<const N: usize, const M: usize>(
         accepted,
     };
     if !accepted {
-        return Ok((*prior, record));
+        return Ok((None, record));
     }
     // K = P H^T S^-1 = (S^-1 H P)^T, S symmetric.
     let mut k: SMatrix<f64, N, M> = chol.solve(&pht.transpose()).transpose();
@@ -114,14 +144,8 @@ pub fn update_considering<const N: usize, const M: usize>(
             k.row_mut(i).fill(0.0);
         }
     }
-    let cov = joseph(&prior.cov, &k, &pht, &s);
-    Ok((
-        Gaussian {
-            mean: prior.mean + k * y,
-            cov,
-        },
-        record,
-    ))
+    let cov = joseph(prior_cov, &k, &pht, &s);
+    Ok((Some((k * y, cov)), record))
 }
 
 /// The Joseph form `(I - K H) P (I - K H)^T + K R K^T` for any gain `K`, expanded: with

@@ -376,17 +376,15 @@ impl Pass<'_> {
         } else {
             filter.noise
         };
-        let (cov, phi, q) = filter.propagate_covariance_with(
-            &self.est.cov,
+        self.step_q = filter.propagate_covariance_in_place(
+            &mut self.est.cov,
+            &mut self.step_phi,
             &self.cov_nav,
             &self.est.nav,
             &mean,
             self.cov_dt_s,
             &noise,
         );
-        self.est.cov = cov;
-        self.step_phi = phi;
-        self.step_q = q;
         self.cov_nav = self.est.nav;
         self.f_dt_sum = Vector3::zeros();
         self.w_dt_sum = Vector3::zeros();

@@ -12,7 +12,7 @@ use super::error_state::{
     self, idx, DvlCalibration, ErrorMatrix, ErrorState, WaterState, DVL_STATES, N, WATER_STATES,
 };
 use super::mechanization::{propagate, HeightDamping, ImuSample, NavState};
-use crate::filters::kalman::{self, Gaussian, KalmanError, UpdateRecord};
+use crate::filters::kalman::{self, KalmanError, UpdateRecord};
 use crate::geodesy;
 use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector3};
 
@@ -194,14 +194,36 @@ impl Filter {
         dt_s: f64,
         noise: &ImuNoise,
     ) -> (ErrorMatrix, ErrorMatrix, ErrorState) {
+        let (mut cov, mut phi) = (*cov, ErrorMatrix::zeros());
+        let q = self.propagate_covariance_in_place(
+            &mut cov, &mut phi, nav_from, nav_to, imu_mean, dt_s, noise,
+        );
+        (cov, phi, q)
+    }
+
+    /// [`Filter::propagate_covariance_with`] in place: `cov` is propagated and `phi` set to
+    /// the transition (the forward pass keeps both, and copies neither); returns the
+    /// diagonal of `Q`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn propagate_covariance_in_place(
+        &self,
+        cov: &mut ErrorMatrix,
+        phi: &mut ErrorMatrix,
+        nav_from: &NavState,
+        nav_to: &NavState,
+        imu_mean: &ImuSample,
+        dt_s: f64,
+        noise: &ImuNoise,
+    ) -> ErrorState {
         let (f_body, w_body) = (&imu_mean.specific_force_body, &imu_mean.omega_ib_body);
-        let f = (error_state::continuous_matrix(nav_from, f_body, w_body)
-            + error_state::continuous_matrix(nav_to, f_body, w_body))
-            * 0.5;
-        let phi = error_state::transition(&f, dt_s);
+        let mut f = error_state::continuous_matrix(nav_from, f_body, w_body);
+        f += error_state::continuous_matrix(nav_to, f_body, w_body);
+        f *= 0.5;
+        *phi = error_state::transition(&f, dt_s);
         let q = process_noise(noise, self.current_walk, dt_s).diagonal();
         let top = phi.fixed_rows::<{ error_state::NAV_ROWS }>(0).into_owned();
-        (error_state::predicted_cov(&top, cov, &q), phi, q)
+        *cov = error_state::predicted_cov(&top, cov, &q);
+        q
     }
 
     /// Applies a measurement with innovation `y` and matrix `h` (in the error state), then
@@ -214,17 +236,18 @@ impl Filter {
         r: &SMatrix<f64, M, M>,
         gate: Option<f64>,
     ) -> Result<(Estimate, UpdateRecord<M>), KalmanError> {
-        let prior = Gaussian {
-            mean: ErrorState::zeros(),
-            cov: est.cov,
-        };
         let considered = self
             .considered
             .iter()
             .any(|&c| c)
             .then_some(&self.considered);
-        let (post, record) = kalman::update_considering(&prior, y, h, r, gate, considered)?;
-        let next = est.corrected_with_cov(&post.mean, post.cov);
+        // The error state's mean is zero before the update: only its covariance goes in.
+        let (correction, record) =
+            kalman::correction_considering(&est.cov, y, h, r, gate, considered)?;
+        let next = match correction {
+            Some((dx, cov)) => est.corrected_with_cov(&dx, cov),
+            None => *est,
+        };
         Ok((next, record))
     }
 }
