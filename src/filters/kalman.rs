@@ -82,9 +82,10 @@ pub fn update_considering<const N: usize, const M: usize>(
     gate: Option<f64>,
     considered: Option<&[bool; N]>,
 ) -> Result<(Gaussian<N>, UpdateRecord<M>), KalmanError> {
-    let (correction, record) = correction_considering(&prior.cov, y, h, r, gate, considered)?;
+    let mut cov = prior.cov;
+    let (correction, record) = correct_considering(&mut cov, y, h, r, gate, considered)?;
     let posterior = match correction {
-        Some((dx, cov)) => Gaussian {
+        Some(dx) => Gaussian {
             mean: prior.mean + dx,
             cov,
         },
@@ -93,26 +94,19 @@ pub fn update_considering<const N: usize, const M: usize>(
     Ok((posterior, record))
 }
 
-/// [`update_considering`] given the prior covariance alone (an error-state filter's mean
-/// is zero before each update, so it need not be copied into a [`Gaussian`]): the
-/// correction to the mean and the posterior covariance, or `None` when the gate rejected
-/// the measurement.
-#[allow(clippy::type_complexity)]
-pub fn correction_considering<const N: usize, const M: usize>(
-    prior_cov: &SMatrix<f64, N, N>,
+/// [`update_considering`] on a covariance in place (an error-state filter's mean is zero
+/// before each update, so only its covariance goes in): `cov` becomes the posterior
+/// covariance and the correction to the mean is returned, or, when the gate rejected the
+/// measurement (or on an error), `cov` is left as it was and `None` returned.
+pub fn correct_considering<const N: usize, const M: usize>(
+    cov: &mut SMatrix<f64, N, N>,
     y: &SVector<f64, M>,
     h: &SMatrix<f64, M, N>,
     r: &SMatrix<f64, M, M>,
     gate: Option<f64>,
     considered: Option<&[bool; N]>,
-) -> Result<
-    (
-        Option<(SVector<f64, N>, SMatrix<f64, N, N>)>,
-        UpdateRecord<M>,
-    ),
-    KalmanError,
-> {
-    let pht = dense::mul_transpose(prior_cov, h);
+) -> Result<(Option<SVector<f64, N>>, UpdateRecord<M>), KalmanError> {
+    let pht = dense::mul_transpose(cov, h);
     let s = symmetrised(&(dense::mul(h, &pht) + r));
     let chol = s
         .cholesky()
@@ -144,23 +138,22 @@ pub fn correction_considering<const N: usize, const M: usize>(
             k.row_mut(i).fill(0.0);
         }
     }
-    let cov = joseph(prior_cov, &k, &pht, &s);
-    Ok((Some((k * y, cov)), record))
+    joseph_in_place(cov, &k, &pht, &s);
+    Ok((Some(k * y), record))
 }
 
 /// The Joseph form `(I - K H) P (I - K H)^T + K R K^T` for any gain `K`, expanded: with
 /// `G = P H^T` and `S = H P H^T + R`, it is `P - K G^T - G K^T + K S K^T`. Summed column by
-/// column in one pass over `P` (each column a contiguous run the compiler vectorises, with
+/// column in one pass over `P`, in place (each column a contiguous run the compiler vectorises, with
 /// no N x N temporaries), then made exactly symmetric.
-fn joseph<const N: usize, const M: usize>(
-    p: &SMatrix<f64, N, N>,
+fn joseph_in_place<const N: usize, const M: usize>(
+    cov: &mut SMatrix<f64, N, N>,
     k: &SMatrix<f64, N, M>,
     g: &SMatrix<f64, N, M>,
     s: &SMatrix<f64, M, M>,
-) -> SMatrix<f64, N, N> {
+) {
     let w = k * s;
     let (k, g, w) = (k.as_slice(), g.as_slice(), w.as_slice());
-    let mut cov = *p;
     for (j, column) in cov.as_mut_slice().chunks_exact_mut(N).enumerate() {
         for m in 0..M {
             let (k_m, g_m, w_m) = (&k[m * N..][..N], &g[m * N..][..N], &w[m * N..][..N]);
@@ -170,8 +163,7 @@ fn joseph<const N: usize, const M: usize>(
             }
         }
     }
-    dense::symmetrise(&mut cov);
-    cov
+    dense::symmetrise(cov);
 }
 
 fn symmetrised<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {

@@ -416,10 +416,10 @@ impl Pass<'_> {
         if reopen {
             self.run.gate_resets += 1;
         }
-        let (next, rec) = self
+        let rec = self
             .settings
             .filter
-            .update(&self.est, &m.y, &m.h, &m.r, gate)
+            .update_in_place(&mut self.est, &m.y, &m.h, &m.r, gate)
             .map_err(|source| ForwardError {
                 stamp_ns,
                 sensor,
@@ -437,7 +437,6 @@ impl Pass<'_> {
         self.run
             .residuals
             .push(Residual::from_record(stamp_ns, sensor, &rec));
-        self.est = next;
         Ok(())
     }
 

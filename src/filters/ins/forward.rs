@@ -94,21 +94,20 @@ pub struct Filter {
 impl Estimate {
     /// The estimate with the correction `dx` injected (the covariance unchanged).
     pub fn corrected_by(&self, dx: &ErrorState) -> Estimate {
-        self.corrected_with_cov(dx, self.cov)
+        let mut corrected = *self;
+        corrected.correct(dx);
+        corrected
     }
 
-    /// [`Estimate::corrected_by`] with the covariance `cov` (an update's posterior).
-    fn corrected_with_cov(&self, dx: &ErrorState, cov: ErrorMatrix) -> Estimate {
-        Estimate {
-            cov,
-            nav: error_state::inject(&self.nav, dx),
-            // dbg = true bias - estimate: the estimate moves by the correction.
-            gyro_bias: self.gyro_bias + dx.fixed_rows::<3>(idx::GYRO_BIAS),
-            accel_bias: self.accel_bias + dx.fixed_rows::<3>(idx::ACCEL_BIAS),
-            dvl: self.dvl + dx.fixed_rows::<DVL_STATES>(idx::DVL),
-            water: self.water + dx.fixed_rows::<WATER_STATES>(idx::WATER),
-            gyro_scale_z: self.gyro_scale_z + dx[idx::GYRO_SCALE_Z],
-        }
+    /// [`Estimate::corrected_by`] in place.
+    fn correct(&mut self, dx: &ErrorState) {
+        self.nav = error_state::inject(&self.nav, dx);
+        // dbg = true bias - estimate: the estimate moves by the correction.
+        self.gyro_bias += dx.fixed_rows::<3>(idx::GYRO_BIAS);
+        self.accel_bias += dx.fixed_rows::<3>(idx::ACCEL_BIAS);
+        self.dvl += dx.fixed_rows::<DVL_STATES>(idx::DVL);
+        self.water += dx.fixed_rows::<WATER_STATES>(idx::WATER);
+        self.gyro_scale_z += dx[idx::GYRO_SCALE_Z];
     }
 
     /// The IMU sample with the bias and scale estimates removed: what the mechanization
@@ -236,6 +235,21 @@ impl Filter {
         r: &SMatrix<f64, M, M>,
         gate: Option<f64>,
     ) -> Result<(Estimate, UpdateRecord<M>), KalmanError> {
+        let mut next = *est;
+        let record = self.update_in_place(&mut next, y, h, r, gate)?;
+        Ok((next, record))
+    }
+
+    /// [`Filter::update`] in place (the forward pass's estimate is kilobytes, copied per
+    /// measurement otherwise). On an error the estimate is left as it was.
+    pub fn update_in_place<const M: usize>(
+        &self,
+        est: &mut Estimate,
+        y: &SVector<f64, M>,
+        h: &SMatrix<f64, M, N>,
+        r: &SMatrix<f64, M, M>,
+        gate: Option<f64>,
+    ) -> Result<UpdateRecord<M>, KalmanError> {
         let considered = self
             .considered
             .iter()
@@ -243,12 +257,11 @@ impl Filter {
             .then_some(&self.considered);
         // The error state's mean is zero before the update: only its covariance goes in.
         let (correction, record) =
-            kalman::correction_considering(&est.cov, y, h, r, gate, considered)?;
-        let next = match correction {
-            Some((dx, cov)) => est.corrected_with_cov(&dx, cov),
-            None => *est,
-        };
-        Ok((next, record))
+            kalman::correct_considering(&mut est.cov, y, h, r, gate, considered)?;
+        if let Some(dx) = correction {
+            est.correct(&dx);
+        }
+        Ok(record)
     }
 }
 
