@@ -51,24 +51,6 @@ impl Local {
         Self::from_sin_cos(lat_rad, sin_lat, cos_lat, height_m)
     }
 
-    /// Latitudes closer than this to a known one take their sine and cosine from it
-    /// ([`Local::nearby`]): the first-order step is then exact to rounding
-    /// (its error, `d^2 / 2`, is below 1e-16).
-    const NEARBY_RAD: f64 = 1e-8;
-
-    /// [`Local::at`] for a latitude and height near this one's (the mechanization's stages
-    /// within one IMU interval, a few nanoradians apart): the sine and cosine are moved by
-    /// the difference `d` (`sin(lat + d) = sin + cos d`, exact to rounding for
-    /// `|d| < 1e-8`; farther, they are computed afresh).
-    pub fn nearby(&self, lat_rad: f64, height_m: f64) -> Local {
-        let d = lat_rad - self.lat_rad;
-        if d.abs() >= Self::NEARBY_RAD {
-            return Self::at(lat_rad, height_m);
-        }
-        let (s, c) = (self.sin_lat, self.cos_lat);
-        Self::from_sin_cos(lat_rad, s + c * d, c - s * d, height_m)
-    }
-
     fn from_sin_cos(lat_rad: f64, sin_lat: f64, cos_lat: f64, height_m: f64) -> Local {
         let w = 1.0 - E2 * sin_lat * sin_lat;
         let root = w.sqrt();
@@ -240,31 +222,6 @@ pub fn local_north_east_m(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A latitude a step away takes its sines from its neighbour's, and agrees with the
-    /// full computation to rounding; a far one is computed afresh.
-    #[test]
-    fn nearby_equals_the_full_computation() {
-        for lat_deg in [-89.0, -35.0, 0.0, 12.5, 35.0, 60.0, 89.9] {
-            let lat = f64::to_radians(lat_deg);
-            let base = Local::at(lat, -120.0);
-            for d in [0.0, 3e-9, -7e-9, 9.9e-9, 2e-6, -0.3] {
-                let (near, full) = (base.nearby(lat + d, -121.0), Local::at(lat + d, -121.0));
-                for (a, b) in [
-                    (near.sin_lat, full.sin_lat),
-                    (near.cos_lat, full.cos_lat),
-                    (near.meridian_radius_m / A_M, full.meridian_radius_m / A_M),
-                    (near.normal_gravity_m_s2(), full.normal_gravity_m_s2()),
-                ] {
-                    assert!(
-                        (a - b).abs() < 4e-16 * b.abs().max(1.0),
-                        "{lat_deg} {d}: {a} {b}"
-                    );
-                }
-                assert_eq!(near.height_m, -121.0);
-            }
-        }
-    }
 
     #[test]
     fn gravity_matches_published_values() {

@@ -22,16 +22,21 @@ pub trait ForwardEpoch<const N: usize> {
     }
     /// Covariance predicted to this epoch from the previous epoch's posterior.
     fn prior_cov(&self, previous_posterior: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N>;
-    /// [`ForwardEpoch::prior_cov`] and [`ForwardEpoch::phi_times`] of the previous posterior
-    /// (a filter can share the work of the two).
+    /// [`ForwardEpoch::posterior_cov`] into `out` (a filter that keeps it packed unpacks it
+    /// in place).
+    fn posterior_cov_into(&self, out: &mut SMatrix<f64, N, N>) {
+        *out = self.posterior_cov();
+    }
+    /// [`ForwardEpoch::prior_cov`] and [`ForwardEpoch::phi_times`] of the previous posterior,
+    /// into `prior` and `phi_p` (a filter can share the work of the two).
     fn prior_cov_and_phi_times(
         &self,
         previous_posterior: &SMatrix<f64, N, N>,
-    ) -> (SMatrix<f64, N, N>, SMatrix<f64, N, N>) {
-        (
-            self.prior_cov(previous_posterior),
-            self.phi_times(previous_posterior),
-        )
+        prior: &mut SMatrix<f64, N, N>,
+        phi_p: &mut SMatrix<f64, N, N>,
+    ) {
+        *prior = self.prior_cov(previous_posterior);
+        *phi_p = self.phi_times(previous_posterior);
     }
     /// Correction this epoch's updates applied, prior to posterior.
     fn correction(&self) -> SVector<f64, N>;
@@ -157,25 +162,32 @@ impl<const N: usize> Link<N> {
     }
 
     /// Fills the link from epoch k (`epoch`) to epoch k+1 (`after`, at index `k_after`) in
-    /// place; `factor` is room for the Cholesky factor of the predicted covariance.
+    /// place; `scratch` is room for `Phi P` and the Cholesky factor of the predicted
+    /// covariance.
     fn fill<E: ForwardEpoch<N>>(
         &mut self,
         epoch: &E,
         after: &E,
         k_after: usize,
-        factor: &mut SMatrix<f64, N, N>,
+        scratch: &mut Scratch<N>,
     ) -> Result<(), SmoothError> {
-        self.posterior_cov = epoch.posterior_cov();
-        let phi_p;
-        (self.prior_cov, phi_p) = after.prior_cov_and_phi_times(&self.posterior_cov);
+        epoch.posterior_cov_into(&mut self.posterior_cov);
+        after.prior_cov_and_phi_times(&self.posterior_cov, &mut self.prior_cov, &mut scratch.phi_p);
+        let factor = &mut scratch.factor;
         factor.copy_from(&self.prior_cov);
         held_states_unit(factor);
         if !dense::cholesky_in_place(factor) {
             return Err(SmoothError::SingularPrior { epoch: k_after });
         }
-        rts_gain(&mut self.gain, factor, &phi_p);
+        rts_gain(&mut self.gain, factor, &scratch.phi_p);
         Ok(())
     }
+}
+
+/// Matrices [`Link::fill`] works in, kept from one epoch to the next.
+struct Scratch<const N: usize> {
+    phi_p: SMatrix<f64, N, N>,
+    factor: SMatrix<f64, N, N>,
 }
 
 /// The epochs, last first, prepared: an epoch goes out once the one before it has been read,
@@ -190,8 +202,8 @@ struct Prepare<I, B, E, const N: usize> {
     k: usize,
     /// Boxes the recursion has finished with.
     recycled: std::sync::mpsc::Receiver<Box<Prepared<B, N>>>,
-    /// Room for a Cholesky factor.
-    factor: Box<SMatrix<f64, N, N>>,
+    /// Room for the links' intermediate matrices.
+    scratch: Box<Scratch<N>>,
 }
 
 impl<I, B, E, const N: usize> Prepare<I, B, E, N> {
@@ -214,7 +226,10 @@ impl<I, B, E, const N: usize> Prepare<I, B, E, N> {
             pending,
             k: n.saturating_sub(1),
             recycled,
-            factor: Box::new(SMatrix::zeros()),
+            scratch: Box::new(Scratch {
+                phi_p: SMatrix::zeros(),
+                factor: SMatrix::zeros(),
+            }),
         }
     }
 
@@ -254,7 +269,7 @@ where
                 item.epoch.borrow(),
                 pending.epoch.borrow(),
                 self.k,
-                &mut self.factor,
+                &mut self.scratch,
             )?;
             Ok(item)
         }));

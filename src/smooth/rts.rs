@@ -50,15 +50,22 @@ impl ForwardEpoch<{ error_state::N }> for EpochRecord {
     fn prior_cov(&self, previous_posterior: &ErrorMatrix) -> ErrorMatrix {
         EpochRecord::prior_cov(self, previous_posterior)
     }
+    fn posterior_cov_into(&self, out: &mut ErrorMatrix) {
+        self.posterior_cov.unpack_into(out);
+    }
     fn prior_cov_and_phi_times(
         &self,
         previous_posterior: &ErrorMatrix,
-    ) -> (ErrorMatrix, ErrorMatrix) {
-        error_state::predicted_cov_and_phi_p(
+        prior: &mut ErrorMatrix,
+        phi_p: &mut ErrorMatrix,
+    ) {
+        error_state::predicted_cov_and_phi_p_into(
             self.phi_from_previous.top_rows(),
             previous_posterior,
             &self.process_noise,
-        )
+            prior,
+            phi_p,
+        );
     }
     fn correction(&self) -> ErrorState {
         self.correction

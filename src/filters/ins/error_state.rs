@@ -295,44 +295,55 @@ fn with_top_rows(p: &ErrorMatrix, x: &TransitionRows) -> ErrorMatrix {
 /// rows of `Phi P`), the top-left block is `X [T M]^T`, the top-right `X`'s right block, and
 /// the bottom-right `P`'s.
 pub fn predicted_cov(phi_top: &TransitionRows, p: &ErrorMatrix, q: &ErrorState) -> ErrorMatrix {
-    let moved = moved_transition_columns(phi_top);
-    predicted_from_top_rows(&top_rows_times(&moved, p), &moved, p, q)
+    let mut out = *p;
+    predict_cov_in_place(phi_top, &mut out, q);
+    out
 }
 
-/// [`predicted_cov`] and [`transition_times`] together, sharing `X = [T M] P`.
-pub fn predicted_cov_and_phi_p(
+/// [`predicted_cov`] in place: the bottom-right block, the only one of `P` the prediction
+/// keeps, is read from `p` itself, so no copy is made.
+pub fn predict_cov_in_place(phi_top: &TransitionRows, p: &mut ErrorMatrix, q: &ErrorState) {
+    let moved = moved_transition_columns(phi_top);
+    let x = top_rows_times(&moved, p);
+    predict_from_top_rows(&x, &moved, p, q);
+}
+
+/// [`predicted_cov`] and [`transition_times`] together, sharing `X = [T M] P`, into `prior`
+/// and `phi_p`.
+pub fn predicted_cov_and_phi_p_into(
     phi_top: &TransitionRows,
     p: &ErrorMatrix,
     q: &ErrorState,
-) -> (ErrorMatrix, ErrorMatrix) {
+    prior: &mut ErrorMatrix,
+    phi_p: &mut ErrorMatrix,
+) {
     let moved = moved_transition_columns(phi_top);
     let x = top_rows_times(&moved, p);
-    (
-        predicted_from_top_rows(&x, &moved, p, q),
-        with_top_rows(p, &x),
-    )
+    prior.copy_from(p);
+    predict_from_top_rows(&x, &moved, prior, q);
+    phi_p.copy_from(p);
+    phi_p.fixed_rows_mut::<NAV_ROWS>(0).copy_from(&x);
 }
 
-/// [`predicted_cov`] given `x = phi_top p` and the moving columns of `phi_top`.
-fn predicted_from_top_rows(
+/// Turns `p` into the predicted covariance, given `x = phi_top p` and the moving columns of
+/// `phi_top`: its top rows and left columns are replaced, its diagonal gains `q`.
+fn predict_from_top_rows(
     x: &TransitionRows,
     moved: &MovedColumns,
-    p: &ErrorMatrix,
+    p: &mut ErrorMatrix,
     q: &ErrorState,
-) -> ErrorMatrix {
+) {
     let top_left = dense::mul_transpose(&moved_columns(x), moved);
-    let mut out = *p;
-    out.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
+    p.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
         .copy_from(&((top_left + top_left.transpose()) * 0.5));
     let top_right = x.fixed_view::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS);
-    out.fixed_view_mut::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS)
+    p.fixed_view_mut::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS)
         .copy_from(&top_right);
-    out.fixed_view_mut::<HELD_ROWS, NAV_ROWS>(NAV_ROWS, 0)
+    p.fixed_view_mut::<HELD_ROWS, NAV_ROWS>(NAV_ROWS, 0)
         .copy_from(&top_right.transpose());
     for i in 0..N {
-        out[(i, i)] += q[i];
+        p[(i, i)] += q[i];
     }
-    out
 }
 
 #[cfg(test)]
@@ -407,10 +418,9 @@ mod tests {
         let q = ErrorState::from_fn(|i, _| 0.1 * i as f64);
         let full = full_phi * p * full_phi.transpose() + ErrorMatrix::from_diagonal(&q);
         let got = predicted_cov(&top, &p, &q);
-        assert_eq!(
-            predicted_cov_and_phi_p(&top, &p, &q),
-            (got, transition_times(&top, &p))
-        );
+        let (mut prior, mut phi_p) = (ErrorMatrix::zeros(), ErrorMatrix::zeros());
+        predicted_cov_and_phi_p_into(&top, &p, &q, &mut prior, &mut phi_p);
+        assert_eq!((prior, phi_p), (got, transition_times(&top, &p)));
         assert!(
             (got - full).amax() < 1e-12 * full.amax(),
             "{}",

@@ -221,7 +221,7 @@ impl Filter {
         *phi = error_state::transition(&f, dt_s);
         let q = process_noise(noise, self.current_walk, dt_s).diagonal();
         let top = phi.fixed_rows::<{ error_state::NAV_ROWS }>(0).into_owned();
-        *cov = error_state::predicted_cov(&top, cov, &q);
+        error_state::predict_cov_in_place(&top, cov, &q);
         q
     }
 

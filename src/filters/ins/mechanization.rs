@@ -89,20 +89,53 @@ fn unpack(y: &Y) -> NavState {
     }
 }
 
-/// The navigation ODE's right-hand side at `y`; `start` is the geodesy at the interval's
-/// start, from which each stage's is moved ([`geodesy::Local::nearby`]).
+/// What the navigation ODE takes from the geodesy over one IMU interval, evaluated once at
+/// its start. Across 10 ms the vehicle moves centimetres, which changes Earth rate, transport
+/// rate and the radii by parts in 10^9 of themselves, far below any IMU's noise. Gravity is
+/// the exception kept: its gradient (3e-6 s^-2 per metre of height) is what makes the
+/// vertical channel unstable, and the error model carries it, so each stage moves gravity
+/// along its partials from the start.
+struct IntervalGeodesy {
+    local: geodesy::Local,
+    earth_rate_ned: Vector3<f64>,
+    gravity_m_s2: f64,
+    /// Partials of gravity, per rad of latitude and per m of height.
+    gravity_partials: (f64, f64),
+}
+
+impl IntervalGeodesy {
+    fn at(state: &NavState) -> Self {
+        let local = geodesy::Local::at(state.lat_rad, state.height_m);
+        IntervalGeodesy {
+            earth_rate_ned: local.earth_rate_ned(),
+            gravity_m_s2: local.normal_gravity_m_s2(),
+            gravity_partials: local.normal_gravity_partials(),
+            local,
+        }
+    }
+
+    /// Gravity (down) at a latitude and height within the interval.
+    fn gravity_ned_m_s2(&self, lat_rad: f64, height_m: f64) -> Vector3<f64> {
+        let (per_lat, per_height) = self.gravity_partials;
+        let down = self.gravity_m_s2
+            + per_lat * (lat_rad - self.local.lat_rad)
+            + per_height * (height_m - self.local.height_m);
+        Vector3::new(0.0, 0.0, down)
+    }
+}
+
+/// The navigation ODE's right-hand side at `y`, with the interval's geodesy `geo`.
 fn derivative(
     y: &Y,
     imu: &ImuSample,
     damping: Option<(HeightDamping, f64)>,
-    start: &geodesy::Local,
+    geo: &IntervalGeodesy,
 ) -> Y {
     let q = Quaternion::new(y[0], y[1], y[2], y[3]);
     let v = Vector3::new(y[4], y[5], y[6]);
     let (lat, h) = (y[7], y[9]);
-    let local = start.nearby(lat, h);
-    let w_ie = local.earth_rate_ned();
-    let w_en = local.transport_rate_ned(&v);
+    let w_ie = geo.earth_rate_ned;
+    let w_en = geo.local.transport_rate_ned(&v);
     let w_in = w_ie + w_en;
     let wb = imu.omega_ib_body;
     let q_dot = (q * Quaternion::new(0.0, wb.x, wb.y, wb.z)
@@ -110,9 +143,9 @@ fn derivative(
         * 0.5;
     // Rotate f by the (not yet unit) quaternion, normalised.
     let unit = UnitQuaternion::from_quaternion(q);
-    let mut v_dot =
-        unit * imu.specific_force_body - (2.0 * w_ie + w_en).cross(&v) + local.gravity_ned_m_s2();
-    let mut p_dot = local.position_rates(&v);
+    let mut v_dot = unit * imu.specific_force_body - (2.0 * w_ie + w_en).cross(&v)
+        + geo.gravity_ned_m_s2(lat, h);
+    let mut p_dot = geo.local.position_rates(&v);
     if let Some((d, h_ref)) = damping {
         let e = h - h_ref;
         p_dot.z -= d.k1_per_s * e;
@@ -135,7 +168,7 @@ pub fn propagate(
 ) -> NavState {
     let mid = ImuSample::mean(imu0, imu1);
     let y = pack(state);
-    let start = geodesy::Local::at(state.lat_rad, state.height_m);
+    let start = IntervalGeodesy::at(state);
     let k1 = derivative(&y, imu0, height_ref, &start);
     let k2 = derivative(&(y + k1 * (dt_s / 2.0)), &mid, height_ref, &start);
     let k3 = derivative(&(y + k2 * (dt_s / 2.0)), &mid, height_ref, &start);

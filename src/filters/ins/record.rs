@@ -41,6 +41,12 @@ impl PackedCov {
 
     pub fn unpack(&self) -> ErrorMatrix {
         let mut m = ErrorMatrix::zeros();
+        self.unpack_into(&mut m);
+        m
+    }
+
+    /// [`PackedCov::unpack`] into `m` (every element is written).
+    pub fn unpack_into(&self, m: &mut ErrorMatrix) {
         let mut k = 0;
         for i in 0..N {
             for j in i..N {
@@ -49,7 +55,6 @@ impl PackedCov {
                 k += 1;
             }
         }
-        m
     }
 
     fn index(i: usize, j: usize) -> usize {
