@@ -3,7 +3,7 @@
 //! coefficients the simulator used.
 //!
 //! `cargo test --release --test identify -- --nocapture`
-//! Monte Carlo (20 seeds): `cargo test --release --test identify -- --ignored --nocapture`
+//! Monte Carlo (100 seeds): `cargo test --release --test identify -- --ignored --nocapture`
 
 // Coefficients are indexed in parallel arrays (names, true values, estimates, covariance).
 #![allow(clippy::needless_range_loop)]
@@ -191,15 +191,24 @@ fn a_wrong_structure_fits_poorly() {
     }
 }
 
-/// Monte Carlo over 20 seeds: the spread of the refined estimates against the sigma the
+/// Monte Carlo over 100 seeds: the spread of the refined estimates against the sigma the
 /// tool reports (median over the seeds), so that the reported uncertainty can be trusted.
+///
+/// The two logs of a seed take independent noise (seeds `s` and `s + 1000`). With one seed
+/// for both, the simulator gives both manoeuvres the same noise sequence, sample for sample;
+/// the pitch group, set by the contrast between the two runs, then scattered at only 0.44
+/// of its sigma, which an earlier version of this study took for a conservative sigma.
 #[test]
-#[ignore = "20 seeds x 2 logs: about a minute; run with --ignored"]
+#[ignore = "100 seeds x 2 logs: about 90 s; run with --ignored"]
 fn monte_carlo_spread_matches_reported_sigma() {
+    const SEEDS: u64 = 100;
     let settings = Settings::default();
-    let runs: Vec<Refined> = (1..=20)
+    let runs: Vec<Refined> = (1..=SEEDS)
         .map(|seed| {
-            let records = both(seed, ZigzagNoise::realistic());
+            let records = vec![
+                record("zigzag-5-5", seed, ZigzagNoise::realistic()),
+                record("zigzag-10-5", seed + 1000, ZigzagNoise::realistic()),
+            ];
             let e = ekf::run(&records, &perturbed(&truth(), 0.2), &settings);
             refine(&records, &e.coefficients, &settings)
         })
@@ -222,8 +231,8 @@ fn monte_carlo_spread_matches_reported_sigma() {
         println!(
             "    reported sigma min {:.3} % median {:.3} % max {:.3} %",
             each[0] * 100.0,
-            each[10] * 100.0,
-            each[19] * 100.0
+            each[each.len() / 2] * 100.0,
+            each[each.len() - 1] * 100.0
         );
         let reported = each[each.len() / 2];
         println!(
@@ -236,10 +245,13 @@ fn monte_carlo_spread_matches_reported_sigma() {
         );
         ratios.push(spread / reported);
     }
-    // The reported sigma must not be over-confident. Measured (20 seeds): the heave
-    // coefficients' spread is 0.85-0.88 of it, M_qdot's 0.97, and the other pitch
-    // coefficients' only 0.44 (the reported sigma is conservative there by about 2.3).
+    // An efficient estimator's spread equals its sigma; over 100 seeds the ratio itself
+    // scatters by about 7 %. Measured: 0.87 (heave group) to 1.13 (M_qdot).
     for (i, r) in ratios.iter().enumerate() {
-        assert!(*r < 1.3, "{}: spread / reported sigma {r:.2}", NAMES[i]);
+        assert!(
+            (0.8..=1.2).contains(r),
+            "{}: spread / reported sigma {r:.2}",
+            NAMES[i]
+        );
     }
 }
