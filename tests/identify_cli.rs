@@ -236,3 +236,43 @@ fn own_attitude_and_a_start_file() {
         stderr(&o)
     );
 }
+
+/// `--print-config` prints every key, and that text read back with `--config` is accepted;
+/// a bad value is named with its key and the file, a failing exit, and nothing is written.
+#[test]
+fn the_configuration_is_printed_and_read() {
+    let dir = common::scratch_dir("identify-cli-config");
+    let printed = hindsight(&["identify", "--print-config"]);
+    assert!(printed.status.success(), "{}", stderr(&printed));
+    let text = String::from_utf8_lossy(&printed.stdout).into_owned();
+    for key in [
+        "[noise]",
+        "learn = true",
+        "max_residual_lag1",
+        "[ekf]",
+        "[refinement]",
+    ] {
+        assert!(text.contains(key), "{key} in {text}");
+    }
+    let a = log(&dir, "zigzag-10-5", |_| {});
+    let config = dir.join("identify.toml");
+    std::fs::write(&config, text.replace("learn = true", "learn = false")).unwrap();
+    let out = dir.join("out");
+    let o = run(&[&a], &out, &["--config", config.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["noise"]["learnt"], false);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("sensor noise as given"));
+
+    std::fs::write(&config, "[noise]\ndepth_m = -0.01\n").unwrap();
+    let bad_out = dir.join("bad-out");
+    let o = run(&[&a], &bad_out, &["--config", config.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("noise.depth_m") && err.contains("identify.toml"),
+        "{err}"
+    );
+    assert!(!bad_out.exists());
+}

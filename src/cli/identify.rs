@@ -3,6 +3,7 @@
 use super::console::{out, say};
 use super::{OutputFailed, PolicyArgs};
 use anyhow::{bail, Context, Result};
+use hindsight::identify::config::{IdentifyConfig, DEFAULT_TOML};
 use hindsight::identify::record::Record;
 use hindsight::identify::settings::Settings;
 use hindsight::identify::{identify, perturbed, Identification, CHANNELS};
@@ -29,8 +30,15 @@ use std::time::Instant;
 ///   2. output-error maximum likelihood (Levenberg-Marquardt) on the whole record, started
 ///      from the EKF's answer: estimates, standard deviations, correlation matrix.
 ///
+/// The sensors' noise is learnt from the fit: the refinement is alternated with setting each
+/// channel's sigma to the RMS of its residuals, and the coefficients' sigmas are at the
+/// learnt noise (given figures and learnt ones in summary.json; `learn = false` in the
+/// config takes the given ones as they are). A fit whose residuals are correlated from one
+/// sample to the next (a slow misfit, not white noise) is a POOR FIT.
+///
 /// A coefficient whose 1-sigma exceeds 5 % of its value, or which correlates above 0.95
-/// with another, is flagged as poorly determined: the data do not tell it.
+/// with another, is flagged as poorly determined: the data do not tell it. Every threshold,
+/// the noise and the filters' tuning are in the config (--print-config).
 ///
 /// Starting values: the published set (the spec's table) unless --initial FILE (TOML,
 /// NAME = value) or --perturb F (the published set moved by F, alternately up and down).
@@ -42,7 +50,7 @@ use std::time::Instant;
 #[command(verbatim_doc_comment)]
 pub struct IdentifyArgs {
     /// Recorded logs (MCAP): one coefficient set is fitted to all of them.
-    #[arg(required = true)]
+    #[arg(required_unless_present = "print_config")]
     pub logs: Vec<PathBuf>,
 
     #[command(flatten)]
@@ -56,8 +64,17 @@ pub struct IdentifyArgs {
     pub model: Model,
 
     /// Output folder.
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    #[arg(long, value_name = "DIR", required_unless_present = "print_config")]
+    pub out: Option<PathBuf>,
+
+    /// Settings file (TOML: sensor noise and whether it is learnt, the EKF's tuning, the
+    /// refinement, the warning thresholds); --print-config shows every key and its default.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+
+    /// Print the default configuration (every key explained) and exit.
+    #[arg(long)]
+    pub print_config: bool,
 
     /// Starting coefficients (TOML: NAME = value, nondimensional; missing ones take the
     /// published value).
@@ -125,8 +142,24 @@ fn start_values(args: &IdentifyArgs) -> Result<Coefficients> {
 }
 
 pub fn run(args: IdentifyArgs) -> Result<()> {
+    if args.print_config {
+        print!("{DEFAULT_TOML}");
+        return Ok(());
+    }
+    let Some(out_dir) = args.out.clone() else {
+        bail!("--out DIR is needed");
+    };
     let started = Instant::now();
-    let mut settings = Settings::default();
+    let mut settings = match &args.config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            IdentifyConfig::from_toml(&text)
+                .and_then(|c| c.settings())
+                .with_context(|| format!("in {}", path.display()))?
+        }
+        None => Settings::default(),
+    };
     for f in &args.fixed {
         let (name, value) = f.split_once('=').ok_or_else(|| {
             CoefficientArgError(format!(
@@ -179,7 +212,7 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
         ..settings.constants
     });
     let findings = Findings::new(&id, &records, &model, &settings, read_logs);
-    write_outputs(&args.out, &id, &records, &model, &settings, &findings)?;
+    write_outputs(&out_dir, &id, &records, &model, &settings, &findings)?;
     findings.print();
     say!("total {:.1} s", started.elapsed().as_secs_f64());
     Ok(())
@@ -192,7 +225,32 @@ struct Summary<'a> {
     converged: bool,
     /// Per log and channel (q, theta, w, depth).
     fit: Vec<BTreeMap<&'static str, hindsight::identify::ChannelFit>>,
+    noise: NoiseSummary,
     poorly_determined: Vec<String>,
+    warnings: &'a [String],
+}
+
+/// The sensor noise per channel, 1 sigma: as given, and as the refinement used it (learnt
+/// from its residuals, or the given figures).
+#[derive(serde::Serialize)]
+struct NoiseSummary {
+    learnt: bool,
+    rounds: usize,
+    given: BTreeMap<&'static str, f64>,
+    used: BTreeMap<&'static str, f64>,
+}
+
+impl NoiseSummary {
+    fn new(id: &Identification, settings: &Settings) -> Self {
+        let names = ["q_rad_s", "theta_rad", "w_m_s", "depth_m"];
+        let by_name = |s: [f64; 4]| names.into_iter().zip(s).collect();
+        NoiseSummary {
+            learnt: id.noise.learnt,
+            rounds: id.noise.rounds,
+            given: by_name(settings.sigma.by_channel()),
+            used: by_name(id.noise.sigma.by_channel()),
+        }
+    }
 }
 
 fn write_outputs(
@@ -324,6 +382,8 @@ fn write_outputs(
             .iter()
             .map(|f| CHANNELS.iter().copied().zip(f.channels).collect())
             .collect(),
+        noise: NoiseSummary::new(id, settings),
+        warnings: &findings.warnings,
         poorly_determined: id
             .assessment
             .iter()
@@ -337,6 +397,45 @@ fn write_outputs(
     super::commit_and_list(staging, &written, out)
 }
 
+/// The noise per channel the refinement used, with the given figures beside learnt ones.
+fn noise_line(id: &Identification, settings: &Settings) -> String {
+    let used = id.noise.sigma;
+    let given = settings.sigma;
+    let cells = [
+        (
+            "q",
+            used.q_rad_s.to_degrees(),
+            given.q_rad_s.to_degrees(),
+            "deg/s",
+        ),
+        (
+            "theta",
+            used.theta_rad.to_degrees(),
+            given.theta_rad.to_degrees(),
+            "deg",
+        ),
+        ("w", used.w_m_s, given.w_m_s, "m/s"),
+        ("depth", used.depth_m, given.depth_m, "m"),
+    ];
+    if id.noise.learnt {
+        let list: Vec<String> = cells
+            .iter()
+            .map(|(n, u, g, unit)| format!("{n} {u:.4} {unit} (given {g:.4})"))
+            .collect();
+        format!(
+            "sensor noise learnt from the residuals ({} refinements): {}",
+            id.noise.rounds,
+            list.join(", ")
+        )
+    } else {
+        let list: Vec<String> = cells
+            .iter()
+            .map(|(n, u, _, unit)| format!("{n} {u:.4} {unit}"))
+            .collect();
+        format!("sensor noise as given: {}", list.join(", "))
+    }
+}
+
 /// What identify found, as tables and warnings: printed, and in the report.
 struct Findings {
     /// Seed 004's Tables 5.2-5.3: start, EKF, refined, with sigma.
@@ -346,6 +445,8 @@ struct Findings {
     warnings: Vec<String>,
     /// What each log held.
     logs: Vec<String>,
+    /// The sensor noise the refinement used, and where it came from.
+    noise: String,
 }
 
 const COEFFICIENT_HEADERS: [&str; 8] = [
@@ -414,21 +515,7 @@ impl Findings {
                     .to_string(),
             );
         }
-        let worst = id
-            .fits
-            .iter()
-            .flat_map(|f| f.channels.iter().map(|c| c.normalised_rms))
-            .fold(
-                0.0,
-                |a: f64, b| if b.is_nan() { f64::INFINITY } else { a.max(b) },
-            );
-        if worst > 2.0 || !id.refined.converged {
-            warnings.push(format!(
-                "POOR FIT: residuals up to {worst:.1} times the sensor noise: the model's \
-                 structure (or a fixed coefficient, or the noise figures) does not match the \
-                 data; do not trust these coefficients"
-            ));
-        }
+        warnings.extend(id.fit_warnings(settings));
         warnings.extend(
             id.assessment
                 .iter()
@@ -440,6 +527,7 @@ impl Findings {
             fit,
             warnings,
             logs,
+            noise: noise_line(id, settings),
         }
     }
 
@@ -455,6 +543,7 @@ impl Findings {
         for (name, cells) in &self.fit {
             out!("  {:<24} {}", name, cells.join(", "));
         }
+        out!("{}", self.noise);
         for w in &self.warnings {
             out!("warning: {w}");
         }
@@ -466,6 +555,7 @@ impl Findings {
             "Normalised RMS: the residual RMS of the re-simulated model over the sensor's sigma \
              (about 1 for a model that fits to the noise); fit %.",
         ));
+        fit.push(Block::text(self.noise.clone()));
         fit.push(Block::table(
             ["log", "fit per channel"],
             self.fit

@@ -1,13 +1,9 @@
 //! Which coefficients the data determine: relative standard deviation and correlation,
 //! turned into warnings instead of confident wrong numbers.
 
+use super::settings::Thresholds;
 use crate::vehicle::heave_pitch::{Coefficients, NAMES};
 use nalgebra::SMatrix;
-
-/// Above this relative 1-sigma a coefficient is reported as poorly determined.
-pub const MAX_RELATIVE_SIGMA: f64 = 0.05;
-/// Above this |correlation| a pair is reported as not separable.
-pub const MAX_CORRELATION: f64 = 0.95;
 
 /// The correlation matrix of a covariance (zero rows for fixed coefficients).
 pub fn correlation(cov: &SMatrix<f64, 10, 10>) -> SMatrix<f64, 10, 10> {
@@ -33,11 +29,13 @@ pub struct Determination {
     pub poorly_determined: bool,
 }
 
-/// Every estimated coefficient's determination (`fixed` ones are skipped).
+/// Every estimated coefficient's determination (`fixed` ones are skipped), against the
+/// thresholds' relative sigma and correlation.
 pub fn assess(
     c: &Coefficients,
     cov: &SMatrix<f64, 10, 10>,
     fixed: &[Option<f64>; 10],
+    thresholds: &Thresholds,
 ) -> Vec<Determination> {
     let corr = correlation(cov);
     (0..10)
@@ -52,8 +50,8 @@ pub fn assess(
                 name: NAMES[i],
                 relative_sigma,
                 most_correlated,
-                poorly_determined: relative_sigma > MAX_RELATIVE_SIGMA
-                    || most_correlated.is_some_and(|(_, r)| r.abs() > MAX_CORRELATION),
+                poorly_determined: relative_sigma > thresholds.max_relative_sigma
+                    || most_correlated.is_some_and(|(_, r)| r.abs() > thresholds.max_correlation),
             }
         })
         .collect()

@@ -135,12 +135,7 @@ fn accumulate(
     [f64; 4],
     [usize; 4],
 ) {
-    let sigma = [
-        settings.sigma.q_rad_s,
-        settings.sigma.theta_rad,
-        settings.sigma.w_m_s,
-        settings.sigma.depth_m,
-    ];
+    let sigma = settings.sigma.by_channel();
     let mut jtj = SMatrix::<f64, 14, 14>::zeros();
     let mut jtr = SMatrix::<f64, 14, 1>::zeros();
     let mut cost = 0.0;

@@ -25,6 +25,32 @@ impl Default for Sigmas {
     }
 }
 
+impl Sigmas {
+    /// q, theta, w, depth: the order of [`crate::identify::CHANNELS`].
+    pub fn by_channel(&self) -> [f64; 4] {
+        [self.q_rad_s, self.theta_rad, self.w_m_s, self.depth_m]
+    }
+
+    /// Each channel's sigma times its factor (q, theta, w, depth); a factor that is not a
+    /// positive number leaves its sigma as it is.
+    pub fn scaled(&self, factors: &[f64; 4]) -> Sigmas {
+        let s = self.by_channel();
+        let f = |i: usize| {
+            if factors[i].is_finite() && factors[i] > 0.0 {
+                s[i] * factors[i]
+            } else {
+                s[i]
+            }
+        };
+        Sigmas {
+            q_rad_s: f(0),
+            theta_rad: f(1),
+            w_m_s: f(2),
+            depth_m: f(3),
+        }
+    }
+}
+
 /// Process noise of the EKF's dynamic states (the model is taken as exact otherwise).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProcessNoise {
@@ -48,6 +74,40 @@ pub struct Settings {
     /// Coefficients held at a given value (nondimensional) instead of estimated: known
     /// from elsewhere, or forced (e.g. to zero, to test a model structure).
     pub fixed: [Option<f64>; 10],
+    /// Learn each channel's noise from the refinement's residuals ([`crate::identify::learn_noise`]);
+    /// `sigma` is then where the learning starts and what the result is compared with.
+    pub learn_noise: bool,
+    /// Rounds of refinement and noise re-estimation at most.
+    pub noise_rounds: usize,
+    pub thresholds: Thresholds,
+}
+
+/// Where identify starts to warn.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Thresholds {
+    /// Above this relative 1-sigma a coefficient is reported as poorly determined.
+    pub max_relative_sigma: f64,
+    /// Above this |correlation| with another, a coefficient is reported as poorly determined.
+    pub max_correlation: f64,
+    /// Above this lag-one correlation of a channel's residuals, the fit is poor: a slow
+    /// misfit, or noise that is not white (white noise gives about `2 / sqrt(samples)`).
+    pub max_residual_lag1: f64,
+    /// Learnt noise above this multiple of the given figure is reported.
+    pub max_noise_ratio: f64,
+    /// With the noise not learnt: a normalised residual RMS above this is a poor fit.
+    pub max_normalised_rms: f64,
+}
+
+impl Default for Thresholds {
+    fn default() -> Self {
+        Thresholds {
+            max_relative_sigma: 0.05,
+            max_correlation: 0.95,
+            max_residual_lag1: 0.3,
+            max_noise_ratio: 3.0,
+            max_normalised_rms: 2.0,
+        }
+    }
 }
 
 impl Settings {
@@ -74,6 +134,9 @@ impl Default for Settings {
             substeps: 1,
             max_iterations: 50,
             fixed: [None; 10],
+            learn_noise: true,
+            noise_rounds: 8,
+            thresholds: Thresholds::default(),
         }
     }
 }

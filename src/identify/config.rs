@@ -1,0 +1,274 @@
+//! Settings of `hindsight identify` from a TOML file (`--config`), with a default for every
+//! key; `hindsight identify --print-config` prints [`DEFAULT_TOML`]. Angles are in degrees
+//! here and in radians in [`Settings`].
+
+use super::settings::{ProcessNoise, Settings, Sigmas, Thresholds};
+use serde::{Deserialize, Serialize};
+
+/// The documented defaults (a test parses it back to [`IdentifyConfig::default`]).
+pub const DEFAULT_TOML: &str = r#"# hindsight identify: configuration (every key optional; these are the defaults).
+
+[noise]
+# Each channel's white measurement noise, 1 sigma. With learn = true (the default) these
+# are where the learning starts, and the learnt figures are compared with them: the
+# refinement is alternated with re-estimating each channel's noise from its own residuals
+# until they agree (summary.json: noise). With learn = false they are used as they are.
+learn = true
+max_rounds = 8               # refinements at most while learning
+q_deg_s = 0.01               # pitch rate, from the gyro
+theta_deg = 0.02             # pitch, from /attitude
+w_m_s = 0.003                # heave velocity, from the DVL
+depth_m = 0.01               # depth sensor
+
+[ekf]
+# The first stage: seed 004's continuous-discrete EKF with the coefficients as states.
+initial_coefficient_sigma = 0.5      # 1 sigma of each starting coefficient, fraction of it
+w_accel_m_s2_rt_s = 1e-5             # process noise on the heave equation
+q_accel_rad_s2_rt_s = 1e-6           # process noise on the pitch equation
+history_interval_s = 0.1             # interval of coefficient_history.parquet
+
+[refinement]
+# The second stage: output-error maximum likelihood (Levenberg-Marquardt).
+max_iterations = 50
+substeps = 1                 # RK4 steps per sample interval in the simulation
+
+[thresholds]
+max_relative_sigma = 0.05    # a coefficient with a larger 1-sigma (fraction) is poorly determined
+max_correlation = 0.95       # ... or one correlated more than this with another
+max_residual_lag1 = 0.3      # residuals correlated more from sample to sample: POOR FIT
+max_noise_ratio = 3.0        # learnt noise more than this times the given figure: a warning
+max_normalised_rms = 2.0     # with learn = false: residuals more than this times the noise: POOR FIT
+"#;
+
+/// Everything `hindsight identify` can be told from a file.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IdentifyConfig {
+    pub noise: NoiseConfig,
+    pub ekf: EkfConfig,
+    pub refinement: RefinementConfig,
+    pub thresholds: ThresholdsConfig,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NoiseConfig {
+    pub learn: bool,
+    pub max_rounds: usize,
+    pub q_deg_s: f64,
+    pub theta_deg: f64,
+    pub w_m_s: f64,
+    pub depth_m: f64,
+}
+
+impl Default for NoiseConfig {
+    fn default() -> Self {
+        // The figures of [`Sigmas::default`], in degrees as given there.
+        let (s, d) = (Sigmas::default(), Settings::default());
+        NoiseConfig {
+            learn: d.learn_noise,
+            max_rounds: d.noise_rounds,
+            q_deg_s: 0.01,
+            theta_deg: 0.02,
+            w_m_s: s.w_m_s,
+            depth_m: s.depth_m,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EkfConfig {
+    pub initial_coefficient_sigma: f64,
+    pub w_accel_m_s2_rt_s: f64,
+    pub q_accel_rad_s2_rt_s: f64,
+    pub history_interval_s: f64,
+}
+
+impl Default for EkfConfig {
+    fn default() -> Self {
+        let d = Settings::default();
+        EkfConfig {
+            initial_coefficient_sigma: d.initial_coefficient_sigma,
+            w_accel_m_s2_rt_s: d.process_noise.w_accel_m_s2_rt_s,
+            q_accel_rad_s2_rt_s: d.process_noise.q_accel_rad_s2_rt_s,
+            history_interval_s: d.history_interval_s,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RefinementConfig {
+    pub max_iterations: usize,
+    pub substeps: usize,
+}
+
+impl Default for RefinementConfig {
+    fn default() -> Self {
+        let d = Settings::default();
+        RefinementConfig {
+            max_iterations: d.max_iterations,
+            substeps: d.substeps,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ThresholdsConfig {
+    pub max_relative_sigma: f64,
+    pub max_correlation: f64,
+    pub max_residual_lag1: f64,
+    pub max_noise_ratio: f64,
+    pub max_normalised_rms: f64,
+}
+
+impl Default for ThresholdsConfig {
+    fn default() -> Self {
+        let t = Thresholds::default();
+        ThresholdsConfig {
+            max_relative_sigma: t.max_relative_sigma,
+            max_correlation: t.max_correlation,
+            max_residual_lag1: t.max_residual_lag1,
+            max_noise_ratio: t.max_noise_ratio,
+            max_normalised_rms: t.max_normalised_rms,
+        }
+    }
+}
+
+/// A configuration that cannot be used, naming the key.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IdentifyConfigError {
+    #[error("{0}")]
+    Toml(String),
+    #[error("{key}: {reason}")]
+    Bad { key: &'static str, reason: String },
+}
+
+impl IdentifyConfig {
+    /// Parses a file's text (missing keys take their defaults) and checks every value.
+    pub fn from_toml(text: &str) -> Result<IdentifyConfig, IdentifyConfigError> {
+        let config: IdentifyConfig =
+            toml::from_str(text).map_err(|e| IdentifyConfigError::Toml(e.to_string()))?;
+        config.settings()?;
+        Ok(config)
+    }
+
+    /// The identification's settings (no coefficient fixed).
+    pub fn settings(&self) -> Result<Settings, IdentifyConfigError> {
+        let (n, e, r, t) = (&self.noise, &self.ekf, &self.refinement, &self.thresholds);
+        for (key, value) in [
+            ("noise.q_deg_s", n.q_deg_s),
+            ("noise.theta_deg", n.theta_deg),
+            ("noise.w_m_s", n.w_m_s),
+            ("noise.depth_m", n.depth_m),
+            ("ekf.initial_coefficient_sigma", e.initial_coefficient_sigma),
+            ("ekf.history_interval_s", e.history_interval_s),
+            ("thresholds.max_relative_sigma", t.max_relative_sigma),
+            ("thresholds.max_correlation", t.max_correlation),
+            ("thresholds.max_residual_lag1", t.max_residual_lag1),
+            ("thresholds.max_noise_ratio", t.max_noise_ratio),
+            ("thresholds.max_normalised_rms", t.max_normalised_rms),
+        ] {
+            positive(key, value)?;
+        }
+        for (key, value) in [
+            ("ekf.w_accel_m_s2_rt_s", e.w_accel_m_s2_rt_s),
+            ("ekf.q_accel_rad_s2_rt_s", e.q_accel_rad_s2_rt_s),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(bad(key, "must be a number, zero or more"));
+            }
+        }
+        for (key, value) in [
+            ("noise.max_rounds", n.max_rounds),
+            ("refinement.max_iterations", r.max_iterations),
+            ("refinement.substeps", r.substeps),
+        ] {
+            if value == 0 {
+                return Err(bad(key, "must be at least 1"));
+            }
+        }
+        Ok(Settings {
+            sigma: Sigmas {
+                q_rad_s: n.q_deg_s.to_radians(),
+                theta_rad: n.theta_deg.to_radians(),
+                w_m_s: n.w_m_s,
+                depth_m: n.depth_m,
+            },
+            process_noise: ProcessNoise {
+                w_accel_m_s2_rt_s: e.w_accel_m_s2_rt_s,
+                q_accel_rad_s2_rt_s: e.q_accel_rad_s2_rt_s,
+            },
+            initial_coefficient_sigma: e.initial_coefficient_sigma,
+            history_interval_s: e.history_interval_s,
+            substeps: r.substeps,
+            max_iterations: r.max_iterations,
+            learn_noise: n.learn,
+            noise_rounds: n.max_rounds,
+            thresholds: Thresholds {
+                max_relative_sigma: t.max_relative_sigma,
+                max_correlation: t.max_correlation,
+                max_residual_lag1: t.max_residual_lag1,
+                max_noise_ratio: t.max_noise_ratio,
+                max_normalised_rms: t.max_normalised_rms,
+            },
+            ..Settings::default()
+        })
+    }
+}
+
+fn positive(key: &'static str, value: f64) -> Result<(), IdentifyConfigError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(bad(key, "must be a positive number"))
+    }
+}
+
+fn bad(key: &'static str, reason: &str) -> IdentifyConfigError {
+    IdentifyConfigError::Bad {
+        key,
+        reason: reason.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_documented_defaults_are_the_defaults() {
+        let documented = IdentifyConfig::from_toml(DEFAULT_TOML).unwrap();
+        assert_eq!(documented, IdentifyConfig::default());
+        assert_eq!(IdentifyConfig::from_toml("").unwrap(), documented);
+        assert_eq!(documented.settings().unwrap(), Settings::default());
+    }
+
+    #[test]
+    fn a_file_sets_what_it_names() {
+        let c = IdentifyConfig::from_toml("[noise]\nlearn = false\ndepth_m = 0.02").unwrap();
+        let s = c.settings().unwrap();
+        assert!(!s.learn_noise);
+        assert_eq!(s.sigma.depth_m, 0.02);
+        assert_eq!(s.sigma.w_m_s, Settings::default().sigma.w_m_s);
+    }
+
+    #[test]
+    fn bad_values_name_their_key() {
+        for (text, key) in [
+            ("[noise]\ndepth_m = 0.0", "noise.depth_m"),
+            (
+                "[thresholds]\nmax_residual_lag1 = -1.0",
+                "thresholds.max_residual_lag1",
+            ),
+            ("[refinement]\nsubsteps = 0", "refinement.substeps"),
+        ] {
+            let e = IdentifyConfig::from_toml(text).unwrap_err().to_string();
+            assert!(e.starts_with(key), "{e}");
+        }
+        let e = IdentifyConfig::from_toml("[noise]\ndepth = 0.02").unwrap_err();
+        assert!(e.to_string().contains("depth"), "{e}");
+    }
+}
