@@ -276,3 +276,140 @@ fn the_configuration_is_printed_and_read() {
     );
     assert!(!bad_out.exists());
 }
+
+/// `--suggest` as a user follows it: the suggestion printed with the simulator command that
+/// flies it, that command run, the logs identified again with the ballast given, and the
+/// sigma of every coefficient it names lower, near the prediction.
+#[test]
+fn a_suggestion_is_printed_and_followed() {
+    let dir = common::scratch_dir("identify-cli-suggest");
+    let simulate = |args: &[&str]| {
+        let o = hindsight(&[&["simulate"], args].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    let (a, b) = (dir.join("zz55.mcap"), dir.join("zz105.mcap"));
+    simulate(&[
+        "--scenario",
+        "zigzag-5-5",
+        "--seed",
+        "1",
+        "--out",
+        a.to_str().unwrap(),
+    ]);
+    simulate(&[
+        "--scenario",
+        "zigzag-10-5",
+        "--seed",
+        "1001",
+        "--out",
+        b.to_str().unwrap(),
+    ]);
+    let out = dir.join("out");
+    let o = run(&[&a, &b], &out, &["--suggest"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let console = String::from_utf8_lossy(&o.stdout);
+    assert!(console.contains("experiment design"), "{console}");
+    let summary = |out: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+    };
+    let best = summary(&out)["design"]["candidates"][0].clone();
+    let how = best["how"].as_str().unwrap();
+    assert!(console.contains(how), "{console}");
+    // "fly it, then identify from all the logs with --weight-minus-buoyancy candidate.mcap=N;
+    // in the simulator: hindsight simulate --scenario ... --out candidate.mcap"
+    let ballast = how
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix("candidate.mcap="))
+        .map(|n| n.trim_end_matches(';'))
+        .expect(how);
+    let command = how
+        .split("in the simulator: hindsight simulate ")
+        .nth(1)
+        .expect(how);
+    let candidate = dir.join("candidate.mcap");
+    let mut args: Vec<&str> = command
+        .split_whitespace()
+        .map(|w| {
+            if w == "candidate.mcap" {
+                candidate.to_str().unwrap()
+            } else {
+                w
+            }
+        })
+        .collect();
+    args.extend(["--seed", "2001"]);
+    simulate(&args);
+    let again = dir.join("again");
+    let given = format!("candidate.mcap={ballast}");
+    let o = run(
+        &[&a, &b, &candidate],
+        &again,
+        &["--weight-minus-buoyancy", &given],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!("W - B = {ballast} N")),
+        "{}",
+        stderr(&o)
+    );
+    // Each coefficient's estimate and 1-sigma.
+    let table = |out: &Path| -> Vec<(f64, f64)> {
+        let c = &read_parquet(&out.join("coefficients.parquet"))[0];
+        let column = |name: &str| {
+            c.column_by_name(name)
+                .unwrap()
+                .as_any()
+                .downcast_ref::<Float64Array>()
+                .unwrap()
+                .clone()
+        };
+        let (e, s) = (column("estimate"), column("sigma"));
+        (0..10).map(|i| (e.value(i), s.value(i))).collect()
+    };
+    let (now, after) = (table(&out), table(&again));
+    let names = hindsight::vehicle::heave_pitch::NAMES;
+    let named = best["determines"].as_array().unwrap();
+    assert!(!named.is_empty(), "{best}");
+    for n in named {
+        let i = names
+            .iter()
+            .position(|x| *x == n.as_str().unwrap())
+            .unwrap();
+        // The prediction is in % of the estimate it was made at.
+        let predicted =
+            best["predicted_sigma_percent"][names[i]].as_f64().unwrap() / 100.0 * now[i].0.abs();
+        println!(
+            "{}: 1-sigma now {:.3e}, predicted {predicted:.3e}, after {:.3e}",
+            names[i], now[i].1, after[i].1
+        );
+        assert!(
+            predicted < 0.5 * now[i].1 && after[i].1 < 0.5 * now[i].1,
+            "{}",
+            names[i]
+        );
+        assert!(
+            (0.67..1.5).contains(&(after[i].1 / predicted)),
+            "{}",
+            names[i]
+        );
+    }
+    // A ballast for a log that is not there, and a ballast for a scenario that is no zig-zag.
+    let o = run(
+        &[&a],
+        &dir.join("bad"),
+        &["--weight-minus-buoyancy", "nosuch.mcap=10"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("nosuch.mcap"), "{}", stderr(&o));
+    let o = hindsight(&[
+        "simulate",
+        "--scenario",
+        "survey-short",
+        "--weight-minus-buoyancy",
+        "10",
+        "--out",
+        dir.join("x.mcap").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("zig-zags"), "{}", stderr(&o));
+}

@@ -4,6 +4,7 @@ use super::console::{out, say};
 use super::{OutputFailed, PolicyArgs};
 use anyhow::{bail, Context, Result};
 use hindsight::identify::config::{IdentifyConfig, DEFAULT_TOML};
+use hindsight::identify::design::{suggest, Addition, DesignSettings, Suggestion};
 use hindsight::identify::record::Record;
 use hindsight::identify::settings::Settings;
 use hindsight::identify::{identify, perturbed, Identification, CHANNELS};
@@ -93,6 +94,20 @@ pub struct IdentifyArgs {
     /// Forward speed, m/s [default: each log's mean DVL body x velocity].
     #[arg(long, value_name = "M/S")]
     pub speed: Option<f64>,
+
+    /// Weight minus buoyancy during one log, N, when a known ballast change made it differ
+    /// from neutral: LOG=N, LOG as given or its file name (repeatable).
+    #[arg(long = "weight-minus-buoyancy", value_name = "LOG=N")]
+    pub weight_minus_buoyancy: Vec<String>,
+
+    /// Experiment design: for the coefficients these logs leave poorly determined, which
+    /// manoeuvre (a zig-zag at another speed, with a known ballast change) or coefficient
+    /// known from elsewhere would determine them, and the sigma predicted after it (the
+    /// Fisher information of the candidate simulated with the identified coefficients, at the
+    /// learnt noise). Candidates: [design] in the config. Printed, and in the report and
+    /// summary.json.
+    #[arg(long)]
+    pub suggest: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -113,6 +128,26 @@ fn index_of(name: &str) -> Result<usize, CoefficientArgError> {
             NAMES.join(", ")
         ))
     })
+}
+
+/// `--weight-minus-buoyancy LOG=N`, by log.
+fn ballast_by_log(args: &IdentifyArgs) -> Result<BTreeMap<String, f64>, CoefficientArgError> {
+    args.weight_minus_buoyancy
+        .iter()
+        .map(|arg| {
+            let bad = || {
+                CoefficientArgError(format!(
+                    "--weight-minus-buoyancy {arg}: give LOG=NEWTONS, e.g. heavy.mcap=14078"
+                ))
+            };
+            let (log, n) = arg.rsplit_once('=').ok_or_else(bad)?;
+            let n: f64 = n.trim().parse().map_err(|_| bad())?;
+            if !n.is_finite() {
+                return Err(bad());
+            }
+            Ok((log.to_string(), n))
+        })
+        .collect()
 }
 
 fn start_values(args: &IdentifyArgs) -> Result<Coefficients> {
@@ -150,16 +185,16 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
         bail!("--out DIR is needed");
     };
     let started = Instant::now();
-    let mut settings = match &args.config {
+    let config = match &args.config {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("reading {}", path.display()))?;
-            IdentifyConfig::from_toml(&text)
-                .and_then(|c| c.settings())
-                .with_context(|| format!("in {}", path.display()))?
+            IdentifyConfig::from_toml(&text).with_context(|| format!("in {}", path.display()))?
         }
-        None => Settings::default(),
+        None => IdentifyConfig::default(),
     };
+    let mut settings = config.settings()?;
+    let design = config.design()?;
     for f in &args.fixed {
         let (name, value) = f.split_once('=').ok_or_else(|| {
             CoefficientArgError(format!(
@@ -173,6 +208,7 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
         settings.fixed[index_of(name.trim())?] = Some(value);
     }
     let start = start_values(&args)?;
+    let mut ballast = ballast_by_log(&args)?;
     let mut records = Vec::new();
     let mut read_logs = Vec::new();
     for path in &args.logs {
@@ -181,9 +217,12 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
             || path.display().to_string(),
             |n| n.to_string_lossy().into_owned(),
         );
-        let record = Record::from_log(&name, &log, args.speed)
+        let mut record = Record::from_log(&name, &log, args.speed)
             .with_context(|| format!("identifying from {}", path.display()))?;
-        let read = format!(
+        record.weight_minus_buoyancy_n = ballast
+            .remove(&name)
+            .or(ballast.remove(&path.display().to_string()));
+        let mut read = format!(
             "{name}: {:.0} s, U = {:.3} m/s, {} DVL and {} depth readings, theta from {}",
             record.t_s.last().copied().unwrap_or(0.0),
             record.speed_m_s,
@@ -191,9 +230,18 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
             record.depth_m.len(),
             record.theta_source
         );
+        if let Some(n) = record.weight_minus_buoyancy_n {
+            read += &format!(", W - B = {n} N");
+        }
         say!("{read}");
         read_logs.push(read);
         records.push(record);
+    }
+    if let Some(log) = ballast.keys().next() {
+        bail!(CoefficientArgError(format!(
+            "--weight-minus-buoyancy {log}=...: no log of that name (give the path as on the \
+             command line, or its file name)"
+        )));
     }
     let fitting = Instant::now();
     let id = identify(&records, &start, &settings);
@@ -211,7 +259,22 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
         speed_m_s: records[0].speed_m_s,
         ..settings.constants
     });
-    let findings = Findings::new(&id, &records, &model, &settings, read_logs);
+    let suggestions = if args.suggest {
+        let t = Instant::now();
+        let s = suggest(&id, &records, &settings, &design);
+        say!(
+            "{} candidates predicted in {:.2} s",
+            s.len(),
+            t.elapsed().as_secs_f64()
+        );
+        Some(s)
+    } else {
+        None
+    };
+    let mut findings = Findings::new(&id, &records, &model, &settings, read_logs);
+    findings.design = suggestions
+        .as_deref()
+        .map(|s| DesignFindings::new(&id, s, &design));
     write_outputs(&out_dir, &id, &records, &model, &settings, &findings)?;
     findings.print();
     say!("total {:.1} s", started.elapsed().as_secs_f64());
@@ -228,6 +291,9 @@ struct Summary<'a> {
     noise: NoiseSummary,
     poorly_determined: Vec<String>,
     warnings: &'a [String],
+    /// `--suggest`'s candidates, best first.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    design: Option<&'a DesignFindings>,
 }
 
 /// The sensor noise per channel, 1 sigma: as given, and as the refinement used it (learnt
@@ -384,6 +450,7 @@ fn write_outputs(
             .collect(),
         noise: NoiseSummary::new(id, settings),
         warnings: &findings.warnings,
+        design: findings.design.as_ref(),
         poorly_determined: id
             .assessment
             .iter()
@@ -447,6 +514,202 @@ struct Findings {
     logs: Vec<String>,
     /// The sensor noise the refinement used, and where it came from.
     noise: String,
+    /// `--suggest`'s candidates, best first.
+    design: Option<DesignFindings>,
+}
+
+/// The experiment design in words and figures (`--suggest`): printed, in the report, and in
+/// summary.json.
+#[derive(serde::Serialize)]
+struct DesignFindings {
+    /// How the prediction is made.
+    method: &'static str,
+    /// 1-sigma now, % of the value, of each poorly determined coefficient.
+    now_sigma_percent: BTreeMap<&'static str, f64>,
+    /// Best first.
+    candidates: Vec<CandidateFinding>,
+}
+
+#[derive(serde::Serialize)]
+struct CandidateFinding {
+    candidate: String,
+    reversals: usize,
+    /// Poorly determined now, determined after it.
+    determines: Vec<&'static str>,
+    /// Predicted 1-sigma after it, % of the value, of every coefficient estimated.
+    predicted_sigma_percent: BTreeMap<&'static str, f64>,
+    /// How to follow it.
+    how: String,
+}
+
+/// Candidates on the console (all of them in the report and summary.json).
+const CANDIDATES_PRINTED: usize = 5;
+
+const DESIGN_METHOD: &str = "predicted 1-sigma: the Cramer-Rao bound of these logs together \
+     with the candidate, whose Fisher information is that of a noise-free simulation with the \
+     identified coefficients, sampled as these logs are, at the learnt noise";
+
+/// A number with four significant digits (a ballast in N for a 30 kg AUV or a submarine).
+fn significant(v: f64) -> String {
+    let digits = if v == 0.0 {
+        0
+    } else {
+        (3 - v.abs().log10().floor() as i32).max(0) as usize
+    };
+    format!("{v:.digits$}")
+}
+
+impl DesignFindings {
+    fn new(id: &Identification, suggestions: &[Suggestion], design: &DesignSettings) -> Self {
+        let c = &id.refined.coefficients;
+        let percent = |sigma: f64, i: usize| 100.0 * sigma / c[i].abs().max(f64::MIN_POSITIVE);
+        let poorly: Vec<usize> = (0..10)
+            .filter(|&i| {
+                id.assessment
+                    .iter()
+                    .any(|d| d.name == NAMES[i] && d.poorly_determined)
+            })
+            .collect();
+        let now_sigma_percent = poorly
+            .iter()
+            .map(|&i| (NAMES[i], percent(id.refined.covariance[(i, i)].sqrt(), i)))
+            .collect();
+        let candidates = suggestions
+            .iter()
+            .map(|s| CandidateFinding {
+                candidate: s.description.clone(),
+                reversals: s.reversals,
+                determines: s.determines.clone(),
+                predicted_sigma_percent: s
+                    .assessment
+                    .iter()
+                    .filter_map(|d| {
+                        let i = NAMES.iter().position(|n| *n == d.name)?;
+                        Some((NAMES[i], percent(s.sigma(i), i)))
+                    })
+                    .collect(),
+                how: how_to_follow(s, design),
+            })
+            .collect();
+        DesignFindings {
+            method: DESIGN_METHOD,
+            now_sigma_percent,
+            candidates,
+        }
+    }
+
+    /// "NAME sigma%, ..." over the coefficients poorly determined now.
+    fn sigmas(&self, of: &BTreeMap<&'static str, f64>) -> String {
+        NAMES
+            .iter()
+            .filter(|n| self.now_sigma_percent.contains_key(*n))
+            .map(|n| match of.get(n) {
+                Some(v) => format!("{n} {v:.2}"),
+                None => format!("{n} (held)"),
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    fn rows(&self) -> Vec<Vec<String>> {
+        self.candidates
+            .iter()
+            .enumerate()
+            .map(|(k, c)| {
+                vec![
+                    format!("{}", k + 1),
+                    format!("{} ({} reversals)", c.candidate, c.reversals),
+                    self.sigmas(&c.predicted_sigma_percent),
+                    c.determines.join(", "),
+                    c.how.clone(),
+                ]
+            })
+            .collect()
+    }
+
+    fn print(&self) {
+        if self.now_sigma_percent.is_empty() {
+            out!("experiment design: every coefficient is determined; nothing to suggest");
+            return;
+        }
+        out!("experiment design (--suggest), best first; {DESIGN_METHOD}");
+        out!(
+            "  now: 1-sigma % of the value: {}",
+            self.sigmas(&self.now_sigma_percent)
+        );
+        let rows = self.rows();
+        for row in rows.iter().take(CANDIDATES_PRINTED) {
+            out!("  {}. {}", row[0], row[1]);
+            out!("       1-sigma %: {}", row[2]);
+            if !row[3].is_empty() {
+                out!("       determines: {}", row[3]);
+            }
+            out!("       how: {}", row[4]);
+        }
+        if rows.len() > CANDIDATES_PRINTED {
+            out!(
+                "  ... and {} more in report.html and summary.json",
+                rows.len() - CANDIDATES_PRINTED
+            );
+        }
+    }
+
+    fn section(&self) -> Section {
+        let mut section = Section::new("Experiment design").with(Block::text(format!(
+            "Coefficients poorly determined now (1-sigma, % of the value): {}. Candidates, \
+             best first; {DESIGN_METHOD}.",
+            self.sigmas(&self.now_sigma_percent)
+        )));
+        section.push(Block::table(
+            [
+                "rank",
+                "candidate",
+                "1-sigma % after it",
+                "determines",
+                "how",
+            ],
+            self.rows(),
+        ));
+        section
+    }
+}
+
+/// What to do to follow a suggestion, at sea or in the simulator.
+fn how_to_follow(s: &Suggestion, design: &DesignSettings) -> String {
+    match s.addition {
+        Addition::Zigzag(m) => {
+            let ballast = if m.weight_minus_buoyancy_n != 0.0 {
+                format!(
+                    " --weight-minus-buoyancy {}",
+                    significant(m.weight_minus_buoyancy_n)
+                )
+            } else {
+                String::new()
+            };
+            format!(
+                "fly it, then identify from all the logs{}; in the simulator: hindsight \
+                 simulate --scenario zigzag-{}-{} --speed {:.3}{ballast} --duration {} --out \
+                 candidate.mcap",
+                if ballast.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        " with --weight-minus-buoyancy candidate.mcap={}",
+                        significant(m.weight_minus_buoyancy_n)
+                    )
+                },
+                design.plane_deg,
+                design.trigger_deg,
+                m.speed_m_s,
+                design.duration_s,
+            )
+        }
+        Addition::Known(i) => format!(
+            "identify again with --fix {}=VALUE, the value from elsewhere (its error carries \
+             into the coefficients correlated with it)",
+            NAMES[i]
+        ),
+    }
 }
 
 const COEFFICIENT_HEADERS: [&str; 8] = [
@@ -528,6 +791,7 @@ impl Findings {
             warnings,
             logs,
             noise: noise_line(id, settings),
+            design: None,
         }
     }
 
@@ -546,6 +810,10 @@ impl Findings {
         out!("{}", self.noise);
         for w in &self.warnings {
             out!("warning: {w}");
+        }
+        if let Some(d) = &self.design {
+            out!();
+            d.print();
         }
         out!();
     }
@@ -580,7 +848,10 @@ impl Findings {
                 )),
                 fit,
                 Section::new("Warnings").with(Block::Warnings(self.warnings.clone())),
-            ],
+            ]
+            .into_iter()
+            .chain(self.design.as_ref().map(DesignFindings::section))
+            .collect(),
             footer: format!("hindsight {}", env!("CARGO_PKG_VERSION")),
         }
     }

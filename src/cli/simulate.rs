@@ -52,9 +52,54 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "FRACTION")]
     pub coef_uncertainty: Option<f64>,
 
+    /// Zig-zags (zigzag-A-B, flown by seed 004's heave-pitch model): forward speed, m/s
+    /// [default: 3.084].
+    #[arg(long, value_name = "M/S")]
+    pub speed: Option<f64>,
+
+    /// Zig-zags: weight minus buoyancy, N (a known ballast change; positive heavy)
+    /// [default: 0, neutral].
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub weight_minus_buoyancy: Option<f64>,
+
+    /// Zig-zags: length of the run, s [default: 200].
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+
     /// List the built-in scenarios and exit.
     #[arg(long)]
     pub list: bool,
+}
+
+/// A zig-zag with the command line's speed, ballast and duration.
+fn zigzag_options(
+    mut spec: zigzag::ZigzagSpec,
+    args: &SimulateArgs,
+) -> Result<zigzag::ZigzagSpec, SimulateArgError> {
+    let positive = |flag: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(SimulateArgError(format!(
+                "{flag} {v}: give a positive number"
+            )))
+        }
+    };
+    if let Some(u) = args.speed {
+        spec.constants.speed_m_s = positive("--speed", u)?;
+    }
+    if let Some(d) = args.duration {
+        spec.duration_s = positive("--duration", d)?;
+    }
+    if let Some(n) = args.weight_minus_buoyancy {
+        if !n.is_finite() {
+            return Err(SimulateArgError(format!(
+                "--weight-minus-buoyancy {n}: give a number of newtons"
+            )));
+        }
+        spec.constants.weight_minus_buoyancy_n = n;
+    }
+    Ok(spec)
 }
 
 pub fn run(args: SimulateArgs) -> Result<()> {
@@ -74,7 +119,9 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     let zigzag = args
         .scenario
         .as_deref()
-        .and_then(zigzag::ZigzagSpec::built_in);
+        .and_then(zigzag::ZigzagSpec::built_in)
+        .map(|spec| zigzag_options(spec, &args))
+        .transpose()?;
     let mut scenario = match (&args.scenario, &args.scenario_file) {
         _ if zigzag.is_some() => None,
         (_, Some(path)) => {
@@ -91,6 +138,14 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             .as_deref()
             .and_then(std::path::Path::parent);
         dynamic_options(s, &args.vehicle, args.coef_uncertainty, base)?;
+        if args.speed.is_some() || args.weight_minus_buoyancy.is_some() || args.duration.is_some() {
+            return Err(SimulateArgError(
+                "--speed, --weight-minus-buoyancy and --duration apply to seed 004's zig-zags \
+                 (zigzag-A-B), not to this scenario"
+                    .into(),
+            )
+            .into());
+        }
     } else if args.vehicle.is_some() || args.coef_uncertainty.is_some() {
         return Err(SimulateArgError(
             "--vehicle and --coef-uncertainty apply to the 6-DOF scenarios, not to seed 004's zig-zags".into(),

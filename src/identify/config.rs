@@ -2,6 +2,7 @@
 //! key; `hindsight identify --print-config` prints [`DEFAULT_TOML`]. Angles are in degrees
 //! here and in radians in [`Settings`].
 
+use super::design::DesignSettings;
 use super::settings::{ProcessNoise, Settings, Sigmas, Thresholds};
 use serde::{Deserialize, Serialize};
 
@@ -38,6 +39,16 @@ max_correlation = 0.95       # ... or one correlated more than this with another
 max_residual_lag1 = 0.3      # residuals correlated more from sample to sample: POOR FIT
 max_noise_ratio = 3.0        # learnt noise more than this times the given figure: a warning
 max_normalised_rms = 2.0     # with learn = false: residuals more than this times the noise: POOR FIT
+
+[design]
+# identify --suggest: the candidate manoeuvres whose Fisher information is predicted (a
+# zig-zag flown as `hindsight simulate --scenario zigzag-PLANE-TRIGGER` flies it).
+plane_deg = 10.0             # plane deflection of the candidate zig-zags
+trigger_deg = 5.0            # pitch that reverses the plane
+duration_s = 200.0
+plane_rate_deg_s = 10.0      # the plane's rate limit
+speed_factors = [0.5, 1.5]   # other speeds to try, as multiples of the logs' mean speed
+ballast_fraction = 0.0005    # a known ballast change to try: (W - B) / W, positive heavy; 0: none
 "#;
 
 /// Everything `hindsight identify` can be told from a file.
@@ -48,6 +59,7 @@ pub struct IdentifyConfig {
     pub ekf: EkfConfig,
     pub refinement: RefinementConfig,
     pub thresholds: ThresholdsConfig,
+    pub design: DesignSettings,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -152,6 +164,7 @@ impl IdentifyConfig {
         let config: IdentifyConfig =
             toml::from_str(text).map_err(|e| IdentifyConfigError::Toml(e.to_string()))?;
         config.settings()?;
+        config.design()?;
         Ok(config)
     }
 
@@ -219,6 +232,38 @@ impl IdentifyConfig {
     }
 }
 
+impl IdentifyConfig {
+    /// The candidates of `identify --suggest`.
+    pub fn design(&self) -> Result<DesignSettings, IdentifyConfigError> {
+        let d = &self.design;
+        for (key, value) in [
+            ("design.plane_deg", d.plane_deg),
+            ("design.trigger_deg", d.trigger_deg),
+            ("design.duration_s", d.duration_s),
+            ("design.plane_rate_deg_s", d.plane_rate_deg_s),
+        ] {
+            positive(key, value)?;
+        }
+        if let Some(f) = d
+            .speed_factors
+            .iter()
+            .find(|f| !(f.is_finite() && **f > 0.0))
+        {
+            return Err(bad(
+                "design.speed_factors",
+                &format!("{f} is not a positive number"),
+            ));
+        }
+        if !(d.ballast_fraction.is_finite() && d.ballast_fraction.abs() < 0.1) {
+            return Err(bad(
+                "design.ballast_fraction",
+                "must be a fraction of the weight, between -0.1 and 0.1",
+            ));
+        }
+        Ok(d.clone())
+    }
+}
+
 fn positive(key: &'static str, value: f64) -> Result<(), IdentifyConfigError> {
     if value.is_finite() && value > 0.0 {
         Ok(())
@@ -244,6 +289,7 @@ mod tests {
         assert_eq!(documented, IdentifyConfig::default());
         assert_eq!(IdentifyConfig::from_toml("").unwrap(), documented);
         assert_eq!(documented.settings().unwrap(), Settings::default());
+        assert_eq!(documented.design().unwrap(), DesignSettings::default());
     }
 
     #[test]
@@ -264,6 +310,14 @@ mod tests {
                 "thresholds.max_residual_lag1",
             ),
             ("[refinement]\nsubsteps = 0", "refinement.substeps"),
+            (
+                "[design]\nspeed_factors = [1.5, -1.0]",
+                "design.speed_factors",
+            ),
+            (
+                "[design]\nballast_fraction = 0.5",
+                "design.ballast_fraction",
+            ),
         ] {
             let e = IdentifyConfig::from_toml(text).unwrap_err().to_string();
             assert!(e.starts_with(key), "{e}");

@@ -38,10 +38,13 @@ pub struct EkfResult {
     pub failed_updates: usize,
 }
 
-/// The model of one log (its forward speed).
+/// The model of one log (its forward speed, and its weight minus buoyancy when known).
 pub fn model_for(record: &Record, constants: &Constants) -> HeavePitch {
     HeavePitch::new(Constants {
         speed_m_s: record.speed_m_s,
+        weight_minus_buoyancy_n: record
+            .weight_minus_buoyancy_n
+            .unwrap_or(constants.weight_minus_buoyancy_n),
         ..*constants
     })
 }

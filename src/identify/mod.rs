@@ -10,6 +10,7 @@
 //!   channel's noise from its residuals.
 
 pub mod config;
+pub mod design;
 pub mod ekf;
 pub mod identifiability;
 pub mod output_error;

@@ -27,6 +27,9 @@ pub struct Refined {
     /// Normalised residual RMS per channel (q, theta, w, depth) over all logs: about 1 when
     /// the model fits to the sensor noise.
     pub normalised_rms: [f64; 4],
+    /// The coefficients' Fisher information, the logs' initial states marginalised out (the
+    /// inverse of `covariance` where that is invertible; zero rows for fixed coefficients).
+    pub information: SMatrix<f64, 10, 10>,
     pub iterations: usize,
     pub converged: bool,
 }
@@ -203,6 +206,46 @@ fn normal_equations(
     (a, b, cost, rms)
 }
 
+/// The coefficients' block of the information `a` over `[c (10), nuisance...]` with the
+/// nuisance parameters (the logs' initial states) marginalised out: the Schur complement
+/// `A_cc - A_cn A_nn^-1 A_nc`, whose inverse is the coefficients' covariance. Fixed
+/// coefficients' rows and columns are zero.
+fn marginal_information(a: &DMatrix<f64>, fixed: &[Option<f64>; 10]) -> SMatrix<f64, 10, 10> {
+    let n = a.nrows() - 10;
+    let acc = a.view((0, 0), (10, 10));
+    let acn = a.view((0, 10), (10, n));
+    let ann = a.view((10, 10), (n, n)).into_owned();
+    let schur = match ann.cholesky() {
+        Some(ch) => acc - acn * ch.solve(&acn.transpose()),
+        None => DMatrix::from_element(10, 10, f64::NAN),
+    };
+    SMatrix::from_fn(|i, j| {
+        if fixed[i].is_some() || fixed[j].is_some() {
+            0.0
+        } else {
+            schur[(i, j)]
+        }
+    })
+}
+
+/// The coefficients' Fisher information from `records` at coefficients `c`, each log
+/// started from its state in `x0` (marginalised out), at the settings' sensor noise:
+/// what a manoeuvre would tell about the coefficients (the measurements themselves do not
+/// enter, only when and what is measured).
+pub fn information(
+    records: &[Record],
+    c: &Coefficients,
+    x0: &[State],
+    settings: &Settings,
+) -> SMatrix<f64, 10, 10> {
+    let models: Vec<HeavePitch> = records
+        .iter()
+        .map(|r| model_for(r, &settings.constants))
+        .collect();
+    let (a, ..) = normal_equations(records, &models, c, x0, settings);
+    marginal_information(&a, &settings.fixed)
+}
+
 /// Refines `start` (with each log's first readings as its initial state) by
 /// Levenberg-Marquardt on the whole record of every log. If the model cannot be simulated
 /// from `start`, the result says so: not converged, infinite residuals.
@@ -232,6 +275,7 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
             covariance: SMatrix::repeat(f64::NAN),
             initial_states: x0,
             normalised_rms: [f64::INFINITY; 4],
+            information: SMatrix::repeat(f64::NAN),
             iterations: 0,
             converged: false,
         };
@@ -298,11 +342,13 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
             inverse[(i, j)] * variance_factor
         }
     });
+    let information = marginal_information(&a, &settings.fixed) / variance_factor;
     Refined {
         coefficients: c,
         covariance,
         initial_states: x0,
         normalised_rms: rms,
+        information,
         iterations,
         converged,
     }
@@ -338,6 +384,7 @@ mod tests {
             depth_m: Vec::new(),
             speed_m_s: 3.084,
             theta_source: "test",
+            weight_minus_buoyancy_n: None,
             t_s,
         }
     }

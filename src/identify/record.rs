@@ -25,6 +25,9 @@ pub struct Record {
     pub speed_m_s: f64,
     /// Where theta came from.
     pub theta_source: &'static str,
+    /// Weight minus buoyancy during this log, N, when known to differ from the settings'
+    /// constant (a ballast change).
+    pub weight_minus_buoyancy_n: Option<f64>,
 }
 
 /// Why a log cannot be identified from.
@@ -163,6 +166,7 @@ impl Record {
                 .collect(),
             speed_m_s,
             theta_source,
+            weight_minus_buoyancy_n: None,
         })
     }
 }

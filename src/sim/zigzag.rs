@@ -84,17 +84,16 @@ impl ZigzagNoise {
 pub const BUILT_IN: [&str; 2] = ["zigzag-5-5", "zigzag-10-5"];
 
 impl ZigzagSpec {
-    /// `zigzag-5-5` or `zigzag-10-5`: seed 004's runs, 200 s, realistic sensors.
+    /// `zigzag-5-5` or `zigzag-10-5` (seed 004's runs), or any `zigzag-A-B` with A and B
+    /// positive numbers of degrees: 200 s, realistic sensors, the published coefficients.
     pub fn built_in(name: &str) -> Option<ZigzagSpec> {
-        let plane_deg = match name {
-            "zigzag-5-5" => 5.0,
-            "zigzag-10-5" => 10.0,
-            _ => return None,
-        };
+        let (plane, trigger) = name.strip_prefix("zigzag-")?.split_once('-')?;
+        let degrees = |s: &str| s.parse::<f64>().ok().filter(|v| v.is_finite() && *v > 0.0);
+        let (plane_deg, trigger_deg) = (degrees(plane)?, degrees(trigger)?);
         Some(ZigzagSpec {
             name: name.to_string(),
             plane_deg,
-            trigger_deg: 5.0,
+            trigger_deg,
             duration_s: 200.0,
             plane_rate_deg_s: 10.0,
             step_s: 1e-3,
@@ -106,10 +105,15 @@ impl ZigzagSpec {
     }
 
     pub fn description(&self) -> String {
-        format!(
-            "vertical zig-zag {}-{} of seed 004's heave-pitch model, {} s",
-            self.plane_deg, self.trigger_deg, self.duration_s
-        )
+        let k = &self.constants;
+        let mut s = format!(
+            "vertical zig-zag {}-{} of seed 004's heave-pitch model, {} s at {} m/s",
+            self.plane_deg, self.trigger_deg, self.duration_s, k.speed_m_s
+        );
+        if k.weight_minus_buoyancy_n != 0.0 {
+            s += &format!(", weight minus buoyancy {} N", k.weight_minus_buoyancy_n);
+        }
+        s
     }
 }
 
