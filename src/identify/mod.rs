@@ -13,6 +13,7 @@ pub mod config;
 pub mod design;
 pub mod ekf;
 pub mod identifiability;
+pub mod levenberg;
 pub mod output_error;
 pub mod record;
 pub mod settings;

@@ -10,6 +10,7 @@
 //! standard deviations and correlations.
 
 use super::ekf::{first_state, model_for};
+use super::levenberg::{self, Normal};
 use super::record::Record;
 use super::settings::Settings;
 use crate::vehicle::heave_pitch::{Coefficients, HeavePitch, State};
@@ -206,19 +207,10 @@ fn normal_equations(
     (a, b, cost, rms)
 }
 
-/// The coefficients' block of the information `a` over `[c (10), nuisance...]` with the
-/// nuisance parameters (the logs' initial states) marginalised out: the Schur complement
-/// `A_cc - A_cn A_nn^-1 A_nc`, whose inverse is the coefficients' covariance. Fixed
-/// coefficients' rows and columns are zero.
+/// The coefficients' block of the information `a` over `[c (10), initial states...]`, the
+/// initial states marginalised out; fixed coefficients' rows and columns are zero.
 fn marginal_information(a: &DMatrix<f64>, fixed: &[Option<f64>; 10]) -> SMatrix<f64, 10, 10> {
-    let n = a.nrows() - 10;
-    let acc = a.view((0, 0), (10, 10));
-    let acn = a.view((0, 10), (10, n));
-    let ann = a.view((10, 10), (n, n)).into_owned();
-    let schur = match ann.cholesky() {
-        Some(ch) => acc - acn * ch.solve(&acn.transpose()),
-        None => DMatrix::from_element(10, 10, f64::NAN),
-    };
+    let schur = levenberg::marginal_information(a, 10);
     SMatrix::from_fn(|i, j| {
         if fixed[i].is_some() || fixed[j].is_some() {
             0.0
@@ -254,20 +246,45 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
         .iter()
         .map(|r| model_for(r, &settings.constants))
         .collect();
-    let mut c = settings.with_fixed(start);
-    let mut x0: Vec<State> = records.iter().map(first_state).collect();
+    let c = settings.with_fixed(start);
+    let x0: Vec<State> = records.iter().map(first_state).collect();
+    // Parameters: `[c (10), x0 of log 0 (4), x0 of log 1 (4), ...]`.
+    let unpack = |p: &DVector<f64>| -> (Coefficients, Vec<State>) {
+        let c = Coefficients::from_fn(|i, _| p[i]);
+        let x0 = (0..records.len())
+            .map(|l| State::from_fn(|i, _| p[10 + 4 * l + i]))
+            .collect();
+        (c, x0)
+    };
+    let mut start_parameters = DVector::zeros(10 + 4 * records.len());
+    start_parameters.rows_mut(0, 10).copy_from(&c);
+    for (l, x) in x0.iter().enumerate() {
+        start_parameters.rows_mut(10 + 4 * l, 4).copy_from(x);
+    }
     // A fixed coefficient's row and column are taken out of the normal equations.
-    let mask = |(mut a, mut b, cost, rms): (DMatrix<f64>, DVector<f64>, f64, [f64; 4])| {
+    let minimum = levenberg::minimise(start_parameters, settings.max_iterations, |p| {
+        let (c, x0) = unpack(p);
+        let (mut a, mut b, cost, rms) = normal_equations(records, &models, &c, &x0, settings);
         for i in (0..10).filter(|&i| settings.fixed[i].is_some()) {
             a.row_mut(i).fill(0.0);
             a.column_mut(i).fill(0.0);
             a[(i, i)] = 1.0;
             b[i] = 0.0;
         }
-        (a, b, cost, rms)
-    };
-    let (mut a, mut b, mut cost, mut rms) =
-        mask(normal_equations(records, &models, &c, &x0, settings));
+        Normal {
+            a,
+            b,
+            cost,
+            extra: rms,
+        }
+    });
+    let (c, x0) = unpack(&minimum.parameters);
+    let Normal {
+        a,
+        cost,
+        extra: rms,
+        ..
+    } = minimum.normal;
     if !cost.is_finite() {
         // The model cannot even be simulated from here (e.g. a singular mass matrix).
         return Refined {
@@ -280,54 +297,11 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
             converged: false,
         };
     }
-    let mut lambda = 1e-3;
-    let mut converged = false;
-    let mut iterations = 0;
-    while iterations < settings.max_iterations {
-        iterations += 1;
-        // Scale-free damping: lambda times the diagonal.
-        let mut damped = a.clone();
-        for i in 0..damped.nrows() {
-            damped[(i, i)] *= 1.0 + lambda;
-        }
-        let Some(step) = damped.cholesky().map(|ch| ch.solve(&b)) else {
-            lambda *= 10.0;
-            continue;
-        };
-        let trial_c = c + step.rows(0, 10).into_owned();
-        let trial_x0: Vec<State> = x0
-            .iter()
-            .enumerate()
-            .map(|(l, x)| x + step.rows(10 + 4 * l, 4).into_owned())
-            .collect();
-        let (ta, tb, tcost, trms) = mask(normal_equations(
-            records, &models, &trial_c, &trial_x0, settings,
-        ));
-        if tcost.is_finite() && tcost < cost {
-            let relative_drop = (cost - tcost) / cost;
-            (c, x0, a, b, cost, rms) = (trial_c, trial_x0, ta, tb, tcost, trms);
-            lambda = (lambda / 10.0).max(1e-12);
-            if relative_drop < 1e-10 {
-                converged = true;
-                break;
-            }
-        } else {
-            lambda *= 10.0;
-            if lambda > 1e12 {
-                // No step lowers the cost: at the minimum to rounding.
-                converged = true;
-                break;
-            }
-        }
-    }
+    let (iterations, converged) = (minimum.iterations, minimum.converged);
     // Covariance of all parameters, then the coefficients' block; inflated by the residual
     // variance when the fit is worse than the noise (a model error or underestimated noise).
     let n = a.nrows();
-    let inverse = a
-        .clone()
-        .cholesky()
-        .map(|ch| ch.inverse())
-        .unwrap_or_else(|| DMatrix::from_element(n, n, f64::NAN));
+    let inverse = levenberg::inverse(&a);
     let dof = records
         .iter()
         .map(|r| 2 * r.t_s.len() + r.w_m_s.len() + r.depth_m.len())
