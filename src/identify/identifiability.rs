@@ -3,7 +3,7 @@
 
 use super::settings::Thresholds;
 use crate::vehicle::heave_pitch::{Coefficients, NAMES};
-use nalgebra::SMatrix;
+use nalgebra::{DMatrix, SMatrix};
 
 /// The correlation matrix of a covariance (zero rows for fixed coefficients).
 pub fn correlation(cov: &SMatrix<f64, 10, 10>) -> SMatrix<f64, 10, 10> {
@@ -22,10 +22,10 @@ pub fn correlation(cov: &SMatrix<f64, 10, 10>) -> SMatrix<f64, 10, 10> {
 /// A coefficient's determination.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Determination {
-    pub name: &'static str,
+    pub name: String,
     pub relative_sigma: f64,
     /// The other coefficient it is most correlated with, and the correlation.
-    pub most_correlated: Option<(&'static str, f64)>,
+    pub most_correlated: Option<(String, f64)>,
     pub poorly_determined: bool,
 }
 
@@ -37,21 +37,44 @@ pub fn assess(
     fixed: &[Option<f64>; 10],
     thresholds: &Thresholds,
 ) -> Vec<Determination> {
-    let corr = correlation(cov);
-    (0..10)
-        .filter(|&i| fixed[i].is_none())
+    let free: Vec<bool> = fixed.iter().map(Option::is_none).collect();
+    let cov = DMatrix::from_fn(10, 10, |i, j| cov[(i, j)]);
+    assess_named(&NAMES, c.as_slice(), &cov, &free, thresholds)
+}
+
+/// [`assess`] for any set of coefficients: names, values, covariance, which are estimated.
+pub fn assess_named(
+    names: &[&str],
+    c: &[f64],
+    cov: &DMatrix<f64>,
+    free: &[bool],
+    thresholds: &Thresholds,
+) -> Vec<Determination> {
+    let n = names.len();
+    let corr = |i: usize, j: usize| {
+        let d = (cov[(i, i)] * cov[(j, j)]).sqrt();
+        if d > 0.0 {
+            cov[(i, j)] / d
+        } else {
+            0.0
+        }
+    };
+    (0..n)
+        .filter(|&i| free[i])
         .map(|i| {
             let relative_sigma = cov[(i, i)].sqrt() / c[i].abs().max(f64::MIN_POSITIVE);
-            let most_correlated = (0..10)
-                .filter(|&j| j != i && fixed[j].is_none())
-                .map(|j| (NAMES[j], corr[(i, j)]))
+            let most_correlated = (0..n)
+                .filter(|&j| j != i && free[j])
+                .map(|j| (names[j].to_string(), corr(i, j)))
                 .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
             Determination {
-                name: NAMES[i],
+                name: names[i].to_string(),
                 relative_sigma,
-                most_correlated,
                 poorly_determined: relative_sigma > thresholds.max_relative_sigma
-                    || most_correlated.is_some_and(|(_, r)| r.abs() > thresholds.max_correlation),
+                    || most_correlated
+                        .as_ref()
+                        .is_some_and(|(_, r)| r.abs() > thresholds.max_correlation),
+                most_correlated,
             }
         })
         .collect()
@@ -65,7 +88,7 @@ impl std::fmt::Display for Determination {
             self.name,
             self.relative_sigma * 100.0
         )?;
-        if let Some((other, r)) = self.most_correlated {
+        if let Some((other, r)) = &self.most_correlated {
             write!(f, ", correlation {r:+.3} with {other}")?;
         }
         Ok(())

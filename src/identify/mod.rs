@@ -17,6 +17,7 @@ pub mod levenberg;
 pub mod output_error;
 pub mod record;
 pub mod settings;
+pub mod six_dof;
 
 use crate::vehicle::heave_pitch::Coefficients;
 
@@ -30,7 +31,7 @@ use crate::vehicle::heave_pitch::State;
 use identifiability::Determination;
 use output_error::Refined;
 use record::Record;
-use settings::{Settings, Sigmas};
+use settings::{Settings, Sigmas, Thresholds};
 
 /// How well the identified model reproduces one channel of one log.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -152,25 +153,13 @@ impl Identification {
                     .filter(|(_, c)| c.samples > 0)
             })
         };
-        let worst_lag1 = channels()
-            .map(|(n, c)| (*n, c.lag1_correlation))
-            .max_by(|a, b| a.1.total_cmp(&b.1));
         let worst_rms = channels()
             .map(|(_, c)| c.normalised_rms)
             .fold(
                 0.0,
                 |a: f64, b| if b.is_nan() { f64::INFINITY } else { a.max(b) },
             );
-        // A NaN (a simulation that blew up) sorts above every number, and is a poor fit too.
-        if let Some((name, r)) = worst_lag1.filter(|(_, r)| r.is_nan() || *r > t.max_residual_lag1)
-        {
-            warnings.push(format!(
-                "POOR FIT: the {name} residuals are correlated from one sample to the next \
-                 ({r:.2}; white noise gives about 0): the model's structure (or a fixed \
-                 coefficient) does not match the data, or the sensor's noise is not white and \
-                 the sigmas are too small; do not trust these coefficients"
-            ));
-        }
+        warnings.extend(residual_warning(channels().map(|(n, c)| (*n, c)), t));
         if !self.noise.learnt && worst_rms > t.max_normalised_rms {
             warnings.push(format!(
                 "POOR FIT: residuals up to {worst_rms:.1} times the sensor noise: the model's \
@@ -179,10 +168,7 @@ impl Identification {
             ));
         }
         if !self.refined.converged {
-            warnings.push(
-                "POOR FIT: the refinement did not converge; do not trust these coefficients"
-                    .to_string(),
-            );
+            warnings.push(NOT_CONVERGED.to_string());
         }
         if self.noise.learnt {
             let given = settings.sigma.by_channel();
@@ -199,6 +185,30 @@ impl Identification {
         }
         warnings
     }
+}
+
+/// The warning for a refinement that did not converge.
+pub const NOT_CONVERGED: &str =
+    "POOR FIT: the refinement did not converge; do not trust these coefficients";
+
+/// POOR FIT when the worst channel's residuals are correlated from one sample to the next
+/// above the threshold (a NaN, from a simulation that blew up, counts as the worst).
+pub fn residual_warning<'a>(
+    channels: impl Iterator<Item = (&'a str, &'a ChannelFit)>,
+    thresholds: &Thresholds,
+) -> Option<String> {
+    let (name, r) = channels
+        .filter(|(_, c)| c.samples > 0)
+        .map(|(n, c)| (n, c.lag1_correlation))
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    (r.is_nan() || r > thresholds.max_residual_lag1).then(|| {
+        format!(
+            "POOR FIT: the {name} residuals are correlated from one sample to the next \
+             ({r:.2}; white noise gives about 0): the model's structure (or a fixed \
+             coefficient) does not match the data, or the sensor's noise is not white and \
+             the sigmas are too small; do not trust these coefficients"
+        )
+    })
 }
 
 /// The sensor noise the refinement ended with.
@@ -247,7 +257,7 @@ pub fn learn_noise(
     (refined, noise)
 }
 
-fn channel_fit(pairs: &[(f64, f64)], sigma: f64) -> ChannelFit {
+pub(crate) fn channel_fit(pairs: &[(f64, f64)], sigma: f64) -> ChannelFit {
     let n = pairs.len().max(1) as f64;
     // A simulation that blew up fits nothing.
     if pairs.iter().any(|(_, s)| !s.is_finite()) {

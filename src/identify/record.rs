@@ -51,14 +51,23 @@ pub enum RecordError {
         needed_s: f64,
     },
     #[error(
-        "{log}: the stern plane moves by {range_deg:.2} deg in all: no manoeuvre, so the \
+        "{log}: the {fin} moves by {range_deg:.2} deg in all: no manoeuvre, so the \
          coefficients are unidentifiable (fly a zig-zag)"
     )]
-    NoManoeuvre { log: String, range_deg: f64 },
+    NoManoeuvre {
+        log: String,
+        fin: &'static str,
+        range_deg: f64,
+    },
+    #[error(
+        "{log}: no propeller speed on /rpm: the 6-DOF model's thrust depends on it (identify \
+         with the heave-pitch model, which takes the forward speed instead, or record /rpm)"
+    )]
+    NoRpm { log: String },
 }
 
 /// The latest sample at or before each grid stamp (the first one before it starts).
-fn latest<T>(samples: &[T], stamp: impl Fn(&T) -> i64, grid: &[i64]) -> Vec<usize> {
+pub(crate) fn latest<T>(samples: &[T], stamp: impl Fn(&T) -> i64, grid: &[i64]) -> Vec<usize> {
     let mut j = 0;
     grid.iter()
         .map(|&t| {
@@ -71,7 +80,7 @@ fn latest<T>(samples: &[T], stamp: impl Fn(&T) -> i64, grid: &[i64]) -> Vec<usiz
 }
 
 /// The grid index nearest to each stamp.
-fn nearest(grid: &[i64], t: i64) -> usize {
+pub(crate) fn nearest(grid: &[i64], t: i64) -> usize {
     let i = grid.partition_point(|&g| g < t);
     if i == 0 {
         0
@@ -130,6 +139,7 @@ impl Record {
         if range_deg < MIN_PLANE_RANGE_DEG {
             return Err(RecordError::NoManoeuvre {
                 log: log_name,
+                fin: "stern plane",
                 range_deg,
             });
         }

@@ -13,7 +13,7 @@
 
 use super::description::{Propulsion, Vehicle};
 use super::terms::{Inputs, Nu};
-use nalgebra::{Matrix3, Matrix6, SVector, Vector3};
+use nalgebra::{Matrix3, Matrix6, SMatrix, SVector, Vector3};
 
 /// Sections of the strip-theory cross-flow integral.
 pub const CROSSFLOW_SECTIONS: usize = 10;
@@ -68,6 +68,10 @@ impl SixDof {
 
     pub fn mass_matrix(&self) -> &Matrix6<f64> {
         &self.mass_matrix
+    }
+
+    pub fn mass_inverse(&self) -> &Matrix6<f64> {
+        &self.mass_inverse
     }
 
     /// Generalised forces and their derivative by `nu`.
@@ -197,19 +201,28 @@ impl SixDof {
             }
         }
 
-        // Weight and buoyancy.
-        let (sr, cr) = at.roll_rad.sin_cos();
-        let (sp, cp) = at.pitch_rad.sin_cos();
+        tau + self.restoring(at.roll_rad, at.pitch_rad).0
+    }
+
+    /// Weight and buoyancy as generalised forces, and their derivative by roll and pitch.
+    pub fn restoring(&self, roll_rad: f64, pitch_rad: f64) -> (Nu, SMatrix<f64, 6, 2>) {
+        let veh = &self.vehicle;
+        let (sr, cr) = roll_rad.sin_cos();
+        let (sp, cp) = pitch_rad.sin_cos();
+        // Gravity's direction in the body, and its derivatives by roll and pitch.
         let down = Vector3::new(-sp, cp * sr, cp * cr);
+        let d_roll = Vector3::new(0.0, cp * cr, -cp * sr);
+        let d_pitch = Vector3::new(-cp, -sp * sr, -sp * cr);
         let (wt, bu) = (veh.weight_n, veh.buoyancy_n);
-        add3(&mut tau, 0, &(down * (wt - bu)));
-        add3(
-            &mut tau,
-            3,
-            &(veh.centre_of_gravity_m.cross(&down) * wt
-                - veh.centre_of_buoyancy_m.cross(&down) * bu),
-        );
-        tau
+        let generalised = |g: &Vector3<f64>| {
+            let f = g * (wt - bu);
+            let m = veh.centre_of_gravity_m.cross(g) * wt - veh.centre_of_buoyancy_m.cross(g) * bu;
+            nu(f, m)
+        };
+        let mut d = SMatrix::<f64, 6, 2>::zeros();
+        d.set_column(0, &generalised(&d_roll));
+        d.set_column(1, &generalised(&d_pitch));
+        (generalised(&down), d)
     }
 
     /// `nu'` and its Jacobian `d nu' / d nu`.

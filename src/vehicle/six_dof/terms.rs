@@ -100,6 +100,14 @@ impl Term {
             .fold(self.coefficient, |p, f| p * f.value(nu, inputs, length_m))
     }
 
+    /// The term's value per unit coefficient (the product of its factors): its derivative by
+    /// the coefficient.
+    pub fn regressor(&self, nu: &Nu, inputs: &Inputs, length_m: f64) -> f64 {
+        self.factors
+            .iter()
+            .fold(1.0, |p, f| p * f.value(nu, inputs, length_m))
+    }
+
     /// The term's value and gradient by `nu`.
     pub fn eval(&self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Nu) {
         // The product rule one factor at a time: (p g)' = p' g + p g'.
