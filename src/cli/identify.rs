@@ -37,9 +37,18 @@ use std::time::Instant;
 /// config takes the given ones as they are). A fit whose residuals are correlated from one
 /// sample to the next (a slow misfit, not white noise) is a POOR FIT.
 ///
-/// A coefficient whose 1-sigma exceeds 5 % of its value, or which correlates above 0.95
-/// with another, is flagged as poorly determined: the data do not tell it. Every threshold,
-/// the noise and the filters' tuning are in the config (--print-config).
+/// A coefficient whose 1-sigma exceeds 5 % of its value is flagged as poorly determined: the
+/// data do not tell it. One correlated above 0.95 with another is noted: the data determine
+/// the two together. Every threshold, the noise and the filters' tuning are in the config
+/// (--print-config).
+///
+/// --model six-dof: seed 000's 6-DOF model of a vehicle file (--vehicle; default the log's
+/// mission vehicle): the coefficients of --coefficients (horizontal: Yv, Yr, Ydr, Nv, Nr,
+/// Ndr from a rudder zig-zag; vertical: Zw, Zq, Zds, Mw, Mq, Mds from a plane zig-zag;
+/// default by the fin that moves most) by output error on the gyro and the DVL, the
+/// model driven by /fins and /rpm (needed), everything else held at the file's values; each
+/// log's initial state, DVL bias and scale factor, and the sensors' noise are estimated with
+/// them. Writes coefficients.parquet, report.html, summary.json.
 ///
 /// Starting values: the published set (the spec's table) unless --initial FILE (TOML,
 /// NAME = value) or --perturb F (the published set moved by F, alternately up and down).
@@ -108,20 +117,34 @@ pub struct IdentifyArgs {
     /// summary.json.
     #[arg(long)]
     pub suggest: bool,
+
+    /// --model six-dof: the vehicle description, a built-in name (nps-auv-ii, remus-100) or
+    /// a vehicle JSON file [default: the first log's mission vehicle].
+    #[arg(long, value_name = "NAME|FILE")]
+    pub vehicle: Option<String>,
+
+    /// --model six-dof: the coefficients to identify: `horizontal` (Yv, Yr, Ydr, Nv, Nr, Ndr:
+    /// a rudder zig-zag), `vertical` (Zw, Zq, Zds, Mw, Mq, Mds: a plane zig-zag), or names
+    /// separated by commas [default: by the fin that moves most].
+    #[arg(long, value_name = "SET|NAMES")]
+    pub coefficients: Option<String>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Model {
     /// Seed 004's vertical-plane (heave-pitch) model.
     HeavePitch,
+    /// Seed 000's 6-DOF model of a vehicle file (--vehicle): a subset of its coefficients
+    /// (--coefficients), the rest held at the file's values; needs /imu, /fins, /rpm, /dvl.
+    SixDof,
 }
 
 /// A bad coefficient name or value on the command line or in --initial.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
-pub struct CoefficientArgError(String);
+pub struct CoefficientArgError(pub String);
 
-fn index_of(name: &str) -> Result<usize, CoefficientArgError> {
+pub(super) fn index_of(name: &str) -> Result<usize, CoefficientArgError> {
     NAMES.iter().position(|n| *n == name).ok_or_else(|| {
         CoefficientArgError(format!(
             "unknown coefficient `{name}` (known: {})",
@@ -195,6 +218,14 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
     };
     let mut settings = config.settings()?;
     let design = config.design()?;
+    if args.model == Model::SixDof {
+        return super::identify_six_dof::run(&args, &out_dir, &settings, started);
+    }
+    if args.vehicle.is_some() || args.coefficients.is_some() {
+        bail!(CoefficientArgError(
+            "--vehicle and --coefficients apply to --model six-dof".into()
+        ));
+    }
     for f in &args.fixed {
         let (name, value) = f.split_once('=').ok_or_else(|| {
             CoefficientArgError(format!(
@@ -291,6 +322,8 @@ struct Summary<'a> {
     noise: NoiseSummary,
     poorly_determined: Vec<String>,
     warnings: &'a [String],
+    /// Coefficients determined only together with another.
+    notes: &'a [String],
     /// `--suggest`'s candidates, best first.
     #[serde(skip_serializing_if = "Option::is_none")]
     design: Option<&'a DesignFindings>,
@@ -450,6 +483,7 @@ fn write_outputs(
             .collect(),
         noise: NoiseSummary::new(id, settings),
         warnings: &findings.warnings,
+        notes: &findings.notes,
         design: findings.design.as_ref(),
         poorly_determined: id
             .assessment
@@ -510,6 +544,8 @@ struct Findings {
     /// Per log: name, then "channel normalised RMS (fit %)" per channel.
     fit: Vec<(String, Vec<String>)>,
     warnings: Vec<String>,
+    /// Coefficients determined only together with another.
+    notes: Vec<String>,
     /// What each log held.
     logs: Vec<String>,
     /// The sensor noise the refinement used, and where it came from.
@@ -785,10 +821,12 @@ impl Findings {
                 .filter(|d| d.poorly_determined)
                 .map(|d| d.to_string()),
         );
+        let notes = id.assessment.iter().filter_map(|d| d.note()).collect();
         Findings {
             coefficients,
             fit,
             warnings,
+            notes,
             logs,
             noise: noise_line(id, settings),
             design: None,
@@ -810,6 +848,9 @@ impl Findings {
         out!("{}", self.noise);
         for w in &self.warnings {
             out!("warning: {w}");
+        }
+        for n in &self.notes {
+            out!("note: {n}");
         }
         if let Some(d) = &self.design {
             out!();
@@ -848,6 +889,12 @@ impl Findings {
                 )),
                 fit,
                 Section::new("Warnings").with(Block::Warnings(self.warnings.clone())),
+                Section::new("Notes").with(Block::Facts(
+                    self.notes
+                        .iter()
+                        .map(|n| ("note".to_string(), n.clone()))
+                        .collect(),
+                )),
             ]
             .into_iter()
             .chain(self.design.as_ref().map(DesignFindings::section))

@@ -13,6 +13,7 @@ mod bench_simulate;
 mod console;
 mod export;
 mod identify;
+mod identify_six_dof;
 mod info;
 mod reconstruct;
 mod simulate;

@@ -35,7 +35,7 @@ substeps = 1                 # RK4 steps per sample interval in the simulation
 
 [thresholds]
 max_relative_sigma = 0.05    # a coefficient with a larger 1-sigma (fraction) is poorly determined
-max_correlation = 0.95       # ... or one correlated more than this with another
+max_correlation = 0.95       # a coefficient correlated more than this with another: noted as determined together
 max_residual_lag1 = 0.3      # residuals correlated more from sample to sample: POOR FIT
 max_noise_ratio = 3.0        # learnt noise more than this times the given figure: a warning
 max_normalised_rms = 2.0     # with learn = false: residuals more than this times the noise: POOR FIT

@@ -26,11 +26,16 @@ pub struct Determination {
     pub relative_sigma: f64,
     /// The other coefficient it is most correlated with, and the correlation.
     pub most_correlated: Option<(String, f64)>,
+    /// Its 1-sigma is above the threshold (`max_relative_sigma` of its value).
     pub poorly_determined: bool,
+    /// Its correlation with another is above `max_correlation`: the data determine the two
+    /// together (its 1-sigma, marginal, already holds that).
+    pub correlated: bool,
 }
 
-/// Every estimated coefficient's determination (`fixed` ones are skipped), against the
-/// thresholds' relative sigma and correlation.
+/// Every estimated coefficient's determination (`fixed` ones are skipped): poorly determined
+/// when its relative 1-sigma is above the threshold; correlated when another correlates with
+/// it above `max_correlation`.
 pub fn assess(
     c: &Coefficients,
     cov: &SMatrix<f64, 10, 10>,
@@ -70,16 +75,33 @@ pub fn assess_named(
             Determination {
                 name: names[i].to_string(),
                 relative_sigma,
-                poorly_determined: relative_sigma > thresholds.max_relative_sigma
-                    || most_correlated
-                        .as_ref()
-                        .is_some_and(|(_, r)| r.abs() > thresholds.max_correlation),
+                poorly_determined: relative_sigma > thresholds.max_relative_sigma,
+                correlated: most_correlated
+                    .as_ref()
+                    .is_some_and(|(_, r)| r.abs() > thresholds.max_correlation),
                 most_correlated,
             }
         })
         .collect()
 }
 
+impl Determination {
+    /// For a coefficient determined only together with another: says so (`None` otherwise,
+    /// and for a poorly determined one, whose warning names the correlation).
+    pub fn note(&self) -> Option<String> {
+        let (other, r) = self.most_correlated.as_ref()?;
+        (self.correlated && !self.poorly_determined).then(|| {
+            format!(
+                "{} is determined together with {other} (correlation {r:+.3}); its 1-sigma, \
+                 {:.2} % of its value, holds that",
+                self.name,
+                self.relative_sigma * 100.0
+            )
+        })
+    }
+}
+
+/// The warning for a poorly determined coefficient.
 impl std::fmt::Display for Determination {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(

@@ -2,16 +2,19 @@
 //! vehicle file's hydrodynamic coefficients (the horizontal-plane one from a rudder zig-zag,
 //! the vertical-plane one from a plane zig-zag), everything else held at the file's values.
 //!
-//! Output-error maximum likelihood, as for heave-pitch ([`super::output_error`]): the model is
-//! simulated over each log from its fins and propeller (`/fins`, `/rpm`, linear between
-//! readings), state `[u, v, w, p, q, r, roll, pitch]` (body velocities and rates, and the
-//! attitude that sets weight and buoyancy; RK4 on the IMU's clock), with its sensitivities by
-//! the variational equations; compared with the gyro (p, q, r) and the DVL (u, v, w, with a
-//! constant bias per axis and log). Parameters: the free coefficients (SI, as in the model),
-//! each log's initial state and DVL bias. Each channel's noise is learnt from its residuals.
+//! Output-error maximum likelihood, as for heave-pitch ([`super::output_error`]), on the
+//! shared Levenberg-Marquardt core ([`super::levenberg`]): the model is simulated over each
+//! log from its fins and propeller (`/fins`, `/rpm`, monotone cubic between readings), state
+//! `[u, v, w, p, q, r, roll, pitch, yaw]` (body velocities and rates, the attitude that sets
+//! weight and buoyancy and turns the Earth's rate into body axes; RK4 on the IMU's clock),
+//! with its sensitivities by the variational equations; compared with the gyro (p, q, r: the
+//! model's rate plus the Earth's, with a bias and a scale error per axis and log) and the DVL
+//! (u, v, w: with a bias per axis and a scale error per log). Parameters: the free
+//! coefficients (SI, as in the model), and each log's initial state (but yaw) and sensor
+//! errors. Each channel's noise is learnt from its residuals.
 //!
-//! Approximations, each far below the sensors' noise on a vehicle at sea: the Earth's rotation
-//! is left out of the dynamics (Coriolis `2 m Omega x v`) and of the gyro (about 7e-5 rad/s).
+//! Left out, each far below the sensors' noise: the transport rate (`v / R`, 2e-7 rad/s), the
+//! gyro's misalignment, the DVL's lever arm and mounting angles.
 
 use super::identifiability::{assess_named, Determination};
 use super::levenberg::{self, Normal};
@@ -54,28 +57,74 @@ pub struct SixDofRecord {
     /// Earth's rotation in NED where the log was recorded (the mission's origin; zero
     /// without one), rad/s.
     pub earth_rate_ned: Vector3<f64>,
+    /// The mission's initial yaw, else 0, rad.
+    pub initial_yaw_rad: f64,
 }
 
-/// Linear interpolation of `value` (stamped) onto each grid stamp (held outside).
+/// `value` (stamped) onto each grid stamp by monotone cubic (Fritsch-Carlson) interpolation,
+/// held outside the readings. A fin follows its command through a lag and a rate limit: its
+/// angle bends between readings, and a straight line between 10 Hz readings misplaces the
+/// bends enough to bias the coefficients it drives (by 0.3 % on the simulator's rudder
+/// zig-zag); the cubic takes the bends through the readings without overshooting them.
 fn interpolated<T>(
     samples: &[T],
     stamp: impl Fn(&T) -> i64,
     value: impl Fn(&T) -> f64,
     grid: &[i64],
 ) -> Vec<f64> {
+    let t: Vec<f64> = samples.iter().map(|m| stamp(m) as f64 * 1e-9).collect();
+    let y: Vec<f64> = samples.iter().map(&value).collect();
+    let slopes = monotone_slopes(&t, &y);
     let at = latest(samples, &stamp, grid);
     grid.iter()
         .zip(at)
-        .map(|(&t, j)| {
-            let (t0, v0) = (stamp(&samples[j]), value(&samples[j]));
-            match samples.get(j + 1) {
-                Some(next) if t >= t0 && stamp(next) > t0 => {
-                    let f = (t - t0) as f64 / (stamp(next) - t0) as f64;
-                    v0 + (value(next) - v0) * f.min(1.0)
+        .map(|(&g, j)| {
+            let x = g as f64 * 1e-9;
+            match (t.get(j + 1), y.get(j + 1)) {
+                (Some(&t1), Some(&y1)) if x >= t[j] && t1 > t[j] => {
+                    let h = t1 - t[j];
+                    let u = ((x - t[j]) / h).min(1.0);
+                    let (u2, u3) = (u * u, u * u * u);
+                    (2.0 * u3 - 3.0 * u2 + 1.0) * y[j]
+                        + (u3 - 2.0 * u2 + u) * h * slopes[j]
+                        + (-2.0 * u3 + 3.0 * u2) * y1
+                        + (u3 - u2) * h * slopes[j + 1]
                 }
-                _ => v0,
+                _ => y[j],
             }
         })
+        .collect()
+}
+
+/// Fritsch-Carlson slopes at each reading: zero at a local extremum or a flat segment, so
+/// that the cubic between two readings stays between them.
+fn monotone_slopes(t: &[f64], y: &[f64]) -> Vec<f64> {
+    let n = y.len();
+    let secant: Vec<f64> = (0..n.saturating_sub(1))
+        .map(|i| {
+            let h = t[i + 1] - t[i];
+            if h > 0.0 {
+                (y[i + 1] - y[i]) / h
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    (0..n)
+        .map(
+            |i| match (i.checked_sub(1).map(|k| secant[k]), secant.get(i)) {
+                (Some(a), Some(&b)) if a * b > 0.0 => {
+                    // Weighted harmonic mean of the neighbouring secants.
+                    let (h0, h1) = (t[i] - t[i - 1], t[i + 1] - t[i]);
+                    let (w0, w1) = (2.0 * h1 + h0, h1 + 2.0 * h0);
+                    (w0 + w1) / (w0 / a + w1 / b)
+                }
+                (Some(_), Some(_)) => 0.0,
+                (Some(a), None) => a,
+                (None, Some(&b)) => b,
+                (None, None) => 0.0,
+            },
+        )
         .collect()
 }
 
@@ -178,6 +227,11 @@ impl SixDofRecord {
             earth_rate_ned: log.mission().map_or(Vector3::zeros(), |m| {
                 crate::geodesy::earth_rate_ned(m.origin_latitude_deg.to_radians())
             }),
+            initial_yaw_rad: log
+                .mission()
+                .ok()
+                .and_then(|m| m.initial_yaw_rad)
+                .unwrap_or(0.0),
         })
     }
 
@@ -186,8 +240,17 @@ impl SixDofRecord {
         let v = self.velocity_m_s.first().map_or(Vector3::zeros(), |d| d.1);
         let w = self.rates_rad_s[0];
         let (roll, pitch) = self.initial_roll_pitch_rad;
-        // Yaw enters only through the Earth's rate, and is learnt from it (gyrocompassing).
-        State::from_column_slice(&[v.x, v.y, v.z, w.x, w.y, w.z, roll, pitch, 0.0])
+        State::from_column_slice(&[
+            v.x,
+            v.y,
+            v.z,
+            w.x,
+            w.y,
+            w.z,
+            roll,
+            pitch,
+            self.initial_yaw_rad,
+        ])
     }
 }
 
@@ -243,10 +306,8 @@ pub struct SixDofIdentification {
     pub start: Vec<f64>,
     pub coefficients: Vec<f64>,
     pub covariance: DMatrix<f64>,
-    /// Each log's initial state, DVL bias (u, v, w) and DVL scale-factor error.
-    pub initial_states: Vec<State>,
-    pub dvl_bias_m_s: Vec<Vector3<f64>>,
-    pub dvl_scale_error: Vec<f64>,
+    /// Each log's initial state and sensor errors.
+    pub logs: Vec<LogEstimate>,
     /// Noise per channel (p, q, r, u, v, w) the refinement ended with.
     pub sigma: [f64; 6],
     pub noise_rounds: usize,
@@ -274,6 +335,44 @@ impl SixDofIdentification {
     }
 }
 
+/// One log's initial state and sensor errors, estimated with the coefficients.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LogEstimate {
+    pub initial_state: State,
+    /// DVL bias (u, v, w), m/s, and scale-factor error (all axes).
+    pub dvl_bias_m_s: Vector3<f64>,
+    pub dvl_scale_error: f64,
+    /// Gyro bias (p, q, r), rad/s, and scale-factor error per axis.
+    pub gyro_bias_rad_s: Vector3<f64>,
+    pub gyro_scale_error: Vector3<f64>,
+}
+
+impl LogEstimate {
+    /// From the log's parameters `[x0 (9), DVL bias (3), DVL scale (1), gyro bias (3), gyro
+    /// scale (3)]`.
+    fn from_parameters(p: &[f64]) -> LogEstimate {
+        let v = |at: usize| Vector3::new(p[at], p[at + 1], p[at + 2]);
+        LogEstimate {
+            initial_state: State::from_column_slice(&p[..NX]),
+            dvl_bias_m_s: v(NX),
+            dvl_scale_error: p[NX + 3],
+            gyro_bias_rad_s: v(NX + 4),
+            gyro_scale_error: v(NX + 7),
+        }
+    }
+
+    /// What the gyro reads at state `x`, the Earth's rate in body axes being `earth`.
+    fn gyro(&self, x: &State, earth: &Vector3<f64>) -> Vector3<f64> {
+        let rate = Vector3::new(x[3], x[4], x[5]) + earth;
+        rate.component_mul(&self.gyro_scale_error.add_scalar(1.0)) + self.gyro_bias_rad_s
+    }
+
+    /// What the DVL reads at state `x`.
+    fn dvl(&self, x: &State) -> Vector3<f64> {
+        Vector3::new(x[0], x[1], x[2]) * (1.0 + self.dvl_scale_error) + self.dvl_bias_m_s
+    }
+}
+
 /// The model with the free coefficients set, and where they are among its terms.
 struct Problem<'a> {
     vehicle: &'a Vehicle,
@@ -283,6 +382,12 @@ struct Problem<'a> {
 }
 
 const NX: usize = 9;
+/// The yaw's index in the state. It enters only through the Earth's rate in body axes, and is
+/// held at its start (the mission's initial yaw, else north): a wrong heading turns the
+/// horizontal Earth rate (up to 7e-5 rad/s) into a nearly constant body rate, which the gyro
+/// bias takes; the vertical Earth rate, which the Coriolis force and r see, does not depend
+/// on it.
+const YAW: usize = 8;
 
 impl Problem<'_> {
     fn model(&self, c: &[f64]) -> Option<SixDof> {
@@ -403,9 +508,10 @@ impl Problem<'_> {
         out
     }
 
-    /// Parameters `[c, then per log x0 (9), DVL bias (3) and DVL scale error (1)]`.
+    /// Parameters `[c, then per log x0 (9), DVL bias (3), DVL scale error (1), gyro bias (3)
+    /// and gyro scale errors (3)]`. The initial yaw is held (see [`YAW`]).
     fn layout(&self) -> (usize, usize) {
-        (self.terms.len(), NX + 4)
+        (self.terms.len(), NX + 10)
     }
 
     /// The normal equations; `extra`: per channel, the sum of squared normalised residuals
@@ -428,10 +534,12 @@ impl Problem<'_> {
         };
         for (l, record) in self.records.iter().enumerate() {
             let base = nc + per_log * l;
-            let x0 = State::from_fn(|i, _| p[base + i]);
-            let bias = Vector3::new(p[base + NX], p[base + NX + 1], p[base + NX + 2]);
-            let scale = 1.0 + p[base + NX + 3];
-            let trajectory = self.trajectory(&model, record, &x0);
+            let est = LogEstimate::from_parameters(&p.as_slice()[base..base + per_log]);
+            let (scale, gyro_scale) = (
+                1.0 + est.dvl_scale_error,
+                est.gyro_scale_error.add_scalar(1.0),
+            );
+            let trajectory = self.trajectory(&model, record, &est.initial_state);
             if trajectory
                 .iter()
                 .any(|(x, _)| !x.iter().all(|v| v.is_finite()))
@@ -465,23 +573,36 @@ impl Problem<'_> {
                 // over the local level plus the Earth's.
                 let (earth, d_earth) = earth_rate_body(x[6], x[7], x[8], &record.earth_rate_ned);
                 let d_gyro = d_earth * s.rows(6, 3);
+                let gyro = est.gyro(x, &earth);
                 for i in 0..3 {
                     let mut row = DVector::zeros(np);
                     let ds = s.row(3 + i) + d_gyro.row(i);
-                    row.rows_mut(0, nc + NX).copy_from(&ds.transpose());
-                    add(&row, record.rates_rad_s[k][i] - x[3 + i] - earth[i], i);
+                    row.rows_mut(0, nc + NX)
+                        .copy_from(&(ds * gyro_scale[i]).transpose());
+                    row[nc + NX + 4 + i] = 1.0;
+                    row[nc + NX + 7 + i] = x[3 + i] + earth[i];
+                    add(&row, record.rates_rad_s[k][i] - gyro[i], i);
                 }
                 while let Some((_, v)) = dvl.next_if(|(idx, _)| *idx <= k) {
+                    let modelled = est.dvl(x);
                     for i in 0..3 {
                         let mut row = DVector::zeros(np);
                         row.rows_mut(0, nc + NX)
                             .copy_from(&(s.row(i) * scale).transpose());
                         row[nc + NX + i] = 1.0;
                         row[nc + NX + 3] = x[i];
-                        add(&row, v[i] - scale * x[i] - bias[i], 3 + i);
+                        add(&row, v[i] - modelled[i], 3 + i);
                     }
                 }
             }
+        }
+        // The initial yaw is held: its row and column leave the normal equations.
+        for l in 0..self.records.len() {
+            let i = nc + per_log * l + YAW;
+            a.row_mut(i).fill(0.0);
+            a.column_mut(i).fill(0.0);
+            a[(i, i)] = 1.0;
+            b[i] = 0.0;
         }
         Normal {
             a,
@@ -578,23 +699,13 @@ pub fn identify_six_dof(
     };
     let inverse = levenberg::inverse(&minimum.normal.a);
     let coefficients: Vec<f64> = minimum.parameters.rows(0, nc).iter().copied().collect();
-    let mut initial_states = Vec::new();
-    let mut dvl_bias_m_s = Vec::new();
-    let mut dvl_scale_error = Vec::new();
-    for l in 0..records.len() {
-        let base = nc + per_log * l;
-        initial_states.push(State::from_fn(|i, _| minimum.parameters[base + i]));
-        dvl_bias_m_s.push(Vector3::from_fn(|i, _| minimum.parameters[base + NX + i]));
-        dvl_scale_error.push(minimum.parameters[base + NX + 3]);
-    }
-    let fits = fits(
-        &problem,
-        &coefficients,
-        &initial_states,
-        &dvl_bias_m_s,
-        &dvl_scale_error,
-        &sigma,
-    );
+    let logs: Vec<LogEstimate> = (0..records.len())
+        .map(|l| {
+            let base = nc + per_log * l;
+            LogEstimate::from_parameters(&minimum.parameters.as_slice()[base..base + per_log])
+        })
+        .collect();
+    let fits = fits(&problem, &coefficients, &logs, &sigma);
     let names: Vec<&str> = settings.free.iter().map(String::as_str).collect();
     let covariance = inverse.view((0, 0), (nc, nc)).into_owned();
     let assessment = assess_named(
@@ -611,9 +722,7 @@ pub fn identify_six_dof(
         start,
         coefficients,
         covariance,
-        initial_states,
-        dvl_bias_m_s,
-        dvl_scale_error,
+        logs,
         sigma,
         noise_rounds: rounds,
         fits,
@@ -626,20 +735,18 @@ pub fn identify_six_dof(
 fn fits(
     problem: &Problem,
     c: &[f64],
-    x0: &[State],
-    bias: &[Vector3<f64>],
-    scale_error: &[f64],
+    logs: &[LogEstimate],
     sigma: &[f64; 6],
 ) -> Vec<[ChannelFit; 6]> {
     let model = problem.model(c);
     problem
         .records
         .iter()
-        .enumerate()
-        .map(|(l, r)| {
+        .zip(logs)
+        .map(|(r, est)| {
             let simulated: Vec<State> = match &model {
                 Some(m) => problem
-                    .trajectory(m, r, &x0[l])
+                    .trajectory(m, r, &est.initial_state)
                     .into_iter()
                     .map(|(x, _)| x)
                     .collect(),
@@ -652,16 +759,13 @@ fn fits(
                         .zip(&simulated)
                         .map(|(m, x)| {
                             let earth = earth_rate_body(x[6], x[7], x[8], &r.earth_rate_ned).0;
-                            (m[ch], x[3 + ch] + earth[ch])
+                            (m[ch], est.gyro(x, &earth)[ch])
                         })
                         .collect()
                 } else {
-                    let i = ch - 3;
                     r.velocity_m_s
                         .iter()
-                        .map(|(k, v)| {
-                            (v[i], (1.0 + scale_error[l]) * simulated[*k][i] + bias[l][i])
-                        })
+                        .map(|(k, v)| (v[ch - 3], est.dvl(&simulated[*k])[ch - 3]))
                         .collect()
                 };
                 channel_fit(&pairs, sigma[ch])
@@ -724,6 +828,7 @@ mod tests {
             initial_roll_pitch_rad: (0.0, 0.0),
             manoeuvre: ("rudder", 23.0),
             earth_rate_ned: crate::geodesy::earth_rate_ned(0.6),
+            initial_yaw_rad: 0.0,
             inputs,
             t_s,
         }

@@ -166,3 +166,54 @@ pub fn fit_batch(id: &Identification, records: &[Record]) -> Result<RecordBatch,
     c.number("stern_plane_rad", "rad", plane);
     c.finish()
 }
+
+/// `coefficients.parquet` of a 6-DOF identification: one row per identified coefficient
+/// (SI, as the model uses it).
+pub fn six_dof_coefficients_batch(
+    id: &crate::identify::six_dof::SixDofIdentification,
+) -> Result<RecordBatch, ArrowError> {
+    let n = id.names.len();
+    let sigma: Vec<f64> = (0..n).map(|i| id.covariance[(i, i)].sqrt()).collect();
+    let determination = |i: usize| id.assessment.iter().find(|d| d.name == id.names[i]);
+    let mut c = Columns::default();
+    c.text("name", id.names.iter().map(String::as_str).collect());
+    c.number("estimate", "SI", id.coefficients.clone());
+    c.number("sigma", "SI", sigma.clone());
+    c.number("initial", "SI", id.start.clone());
+    c.number("file_value", "SI", id.file.clone());
+    c.number(
+        "relative_sigma",
+        "1",
+        (0..n)
+            .map(|i| sigma[i] / id.coefficients[i].abs().max(f64::MIN_POSITIVE))
+            .collect(),
+    );
+    c.optional_text(
+        "most_correlated",
+        (0..n)
+            .map(|i| {
+                determination(i).and_then(|d| d.most_correlated.as_ref().map(|m| m.0.as_str()))
+            })
+            .collect(),
+    );
+    c.number(
+        "correlation",
+        "1",
+        (0..n)
+            .map(|i| {
+                determination(i)
+                    .and_then(|d| d.most_correlated.as_ref().map(|m| m.1))
+                    .unwrap_or(0.0)
+            })
+            .collect(),
+    );
+    c.push(
+        Field::new("poorly_determined", DataType::Boolean, false),
+        Arc::new(BooleanArray::from(
+            (0..n)
+                .map(|i| determination(i).is_some_and(|d| d.poorly_determined))
+                .collect::<Vec<_>>(),
+        )),
+    );
+    c.finish()
+}
