@@ -498,6 +498,18 @@ fn write_outputs(
     super::commit_and_list(staging, &written, out)
 }
 
+/// The coefficients determined only together with another, when there are any.
+pub(super) fn notes_section(notes: &[String]) -> Option<Section> {
+    (!notes.is_empty()).then(|| {
+        Section::new("Notes").with(Block::Facts(
+            notes
+                .iter()
+                .map(|n| ("note".to_string(), n.clone()))
+                .collect(),
+        ))
+    })
+}
+
 /// The noise per channel the refinement used, with the given figures beside learnt ones.
 fn noise_line(id: &Identification, settings: &Settings) -> String {
     let used = id.noise.sigma;
@@ -889,14 +901,9 @@ impl Findings {
                 )),
                 fit,
                 Section::new("Warnings").with(Block::Warnings(self.warnings.clone())),
-                Section::new("Notes").with(Block::Facts(
-                    self.notes
-                        .iter()
-                        .map(|n| ("note".to_string(), n.clone()))
-                        .collect(),
-                )),
             ]
             .into_iter()
+            .chain(notes_section(&self.notes))
             .chain(self.design.as_ref().map(DesignFindings::section))
             .collect(),
             footer: format!("hindsight {}", env!("CARGO_PKG_VERSION")),

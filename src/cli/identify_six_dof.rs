@@ -344,13 +344,10 @@ impl Findings {
                             .collect(),
                     )),
                 Section::new("Warnings").with(Block::Warnings(self.warnings.clone())),
-                Section::new("Notes").with(Block::Facts(
-                    self.notes
-                        .iter()
-                        .map(|n| ("note".to_string(), n.clone()))
-                        .collect(),
-                )),
-            ],
+            ]
+            .into_iter()
+            .chain(super::identify::notes_section(&self.notes))
+            .collect(),
             footer: format!("hindsight {}", env!("CARGO_PKG_VERSION")),
         }
     }

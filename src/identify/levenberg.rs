@@ -15,6 +15,17 @@ pub struct Normal<E> {
     pub extra: E,
 }
 
+impl<E> Normal<E> {
+    /// Holds parameter `i` where it is: its row and column leave the equations (a unit
+    /// diagonal keeps the matrix invertible, and the step for it is zero).
+    pub fn hold(&mut self, i: usize) {
+        self.a.row_mut(i).fill(0.0);
+        self.a.column_mut(i).fill(0.0);
+        self.a[(i, i)] = 1.0;
+        self.b[i] = 0.0;
+    }
+}
+
 /// Where the minimisation ended.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Minimum<E> {

@@ -261,22 +261,20 @@ pub fn refine(records: &[Record], start: &Coefficients, settings: &Settings) -> 
     for (l, x) in x0.iter().enumerate() {
         start_parameters.rows_mut(10 + 4 * l, 4).copy_from(x);
     }
-    // A fixed coefficient's row and column are taken out of the normal equations.
+    // A fixed coefficient is held.
     let minimum = levenberg::minimise(start_parameters, settings.max_iterations, |p| {
         let (c, x0) = unpack(p);
-        let (mut a, mut b, cost, rms) = normal_equations(records, &models, &c, &x0, settings);
-        for i in (0..10).filter(|&i| settings.fixed[i].is_some()) {
-            a.row_mut(i).fill(0.0);
-            a.column_mut(i).fill(0.0);
-            a[(i, i)] = 1.0;
-            b[i] = 0.0;
-        }
-        Normal {
+        let (a, b, cost, rms) = normal_equations(records, &models, &c, &x0, settings);
+        let mut normal = Normal {
             a,
             b,
             cost,
             extra: rms,
+        };
+        for i in (0..10).filter(|&i| settings.fixed[i].is_some()) {
+            normal.hold(i);
         }
+        normal
     });
     let (c, x0) = unpack(&minimum.parameters);
     let Normal {

@@ -91,6 +91,24 @@ pub(crate) fn nearest(grid: &[i64], t: i64) -> usize {
     }
 }
 
+/// The IMU's stamps, the clock identification runs on: refused when shorter than
+/// [`MIN_DURATION_S`].
+pub(crate) fn imu_grid(log: &str, imu: &[Imu]) -> Result<Vec<i64>, RecordError> {
+    let grid: Vec<i64> = imu.iter().map(|m| m.stamp_ns).collect();
+    let duration_s = match (grid.first(), grid.last()) {
+        (Some(a), Some(b)) => (b - a) as f64 * 1e-9,
+        _ => 0.0,
+    };
+    if duration_s < MIN_DURATION_S {
+        return Err(RecordError::TooShort {
+            log: log.to_string(),
+            duration_s,
+            needed_s: MIN_DURATION_S,
+        });
+    }
+    Ok(grid)
+}
+
 /// Shortest log that can be identified from: the model's slowest time constant (the pitch
 /// oscillation's period is about 60 s with the published coefficients).
 pub const MIN_DURATION_S: f64 = 60.0;
@@ -118,16 +136,8 @@ impl Record {
         if depth.is_empty() {
             return Err(RecordError::NoDepth { log: log_name });
         }
-        let grid: Vec<i64> = imu.iter().map(|m| m.stamp_ns).collect();
+        let grid = imu_grid(&log_name, imu)?;
         let t0 = grid[0];
-        let duration_s = (grid[grid.len() - 1] - t0) as f64 * 1e-9;
-        if duration_s < MIN_DURATION_S {
-            return Err(RecordError::TooShort {
-                log: log_name,
-                duration_s,
-                needed_s: MIN_DURATION_S,
-            });
-        }
         let plane_rad: Vec<f64> = latest(fins, |f| f.stamp_ns, &grid)
             .into_iter()
             .map(|j| fins[j].stern_plane)

@@ -18,7 +18,7 @@
 
 use super::identifiability::{assess_named, Determination};
 use super::levenberg::{self, Normal};
-use super::record::{latest, nearest, RecordError, MIN_DURATION_S, MIN_PLANE_RANGE_DEG};
+use super::record::{imu_grid, latest, nearest, RecordError, MIN_PLANE_RANGE_DEG};
 use super::settings::Thresholds;
 use super::{channel_fit, residual_warning, ChannelFit, NOT_CONVERGED};
 use crate::contract::{ControlSurfaces, Dvl, Imu, Propeller};
@@ -147,16 +147,8 @@ impl SixDofRecord {
         if dvl.is_empty() {
             return Err(RecordError::NoDvl { log: log_name });
         }
-        let grid: Vec<i64> = imu.iter().map(|m| m.stamp_ns).collect();
+        let grid = imu_grid(&log_name, imu)?;
         let t0 = grid[0];
-        let duration_s = (grid[grid.len() - 1] - t0) as f64 * 1e-9;
-        if duration_s < MIN_DURATION_S {
-            return Err(RecordError::TooShort {
-                log: log_name,
-                duration_s,
-                needed_s: MIN_DURATION_S,
-            });
-        }
         let fin = |f: fn(&ControlSurfaces) -> f64| interpolated(fins, |m| m.stamp_ns, f, &grid);
         let (rudder, stern, bow) = (
             fin(|m| m.rudder),
@@ -596,20 +588,17 @@ impl Problem<'_> {
                 }
             }
         }
-        // The initial yaw is held: its row and column leave the normal equations.
-        for l in 0..self.records.len() {
-            let i = nc + per_log * l + YAW;
-            a.row_mut(i).fill(0.0);
-            a.column_mut(i).fill(0.0);
-            a[(i, i)] = 1.0;
-            b[i] = 0.0;
-        }
-        Normal {
+        let mut normal = Normal {
             a,
             b,
             cost,
             extra: sums,
+        };
+        // The initial yaw is held.
+        for l in 0..self.records.len() {
+            normal.hold(nc + per_log * l + YAW);
         }
+        normal
     }
 }
 
