@@ -170,9 +170,10 @@ struct Findings {
     /// scale-factor error.
     dvl_bias_m_s: Vec<[f64; 3]>,
     dvl_scale_error: Vec<f64>,
-    /// Per log: the gyro's bias (p, q, r), rad/s, and scale-factor errors.
+    /// Per log: the gyro's bias (p, q, r), rad/s, and scale-factor errors and misalignments
+    /// (`E` in `(I + E) omega`, row by row; rad for the off-diagonal angles).
     gyro_bias_rad_s: Vec<[f64; 3]>,
-    gyro_scale_error: Vec<[f64; 3]>,
+    gyro_axes_error: Vec<[[f64; 3]; 3]>,
     iterations: usize,
     converged: bool,
     warnings: Vec<String>,
@@ -241,7 +242,18 @@ impl Findings {
             dvl_bias_m_s: id.logs.iter().map(|e| e.dvl_bias_m_s.into()).collect(),
             dvl_scale_error: id.logs.iter().map(|e| e.dvl_scale_error).collect(),
             gyro_bias_rad_s: id.logs.iter().map(|e| e.gyro_bias_rad_s.into()).collect(),
-            gyro_scale_error: id.logs.iter().map(|e| e.gyro_scale_error.into()).collect(),
+            gyro_axes_error: id
+                .logs
+                .iter()
+                .map(|e| {
+                    let m = e.gyro_axes_error;
+                    [
+                        [m[(0, 0)], m[(0, 1)], m[(0, 2)]],
+                        [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
+                        [m[(2, 0)], m[(2, 1)], m[(2, 2)]],
+                    ]
+                })
+                .collect(),
             iterations: id.iterations,
             converged: id.converged,
             warnings,

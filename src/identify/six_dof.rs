@@ -8,13 +8,16 @@
 //! `[u, v, w, p, q, r, roll, pitch, yaw]` (body velocities and rates, the attitude that sets
 //! weight and buoyancy and turns the Earth's rate into body axes; RK4 on the IMU's clock),
 //! with its sensitivities by the variational equations; compared with the gyro (p, q, r: the
-//! model's rate plus the Earth's, with a bias and a scale error per axis and log) and the DVL
+//! model's rate plus the Earth's, through the gyro's scale errors and misalignments, plus a
+//! bias per axis and log) and the DVL
 //! (u, v, w: with a bias per axis and a scale error per log). Parameters: the free
 //! coefficients (SI, as in the model), and each log's initial state (but yaw) and sensor
 //! errors. Each channel's noise is learnt from its residuals.
 //!
-//! Left out, each far below the sensors' noise: the transport rate (`v / R`, 2e-7 rad/s), the
-//! gyro's misalignment, the DVL's lever arm and mounting angles.
+//! At this precision the gyro's errors matter: on the simulator's rudder zig-zag, leaving out
+//! its bias and scale, then its 0.1 mrad misalignment, made the reported sigma of Nv, then
+//! of Nr and Ydr, half the Monte Carlo spread. Left out: the transport rate (`v / R`,
+//! 2e-7 rad/s), the DVL's lever arm and mounting angles.
 
 use super::identifiability::{assess_named, Determination};
 use super::levenberg::{self, Normal};
@@ -334,14 +337,16 @@ pub struct LogEstimate {
     /// DVL bias (u, v, w), m/s, and scale-factor error (all axes).
     pub dvl_bias_m_s: Vector3<f64>,
     pub dvl_scale_error: f64,
-    /// Gyro bias (p, q, r), rad/s, and scale-factor error per axis.
+    /// Gyro bias (p, q, r), rad/s.
     pub gyro_bias_rad_s: Vector3<f64>,
-    pub gyro_scale_error: Vector3<f64>,
+    /// The gyro's axes and scale: it reads `(I + E) omega`, with the scale-factor errors on
+    /// `E`'s diagonal and the misalignments (small angles, rad) off it.
+    pub gyro_axes_error: Matrix3<f64>,
 }
 
 impl LogEstimate {
     /// From the log's parameters `[x0 (9), DVL bias (3), DVL scale (1), gyro bias (3), gyro
-    /// scale (3)]`.
+    /// axes error (9, row by row)]`.
     fn from_parameters(p: &[f64]) -> LogEstimate {
         let v = |at: usize| Vector3::new(p[at], p[at + 1], p[at + 2]);
         LogEstimate {
@@ -349,14 +354,14 @@ impl LogEstimate {
             dvl_bias_m_s: v(NX),
             dvl_scale_error: p[NX + 3],
             gyro_bias_rad_s: v(NX + 4),
-            gyro_scale_error: v(NX + 7),
+            gyro_axes_error: Matrix3::from_row_slice(&p[NX + 7..NX + 16]),
         }
     }
 
     /// What the gyro reads at state `x`, the Earth's rate in body axes being `earth`.
     fn gyro(&self, x: &State, earth: &Vector3<f64>) -> Vector3<f64> {
         let rate = Vector3::new(x[3], x[4], x[5]) + earth;
-        rate.component_mul(&self.gyro_scale_error.add_scalar(1.0)) + self.gyro_bias_rad_s
+        (Matrix3::identity() + self.gyro_axes_error) * rate + self.gyro_bias_rad_s
     }
 
     /// What the DVL reads at state `x`.
@@ -501,9 +506,10 @@ impl Problem<'_> {
     }
 
     /// Parameters `[c, then per log x0 (9), DVL bias (3), DVL scale error (1), gyro bias (3)
-    /// and gyro scale errors (3)]`. The initial yaw is held (see [`YAW`]).
+    /// and gyro axes error (9: scale factors and misalignments)]`. The initial yaw is held
+    /// (see [`YAW`]).
     fn layout(&self) -> (usize, usize) {
-        (self.terms.len(), NX + 10)
+        (self.terms.len(), NX + 16)
     }
 
     /// The normal equations; `extra`: per channel, the sum of squared normalised residuals
@@ -527,10 +533,8 @@ impl Problem<'_> {
         for (l, record) in self.records.iter().enumerate() {
             let base = nc + per_log * l;
             let est = LogEstimate::from_parameters(&p.as_slice()[base..base + per_log]);
-            let (scale, gyro_scale) = (
-                1.0 + est.dvl_scale_error,
-                est.gyro_scale_error.add_scalar(1.0),
-            );
+            let scale = 1.0 + est.dvl_scale_error;
+            let gyro_axes = Matrix3::identity() + est.gyro_axes_error;
             let trajectory = self.trajectory(&model, record, &est.initial_state);
             if trajectory
                 .iter()
@@ -564,15 +568,20 @@ impl Problem<'_> {
                 // The gyro measures the body's rate over inertial space: the model's rate
                 // over the local level plus the Earth's.
                 let (earth, d_earth) = earth_rate_body(x[6], x[7], x[8], &record.earth_rate_ned);
-                let d_gyro = d_earth * s.rows(6, 3);
+                // Sensitivity of the rate the gyro sees (model's plus Earth's), then through
+                // its axes.
+                let d_rate = s.rows(3, 3) + d_earth * s.rows(6, 3);
+                let d_gyro = gyro_axes * d_rate;
+                let rate = Vector3::new(x[3], x[4], x[5]) + earth;
                 let gyro = est.gyro(x, &earth);
                 for i in 0..3 {
                     let mut row = DVector::zeros(np);
-                    let ds = s.row(3 + i) + d_gyro.row(i);
                     row.rows_mut(0, nc + NX)
-                        .copy_from(&(ds * gyro_scale[i]).transpose());
+                        .copy_from(&d_gyro.row(i).transpose());
                     row[nc + NX + 4 + i] = 1.0;
-                    row[nc + NX + 7 + i] = x[3 + i] + earth[i];
+                    for j in 0..3 {
+                        row[nc + NX + 7 + 3 * i + j] = rate[j];
+                    }
                     add(&row, record.rates_rad_s[k][i] - gyro[i], i);
                 }
                 while let Some((_, v)) = dvl.next_if(|(idx, _)| *idx <= k) {
