@@ -90,12 +90,9 @@ fn rudder_zigzag_gives_the_horizontal_plane_coefficients() {
     );
 }
 
-/// Without /rpm the model has no thrust: a clear error, naming the log and the topic.
-#[test]
-fn without_rpm_is_refused() {
-    let scenario = Scenario::built_in("zigzag-rudder-20-20").unwrap();
-    let full = common::simulated_log(&scenario, 1);
-    let bytes = to_bytes(WriterOptions::default(), |w| {
+/// `full` rewritten with its mission, IMU, fins and DVL only: no /rpm.
+fn without_rpm(full: &hindsight::ingest::Log) -> Vec<u8> {
+    to_bytes(WriterOptions::default(), |w| {
         w.write_mission(&full.mission().unwrap())?;
         for m in full.messages::<Imu>("/imu").unwrap() {
             w.write("/imu", m, m.stamp_ns as u64)?;
@@ -108,7 +105,15 @@ fn without_rpm_is_refused() {
         }
         Ok(())
     })
-    .unwrap();
+    .unwrap()
+}
+
+/// Without /rpm the model has no thrust: a clear error, naming the log and the topic.
+#[test]
+fn without_rpm_is_refused() {
+    let scenario = Scenario::built_in("zigzag-rudder-20-20").unwrap();
+    let full = common::simulated_log(&scenario, 1);
+    let bytes = without_rpm(&full);
     let e = SixDofRecord::from_log("no-rpm", &common::read(&bytes)).unwrap_err();
     assert!(matches!(e, RecordError::NoRpm { .. }), "{e}");
     assert!(e.to_string().contains("/rpm"), "{e}");
@@ -165,20 +170,7 @@ fn the_command_line_identifies_and_refuses() {
     assert!(out.join("coefficients.parquet").exists() && out.join("report.html").exists());
     // The same log without /rpm: bad input, exit 3, naming /rpm; nothing written.
     let full = common::read(&std::fs::read(&log).unwrap());
-    let bytes = to_bytes(WriterOptions::default(), |w| {
-        w.write_mission(&full.mission().unwrap())?;
-        for m in full.messages::<Imu>("/imu").unwrap() {
-            w.write("/imu", m, m.stamp_ns as u64)?;
-        }
-        for m in full.messages::<ControlSurfaces>("/fins").unwrap() {
-            w.write("/fins", m, m.stamp_ns as u64)?;
-        }
-        for m in full.messages::<Dvl>("/dvl").unwrap() {
-            w.write("/dvl", m, m.stamp_ns as u64)?;
-        }
-        Ok(())
-    })
-    .unwrap();
+    let bytes = without_rpm(&full);
     let no_rpm = dir.join("no-rpm.mcap");
     std::fs::write(&no_rpm, bytes).unwrap();
     let refused = dir.join("refused");
