@@ -10,7 +10,7 @@ use crate::contract::Truth;
 use crate::ingest::{read_log_from, IngestOptions};
 use crate::recon::config::Config;
 use crate::recon::score::scores;
-use crate::recon::{reconstruct_sharing, AttitudeTrack, Streams};
+use crate::recon::{pipeline, AttitudeTrack, Streams};
 use crate::sim::scenario::Scenario;
 use crate::sim::writer::{to_bytes, Compression, WriterOptions};
 
@@ -174,8 +174,13 @@ fn score_run(
     step_s: f64,
     shared_attitude: Option<AttitudeTrack>,
 ) -> Result<(RunResult, Option<AttitudeTrack>), StudyError> {
-    let (r, attitude) = reconstruct_sharing(streams, mission, config, shared_attitude)
+    let options = pipeline::Options {
+        shared_attitude,
+        ..pipeline::Options::default()
+    };
+    let outcome = pipeline::run(streams, mission, config, options)
         .map_err(|e| StudyError::Reconstruct(e.to_string()))?;
+    let (r, attitude) = (outcome.reconstruction, outcome.model_attitude);
     let pick = |sol| {
         crate::recon::score::errors(streams.truth, sol, &r.output)
             .map_err(|e| StudyError::Reconstruct(format!("reading the solutions back: {e}")))

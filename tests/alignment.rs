@@ -9,7 +9,7 @@ use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, HeadingChoice};
 use hindsight::recon::heading::HeadingSource;
 use hindsight::recon::score::{scores, Scores};
-use hindsight::recon::{reconstruct, Reconstruction, Streams};
+use hindsight::recon::{run_configured as reconstruct, Reconstruction, Streams};
 use hindsight::sim::scenario::Scenario;
 
 use common::output_errors as errors;

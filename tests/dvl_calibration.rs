@@ -8,7 +8,7 @@ mod common;
 use hindsight::filters::ins::error_state::idx;
 use hindsight::recon::config::Config;
 use hindsight::recon::score::scores;
-use hindsight::recon::{reconstruct, Streams};
+use hindsight::recon::{run_configured as reconstruct, Streams};
 use hindsight::sim::scenario::Scenario;
 use hindsight::sim::sensors::dvl::DvlSensor;
 use hindsight::sim::sensors::{rng_for, stream};
@@ -20,6 +20,7 @@ fn survey_config() -> Config {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/survey.toml"))
         .unwrap();
     let mut c = Config::from_toml(&text).unwrap();
+    c.dvl.scale_misalignment = hindsight::recon::switch::Switch::On;
     c.dvl.scale_sigma = 0.005;
     c.dvl.misalignment_sigma_deg = 1.0;
     c.dvl.bias_sigma_m_s = 0.002;

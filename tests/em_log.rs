@@ -9,7 +9,7 @@ use hindsight::contract::Truth;
 use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, HeadingChoice};
 use hindsight::recon::score::{scores, Scores};
-use hindsight::recon::{reconstruct, Streams};
+use hindsight::recon::{run_configured as reconstruct, Streams};
 use hindsight::sim::scenario::{AccelGrade, GyroGrade, Scenario};
 
 use common::output_errors as errors;

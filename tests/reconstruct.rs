@@ -12,7 +12,7 @@ use hindsight::recon::config::Config;
 use hindsight::recon::init::{HeadingSource, PositionSource};
 use hindsight::recon::score::{scores, Scores};
 use hindsight::recon::stats::{sensor_stats, warnings};
-use hindsight::recon::{reconstruct, Reconstruction, Streams};
+use hindsight::recon::{run_configured as reconstruct, Reconstruction, Streams};
 use hindsight::sim::scenario::Scenario;
 
 fn run(log: &Log, streams: &Streams<'_>, config: &Config) -> Reconstruction {
@@ -254,10 +254,14 @@ fn bad_input_is_reported_or_handled() {
         dvl: &late,
         ..streams
     };
-    let suggestion = suggest_dvl_offset(&lagged_streams, &mission, &config).unwrap();
+    let suggestion =
+        suggest_dvl_offset(&lagged_streams, &mission, &config, Default::default()).unwrap();
     println!("offset search: {suggestion:?}");
     assert!((suggestion.offset_s + 2.0).abs() <= 0.1, "{suggestion:?}");
-    assert_eq!(suggest_dvl_offset(&streams, &mission, &config), None);
+    assert_eq!(
+        suggest_dvl_offset(&streams, &mission, &config, Default::default()),
+        None
+    );
 
     // A GNSS fix 1 km north of the truth at the final surfacing: rejected and counted, and
     // the solution does not move.

@@ -12,7 +12,7 @@ use hindsight::contract::{
 use hindsight::ingest::ros2::map::Convention;
 use hindsight::ingest::{read_log, read_log_from, IngestOptions, Log, MissionDefaults};
 use hindsight::recon::config::Config;
-use hindsight::recon::{reconstruct, Reconstruction};
+use hindsight::recon::{run_configured as reconstruct, Reconstruction};
 use hindsight::sim::writer::{to_bytes, LogWriter, WriterOptions};
 use std::path::{Path, PathBuf};
 

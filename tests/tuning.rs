@@ -8,7 +8,7 @@ use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, ImuGrade};
 use hindsight::recon::score::{scores, Scores};
 use hindsight::recon::tune::{self, Source};
-use hindsight::recon::{reconstruct, Streams};
+use hindsight::recon::{run_configured as reconstruct, Streams};
 use hindsight::sim::scenario::{AccelGrade, GyroGrade, Scenario};
 
 use common::output_errors as errors;

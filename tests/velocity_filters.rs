@@ -9,14 +9,14 @@ use hindsight::filters::ins::aiding::Sensor;
 use hindsight::ingest::Log;
 use hindsight::recon::config::Config;
 use hindsight::recon::score::{scores, Scores};
-use hindsight::recon::{forward, reconstruct, Streams};
+use hindsight::recon::{forward, run_configured as reconstruct, Streams};
 use hindsight::sim::scenario::Scenario;
 
 use common::output_errors as errors;
 
 fn with_rpm_velocity(used: bool) -> Config {
     let mut c = Config::default();
-    c.rpm_velocity.enabled = used;
+    c.rpm_velocity.enabled = hindsight::recon::switch::Switch::from_bool(used);
     c
 }
 
@@ -73,7 +73,7 @@ fn a_stuck_propeller_is_refused_and_the_rest_runs() {
     };
     let pass = forward(&streams, &log.mission().unwrap(), &with_rpm_velocity(true)).unwrap();
     assert!(
-        pass.aid_notes.iter().any(|n| n.contains("read zero")),
+        pass.aid_notes.iter().any(|n| n.text.contains("read zero")),
         "{:?}",
         pass.aid_notes
     );

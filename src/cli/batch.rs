@@ -2,13 +2,13 @@
 //! parallel across logs, each into its own hive-style partition, with one summary table.
 
 use super::console;
-use super::reconstruct::{self, ReconstructArgs};
+use super::reconstruct;
 use super::OutputFailed;
 use anyhow::{Context, Result};
-use clap::Parser;
 use hindsight::output::atomic::Staging;
 use hindsight::output::batch_tables::{batch_summary, MissionRow};
 use hindsight::output::report::{Block, Report, Section};
+use hindsight::recon::config::Config;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -176,30 +176,13 @@ fn row_from(mission: &str, log: &Path, summary: &serde_json::Value) -> MissionRo
     }
 }
 
-/// `reconstruct`'s arguments for one mission, parsed as its command line would be.
-fn mission_args(log: &Path, out: &Path, config: Option<&Path>) -> Result<ReconstructArgs> {
-    #[derive(Parser)]
-    struct One {
-        #[command(flatten)]
-        args: ReconstructArgs,
-    }
-    let mut line = vec![
-        "reconstruct".into(),
-        log.as_os_str().to_owned(),
-        "--out".into(),
-        out.as_os_str().to_owned(),
-    ];
-    if let Some(c) = config {
-        line.push("--config".into());
-        line.push(c.as_os_str().to_owned());
-    }
-    Ok(One::try_parse_from(line)?.args)
-}
-
-/// Reconstructs one mission; a panic is reported as a failure, not carried into the others.
-fn run_mission(log: &Path, dir: &Path, config: Option<&Path>) -> Result<()> {
-    let args = mission_args(log, dir, config)?;
-    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| reconstruct::run(args))) {
+/// Reconstructs one mission as `reconstruct` would; a panic is reported as a failure, not
+/// carried into the others.
+fn run_mission(log: &Path, dir: &Path, config: &Config) -> Result<()> {
+    let job = reconstruct::Job::plain(log, dir, config.clone());
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        reconstruct::reconstruct(&job)
+    })) {
         Ok(result) => result,
         Err(_) => anyhow::bail!("internal error (a panic) while reconstructing: please report it"),
     }
@@ -215,13 +198,15 @@ pub struct MissionsFailed {
 
 pub fn run(args: BatchArgs) -> Result<()> {
     let started = Instant::now();
-    if let Some(c) = &args.config {
-        // A bad configuration fails every mission: say so once, up front.
-        let text = std::fs::read_to_string(c)
-            .with_context(|| format!("reading the configuration {}", c.display()))?;
-        hindsight::recon::config::Config::from_toml(&text)
-            .with_context(|| format!("configuration {}", c.display()))?;
-    }
+    // A bad configuration fails every mission: say so once, up front.
+    let config = match &args.config {
+        Some(c) => {
+            let text = std::fs::read_to_string(c)
+                .with_context(|| format!("reading the configuration {}", c.display()))?;
+            Config::from_toml(&text).with_context(|| format!("configuration {}", c.display()))?
+        }
+        None => Config::default(),
+    };
     let all = missions(&collect_logs(&args.logs)?)?;
     let (i, n) = args.shard.unwrap_or((0, 1));
     let mine = shard(&all, i, n);
@@ -254,7 +239,7 @@ pub fn run(args: BatchArgs) -> Result<()> {
             },
             None => {
                 let t = Instant::now();
-                let outcome = run_mission(log, &dir, args.config.as_deref());
+                let outcome = run_mission(log, &dir, &config);
                 let run_time_s = Some(t.elapsed().as_secs_f64());
                 match outcome.and_then(|()| {
                     complete_summary(&dir, log).context("no summary.json after the run")

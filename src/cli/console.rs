@@ -109,7 +109,7 @@ pub fn bytes_bar(len: u64, what: &str) -> ProgressBar {
 }
 
 /// A bar of the fraction done (0-100 %), hidden unless [`drawing`]; feed it with
-/// [`fraction_setter`].
+/// its `set_position` (percent).
 pub fn fraction_bar(what: &str) -> ProgressBar {
     if !drawing() {
         return ProgressBar::hidden();
@@ -136,11 +136,6 @@ pub fn spinner(what: &str) -> ProgressBar {
         .with_message(what.to_string());
     bar.enable_steady_tick(Duration::from_millis(120));
     bar
-}
-
-/// The library's progress callback for a [`fraction_bar`].
-pub fn fraction_setter(bar: &ProgressBar) -> impl Fn(f64) + Sync + '_ {
-    move |f: f64| bar.set_position((f * 100.0).round() as u64)
 }
 
 /// The notes and warnings of a run, said as they come and kept for its report.

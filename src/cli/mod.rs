@@ -265,6 +265,16 @@ pub struct PolicyArgs {
     pub max_invalid_fraction: f64,
 }
 
+impl Default for PolicyArgs {
+    /// As the command line has it when neither option is given.
+    fn default() -> Self {
+        PolicyArgs {
+            skip_unknown: false,
+            max_invalid_fraction: 0.01,
+        }
+    }
+}
+
 fn parse_fraction(text: &str) -> Result<f64, String> {
     let v: f64 = text
         .parse()

@@ -15,9 +15,11 @@ use hindsight::output::recon_tables;
 use hindsight::recon::calibration::{self, DvlCalibrationReport, WaterReport};
 use hindsight::recon::config::{Config, HeadingChoice, ImuGrade};
 use hindsight::recon::consistency::{self, Consistency};
+use hindsight::recon::pipeline::{self, Stage, Warning};
+use hindsight::recon::plan::{Part, Plan};
 use hindsight::recon::score::{self, EpochError, Scores};
 use hindsight::recon::stats::{self, SensorStats};
-use hindsight::recon::tune::{self, Tuning};
+use hindsight::recon::tune::Tuning;
 use hindsight::recon::{self, Reconstruction, Streams};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -161,8 +163,10 @@ impl ReconstructArgs {
         if let Some(v) = &self.vehicle {
             hindsight::recon::model_velocity::load_vehicle(v).context("--vehicle")?;
             config.model_velocity.vehicle = v.clone();
-            config.model_velocity.enabled = true;
-        } else if config.model_velocity.enabled && !config.model_velocity.vehicle.is_empty() {
+            config.model_velocity.enabled = hindsight::recon::switch::Switch::On;
+        } else if config.model_velocity.enabled != hindsight::recon::switch::Switch::Off
+            && !config.model_velocity.vehicle.is_empty()
+        {
             hindsight::recon::model_velocity::load_vehicle(&config.model_velocity.vehicle)
                 .context("[model_velocity] vehicle")?;
         }
@@ -190,6 +194,8 @@ struct Summary {
     initialisation: InitSummary,
     /// Self-tuning's estimates (absent with tuning off).
     tuning: Option<Tuning>,
+    /// What was used and why: every aid, calibration state and stage.
+    plan: Plan,
     magnetometer: MagSummary,
     epochs: usize,
     trajectory_rows_per_solution: usize,
@@ -306,7 +312,15 @@ struct TruthSummary {
 #[derive(Debug, Serialize)]
 struct RunTime {
     ingest: f64,
+    /// The pipeline's stages before the forward pass.
+    plan: f64,
+    magnetometer: f64,
+    /// Settling and checking the start heading.
+    align: f64,
+    tune: f64,
     forward: f64,
+    /// The DVL clock-offset search (when its innovations asked for it).
+    clock_search: f64,
     smoother: f64,
     outputs: f64,
     /// Drawing report.html and its PNGs (part of `outputs`).
@@ -322,38 +336,22 @@ fn final_sigma(s: Option<&Solution>) -> Option<Sigma> {
     })
 }
 
-/// Self-tuning, timed and printed.
-fn tune_noise(
-    streams: &Streams<'_>,
-    mission: &hindsight::ingest::Mission,
-    config: &Config,
-) -> (Config, Option<Tuning>) {
-    if !config.tune.enabled {
-        return (config.clone(), None);
-    }
-    let started = Instant::now();
-    say!("self-tuning the noise figures ...");
-    let spinner = console::spinner("self-tuning the noise figures");
-    let (tuned, tuning) = tune::tune(streams, mission, config);
-    spinner.finish_and_clear();
-    if let Some(t) = &tuning {
-        say!(
-            "self-tuning {:.1} s:\n{}",
-            started.elapsed().as_secs_f64(),
-            indent(&t.to_string())
-        );
-    }
-    (tuned, tuning)
-}
-
 /// The configuration's topic roles and ROS 2 conversions, the command line's over them.
 fn ingest_options(args: &ReconstructArgs, config: &Config) -> hindsight::ingest::IngestOptions {
-    let mut options = args.policy.ingest_options(&Default::default());
+    ingest_for(&args.policy, &args.log.source, config)
+}
+
+fn ingest_for(
+    policy: &super::PolicyArgs,
+    source: &super::source::SourceArgs,
+    config: &Config,
+) -> hindsight::ingest::IngestOptions {
+    let mut options = policy.ingest_options(&Default::default());
     options.topics = config.topics.clone();
     options.frame_conventions = config.frames.clone();
     options.ros2 = config.ros2;
     options.keep_log_times = false;
-    args.log.source.apply(&mut options);
+    source.apply(&mut options);
     options
 }
 
@@ -411,19 +409,164 @@ fn write_trajectory_mcap(
 }
 
 pub fn run(args: ReconstructArgs) -> Result<()> {
-    let started = Instant::now();
     let config = args.config()?;
-    let mut log = super::load(
-        &args.log.log,
-        &ingest_options(&args, &config),
-        &args.log.offsets,
-    )?;
+    let job = Job {
+        log: args.log.log.clone(),
+        out: args.out.clone(),
+        ingest: ingest_options(&args, &config),
+        offsets: args.log.offsets.clone(),
+        mission_defaults: args.log.source.mission_defaults(config.mission.clone()),
+        config,
+    };
+    reconstruct(&job)
+}
+
+/// One mission to reconstruct: what `reconstruct` parsed, or what `batch` made for each log.
+pub struct Job {
+    pub log: PathBuf,
+    pub out: PathBuf,
+    pub config: Config,
+    pub ingest: hindsight::ingest::IngestOptions,
+    pub offsets: Vec<hindsight::align::ClockOffset>,
+    pub mission_defaults: hindsight::ingest::MissionDefaults,
+}
+
+impl Job {
+    /// A log reconstructed as `hindsight reconstruct LOG --out DIR [--config FILE]` would.
+    pub fn plain(log: &std::path::Path, out: &std::path::Path, config: Config) -> Job {
+        let source = super::source::SourceArgs::default();
+        Job {
+            log: log.to_path_buf(),
+            out: out.to_path_buf(),
+            mission_defaults: source.mission_defaults(config.mission.clone()),
+            ingest: ingest_for(&super::PolicyArgs::default(), &source, &config),
+            offsets: Vec::new(),
+            config,
+        }
+    }
+}
+
+/// The console's view of the pipeline's stages: a spinner for each, bars for the passes.
+#[derive(Default)]
+struct StageConsole {
+    spinner: std::sync::Mutex<Option<indicatif::ProgressBar>>,
+    forward: std::sync::OnceLock<indicatif::ProgressBar>,
+    smoother: std::sync::OnceLock<indicatif::ProgressBar>,
+}
+
+impl StageConsole {
+    fn on_stage(&self, stage: Stage) {
+        if let Some(s) = self.spinner.lock().ok().and_then(|mut s| s.take()) {
+            s.finish_and_clear();
+        }
+        match stage {
+            Stage::Forward => {
+                self.forward
+                    .get_or_init(|| console::fraction_bar("forward filter"));
+            }
+            Stage::Smooth => {
+                if let Some(b) = self.forward.get() {
+                    b.finish_and_clear();
+                }
+                self.smoother
+                    .get_or_init(|| console::fraction_bar("smoother"));
+            }
+            _ => {
+                say!("{} ...", stage.describe());
+                if let Ok(mut s) = self.spinner.lock() {
+                    *s = Some(console::spinner(stage.describe()));
+                }
+            }
+        }
+    }
+
+    fn forward_progress(&self, f: f64) {
+        if let Some(b) = self.forward.get() {
+            b.set_position((f * 100.0).round() as u64);
+        }
+    }
+
+    fn smoother_progress(&self, f: f64) {
+        if let Some(b) = self.smoother.get() {
+            b.set_position((f * 100.0).round() as u64);
+        }
+    }
+
+    fn finish(&self) {
+        for b in [self.forward.get(), self.smoother.get()]
+            .into_iter()
+            .flatten()
+        {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// Reads the log, runs the pipeline, writes the outputs.
+pub fn reconstruct(job: &Job) -> Result<()> {
+    let started = Instant::now();
+    let mut log = super::load(&job.log, &job.ingest, &job.offsets)?;
     let mission = log
-        .mission_or(&args.log.source.mission_defaults(config.mission.clone()))
-        .with_context(|| format!("reading {}", args.log.log.display()))?;
+        .mission_or(&job.mission_defaults)
+        .with_context(|| format!("reading {}", job.log.display()))?;
     super::print_roles(&log);
     let ingest_s = started.elapsed().as_secs_f64();
+    say_read(&log, ingest_s);
+    // What the filter does not need, or needs prepared, leaves the log: a day's truth waits
+    // on disk, and its magnetometer is prepared in place (each would be 150 MB held twice).
+    let parked_truth = park_truth(&mut log, &job.config);
+    let mag = job
+        .config
+        .mag
+        .enabled
+        .then(|| log.take_role::<hindsight::contract::MagneticField>());
     let streams = Streams::of(&log);
+    let view = StageConsole::default();
+    let (on_stage, fwd_bar, smo_bar) = (
+        |s: Stage| view.on_stage(s),
+        |f: f64| view.forward_progress(f),
+        |f: f64| view.smoother_progress(f),
+    );
+    let options = pipeline::Options {
+        forward_progress: Some(&fwd_bar),
+        on_stage: Some(&on_stage),
+        mag,
+        ..pipeline::Options::default()
+    };
+    let forward = pipeline::forward(&streams, &mission, &job.config, options)
+        .with_context(|| format!("reconstructing {}", job.log.display()));
+    let forward = forward.inspect_err(|_| view.finish())?;
+    say_forward(&forward);
+    let inputs = input_counts(&log, &streams, &forward.config);
+    // What the outputs need from the log; the log itself is freed before smoothing.
+    let origin = (
+        mission.origin_latitude_deg.to_radians(),
+        mission.origin_longitude_deg.to_radians(),
+    );
+    let from_log = report::FromLog::new(streams.gnss, streams.fixes, streams.dvl, origin);
+    let log_truth = parked_truth.is_none().then(|| streams.truth.to_vec());
+    drop(log);
+    let records_failure = forward.pass.run.records.spill_failure();
+    let outcome = forward.smooth(Some(&smo_bar), Some(&on_stage));
+    view.finish();
+    let outcome = outcome?;
+    say!("smoother {:.1} s", outcome.times.smoother_s);
+    let written = Written {
+        job,
+        mission: &mission,
+        inputs,
+        from_log,
+        truth: (log_truth, parked_truth),
+        records_failure,
+        ingest_s,
+        started,
+    };
+    written.write(outcome)
+}
+
+/// What the run read, said once.
+fn say_read(log: &hindsight::ingest::Log, ingest_s: f64) {
+    let streams = Streams::of(log);
     say!(
         "read {} messages in {ingest_s:.1} s; {} IMU samples over {:.0} s",
         log.message_count(),
@@ -433,324 +576,324 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             _ => 0.0,
         }
     );
-    let (config, tuning) = tune_noise(&streams, &mission, &config);
-    let mut warnings_from_tuning = Vec::new();
-    if let Some(t) = &tuning {
-        warnings_from_tuning = t.warnings.clone();
+}
+
+/// The plan, the tuning and the start, said once the forward pass is done.
+fn say_forward(f: &pipeline::Forward) {
+    say!(
+        "plan (what is used and why):\n{}",
+        indent(&f.plan.to_string())
+    );
+    if let Some(t) = &f.tuning {
+        say!(
+            "self-tuning {:.1} s:\n{}",
+            f.times.tune_s,
+            indent(&t.to_string())
+        );
     }
-    let inputs = input_counts(&log, &streams, &config);
-    let depth_used = config.depth.enabled && !streams.depth.is_empty();
-    let dvl_used = config.dvl.enabled && !streams.dvl.is_empty();
-    // What the filter does not need, or needs prepared, leaves the log: a day's truth waits
-    // on disk, and its magnetometer is prepared in place (each would be 150 MB held twice).
-    let parked_truth = park_truth(&mut log, &config);
-    let prepared_mag = config.mag.enabled.then(|| {
-        recon::magnetometer::prepare_owned(
-            log.take_role::<hindsight::contract::MagneticField>(),
-            &config.mag,
-        )
-    });
-    let streams = Streams::of(&log);
-    let bar = console::fraction_bar("forward filter");
-    let pass = recon::forward_with(
-        &streams,
-        &mission,
-        &config,
-        recon::PassOptions {
-            progress: Some(&console::fraction_setter(&bar)),
-            mag: prepared_mag,
-            ..recon::PassOptions::default()
-        },
-    )
-    .with_context(|| format!("reconstructing {}", args.log.log.display()))?;
-    bar.finish_and_clear();
-    say!("initial state:\n{}", indent(&pass.init.to_string()));
+    say!("initial state:\n{}", indent(&f.pass.init.to_string()));
     say!(
         "forward filter {:.1} s ({} epochs, {} measurements)",
-        pass.time.as_secs_f64(),
-        pass.run.records.len(),
-        pass.run.residuals.len(),
+        f.forward_time().as_secs_f64(),
+        f.pass.run.records.len(),
+        f.pass.run.residuals.len(),
     );
-    let sensors = stats::sensor_stats(&pass.run.residuals);
-    let mut warnings = stats::warnings(&pass.run, &pass.init, &sensors);
-    warnings.extend(recon::magnetometer_warnings(&pass.mag, &config.mag));
-    warnings.extend(pass.aid_notes.iter().cloned());
-    warnings.extend(warnings_from_tuning);
-    if warnings.iter().any(|w| w.starts_with("dvl: mean NIS")) {
-        say!("the DVL's innovations are too large: searching for a clock offset ...");
-        let streams = Streams {
-            mag: &pass.mag.readings,
-            ..streams
-        };
-        match recon::clock::suggest_dvl_offset(&streams, &mission, &config) {
-            Some(s) => {
-                say!(
-                    "... found: --offset /dvl={:.1} fits best (mean NIS {:.1} against {:.1})",
-                    s.offset_s,
-                    s.mean_nis,
-                    s.mean_nis_unshifted
-                );
-                warnings.push(format!(
-                    "dvl: its innovations are smallest with --offset /dvl={:.1} (mean NIS {:.1} \
-                     against {:.1} without, first 10 min): rerun with it if the DVL's clock is off",
-                    s.offset_s, s.mean_nis, s.mean_nis_unshifted
-                ));
-            }
-            None => say!(
-                "... none: no offset within +-{:.0} s fits clearly better, so the DVL's clock is \
-                 not the cause",
-                recon::clock::COARSE_SPAN_S
-            ),
+}
+
+/// A warning as the command line says it: the library's text, with the option that acts on
+/// it.
+fn render_warning(w: &Warning) -> String {
+    match w {
+        Warning::DvlClock {
+            suggestion: Some(s),
+            ..
+        } => format!(
+            "{w}: rerun with --offset /dvl={:.1} if the DVL's clock is off",
+            s.offset_s
+        ),
+        Warning::ForcedOnRefused { .. } => {
+            format!("{w} (the rest runs; leave its `use` at \"auto\" to let the log decide)")
         }
+        _ => w.to_string(),
     }
-    // What the outputs need from the log; the log itself is freed before smoothing.
-    let origin = (
-        mission.origin_latitude_deg.to_radians(),
-        mission.origin_longitude_deg.to_radians(),
-    );
-    let from_log = report::FromLog::new(streams.gnss, streams.fixes, streams.dvl, origin);
-    let log_truth = parked_truth.is_none().then(|| streams.truth.to_vec());
-    drop(log);
-    let records_failure = pass.run.records.spill_failure();
-    let bar = console::fraction_bar("smoother");
-    let r = recon::finish_reporting(
-        pass,
-        &config,
-        depth_used,
-        Some(&console::fraction_setter(&bar)),
-    )?;
-    bar.finish_and_clear();
-    say!("smoother {:.1} s", r.timing.smoother.as_secs_f64());
+}
 
-    // A full disk is no reason to fail: the run held in memory what it meant to spill.
-    for why in records_failure
-        .into_iter()
-        .chain(r.forward.spill_failure())
-        .chain(r.smoothed.spill_failure())
-        .take(1)
-    {
-        warnings.push(format!(
-            "memory: the epoch records or solutions could not go to a temporary file ({why}); \
-             they were held in memory instead (set TMPDIR to a disk with room)"
-        ));
-    }
-    let outputs_started = Instant::now();
-    let keep: Vec<usize> = (0..r.forward.len())
-        .filter(|&k| r.output[k] || config.output.aiding_epochs)
-        .collect();
-    let kept = keep_mask(r.forward.len(), &keep);
-    // The truth waited on its temporary file through the smoother; it is held only while
-    // the errors are taken (a day of it is 140 MB).
-    let truth: Vec<Truth> = match (log_truth, &parked_truth) {
-        (Some(truth), _) => truth,
-        (None, Some(parked)) => parked.to_vec().context("reading the truth back")?,
-        (None, None) => Vec::new(),
-    };
-    drop(parked_truth);
-    let from_log = from_log.with_truth(&truth);
-    let truth_errors = if truth.is_empty() {
-        None
-    } else {
-        Some((
-            score::errors(&truth, &r.forward, &kept)?,
-            score::errors(&truth, &r.smoothed, &kept)?,
-        ))
-    };
-    drop(truth);
-    std::fs::create_dir_all(&args.out).with_context(|| OutputFailed {
-        path: args.out.clone(),
-    })?;
-    let mut staging = Staging::new();
-    let path = args.out.join("trajectory.parquet");
-    let file = staging
-        .create(&path)
-        .with_context(|| OutputFailed { path: path.clone() })?;
-    write_trajectory(file, &r, &keep, origin)
-        .with_context(|| OutputFailed { path: path.clone() })?;
-    let mut written = vec![path];
+/// What the outputs are written from, beyond the pipeline's outcome.
+struct Written<'a> {
+    job: &'a Job,
+    mission: &'a hindsight::ingest::Mission,
+    inputs: Vec<InputCount>,
+    from_log: report::FromLog,
+    truth: (Option<Vec<Truth>>, Option<hindsight::spill::Spilled<Truth>>),
+    records_failure: Option<String>,
+    ingest_s: f64,
+    started: Instant,
+}
 
-    let path = args.out.join("trajectory.mcap");
-    let file = staging
-        .create(&path)
-        .with_context(|| OutputFailed { path: path.clone() })?;
-    write_trajectory_mcap(file, &r, &keep, origin)
-        .with_context(|| OutputFailed { path: path.clone() })?;
-    written.push(path);
-
-    let path = args.out.join("residuals.parquet");
-    let file = staging
-        .create(&path)
-        .with_context(|| OutputFailed { path: path.clone() })?;
-    write_chunks(file, &r.run.residuals, recon_tables::residuals_batch)
-        .with_context(|| OutputFailed { path: path.clone() })?;
-    written.push(path);
-
-    if let Some((fwd, smo)) = &truth_errors {
-        let path = args.out.join("errors.parquet");
+impl Written<'_> {
+    fn write(self, outcome: pipeline::Outcome) -> Result<()> {
+        let Written {
+            job,
+            mission,
+            inputs,
+            from_log,
+            truth: (log_truth, parked_truth),
+            records_failure,
+            ingest_s,
+            started,
+        } = self;
+        let pipeline::Outcome {
+            plan,
+            config,
+            tuning,
+            reconstruction: r,
+            sensors,
+            warnings: typed,
+            times,
+            ..
+        } = outcome;
+        let mut warnings: Vec<String> = typed.iter().map(render_warning).collect();
+        let dvl_used = plan.uses(Part::Aid(Sensor::Dvl));
+        let origin = (
+            mission.origin_latitude_deg.to_radians(),
+            mission.origin_longitude_deg.to_radians(),
+        );
+        // A full disk is no reason to fail: the run held in memory what it meant to spill.
+        for why in records_failure
+            .into_iter()
+            .chain(r.forward.spill_failure())
+            .chain(r.smoothed.spill_failure())
+            .take(1)
+        {
+            warnings.push(format!(
+                "memory: the epoch records or solutions could not go to a temporary file \
+                 ({why}); they were held in memory instead (set TMPDIR to a disk with room)"
+            ));
+        }
+        let outputs_started = Instant::now();
+        let keep: Vec<usize> = (0..r.forward.len())
+            .filter(|&k| r.output[k] || config.output.aiding_epochs)
+            .collect();
+        let kept = keep_mask(r.forward.len(), &keep);
+        // The truth waited on its temporary file through the smoother; it is held only while
+        // the errors are taken (a day of it is 140 MB).
+        let truth: Vec<Truth> = match (log_truth, &parked_truth) {
+            (Some(truth), _) => truth,
+            (None, Some(parked)) => parked.to_vec().context("reading the truth back")?,
+            (None, None) => Vec::new(),
+        };
+        drop(parked_truth);
+        let from_log = from_log.with_truth(&truth);
+        let truth_errors = if truth.is_empty() {
+            None
+        } else {
+            Some((
+                score::errors(&truth, &r.forward, &kept)?,
+                score::errors(&truth, &r.smoothed, &kept)?,
+            ))
+        };
+        drop(truth);
+        std::fs::create_dir_all(&job.out).with_context(|| OutputFailed {
+            path: job.out.clone(),
+        })?;
+        let mut staging = Staging::new();
+        let path = job.out.join("trajectory.parquet");
         let file = staging
             .create(&path)
             .with_context(|| OutputFailed { path: path.clone() })?;
-        write_errors(file, fwd, smo).with_context(|| OutputFailed { path: path.clone() })?;
-        written.push(path);
-    }
+        write_trajectory(file, &r, &keep, origin)
+            .with_context(|| OutputFailed { path: path.clone() })?;
+        let mut written = vec![path];
 
-    let truth = truth_errors.as_ref().map(|(fwd, smo)| TruthSummary {
-        forward: score::scores(fwd),
-        smoothed: score::scores(smo),
-        nees_horizontal_bounds_95: score::bounds_95(2),
-        nees_position_bounds_95: score::bounds_95(3),
-    });
-    let consistency = consistency::assess(
-        &sensors,
-        truth.as_ref().and_then(|t| t.forward.as_ref()),
-        truth.as_ref().and_then(|t| t.smoothed.as_ref()),
-    );
-    warnings.extend(consistency.warnings());
-    let nav = r.init.estimate.nav;
-    let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
-    let (first_forward, last_forward) = (r.forward.first()?, r.forward.last()?);
-    let last_smoothed = r.smoothed.last()?;
-    let outputs_s = outputs_started.elapsed().as_secs_f64();
-    let summary = Summary {
-        hindsight_version: env!("CARGO_PKG_VERSION"),
-        log: args.log.log.display().to_string(),
-        mission: MissionSummary {
-            origin_latitude_deg: mission.origin_latitude_deg,
-            origin_longitude_deg: mission.origin_longitude_deg,
-            vehicle: mission.vehicle.clone(),
-            description: mission.description.clone(),
-        },
-        inputs,
-        tuning,
-        initialisation: InitSummary {
-            position_source: r.init.position.name(),
-            position_sigma_m: r.init.position_sigma_m,
-            velocity_source: r.init.velocity.name(),
-            velocity_sigma_m_s: r.init.velocity_sigma_m_s,
-            heading_source: r.init.heading.name(),
-            heading_sigma_deg: r.init.heading_sigma_deg,
-            tilt_sigma_deg: r.init.tilt_sigma_deg,
-            latitude_deg: nav.lat_rad.to_degrees(),
-            longitude_deg: nav.lon_rad.to_degrees(),
-            depth_m: -nav.height_m,
-            roll_deg: roll.to_degrees(),
-            pitch_deg: pitch.to_degrees(),
-            yaw_deg: yaw.to_degrees(),
-            heading_sources: r.init.heading_sources.clone(),
-            heading_unavailable: r.init.heading_unavailable.clone(),
-            declination: r.init.declination,
-            in_motion_alignment: r.init.in_motion.clone(),
-        },
-        magnetometer: MagSummary {
-            readings_used: r.mag.used,
-            saturated_spans: r.mag.saturated.clone(),
-            calibrated: r.mag.calibration.is_some(),
-            calibration_skipped: r.mag.calibration_skipped.clone(),
-            magnitude_variation_pct: r.mag.magnitude_variation * 100.0,
-            deviation_unknown: r.mag.deviation_unknown,
-            reference_field_nt: r.mag.reference_norm_t * 1e9,
-            skipped_by_interval: r.run.by_interval[Sensor::Magnetometer],
-            disturbed: r.run.disturbed[Sensor::Magnetometer],
-        },
-        epochs: r.forward.len(),
-        trajectory_rows_per_solution: keep.len(),
-        residuals: r.run.residuals.len(),
-        rejected: r.run.residuals.iter().filter(|x| !x.accepted).count(),
-        dvl_out_of_range: r.run.unused[Sensor::Dvl],
-        dvl_calibration: dvl_used
-            .then_some(last_forward.as_ref())
-            .flatten()
-            .map(|last| calibration::report(last, &config.dvl.calibration_sigma())),
-        water: (config.eml.enabled
-            && !r.run.residuals.iter().all(|x| x.sensor != Sensor::SpeedLog))
-        .then_some(last_forward.as_ref())
-        .flatten()
-        .map(|last| {
-            calibration::water_report(
-                last,
-                &[
-                    config.eml.scale_sigma,
-                    config.eml.current_sigma_m_s,
-                    config.eml.current_sigma_m_s,
-                ],
-            )
-        }),
-        gyro_scale_factor_z: last_forward
-            .as_ref()
-            .map(|last| calibration::gyro_scale_report(last, config.imu.spec().gyro_scale())),
-        depth_skipped_by_interval: r.run.by_interval[Sensor::Depth],
-        eml_too_slow: r.run.unused[Sensor::SpeedLog],
-        gate_resets: r.run.gate_resets,
-        imu_gaps: r
-            .run
-            .imu_gaps
-            .iter()
-            .map(|g| GapSummary {
-                from_ns: g.from_ns,
-                to_ns: g.to_ns,
-                seconds: (g.to_ns - g.from_ns) as f64 * 1e-9,
-            })
-            .collect(),
-        sensors,
-        duration_s: match (&first_forward, &last_forward) {
-            (Some(a), Some(b)) => (b.stamp_ns - a.stamp_ns) as f64 * 1e-9,
-            _ => 0.0,
-        },
-        distance_travelled_m: stats::distance_travelled_m(r.smoothed.iter())?,
-        final_sigma: FinalSigma {
-            forward: final_sigma(last_forward.as_ref()),
-            smoothed: final_sigma(last_smoothed.as_ref()),
-        },
-        truth,
-        consistency,
-        warnings,
-        run_time_s: RunTime {
-            ingest: ingest_s,
-            forward: r.timing.forward.as_secs_f64(),
-            smoother: r.timing.smoother.as_secs_f64(),
-            outputs: outputs_s,
-            report: 0.0,
-            total: started.elapsed().as_secs_f64(),
-        },
-        config,
-    };
-    if let Some(t) = &summary.tuning {
-        let path = args.out.join("tuned.toml");
-        let mut file = staging
+        let path = job.out.join("trajectory.mcap");
+        let file = staging
             .create(&path)
             .with_context(|| OutputFailed { path: path.clone() })?;
-        std::io::Write::write_all(&mut file, t.as_toml().as_bytes())
+        write_trajectory_mcap(file, &r, &keep, origin)
             .with_context(|| OutputFailed { path: path.clone() })?;
         written.push(path);
-    }
-    let report_started = Instant::now();
-    let page = report::build(&report::Inputs {
-        summary: &summary,
-        r: &r,
-        keep: &keep,
-        origin_rad: origin,
-        from_log: &from_log,
-        truth_errors: truth_errors.as_ref(),
-        init_text: r.init.to_string(),
-    })
-    .context("reading the solutions back for report.html")?;
-    super::write_report(&mut staging, &args.out, &page, &mut written)?;
-    let mut summary = summary;
-    summary.run_time_s.report = report_started.elapsed().as_secs_f64();
-    summary.run_time_s.outputs += summary.run_time_s.report;
-    summary.run_time_s.total = started.elapsed().as_secs_f64();
-    let path = args.out.join("summary.json");
-    super::write_json(&mut staging, &path, &summary)?;
-    written.push(path);
-    staging.commit().with_context(|| OutputFailed {
-        path: args.out.clone(),
-    })?;
 
-    print_report(&summary);
-    for p in written {
-        out!("wrote {}", p.display());
+        let path = job.out.join("residuals.parquet");
+        let file = staging
+            .create(&path)
+            .with_context(|| OutputFailed { path: path.clone() })?;
+        write_chunks(file, &r.run.residuals, recon_tables::residuals_batch)
+            .with_context(|| OutputFailed { path: path.clone() })?;
+        written.push(path);
+
+        if let Some((fwd, smo)) = &truth_errors {
+            let path = job.out.join("errors.parquet");
+            let file = staging
+                .create(&path)
+                .with_context(|| OutputFailed { path: path.clone() })?;
+            write_errors(file, fwd, smo).with_context(|| OutputFailed { path: path.clone() })?;
+            written.push(path);
+        }
+
+        let truth = truth_errors.as_ref().map(|(fwd, smo)| TruthSummary {
+            forward: score::scores(fwd),
+            smoothed: score::scores(smo),
+            nees_horizontal_bounds_95: score::bounds_95(2),
+            nees_position_bounds_95: score::bounds_95(3),
+        });
+        let consistency = consistency::assess(
+            &sensors,
+            truth.as_ref().and_then(|t| t.forward.as_ref()),
+            truth.as_ref().and_then(|t| t.smoothed.as_ref()),
+        );
+        warnings.extend(consistency.warnings());
+        let nav = r.init.estimate.nav;
+        let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
+        let (first_forward, last_forward) = (r.forward.first()?, r.forward.last()?);
+        let last_smoothed = r.smoothed.last()?;
+        let outputs_s = outputs_started.elapsed().as_secs_f64();
+        let summary = Summary {
+            hindsight_version: env!("CARGO_PKG_VERSION"),
+            log: job.log.display().to_string(),
+            mission: MissionSummary {
+                origin_latitude_deg: mission.origin_latitude_deg,
+                origin_longitude_deg: mission.origin_longitude_deg,
+                vehicle: mission.vehicle.clone(),
+                description: mission.description.clone(),
+            },
+            inputs,
+            tuning,
+            plan,
+            initialisation: InitSummary {
+                position_source: r.init.position.name(),
+                position_sigma_m: r.init.position_sigma_m,
+                velocity_source: r.init.velocity.name(),
+                velocity_sigma_m_s: r.init.velocity_sigma_m_s,
+                heading_source: r.init.heading.name(),
+                heading_sigma_deg: r.init.heading_sigma_deg,
+                tilt_sigma_deg: r.init.tilt_sigma_deg,
+                latitude_deg: nav.lat_rad.to_degrees(),
+                longitude_deg: nav.lon_rad.to_degrees(),
+                depth_m: -nav.height_m,
+                roll_deg: roll.to_degrees(),
+                pitch_deg: pitch.to_degrees(),
+                yaw_deg: yaw.to_degrees(),
+                heading_sources: r.init.heading_sources.clone(),
+                heading_unavailable: r.init.heading_unavailable.clone(),
+                declination: r.init.declination,
+                in_motion_alignment: r.init.in_motion.clone(),
+            },
+            magnetometer: MagSummary {
+                readings_used: r.mag.used,
+                saturated_spans: r.mag.saturated.clone(),
+                calibrated: r.mag.calibration.is_some(),
+                calibration_skipped: r.mag.calibration_skipped.clone(),
+                magnitude_variation_pct: r.mag.magnitude_variation * 100.0,
+                deviation_unknown: r.mag.deviation_unknown,
+                reference_field_nt: r.mag.reference_norm_t * 1e9,
+                skipped_by_interval: r.run.by_interval[Sensor::Magnetometer],
+                disturbed: r.run.disturbed[Sensor::Magnetometer],
+            },
+            epochs: r.forward.len(),
+            trajectory_rows_per_solution: keep.len(),
+            residuals: r.run.residuals.len(),
+            rejected: r.run.residuals.iter().filter(|x| !x.accepted).count(),
+            dvl_out_of_range: r.run.unused[Sensor::Dvl],
+            dvl_calibration: dvl_used
+                .then_some(last_forward.as_ref())
+                .flatten()
+                .map(|last| calibration::report(last, &config.dvl.calibration_sigma())),
+            water: (config.eml.enabled
+                && !r.run.residuals.iter().all(|x| x.sensor != Sensor::SpeedLog))
+            .then_some(last_forward.as_ref())
+            .flatten()
+            .map(|last| {
+                calibration::water_report(
+                    last,
+                    &[
+                        config.eml.scale_sigma,
+                        config.eml.current_sigma_m_s,
+                        config.eml.current_sigma_m_s,
+                    ],
+                )
+            }),
+            gyro_scale_factor_z: last_forward
+                .as_ref()
+                .map(|last| calibration::gyro_scale_report(last, config.imu.spec().gyro_scale())),
+            depth_skipped_by_interval: r.run.by_interval[Sensor::Depth],
+            eml_too_slow: r.run.unused[Sensor::SpeedLog],
+            gate_resets: r.run.gate_resets,
+            imu_gaps: r
+                .run
+                .imu_gaps
+                .iter()
+                .map(|g| GapSummary {
+                    from_ns: g.from_ns,
+                    to_ns: g.to_ns,
+                    seconds: (g.to_ns - g.from_ns) as f64 * 1e-9,
+                })
+                .collect(),
+            sensors,
+            duration_s: match (&first_forward, &last_forward) {
+                (Some(a), Some(b)) => (b.stamp_ns - a.stamp_ns) as f64 * 1e-9,
+                _ => 0.0,
+            },
+            distance_travelled_m: stats::distance_travelled_m(r.smoothed.iter())?,
+            final_sigma: FinalSigma {
+                forward: final_sigma(last_forward.as_ref()),
+                smoothed: final_sigma(last_smoothed.as_ref()),
+            },
+            truth,
+            consistency,
+            warnings,
+            run_time_s: RunTime {
+                ingest: ingest_s,
+                plan: times.plan_s,
+                magnetometer: times.magnetometer_s,
+                align: times.align_s,
+                tune: times.tune_s,
+                forward: times.forward_s,
+                clock_search: times.clock_search_s,
+                smoother: times.smoother_s,
+                outputs: outputs_s,
+                report: 0.0,
+                total: started.elapsed().as_secs_f64(),
+            },
+            config,
+        };
+        if let Some(t) = &summary.tuning {
+            let path = job.out.join("tuned.toml");
+            let mut file = staging
+                .create(&path)
+                .with_context(|| OutputFailed { path: path.clone() })?;
+            std::io::Write::write_all(&mut file, t.as_toml().as_bytes())
+                .with_context(|| OutputFailed { path: path.clone() })?;
+            written.push(path);
+        }
+        let report_started = Instant::now();
+        let page = report::build(&report::Inputs {
+            summary: &summary,
+            r: &r,
+            keep: &keep,
+            origin_rad: origin,
+            from_log: &from_log,
+            truth_errors: truth_errors.as_ref(),
+            init_text: r.init.to_string(),
+        })
+        .context("reading the solutions back for report.html")?;
+        super::write_report(&mut staging, &job.out, &page, &mut written)?;
+        let mut summary = summary;
+        summary.run_time_s.report = report_started.elapsed().as_secs_f64();
+        summary.run_time_s.outputs += summary.run_time_s.report;
+        summary.run_time_s.total = started.elapsed().as_secs_f64();
+        let path = job.out.join("summary.json");
+        super::write_json(&mut staging, &path, &summary)?;
+        written.push(path);
+        staging.commit().with_context(|| OutputFailed {
+            path: job.out.clone(),
+        })?;
+
+        print_report(&summary);
+        for p in written {
+            out!("wrote {}", p.display());
+        }
+        Ok(())
     }
-    Ok(())
 }
 
 fn indent(text: &str) -> String {

@@ -3,7 +3,7 @@
 //! mission with the DVL stamps shifted, and say which shift fits best.
 
 use super::config::Config;
-use super::{forward_scored, Streams};
+use super::{forward_with, Prepared, Streams};
 use crate::contract::{Dvl, Imu};
 use crate::filters::ins::aiding::Sensor;
 use crate::ingest::Mission;
@@ -16,7 +16,7 @@ pub const COARSE_SPAN_S: f64 = 5.0;
 const FINE_STEP_S: f64 = 0.1;
 
 /// A suggested offset for the DVL's stamps and how well it fits.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct OffsetSuggestion {
     /// What to pass as `--offset /dvl=SECONDS` (added to the stamps).
     pub offset_s: f64,
@@ -34,6 +34,7 @@ fn dvl_fit(
     mission: &Mission,
     config: &Config,
     offset_s: f64,
+    from: Prepared<'_>,
 ) -> Option<f64> {
     let shift = (offset_s * 1e9).round() as i64;
     let dvl: Vec<Dvl> = streams
@@ -49,7 +50,9 @@ fn dvl_fit(
         dvl: &dvl,
         ..*streams
     };
-    let run = forward_scored(&shifted, mission, config).ok()?.run;
+    let run = forward_with(&shifted, mission, config, from.scored())
+        .ok()?
+        .run;
     let nis: Vec<f64> = run
         .residuals
         .iter()
@@ -60,11 +63,13 @@ fn dvl_fit(
 }
 
 /// The DVL offset that minimises its innovations over the first ten minutes, when it fits
-/// clearly better (mean NIS at most half) than no offset.
+/// clearly better (mean NIS at most half) than no offset. The candidates start from `from`'s
+/// settled heading when it has one.
 pub fn suggest_dvl_offset(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
+    from: Prepared<'_>,
 ) -> Option<OffsetSuggestion> {
     let t0 = streams.imu.first()?.stamp_ns;
     let end = t0 + (SEARCH_WINDOW_S * 1e9) as i64;
@@ -73,7 +78,7 @@ pub fn suggest_dvl_offset(
     // for each of them would cost a dozen forward passes more.
     let mut config = config.clone();
     config.alignment.enabled = false;
-    let fit = |offset: f64| dvl_fit(streams, imu, mission, &config, offset);
+    let fit = |offset: f64| dvl_fit(streams, imu, mission, &config, offset, from);
     let unshifted = fit(0.0)?;
     let best = |candidates: Vec<f64>| {
         candidates

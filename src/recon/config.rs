@@ -38,7 +38,9 @@ estimate_biases = true     # false: the gyro and accelerometer biases and the gy
 use = true
 # sigma_m_s = 0.015        # per axis, white noise plus what scale and bias errors add
                            # (not given: estimated from the log, see [tune])
-max_altitude_m = 100.0     # readings above this altitude are out of range and not used
+# max_altitude_m = 100.0   # readings above this altitude are out of range and not used (not
+                           # given: 100, or the largest altitude the DVL reported with a
+                           # bottom lock in the log when that is larger: a long-range DVL)
 altimeter_max_age_s = 2.0  # a reading without altitude is checked against the echo
                            # sounder's (/altimeter) latest altitude of at most this age
 check_range = true         # false: use every reading, even without bottom lock or out of
@@ -47,14 +49,14 @@ lever_arm_m = [0.0, 0.0, 0.0]     # DVL position from the reference point, body 
 rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z-Y-X)
 # The DVL's calibration estimated with the trajectory (summary.json `dvl_calibration`):
 # scale factor, misalignment in pitch and heading beyond rotation_deg, and a bias along each
-# of its axes, from these prior sigmas. Where the log cannot tell them (no GNSS or fixes)
-# they stay near their priors, and the position's uncertainty grows with them. 0 holds one
-# at zero. By default only the bias is estimated: at one speed a scale error is a bias along
-# the DVL's x axis, and the bias absorbs it (scale and bias together drift along the
-# direction one speed cannot separate). A DVL survey with GNSS, fixes and lanes at more
-# than one speed can add: scale_sigma 0.005, misalignment_sigma_deg 1.0.
-scale_sigma = 0.0                 # 1-sigma of the scale factor error (0.005 = 0.5 %)
-misalignment_sigma_deg = 0.0      # 1-sigma of the mounting's pitch and heading error
+# of its axes, from these prior sigmas. 0 holds one at zero. The bias is always estimated.
+# The scale and misalignment are estimated where the log makes them observable ("auto": the
+# plan decides, summary.json `plan`): absolute positions (GNSS, fixes) far enough apart that
+# these priors would move them by more than their sigmas. Elsewhere they are held: without
+# such positions they would only drift and widen the uncertainty.
+scale_misalignment = "auto"       # true / false: estimate them, or hold them, whatever the log
+scale_sigma = 0.005               # 1-sigma of the scale factor error (0.005 = 0.5 %)
+misalignment_sigma_deg = 1.0      # 1-sigma of the mounting's pitch and heading error
 bias_sigma_m_s = 0.001            # 1-sigma of the bias, per axis (data sheets: +-0.1 cm/s)
 # "estimate": the forward filter estimates them. "consider": carried as consider states
 # (Schmidt-Kalman), never corrected, so the uncertainty they cause grows honestly where
@@ -103,8 +105,9 @@ saturation_repeats = 3     # an axis at its extreme this many readings in a row 
 # Seed 003's velocity filter: the forward speed from the propeller (/rpm) as sf rpm + b,
 # sf and b learnt from the DVL's forward speed while it is in range; while it is out (no
 # reading in range for dvl_timeout_s), that speed is a body-velocity aid [V, 0, 0].
-# Off by default until it beats switching alone on seed 003's runs (README, issue 15).
-use = false
+# "auto": used when the log has /rpm and the DVL has gaps (the plan, summary.json `plan`);
+# it refuses itself when its checks fail (propeller stuck, speed not told by the propeller).
+use = "auto"
 speed_sigma_floor_m_s = 0.02  # least scatter of the speed about the relation (the scatter
                               # itself is learnt from the log's DVL)
 max_speed_sigma_m_s = 0.25    # a larger learnt scatter: the propeller does not tell the speed
@@ -118,8 +121,9 @@ min_dvl_updates = 50          # DVL readings learnt from before the speed is use
 # and the navigation's attitude, runs beside the vehicle; a 7-state EKF estimates its depth,
 # velocity and rate errors from the depth sensor, the EM log, the gyro and the DVL, and the
 # corrected body velocity is a body-velocity aid while the DVL is out. Needs /fins, /rpm
-# and a vehicle file (the mission's `vehicle` when built in, or `vehicle` here).
-use = false
+# and a vehicle file (the mission's `vehicle` when built in, or `vehicle` here). "auto":
+# used whenever those are present (the plan); refused when the model does not fit.
+use = "auto"
 method = "proposed"           # or "virtual-sensor": the model's velocity as it is (Koifman
                               # and Bar-Itzhack), the baseline seed 000 improves on
 vehicle = ""                  # a built-in vehicle (nps-auv-ii, remus-100) or a vehicle file;
@@ -387,6 +391,8 @@ pub struct DvlConfig {
     pub check_range: bool,
     pub lever_arm_m: [f64; 3],
     pub rotation_deg: [f64; 3],
+    /// Whether the scale and misalignment are estimated (else held at zero).
+    pub scale_misalignment: crate::recon::switch::Switch,
     pub scale_sigma: f64,
     pub misalignment_sigma_deg: f64,
     pub bias_sigma_m_s: f64,
@@ -415,8 +421,9 @@ impl Default for DvlConfig {
             check_range: true,
             lever_arm_m: [0.0; 3],
             rotation_deg: [0.0; 3],
-            scale_sigma: 0.0,
-            misalignment_sigma_deg: 0.0,
+            scale_misalignment: crate::recon::switch::Switch::Auto,
+            scale_sigma: 0.005,
+            misalignment_sigma_deg: 1.0,
             bias_sigma_m_s: 0.001,
             calibration: CalibrationMode::Estimate,
         }
@@ -429,11 +436,18 @@ impl DvlConfig {
     }
 
     /// Prior 1-sigma of the calibration states: scale, misalignment pitch and heading (rad),
-    /// bias along the DVL's three axes (m/s).
+    /// bias along the DVL's three axes (m/s). The scale and misalignment are zero (held)
+    /// unless `scale_misalignment` is on.
     pub fn calibration_sigma(&self) -> [f64; 6] {
-        let m = self.misalignment_sigma_deg.to_radians();
+        let on = self.scale_misalignment.is_on();
+        let m = if on {
+            self.misalignment_sigma_deg.to_radians()
+        } else {
+            0.0
+        };
+        let sf = if on { self.scale_sigma } else { 0.0 };
         let b = self.bias_sigma_m_s;
-        [self.scale_sigma, m, m, b, b, b]
+        [sf, m, m, b, b, b]
     }
 
     /// The error states carried as consider states.
@@ -556,7 +570,7 @@ impl Default for UseConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct RpmVelocityConfig {
     #[serde(rename = "use")]
-    pub enabled: bool,
+    pub enabled: crate::recon::switch::Switch,
     pub speed_sigma_floor_m_s: f64,
     pub max_speed_sigma_m_s: f64,
     pub lateral_sigma_m_s: f64,
@@ -569,7 +583,7 @@ impl Default for RpmVelocityConfig {
     fn default() -> Self {
         let f = RpmFilter::default();
         RpmVelocityConfig {
-            enabled: false,
+            enabled: crate::recon::switch::Switch::Auto,
             speed_sigma_floor_m_s: f.speed_sigma_floor_m_s,
             max_speed_sigma_m_s: f.max_speed_sigma_m_s,
             lateral_sigma_m_s: 0.1,
@@ -583,7 +597,7 @@ impl Default for RpmVelocityConfig {
 impl RpmVelocityConfig {
     /// The aid, or `None` when not used.
     pub fn aid(&self) -> Option<RpmVelocity> {
-        self.enabled.then(|| RpmVelocity {
+        self.enabled.is_on().then(|| RpmVelocity {
             filter: RpmFilter {
                 speed_sigma_floor_m_s: self.speed_sigma_floor_m_s,
                 max_speed_sigma_m_s: self.max_speed_sigma_m_s,
@@ -755,9 +769,9 @@ impl Default for TuneConfig {
     }
 }
 
-/// The settings self-tuning may estimate (dotted keys). A configuration that gives one keeps
+/// The settings estimated from the log (self-tuning, the plan), as dotted keys. A configuration that gives one keeps
 /// it (see [`Config::fixed`]).
-pub const TUNABLE_KEYS: [&str; 11] = [
+pub const TUNABLE_KEYS: [&str; 12] = [
     "imu.grade",
     "imu.gyro_bias_deg_h",
     "imu.gyro_bias_instability_deg_h",
@@ -769,6 +783,7 @@ pub const TUNABLE_KEYS: [&str; 11] = [
     "dvl.sigma_m_s",
     "depth.sigma_m",
     "eml.sigma_m_s",
+    "dvl.max_altitude_m",
 ];
 
 /// Everything a reconstruction can be told.
@@ -811,8 +826,8 @@ impl Config {
             Sensor::SpeedLog => self.eml.enabled,
             Sensor::PositionFix => self.position_fix.enabled,
             Sensor::Magnetometer => self.mag.enabled,
-            Sensor::RpmVelocity => self.rpm_velocity.enabled,
-            Sensor::ModelVelocity => self.model_velocity.enabled,
+            Sensor::RpmVelocity => self.rpm_velocity.enabled.is_on(),
+            Sensor::ModelVelocity => self.model_velocity.enabled.is_on(),
         }
     }
 }
@@ -821,7 +836,7 @@ impl Config {
 #[serde(deny_unknown_fields, default)]
 pub struct ModelVelocityConfig {
     #[serde(rename = "use")]
-    pub enabled: bool,
+    pub enabled: crate::recon::switch::Switch,
     pub method: ModelMethod,
     pub vehicle: String,
     pub correlation_s: f64,
@@ -841,7 +856,7 @@ pub enum ModelMethod {
 impl Default for ModelVelocityConfig {
     fn default() -> Self {
         ModelVelocityConfig {
-            enabled: false,
+            enabled: crate::recon::switch::Switch::Auto,
             method: ModelMethod::Proposed,
             vehicle: String::new(),
             correlation_s: 30.0,

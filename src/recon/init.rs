@@ -545,6 +545,20 @@ pub fn initial_covariance(
 impl Initialisation {
     /// The initial estimate turned to another heading (rad) with another heading sigma (deg):
     /// attitude and velocity turned about the vertical, covariance rebuilt.
+    /// Takes the heading of a start settled before (its value and sigma, the sources, their
+    /// disagreements, the in-motion bank); the rest (position, velocity, tilt, the IMU's
+    /// prior) stays this initialisation's.
+    pub fn adopt_heading(&mut self, settled: &Initialisation) {
+        let (_, _, yaw) = settled.estimate.nav.ned_from_body.euler_angles();
+        self.estimate = self.estimate_with_heading(yaw, settled.heading_sigma_deg);
+        self.heading = settled.heading;
+        self.heading_sigma_deg = settled.heading_sigma_deg;
+        self.heading_sources = settled.heading_sources.clone();
+        self.heading_unavailable = settled.heading_unavailable.clone();
+        self.heading_disagreements = settled.heading_disagreements.clone();
+        self.in_motion = settled.in_motion.clone();
+    }
+
     pub fn estimate_with_heading(&self, yaw_rad: f64, sigma_deg: f64) -> Estimate {
         let nav = &self.estimate.nav;
         let (_, _, yaw) = nav.ned_from_body.euler_angles();

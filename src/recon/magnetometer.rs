@@ -40,6 +40,22 @@ pub struct PreparedMag {
     pub reference_norm_t: f64,
 }
 
+impl PreparedMag {
+    /// What was done, without the readings (kept for the summary once a pass used them).
+    pub fn without_readings(&self) -> PreparedMag {
+        PreparedMag {
+            readings: Vec::new(),
+            used: self.used,
+            saturated: self.saturated.clone(),
+            calibration: self.calibration,
+            calibration_skipped: self.calibration_skipped.clone(),
+            magnitude_variation: self.magnitude_variation,
+            deviation_unknown: self.deviation_unknown,
+            reference_norm_t: self.reference_norm_t,
+        }
+    }
+}
+
 /// Saturation check, then the calibration (when asked and the turns allow), then the
 /// reference magnitude and the deviation check.
 pub fn prepare(mag: &[MagneticField], cfg: &MagConfig) -> PreparedMag {

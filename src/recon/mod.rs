@@ -17,8 +17,11 @@ pub mod in_run;
 pub mod init;
 pub mod magnetometer;
 pub mod model_velocity;
+pub mod pipeline;
+pub mod plan;
 pub mod score;
 pub mod stats;
+pub mod switch;
 pub mod tune;
 
 use crate::contract::Imu;
@@ -122,10 +125,23 @@ pub struct ForwardPass {
     pub mag: magnetometer::PreparedMag,
     pub run: ForwardRun,
     /// What the aiding sources said (a source that could not be used, and why).
-    pub aid_notes: Vec<String>,
+    pub aid_notes: Vec<AidNote>,
     pub time: Duration,
     /// The attitude the model-aided velocity was driven by (a pass without it), when it ran.
     pub model_attitude: Option<AttitudeTrack>,
+}
+
+/// What an aiding source said of itself (it could not be used, and why).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AidNote {
+    pub sensor: Sensor,
+    pub text: String,
+}
+
+impl std::fmt::Display for AidNote {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.text)
+    }
 }
 
 /// The attitude of a forward pass without the model-aided velocity: what the model is
@@ -154,33 +170,57 @@ pub fn forward_scored(
         mission,
         config,
         PassOptions {
-            keep_records: false,
+            scored_only: true,
             ..PassOptions::default()
         },
     )
 }
 
+/// The magnetometer's readings a pass uses.
+#[derive(Default)]
+pub enum MagInput<'a> {
+    /// Prepared by the pass from `streams.mag` (and freed after it).
+    #[default]
+    FromStreams,
+    /// Already prepared ([`magnetometer::prepare_owned`], moved out of the log so that a long
+    /// mission's are not held twice): the pass keeps them in [`ForwardPass::mag`].
+    Owned(Box<magnetometer::PreparedMag>),
+    /// Already prepared and shared by several passes (the pipeline's tuning candidates).
+    Shared(&'a magnetometer::PreparedMag),
+}
+
 /// How a forward pass is made, beyond its log and configuration.
+#[derive(Default)]
 pub struct PassOptions<'a> {
     /// The attitude the model-aided velocity is driven by (see [`forward_sharing`]).
     pub shared_attitude: Option<AttitudeTrack>,
     /// Told how far the final pass has come.
     pub progress: Progress<'a>,
-    /// The magnetometer's readings already prepared ([`magnetometer::prepare_owned`], moved
-    /// out of the log so that a long mission's are not held twice), used instead of
-    /// `streams.mag`; the pass keeps them in [`ForwardPass::mag`].
-    pub mag: Option<magnetometer::PreparedMag>,
-    /// Keep the epoch records for the smoother.
-    pub keep_records: bool,
+    pub mag: MagInput<'a>,
+    /// Keep no epoch records (a pass that is only scored cannot be smoothed).
+    pub scored_only: bool,
+    /// A start whose heading is already settled (the pipeline's alignment): its heading, its
+    /// sources and its in-motion bank are taken instead of aligning again, unless the
+    /// configuration's own sources give a sharper heading.
+    pub start: Option<&'a Initialisation>,
 }
 
-impl Default for PassOptions<'_> {
-    fn default() -> Self {
+/// What the pipeline has prepared once for the passes it scores (tuning candidates, clock
+/// offsets): a start whose heading is settled, and the magnetometer's readings.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Prepared<'a> {
+    pub start: Option<&'a Initialisation>,
+    pub mag: Option<&'a magnetometer::PreparedMag>,
+}
+
+impl<'a> Prepared<'a> {
+    /// The options of a pass that is only scored, from what is prepared.
+    pub fn scored(self) -> PassOptions<'a> {
         PassOptions {
-            shared_attitude: None,
-            progress: None,
-            mag: None,
-            keep_records: true,
+            scored_only: true,
+            start: self.start,
+            mag: self.mag.map_or(MagInput::FromStreams, MagInput::Shared),
+            ..PassOptions::default()
         }
     }
 }
@@ -228,29 +268,146 @@ pub fn forward_with(
     let PassOptions {
         shared_attitude,
         progress,
-        mag: prepared,
-        keep_records,
+        mag: mag_input,
+        scored_only,
+        start,
     } = options;
-    let keep_mag = prepared.is_some();
-    let mut settings = config.settings();
-    let mag = match prepared {
-        Some(mag) if config.mag.enabled => mag,
-        _ if config.mag.enabled => magnetometer::prepare(streams.mag, &config.mag),
-        _ => magnetometer::PreparedMag::default(),
+    let (mut owned, shared, keep_owned) = match mag_input {
+        MagInput::Shared(m) => (None, config.mag.enabled.then_some(m), false),
+        MagInput::Owned(m) => (config.mag.enabled.then_some(*m), None, true),
+        MagInput::FromStreams => (
+            config
+                .mag
+                .enabled
+                .then(|| magnetometer::prepare(streams.mag, &config.mag)),
+            None,
+            false,
+        ),
     };
-    // A sensor the configuration leaves out is an empty stream from here on; the
-    // magnetometer's are its prepared readings.
+    let mag: &magnetometer::PreparedMag = match shared {
+        Some(m) => m,
+        None => owned.get_or_insert_with(Default::default),
+    };
+    let streams = used_streams(streams, config, &mag.readings);
+    let (settings, mut init) = initialise_for(&streams, mission, config, mag)?;
+    let stamps = output_stamps(streams.imu, config.output.rate_hz);
+    let mut aids = settings.aiding.table(&streams, mission_origin_rad(mission));
+    let inputs = Inputs {
+        imu: streams.imu,
+        aids: &aids,
+        output_stamps_ns: &stamps,
+        progress: None,
+        keep_records: !scored_only,
+    };
+    let started = Instant::now();
+    match start {
+        // A start settled with other figures is taken unless this configuration's own
+        // sources give a sharper heading (a gyrocompass its IMU figures allow).
+        Some(start) if !config.initial.from_truth => {
+            let own_sharper = init.heading != heading::HeadingSource::Unknown
+                && init.heading_sigma_deg < start.heading_sigma_deg;
+            if !own_sharper {
+                init.adopt_heading(start);
+            }
+        }
+        _ => settle_heading(&settings, &inputs, &mut init, config)?,
+    }
+    let mut aid_notes: Vec<AidNote> = Vec::new();
+    let model = config
+        .uses(Sensor::ModelVelocity)
+        .then(|| model_velocity::model_for(&config.model_velocity, mission))
+        .transpose()
+        .map_err(ReconError::Vehicle)?;
+    // Seed 000: the model runs on the attitude of a pass without it (this one's, or one
+    // handed in), and the pass is made with its velocity.
+    let model = match model {
+        Some(Ok(model)) => Some(match shared_attitude {
+            Some(track) => (model, track),
+            None => (model, attitude_of_pass(&settings, &inputs, &init)?),
+        }),
+        Some(Err(why)) => {
+            aid_notes.push(AidNote {
+                sensor: Sensor::ModelVelocity,
+                text: format!("model_velocity: not used: {why}"),
+            });
+            None
+        }
+        None => None,
+    };
+    let keep_records = inputs.keep_records;
+    if let Some((model, attitude)) = &model {
+        aids.push(Box::new(model_aid(
+            model, &streams, attitude, config, &settings,
+        )));
+    }
+    let inputs = Inputs {
+        imu: streams.imu,
+        aids: &aids,
+        output_stamps_ns: &stamps,
+        progress,
+        keep_records,
+    };
+    let run = run_forward(&settings, &inputs, init.estimate)?;
+    aid_notes.extend(aids.iter().flat_map(|aid| {
+        let sensor = aid.sensor();
+        aid.notes()
+            .into_iter()
+            .map(move |text| AidNote { sensor, text })
+    }));
+    drop(aids); // it borrows the magnetometer's readings
+                // Readings prepared here are a copy of the log's: freed. Readings handed in are kept
+                // (the log no longer has them).
+    let summary = (!keep_owned).then(|| mag.without_readings());
+    let mag = match (owned, summary) {
+        (_, Some(summary)) => summary,
+        (Some(mag), None) => mag,
+        (None, None) => magnetometer::PreparedMag::default(),
+    };
+    let attitude = model.map(|(_, attitude)| attitude);
+    Ok(ForwardPass {
+        init,
+        mag,
+        run,
+        aid_notes,
+        time: started.elapsed(),
+        model_attitude: attitude,
+    })
+}
+
+/// The streams a pass reads: a sensor the configuration leaves out is an empty stream, and
+/// the magnetometer's are its prepared readings.
+fn used_streams<'a>(
+    streams: &Streams<'a>,
+    config: &Config,
+    mag: &'a [crate::contract::MagneticField],
+) -> Streams<'a> {
     let streams = Sensor::ALL
         .into_iter()
         .filter(|&s| !config.uses(s))
         .fold(*streams, |kept, s| s.left_out_of(kept));
-    let streams = Streams {
-        mag: &mag.readings,
-        ..streams
-    };
+    Streams { mag, ..streams }
+}
+
+/// The mission origin, rad.
+fn mission_origin_rad(mission: &Mission) -> (f64, f64) {
+    (
+        mission.origin_latitude_deg.to_radians(),
+        mission.origin_longitude_deg.to_radians(),
+    )
+}
+
+/// The filter's settings and the initial estimate from the log (or from `/truth`, as a study
+/// asks), with the magnetometer's aiding set from the declination found.
+fn initialise_for(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    mag: &magnetometer::PreparedMag,
+) -> Result<(crate::filters::ins::driver::Settings, Initialisation), ReconError> {
+    let mut settings = config.settings();
     let speed_of_rpm = rpm_speed(mission, config);
     let mut init = init::initialise(
-        &streams,
+        streams,
         mission,
         &InitSettings {
             initial: &config.initial,
@@ -268,7 +425,6 @@ pub fn forward_with(
             speed_of_rpm: speed_of_rpm.as_ref().map(|f| f as &dyn Fn(f64) -> f64),
         },
     )?;
-
     if config.initial.from_truth {
         let truth = crate::align::latest_at(streams.truth, init.estimate_stamp_ns)
             .map(|(t, _)| t)
@@ -286,109 +442,97 @@ pub fn forward_with(
             reference_norm_t: mag.reference_norm_t,
             max_norm_deviation: config.mag.max_field_deviation,
         });
-    let stamps = output_stamps(streams.imu, config.output.rate_hz);
-    let origin_rad = (
-        mission.origin_latitude_deg.to_radians(),
-        mission.origin_longitude_deg.to_radians(),
-    );
-    let mut aids = settings.aiding.table(&streams, origin_rad);
+    Ok((settings, init))
+}
+
+/// The start heading: checked by the in-motion alignment when it is on; without it, a start
+/// with no heading source is refused.
+fn settle_heading(
+    settings: &crate::filters::ins::driver::Settings,
+    inputs: &Inputs<'_>,
+    init: &mut Initialisation,
+    config: &Config,
+) -> Result<(), ReconError> {
+    if config.alignment.enabled && !config.initial.from_truth {
+        align_in_motion(settings, inputs, init, config)
+    } else if init.heading == heading::HeadingSource::Unknown {
+        Err(InitError::NoHeading(init.heading_unavailable.join("; ")).into())
+    } else {
+        Ok(())
+    }
+}
+
+/// The initial estimate with its heading settled (sources, then the in-motion alignment when
+/// it is on), as a forward pass with this configuration would start: the pipeline's start.
+pub fn settled_start(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    mag: &magnetometer::PreparedMag,
+) -> Result<Initialisation, ReconError> {
+    let mag_readings = if config.mag.enabled {
+        &mag.readings[..]
+    } else {
+        &[]
+    };
+    let streams = used_streams(streams, config, mag_readings);
+    let (settings, mut init) = initialise_for(&streams, mission, config, mag)?;
+    let aids = settings.aiding.table(&streams, mission_origin_rad(mission));
     let inputs = Inputs {
         imu: streams.imu,
         aids: &aids,
-        output_stamps_ns: &stamps,
+        output_stamps_ns: &[],
         progress: None,
-        keep_records,
+        // The alignment smooths its winner back to the start: it needs the records.
+        keep_records: true,
     };
-    let started = Instant::now();
-    if config.alignment.enabled {
-        align_in_motion(&settings, &inputs, &mut init, config)?;
-    } else if init.heading == heading::HeadingSource::Unknown {
-        return Err(InitError::NoHeading(init.heading_unavailable.join("; ")).into());
-    }
-    let mut aid_notes: Vec<String> = Vec::new();
-    let model = config
-        .uses(Sensor::ModelVelocity)
-        .then(|| model_velocity::model_for(&config.model_velocity, mission))
-        .transpose()
-        .map_err(ReconError::Vehicle)?;
-    let (run, attitude) = match model {
-        // Seed 000: the model runs on the attitude of a pass without it (this one's, or one
-        // handed in), and the pass is made with its velocity.
-        Some(Ok(model)) => {
-            let attitude = match shared_attitude {
-                Some(track) => track,
-                None => Arc::new(
-                    model_velocity::attitude_track(
-                        &run_forward(
-                            &settings,
-                            &Inputs {
-                                keep_records: true,
-                                ..inputs
-                            },
-                            init.estimate,
-                        )?
-                        .records,
-                    )
-                    .map_err(|e| SmoothError::Records(e.to_string()))?,
-                ),
-            };
-            let dvl_in_range = settings.aiding.dvl(&streams).in_range_body_velocities();
-            let filter = ModelAidedFilter {
-                depth_sigma_m: config.depth.sigma_m,
-                eml_sigma_m_s: config.eml.sigma_m_s,
-                dvl_sigma_m_s: config.dvl.sigma_m_s,
-                ..ModelAidedFilter::default()
-            };
-            aids.push(Box::new(model_velocity::aid(
-                &model,
-                &streams,
-                &attitude,
-                &dvl_in_range,
-                &config.model_velocity,
-                &filter,
-            )));
-            let inputs = Inputs {
-                imu: streams.imu,
-                aids: &aids,
-                output_stamps_ns: &stamps,
-                progress,
-                keep_records,
-            };
-            (
-                run_forward(&settings, &inputs, init.estimate)?,
-                Some(attitude),
-            )
-        }
-        Some(Err(why)) => {
-            aid_notes.push(format!("model_velocity: not used: {why}"));
-            let inputs = Inputs { progress, ..inputs };
-            (run_forward(&settings, &inputs, init.estimate)?, None)
-        }
-        None => {
-            let inputs = Inputs { progress, ..inputs };
-            (run_forward(&settings, &inputs, init.estimate)?, None)
-        }
+    settle_heading(&settings, &inputs, &mut init, config)?;
+    Ok(init)
+}
+
+/// The attitude of a pass without the model aid: what drives the model.
+fn attitude_of_pass(
+    settings: &crate::filters::ins::driver::Settings,
+    inputs: &Inputs<'_>,
+    init: &Initialisation,
+) -> Result<AttitudeTrack, ReconError> {
+    let run = run_forward(
+        settings,
+        &Inputs {
+            keep_records: true,
+            ..*inputs
+        },
+        init.estimate,
+    )?;
+    Ok(Arc::new(
+        model_velocity::attitude_track(&run.records)
+            .map_err(|e| SmoothError::Records(e.to_string()))?,
+    ))
+}
+
+/// Seed 000's model aid over the log, driven by `attitude`.
+fn model_aid(
+    model: &crate::vehicle::six_dof::model::SixDof,
+    streams: &Streams<'_>,
+    attitude: &[crate::filters::velocity::model_aided::AttitudeAt],
+    config: &Config,
+    settings: &crate::filters::ins::driver::Settings,
+) -> crate::filters::ins::aids::ModelVelocityAid {
+    let dvl_in_range = settings.aiding.dvl(streams).in_range_body_velocities();
+    let filter = ModelAidedFilter {
+        depth_sigma_m: config.depth.sigma_m,
+        eml_sigma_m_s: config.eml.sigma_m_s,
+        dvl_sigma_m_s: config.dvl.sigma_m_s,
+        ..ModelAidedFilter::default()
     };
-    aid_notes.extend(aids.iter().flat_map(|aid| aid.notes()));
-    drop(aids); // it borrows the magnetometer's readings
-                // Readings prepared here are a copy of the log's: freed. Readings handed in are kept
-                // (the log no longer has them).
-    let mag = if keep_mag {
-        mag
-    } else {
-        magnetometer::PreparedMag {
-            readings: Vec::new(),
-            ..mag
-        }
-    };
-    Ok(ForwardPass {
-        init,
-        mag,
-        run,
-        aid_notes,
-        time: started.elapsed(),
-        model_attitude: attitude,
-    })
+    model_velocity::aid(
+        model,
+        streams,
+        attitude,
+        &dvl_in_range,
+        &config.model_velocity,
+        &filter,
+    )
 }
 
 /// The in-motion alignment: a decisive heading other than the initial one replaces it (with a
@@ -471,27 +615,29 @@ pub fn magnetometer_warnings(
     saturated.chain(deviation).collect()
 }
 
-/// Runs the whole reconstruction: initialisation, forward filter, smoother.
+/// The library's entry: the whole default workflow ([`pipeline::run`]: the plan decided from
+/// the log, the start settled, self-tuning, the forward pass with every aid of the plan, the
+/// smoother), its solutions returned. [`pipeline::run`] also gives the plan, the tuning and
+/// the warnings.
 pub fn reconstruct(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
 ) -> Result<Reconstruction, ReconError> {
-    reconstruct_sharing(streams, mission, config, None).map(|(r, _)| r)
+    pipeline::run(streams, mission, config, pipeline::Options::default()).map(|o| o.reconstruction)
 }
 
-/// [`reconstruct`] with [`forward_sharing`]'s shared attitude; also gives back the attitude
-/// the model aid was driven by, to share with the next.
-pub fn reconstruct_sharing(
+/// Exactly the configuration given, without a plan or tuning: initialisation, forward
+/// filter, smoother (a part left `auto` is off). For tests of one method and for studies of
+/// hand-made configurations.
+pub fn run_configured(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
-    shared_attitude: Option<AttitudeTrack>,
-) -> Result<(Reconstruction, Option<AttitudeTrack>), ReconError> {
-    let pass = forward_sharing(streams, mission, config, shared_attitude, None)?;
-    let attitude = pass.model_attitude.clone();
+) -> Result<Reconstruction, ReconError> {
+    let pass = forward(streams, mission, config)?;
     let depth_used = config.depth.enabled && !streams.depth.is_empty();
-    Ok((finish(pass, config, depth_used)?, attitude))
+    finish(pass, config, depth_used)
 }
 
 /// Smooths a forward run and turns its records into solutions (freeing the records).

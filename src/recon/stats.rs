@@ -79,14 +79,17 @@ pub fn sensor_stats(residuals: &[Residual]) -> Vec<SensorStats> {
         .collect()
 }
 
+/// A sensor whose innovations are too large for its noise setting: a mean NIS over twice its
+/// size, or over 5 % rejected (judged from 20 measurements).
+pub fn innovations_too_large(s: &SensorStats) -> bool {
+    s.count >= 20 && (s.mean_nis > 2.0 * s.dims as f64 || s.rejected as f64 / s.count as f64 > 0.05)
+}
+
 /// Warnings a navigation engineer should read: sensors whose innovations disagree with
 /// their noise settings, IMU gaps, an unknown declination.
 pub fn warnings(run: &ForwardRun, init: &Initialisation, sensors: &[SensorStats]) -> Vec<String> {
     let mut out = Vec::new();
-    let too_large = |s: &SensorStats| {
-        s.count >= 20
-            && (s.mean_nis > 2.0 * s.dims as f64 || s.rejected as f64 / s.count as f64 > 0.05)
-    };
+    let too_large = innovations_too_large;
     let flagged: Vec<&SensorStats> = sensors.iter().filter(|s| too_large(s)).collect();
     // Every judged sensor off at once points at the one thing they share: the IMU.
     let judged = sensors.iter().filter(|s| s.count >= 20).count();

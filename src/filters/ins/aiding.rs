@@ -32,6 +32,12 @@ pub enum Sensor {
     ModelVelocity,
 }
 
+impl serde::Serialize for Sensor {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
 impl Sensor {
     pub const ALL: [Sensor; 8] = [
         Sensor::Dvl,

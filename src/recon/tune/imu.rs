@@ -11,14 +11,15 @@ use super::stationary::StillNoise;
 use crate::ingest::Mission;
 use crate::recon::config::{Config, ImuConfig, ImuGrade, ImuSpec};
 use crate::recon::init::InitError;
-use crate::recon::{forward_scored, ReconError, Streams};
+use crate::recon::{forward_with, Prepared, ReconError, Streams};
 use rayon::prelude::*;
 use serde::Serialize;
 
 /// Scale of one refinement step.
 const STEP: f64 = 3.0;
-/// Refinement rounds at most.
-const MAX_ROUNDS: usize = 3;
+/// Refinement rounds at most: the search goes on while the likelihood rises, up to factors of
+/// 3^8 (6561) either way of the best grade, beyond any IMU.
+const MAX_ROUNDS: usize = 8;
 /// Least log-likelihood gain for a refinement step to be taken (below it the data cannot
 /// tell the two apart).
 const MIN_GAIN: f64 = 0.5;
@@ -123,7 +124,7 @@ pub struct Scored {
 /// The outcome of the search.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Search {
-    /// The most likely model; `None` when no pass succeeded or the search did not settle.
+    /// The most likely model; `None` when no pass succeeded.
     pub best: Option<Candidate>,
     /// Every model tried, in the order tried.
     pub tried: Vec<Scored>,
@@ -162,22 +163,25 @@ pub fn with_candidate(config: &Config, c: &Candidate, still: Option<&StillNoise>
     }
 }
 
-/// The log-likelihood of one model over the span; `None` when the pass fails. The in-motion
-/// alignment is skipped while the log has a heading source (every candidate then starts
-/// from the same heading), and used only when it has none.
+/// The log-likelihood of one model over the span; `None` when the pass fails. Every candidate
+/// starts from the settled heading when there is one; else the in-motion alignment is skipped
+/// while the log has a heading source (every candidate then starts from the same heading),
+/// and used only when it has none.
 fn score(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
     c: &Candidate,
     still: Option<&StillNoise>,
+    from: Prepared<'_>,
 ) -> Option<f64> {
     let mut cfg = with_candidate(config, c, still);
     cfg.alignment.enabled = false;
-    let pass = match forward_scored(streams, mission, &cfg) {
+    let pass = |cfg: &Config| forward_with(streams, mission, cfg, from.scored());
+    let pass = match pass(&cfg) {
         Err(ReconError::Init(InitError::NoHeading(_))) if config.alignment.enabled => {
             cfg.alignment.enabled = true;
-            forward_scored(streams, mission, &cfg)
+            pass(&cfg)
         }
         other => other,
     };
@@ -193,13 +197,14 @@ fn score_all(
     config: &Config,
     candidates: &[Candidate],
     still: Option<&StillNoise>,
+    from: Prepared<'_>,
 ) -> Vec<Scored> {
     candidates
         .par_iter()
         .map(|c| Scored {
             label: c.label(),
             candidate: *c,
-            log_likelihood: score(streams, mission, config, c, still),
+            log_likelihood: score(streams, mission, config, c, still, from),
         })
         .collect()
 }
@@ -215,13 +220,16 @@ fn best_of(scored: &[Scored]) -> Option<(Candidate, f64)> {
 ///
 /// With `still` (the white noise measured where the vehicle was still), every model takes
 /// its angle and velocity random walks from it: the search then finds the biases alone.
+/// When the refinement has not settled after [`MAX_ROUNDS`], the best model scored is still
+/// the answer (with a warning): it is the most likely of all tried.
 pub fn search(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
     still: Option<&StillNoise>,
+    from: Prepared<'_>,
 ) -> Search {
-    let mut tried = score_all(streams, mission, config, &ladder(), still);
+    let mut tried = score_all(streams, mission, config, &ladder(), still, from);
     let Some((mut best, mut best_ll)) = best_of(&tried) else {
         return Search {
             best: None,
@@ -244,7 +252,7 @@ pub fn search(
         .into_iter()
         .filter(|c| !tried.iter().any(|t| t.candidate.same_as(c)))
         .collect();
-        let round = score_all(streams, mission, config, &steps, still);
+        let round = score_all(streams, mission, config, &steps, still, from);
         let next = best_of(&round);
         tried.extend(round);
         match next {
@@ -258,22 +266,17 @@ pub fn search(
             }
         }
     }
-    if settled {
-        Search {
-            best: Some(best),
-            tried,
-            warning: None,
-        }
-    } else {
-        Search {
-            best: None,
-            warning: Some(format!(
-                "imu: the noise estimate did not settle in {MAX_ROUNDS} refinement rounds \
-                 (last: {}); the configuration's figures are used",
-                best.label()
-            )),
-            tried,
-        }
+    let warning = (!settled).then(|| {
+        format!(
+            "imu: the noise estimate was still rising after {MAX_ROUNDS} refinement rounds; \
+             the most likely model found ({}) is used",
+            best.label()
+        )
+    });
+    Search {
+        best: Some(best),
+        tried,
+        warning,
     }
 }
 

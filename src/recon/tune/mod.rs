@@ -139,6 +139,17 @@ fn slot<'c>(config: &'c mut Config, key: &str) -> &'c mut f64 {
 /// Estimates what the configuration does not give; returns the configuration to run with
 /// and the report. With `[tune] use = false`, the configuration unchanged and no report.
 pub fn tune(streams: &Streams<'_>, mission: &Mission, config: &Config) -> (Config, Option<Tuning>) {
+    tune_from(streams, mission, config, crate::recon::Prepared::default())
+}
+
+/// [`tune`], the IMU's candidates started as `from` says (the pipeline's settled heading and
+/// prepared magnetometer).
+pub fn tune_from(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    from: crate::recon::Prepared<'_>,
+) -> (Config, Option<Tuning>) {
     if !config.tune.enabled {
         return (config.clone(), None);
     }
@@ -188,7 +199,7 @@ pub fn tune(streams: &Streams<'_>, mission: &Mission, config: &Config) -> (Confi
     } else {
         let still = stationary::still_noise(streams.imu, streams.dvl);
         let span = first_span(streams, config.tune.span_s);
-        let search = imu::search(&span, mission, &tuned, still.as_ref());
+        let search = imu::search(&span, mission, &tuned, still.as_ref(), from);
         warnings.extend(search.warning);
         match search.best {
             Some(best) => {

@@ -1,0 +1,464 @@
+//! The reconstruction workflow, in one place: inspect the log, decide the plan, prepare the
+//! magnetometer, settle the start heading, tune, check the heading with the tuned figures
+//! (and tune again from it when it moved), run the forward pass with every aid of the plan,
+//! look for a DVL clock offset when its innovations say so, smooth.
+//!
+//! [`run`] does it all. A caller that must free the log before the smoother (a day-long
+//! mission's log and its records would not fit together) calls [`forward`], then
+//! [`Forward::smooth`]. The CLI's `reconstruct` and `batch`, `study` and the library's
+//! [`super::reconstruct`] all go through here.
+
+use super::clock::{self, OffsetSuggestion};
+use super::config::Config;
+use super::heading::HeadingSource;
+use super::init::Initialisation;
+use super::magnetometer::{self, PreparedMag};
+use super::plan::{LogFacts, Part, Plan};
+use super::stats::{self, SensorStats};
+use super::tune::{self, Tuning};
+use super::{
+    finish_reporting, forward_with, settled_start, AttitudeTrack, ForwardPass, MagInput,
+    PassOptions, Prepared, ReconError, Reconstruction, Streams,
+};
+use crate::angle::wrap_pi;
+use crate::contract::MagneticField;
+use crate::filters::ins::aiding::Sensor;
+use crate::ingest::Mission;
+use crate::progress::Progress;
+use serde::Serialize;
+use std::fmt;
+use std::time::{Duration, Instant};
+
+/// A stage of the pipeline, told to [`Options::on_stage`] as it starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    Plan,
+    Magnetometer,
+    Align,
+    Tune,
+    CheckAlignment,
+    Retune,
+    Forward,
+    ClockSearch,
+    Smooth,
+}
+
+impl Stage {
+    pub fn describe(self) -> &'static str {
+        match self {
+            Stage::Plan => "deciding the plan from the log",
+            Stage::Magnetometer => "preparing the magnetometer",
+            Stage::Align => "settling the start heading",
+            Stage::Tune => "self-tuning the noise figures",
+            Stage::CheckAlignment => "checking the start heading with the tuned figures",
+            Stage::Retune => "self-tuning again from the corrected heading",
+            Stage::Forward => "forward filter",
+            Stage::ClockSearch => {
+                "the DVL's innovations are too large: searching for a clock offset"
+            }
+            Stage::Smooth => "smoother",
+        }
+    }
+}
+
+/// How the pipeline reports and what it is handed beyond the log.
+#[derive(Default)]
+pub struct Options<'a> {
+    /// Told how far the forward pass has come.
+    pub forward_progress: Progress<'a>,
+    /// Told how far the smoother has come.
+    pub smoother_progress: Progress<'a>,
+    /// Told as each stage starts.
+    pub on_stage: Option<&'a dyn Fn(Stage)>,
+    /// The magnetometer's readings moved out of the log (a day's would be held twice),
+    /// used instead of `streams.mag`.
+    pub mag: Option<Vec<MagneticField>>,
+    /// The attitude the model aid is driven by, from a run of the same log (a study's
+    /// solutions share it).
+    pub shared_attitude: Option<AttitudeTrack>,
+}
+
+/// What a user should know of the run, with its data; rendered by [`fmt::Display`] and,
+/// with the command's own hints, by the CLI.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Warning {
+    /// A part the configuration switched on cannot run on this log.
+    ForcedOnRefused { part: &'static str, why: String },
+    /// An aid refused itself when it ran.
+    AidRefused { sensor: Sensor, why: String },
+    /// The checked start heading moved from the one tuning started from: tuned again.
+    Retuned {
+        tuned_from_deg: f64,
+        checked_deg: f64,
+    },
+    /// The DVL's innovations are too large; a clock offset fits better (or none does).
+    DvlClock {
+        mean_nis: f64,
+        suggestion: Option<OffsetSuggestion>,
+    },
+    /// From self-tuning.
+    Tuning { text: String },
+    /// From the forward pass's statistics and the initialisation.
+    Run { text: String },
+    /// From the magnetometer's preparation.
+    Magnetometer { text: String },
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Warning::ForcedOnRefused { part, why } => {
+                write!(f, "{part}: switched on, but not used: {why}")
+            }
+            Warning::AidRefused { why, .. } => f.write_str(why),
+            Warning::Retuned {
+                tuned_from_deg,
+                checked_deg,
+            } => write!(
+                f,
+                "self-tuning started from a heading of {tuned_from_deg:.1} deg, which the \
+                 alignment with the tuned figures moved to {checked_deg:.1} deg: tuned again \
+                 from there"
+            ),
+            Warning::DvlClock {
+                mean_nis,
+                suggestion: Some(s),
+            } => write!(
+                f,
+                "dvl: mean NIS {mean_nis:.1}; its innovations are smallest with its stamps moved \
+                 by {:.1} s (mean NIS {:.1} against {:.1} without, first 10 min): its clock may \
+                 be off by that much",
+                s.offset_s, s.mean_nis, s.mean_nis_unshifted
+            ),
+            Warning::DvlClock {
+                mean_nis,
+                suggestion: None,
+            } => write!(
+                f,
+                "dvl: mean NIS {mean_nis:.1}, and no clock offset within +-{:.0} s fits clearly \
+                 better: the DVL's clock is not the cause",
+                clock::COARSE_SPAN_S
+            ),
+            Warning::Tuning { text } | Warning::Run { text } | Warning::Magnetometer { text } => {
+                f.write_str(text)
+            }
+        }
+    }
+}
+
+/// Wall time of each stage.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct StageTimes {
+    pub plan_s: f64,
+    pub magnetometer_s: f64,
+    pub align_s: f64,
+    pub tune_s: f64,
+    pub forward_s: f64,
+    pub clock_search_s: f64,
+    pub smoother_s: f64,
+}
+
+/// The pipeline up to the forward pass: what [`Forward::smooth`] finishes.
+#[derive(Debug)]
+pub struct Forward {
+    pub facts: LogFacts,
+    pub plan: Plan,
+    /// The configuration the final pass ran with (the plan's switches, the tuned figures).
+    pub config: Config,
+    pub tuning: Option<Tuning>,
+    pub pass: ForwardPass,
+    /// Innovation statistics of the final pass, per sensor.
+    pub sensors: Vec<SensorStats>,
+    pub warnings: Vec<Warning>,
+    pub times: StageTimes,
+}
+
+/// A whole reconstruction and how it was made.
+#[derive(Debug)]
+pub struct Outcome {
+    pub facts: LogFacts,
+    pub plan: Plan,
+    pub config: Config,
+    pub tuning: Option<Tuning>,
+    pub reconstruction: Reconstruction,
+    /// The attitude the model aid was driven by, to share with a run of the same log.
+    pub model_attitude: Option<AttitudeTrack>,
+    pub sensors: Vec<SensorStats>,
+    pub warnings: Vec<Warning>,
+    pub times: StageTimes,
+}
+
+/// The whole pipeline: plan, start, tuning, forward pass, smoother.
+pub fn run(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    options: Options<'_>,
+) -> Result<Outcome, ReconError> {
+    let smoother_progress = options.smoother_progress;
+    let on_stage = options.on_stage;
+    forward(streams, mission, config, options)?.smooth(smoother_progress, on_stage)
+}
+
+/// A timer of stages that tells the caller as each starts.
+struct Stages<'a> {
+    on_stage: Option<&'a dyn Fn(Stage)>,
+    at: Instant,
+}
+
+impl Stages<'_> {
+    /// Tells the stage's start; returns the seconds since the last call.
+    fn start(&mut self, stage: Stage) -> f64 {
+        if let Some(tell) = self.on_stage {
+            tell(stage);
+        }
+        self.lap()
+    }
+
+    fn lap(&mut self) -> f64 {
+        let s = self.at.elapsed().as_secs_f64();
+        self.at = Instant::now();
+        s
+    }
+}
+
+/// The pipeline up to and including the forward pass.
+pub fn forward(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    options: Options<'_>,
+) -> Result<Forward, ReconError> {
+    let mut stages = Stages {
+        on_stage: options.on_stage,
+        at: Instant::now(),
+    };
+    let mut times = StageTimes::default();
+    stages.start(Stage::Plan);
+    let facts = LogFacts::of(streams, mission, config);
+    let mut plan = Plan::decide(&facts, config);
+    let planned = plan.apply(config);
+    let mut warnings: Vec<Warning> = plan
+        .overruled()
+        .map(|d| Warning::ForcedOnRefused {
+            part: d.name,
+            why: d.why.to_string(),
+        })
+        .collect();
+    times.plan_s = stages.start(Stage::Magnetometer);
+    let mag = prepare_mag(streams, &planned, options.mag);
+    times.magnetometer_s = stages.start(Stage::Align);
+    let settled = settle_and_tune(streams, mission, &planned, &mag, &mut stages, &mut times)?;
+    warnings.extend(settled.warnings);
+    let Settled {
+        config,
+        tuning,
+        start,
+        ..
+    } = settled;
+    times.align_s += stages.start(Stage::Forward);
+    let pass = forward_with(
+        streams,
+        mission,
+        &config,
+        PassOptions {
+            shared_attitude: options.shared_attitude,
+            progress: options.forward_progress,
+            mag: MagInput::Owned(Box::new(mag)),
+            scored_only: false,
+            start: Some(&start),
+        },
+    )?;
+    times.forward_s = stages.lap();
+    for note in &pass.aid_notes {
+        plan.refuse(Part::Aid(note.sensor), note.text.clone());
+        warnings.push(Warning::AidRefused {
+            sensor: note.sensor,
+            why: note.text.clone(),
+        });
+    }
+    let sensors = stats::sensor_stats(&pass.run.residuals);
+    warnings.extend(
+        stats::warnings(&pass.run, &pass.init, &sensors)
+            .into_iter()
+            .map(|text| Warning::Run { text }),
+    );
+    warnings.extend(
+        super::magnetometer_warnings(&pass.mag, &config.mag)
+            .into_iter()
+            .map(|text| Warning::Magnetometer { text }),
+    );
+    if let Some(t) = &tuning {
+        warnings.extend(
+            t.warnings
+                .iter()
+                .map(|text| Warning::Tuning { text: text.clone() }),
+        );
+    }
+    if let Some(dvl) = sensors
+        .iter()
+        .find(|s| s.sensor == Sensor::Dvl.name() && stats::innovations_too_large(s))
+    {
+        stages.start(Stage::ClockSearch);
+        let streams = Streams {
+            mag: &pass.mag.readings,
+            ..*streams
+        };
+        let from = Prepared {
+            start: Some(&start),
+            mag: Some(&pass.mag),
+        };
+        warnings.push(Warning::DvlClock {
+            mean_nis: dvl.mean_nis,
+            suggestion: clock::suggest_dvl_offset(&streams, mission, &config, from),
+        });
+        times.clock_search_s = stages.lap();
+    }
+    Ok(Forward {
+        facts,
+        plan,
+        config,
+        tuning,
+        pass,
+        sensors,
+        warnings,
+        times,
+    })
+}
+
+impl Forward {
+    /// Smooths the forward pass (its records are turned into solutions and freed).
+    pub fn smooth(
+        self,
+        progress: Progress<'_>,
+        on_stage: Option<&dyn Fn(Stage)>,
+    ) -> Result<Outcome, ReconError> {
+        if let Some(tell) = on_stage {
+            tell(Stage::Smooth);
+        }
+        let started = Instant::now();
+        let depth_used = self.plan.uses(Part::Aid(Sensor::Depth));
+        let model_attitude = self.pass.model_attitude.clone();
+        let reconstruction = finish_reporting(self.pass, &self.config, depth_used, progress)?;
+        let mut times = self.times;
+        times.smoother_s = started.elapsed().as_secs_f64();
+        Ok(Outcome {
+            facts: self.facts,
+            plan: self.plan,
+            config: self.config,
+            tuning: self.tuning,
+            reconstruction,
+            model_attitude,
+            sensors: self.sensors,
+            warnings: self.warnings,
+            times,
+        })
+    }
+
+    /// Seconds the forward pass took.
+    pub fn forward_time(&self) -> Duration {
+        self.pass.time
+    }
+}
+
+/// The magnetometer's readings prepared once (moved in, or copied from the streams).
+fn prepare_mag(
+    streams: &Streams<'_>,
+    config: &Config,
+    owned: Option<Vec<MagneticField>>,
+) -> PreparedMag {
+    if !config.mag.enabled {
+        return PreparedMag::default();
+    }
+    match owned {
+        Some(readings) => magnetometer::prepare_owned(readings, &config.mag),
+        None => magnetometer::prepare(streams.mag, &config.mag),
+    }
+}
+
+/// The start and the figures the final pass runs with.
+struct Settled {
+    config: Config,
+    tuning: Option<Tuning>,
+    start: Initialisation,
+    warnings: Vec<Warning>,
+}
+
+/// Settles the start heading, tunes from it, checks the heading with the tuned figures and,
+/// when the check moved it beyond the two sigmas, tunes again from the checked heading.
+///
+/// The first heading is settled with the configured (or default) figures; when those cannot
+/// settle it (no source, no decisive alignment), tuning scores each candidate with its own
+/// alignment instead.
+fn settle_and_tune(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    mag: &PreparedMag,
+    stages: &mut Stages<'_>,
+    times: &mut StageTimes,
+) -> Result<Settled, ReconError> {
+    if !config.tune.enabled {
+        let start = settled_start(streams, mission, config, mag)?;
+        return Ok(Settled {
+            config: config.clone(),
+            tuning: None,
+            start,
+            warnings: Vec::new(),
+        });
+    }
+    let first = settled_start(streams, mission, config, mag).ok();
+    times.align_s += stages.start(Stage::Tune);
+    // The candidates are scored without the model aid: it would cost each a pass more, and
+    // the IMU's noise is to be learnt from the sensors, not from the model's errors.
+    let mut scoring = config.clone();
+    scoring.model_velocity.enabled = super::switch::Switch::Off;
+    let tune_from = |start: Option<&Initialisation>| {
+        let from = Prepared {
+            start,
+            mag: Some(mag),
+        };
+        let (mut tuned, tuning) = tune::tune_from(streams, mission, &scoring, from);
+        tuned.model_velocity = config.model_velocity.clone();
+        (tuned, tuning)
+    };
+    let (tuned, tuning) = tune_from(first.as_ref());
+    times.tune_s += stages.start(Stage::CheckAlignment);
+    let checked = settled_start(streams, mission, &tuned, mag)?;
+    let moved = first
+        .as_ref()
+        .and_then(|first| heading_moved(first, &checked));
+    let Some((tuned_from_deg, checked_deg)) = moved else {
+        return Ok(Settled {
+            config: tuned,
+            tuning,
+            start: checked,
+            warnings: Vec::new(),
+        });
+    };
+    times.align_s += stages.start(Stage::Retune);
+    let (tuned, tuning) = tune_from(Some(&checked));
+    times.tune_s += stages.start(Stage::CheckAlignment);
+    let start = settled_start(streams, mission, &tuned, mag)?;
+    Ok(Settled {
+        config: tuned,
+        tuning,
+        start,
+        warnings: vec![Warning::Retuned {
+            tuned_from_deg,
+            checked_deg,
+        }],
+    })
+}
+
+/// The two headings (deg, [0, 360)) when the second is off the first by more than twice
+/// their combined sigma and came from the in-motion alignment.
+fn heading_moved(first: &Initialisation, checked: &Initialisation) -> Option<(f64, f64)> {
+    let yaw = |i: &Initialisation| i.estimate.nav.ned_from_body.euler_angles().2;
+    let difference_deg = wrap_pi(yaw(checked) - yaw(first)).to_degrees().abs();
+    let sigma_deg = first.heading_sigma_deg.hypot(checked.heading_sigma_deg);
+    let deg = |i: &Initialisation| yaw(i).to_degrees().rem_euclid(360.0);
+    (checked.heading == HeadingSource::InMotion && difference_deg > 2.0 * sigma_deg)
+        .then(|| (deg(first), deg(checked)))
+}

@@ -1,0 +1,716 @@
+//! The plan: which aids, calibration states and stages a reconstruction uses, decided from
+//! the log, and why.
+//!
+//! [`LogFacts::of`] inspects the log (what is present, where the DVL is out, how far apart its
+//! absolute positions are); [`Plan::decide`] applies the rules a navigation engineer expects
+//! to those facts and to what the configuration switched; [`Plan::apply`] turns the
+//! decisions into the configuration the passes run with. A part that refuses itself while
+//! running (a propeller that does not tell the speed, a vehicle model that does not fit) is
+//! marked afterwards with [`Plan::refuse`].
+
+use super::config::Config;
+use super::switch::Switch;
+use super::Streams;
+use crate::filters::ins::aiding::Sensor;
+use crate::ingest::Mission;
+use serde::Serialize;
+use std::fmt;
+
+/// A DVL gap: this long without a reading in range (bottom lock, altitude) while the IMU runs.
+pub const DVL_GAP_S: f64 = 30.0;
+
+/// The configuration key of the DVL's range.
+pub const DVL_RANGE_KEY: &str = "dvl.max_altitude_m";
+
+/// A pair of absolute positions makes the DVL's scale and misalignment observable when the
+/// error their priors would build up between the two is this many times the pair's sigma.
+pub const OBSERVABLE_RATIO: f64 = 2.0;
+
+/// Absolute positions kept for the pair search (the best of each stretch).
+const MAX_POSITIONS: usize = 200;
+
+/// What the log holds that the plan is decided from.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LogFacts {
+    /// Readings per aiding sensor, in [`Sensor::ALL`]'s order.
+    pub readings: Vec<(Sensor, usize)>,
+    pub fins: usize,
+    pub rpm: usize,
+    /// DVL readings in range.
+    pub dvl_in_range: usize,
+    /// The largest altitude the DVL reported with a bottom lock: the range it showed, m.
+    pub dvl_reported_range_m: Option<f64>,
+    /// The DVL's range the passes use, m: the configured one, or (when the configuration
+    /// does not give it) the larger of the default and the range the DVL showed.
+    pub dvl_max_altitude_m: f64,
+    /// Stretches of at least [`DVL_GAP_S`] without a DVL reading in range, while the IMU
+    /// runs (after the first reading in range): their count and the longest, s.
+    pub dvl_gaps: usize,
+    pub dvl_longest_gap_s: f64,
+    /// The vehicle the model aid would use (the configuration's, else the mission's when
+    /// built in), or why there is none.
+    pub vehicle: Result<String, String>,
+    /// The farthest pair of absolute positions (GNSS, fixes), when there are two.
+    pub farthest_positions: Option<PositionPair>,
+}
+
+/// Two absolute positions and what lies between them.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PositionPair {
+    pub distance_m: f64,
+    /// Their combined 1-sigma, m.
+    pub sigma_m: f64,
+    pub seconds_apart: f64,
+}
+
+impl LogFacts {
+    /// Inspects the streams (the configuration gives the DVL's range checks and the vehicle).
+    pub fn of(streams: &Streams<'_>, mission: &Mission, config: &Config) -> LogFacts {
+        let readings = Sensor::ALL
+            .into_iter()
+            .map(|s| (s, s.readings(streams)))
+            .collect();
+        let dvl_reported_range_m = streams
+            .dvl
+            .iter()
+            .filter(|d| d.valid)
+            .filter_map(|d| d.altitude)
+            .filter(|h| h.is_finite())
+            .max_by(f64::total_cmp);
+        let dvl_max_altitude_m = match dvl_reported_range_m {
+            Some(range) if !config.fixed.contains(DVL_RANGE_KEY) => {
+                range.max(config.dvl.max_altitude_m)
+            }
+            _ => config.dvl.max_altitude_m,
+        };
+        let mut ranged = config.clone();
+        ranged.dvl.max_altitude_m = dvl_max_altitude_m;
+        let in_range: Vec<i64> = ranged
+            .settings()
+            .aiding
+            .dvl(streams)
+            .in_range_body_velocities()
+            .iter()
+            .map(|r| r.stamp_ns)
+            .collect();
+        let imu_end = streams.imu.last().map_or(0, |m| m.stamp_ns);
+        let (dvl_gaps, dvl_longest_gap_s) = gaps(&in_range, imu_end);
+        LogFacts {
+            readings,
+            fins: streams.fins.len(),
+            rpm: streams.rpm.len(),
+            dvl_in_range: in_range.len(),
+            dvl_reported_range_m,
+            dvl_max_altitude_m,
+            dvl_gaps,
+            dvl_longest_gap_s,
+            vehicle: vehicle_of(config, mission),
+            farthest_positions: farthest_positions(streams, mission),
+        }
+    }
+
+    fn count(&self, sensor: Sensor) -> usize {
+        self.readings
+            .iter()
+            .find(|(s, _)| *s == sensor)
+            .map_or(0, |(_, n)| *n)
+    }
+}
+
+/// Gaps of at least [`DVL_GAP_S`] between readings in range, and after the last one until
+/// the IMU ends: their count and the longest, s.
+fn gaps(stamps: &[i64], end_ns: i64) -> (usize, f64) {
+    let Some(&last) = stamps.last() else {
+        return (0, 0.0);
+    };
+    let lengths = stamps
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .chain([end_ns - last])
+        .map(|ns| ns as f64 * 1e-9)
+        .filter(|&s| s >= DVL_GAP_S);
+    lengths.fold((0, 0.0), |(n, longest), s| (n + 1, f64::max(longest, s)))
+}
+
+fn vehicle_of(config: &Config, mission: &Mission) -> Result<String, String> {
+    if !config.model_velocity.vehicle.is_empty() {
+        return Ok(config.model_velocity.vehicle.clone());
+    }
+    match crate::vehicle::six_dof::description::Vehicle::built_in(&mission.vehicle) {
+        Some(_) => Ok(mission.vehicle.clone()),
+        None if mission.vehicle.is_empty() => Err("the log names no vehicle".into()),
+        None => Err(format!(
+            "the mission's vehicle `{}` is not built in (give a vehicle file)",
+            mission.vehicle
+        )),
+    }
+}
+
+/// The farthest-apart pair of absolute positions (GNSS fixes and position fixes), thinned to
+/// the best-sigma position of each stretch.
+fn farthest_positions(streams: &Streams<'_>, mission: &Mission) -> Option<PositionPair> {
+    const EARTH_RADIUS_M: f64 = 6_371_000.0;
+    let (lat0, lon0) = (
+        mission.origin_latitude_deg.to_radians(),
+        mission.origin_longitude_deg.to_radians(),
+    );
+    let mut all: Vec<(i64, f64, f64, f64)> = streams
+        .gnss
+        .iter()
+        .map(|g| {
+            (
+                g.stamp_ns,
+                (g.latitude_deg.to_radians() - lat0) * EARTH_RADIUS_M,
+                (g.longitude_deg.to_radians() - lon0) * EARTH_RADIUS_M * lat0.cos(),
+                g.horizontal_sigma_m,
+            )
+        })
+        .chain(
+            streams
+                .fixes
+                .iter()
+                .map(|f| (f.stamp_ns, f.north_m, f.east_m, f.sigma_m)),
+        )
+        .filter(|p| p.3 > 0.0 && p.1.is_finite() && p.2.is_finite())
+        .collect();
+    all.sort_by_key(|p| p.0);
+    let stride = all.len().div_ceil(MAX_POSITIONS).max(1);
+    let kept: Vec<_> = all
+        .chunks(stride)
+        .filter_map(|c| c.iter().min_by(|a, b| a.3.total_cmp(&b.3)).copied())
+        .collect();
+    let mut best: Option<PositionPair> = None;
+    for (i, a) in kept.iter().enumerate() {
+        for b in &kept[i + 1..] {
+            let pair = PositionPair {
+                distance_m: (b.1 - a.1).hypot(b.2 - a.2),
+                sigma_m: a.3.hypot(b.3),
+                seconds_apart: (b.0 - a.0) as f64 * 1e-9,
+            };
+            if best.is_none_or(|x| pair.distance_m / pair.sigma_m > x.distance_m / x.sigma_m) {
+                best = Some(pair);
+            }
+        }
+    }
+    best
+}
+
+/// A part of the reconstruction the plan decides on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Part {
+    /// An aiding sensor of the table.
+    Aid(Sensor),
+    /// The DVL's scale factor and mounting misalignment states.
+    DvlScaleMisalignment,
+    /// The DVL's bias states.
+    DvlBias,
+    /// The EM log's scale factor and the water current.
+    EmlScaleCurrent,
+    /// The IMU's biases (and the z gyro's scale factor).
+    ImuBiases,
+    /// Self-tuning of the noise figures.
+    Tuning,
+    /// The in-motion heading alignment.
+    InMotionAlignment,
+}
+
+impl Part {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Part::Aid(s) => s.name(),
+            Part::DvlScaleMisalignment => "dvl scale and misalignment",
+            Part::DvlBias => "dvl bias",
+            Part::EmlScaleCurrent => "eml scale and current",
+            Part::ImuBiases => "imu biases",
+            Part::Tuning => "self-tuning",
+            Part::InMotionAlignment => "in-motion alignment",
+        }
+    }
+}
+
+/// Why a part is used or not.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum Why {
+    /// The log has its readings.
+    Present { readings: usize },
+    /// The log has none.
+    Absent { needs: String },
+    /// The DVL's readings, those in range, and the range used.
+    InRange {
+        readings: usize,
+        in_range: usize,
+        max_altitude_m: f64,
+        /// The range is the one the DVL showed in the log (the configuration gave none).
+        from_log: bool,
+    },
+    /// The DVL has readings but none in range.
+    NoneInRange {
+        readings: usize,
+        max_altitude_m: f64,
+    },
+    /// The configuration turned it on or off.
+    Switched { on: bool },
+    /// On or off by default (the configuration leaves it as it is).
+    ByDefault { on: bool },
+    /// The DVL has gaps for it to bridge.
+    DvlGaps { gaps: usize, longest_s: f64 },
+    /// The DVL has no gap for it to bridge.
+    NoDvlGaps,
+    /// The model-aided filter bridges the DVL's gaps (it models the propeller too).
+    ModelAidBridges,
+    /// Absolute positions far enough apart for the priors to show.
+    Observable {
+        distance_m: f64,
+        sigma_m: f64,
+        predicted_m: f64,
+    },
+    /// No pair of absolute positions far enough apart.
+    NotObservable { detail: String },
+    /// Its prior sigma in the configuration is zero.
+    PriorZero,
+    /// It refused itself when it ran (its own checks).
+    Refused { why: String },
+    /// The forced-on part cannot run: the log lacks what it needs.
+    ForcedButMissing { needs: String },
+    /// Depends on another part.
+    Follows { part: String, used: bool },
+}
+
+impl fmt::Display for Why {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Why::Present { readings } => write!(f, "present ({readings} readings)"),
+            Why::Absent { needs } => write!(f, "absent: the log has no {needs}"),
+            Why::InRange {
+                readings,
+                in_range,
+                max_altitude_m,
+                from_log,
+            } => write!(
+                f,
+                "present ({readings} readings, {in_range} in range: bottom lock, altitude up to \
+                 {max_altitude_m:.0} m{})",
+                if *from_log { ", the range the DVL showed in the log" } else { "" }
+            ),
+            Why::NoneInRange {
+                readings,
+                max_altitude_m,
+            } => write!(
+                f,
+                "{readings} readings, none in range (bottom lock, altitude up to \
+                 {max_altitude_m:.0} m)"
+            ),
+            Why::Switched { on: true } => write!(f, "switched on by the configuration"),
+            Why::Switched { on: false } => write!(f, "switched off by the configuration"),
+            Why::ByDefault { on: true } => write!(f, "on by default"),
+            Why::ByDefault { on: false } => write!(f, "off by default"),
+            Why::DvlGaps { gaps, longest_s } => write!(
+                f,
+                "the DVL is out {gaps} time(s) for {DVL_GAP_S:.0} s or more (longest {longest_s:.0} s)"
+            ),
+            Why::NoDvlGaps => write!(f, "the DVL has no gap of {DVL_GAP_S:.0} s or more to bridge"),
+            Why::ModelAidBridges => write!(f, "the model-aided filter bridges the DVL's gaps"),
+            Why::Observable {
+                distance_m,
+                sigma_m,
+                predicted_m,
+            } => write!(
+                f,
+                "observable: absolute positions {distance_m:.0} m apart (1-sigma {sigma_m:.1} m), \
+                 where the priors would show as {predicted_m:.1} m"
+            ),
+            Why::NotObservable { detail } => write!(f, "not observable: {detail}; held"),
+            Why::PriorZero => write!(f, "held: its prior sigma is 0 in the configuration"),
+            Why::Refused { why } => write!(f, "refused by its own checks: {why}"),
+            Why::ForcedButMissing { needs } => {
+                write!(f, "switched on, but refused: the log has no {needs}")
+            }
+            Why::Follows { part, used: true } => write!(f, "with the {part}"),
+            Why::Follows { part, used: false } => write!(f, "the {part} is not used"),
+        }
+    }
+}
+
+/// One decision.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Decision {
+    pub part: Part,
+    pub name: &'static str,
+    pub used: bool,
+    #[serde(flatten)]
+    pub why: Why,
+}
+
+/// Every decision, in a fixed order (the aids, the calibration states, the stages).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Plan {
+    pub decisions: Vec<Decision>,
+    /// The DVL's range the passes use, m.
+    pub dvl_max_altitude_m: f64,
+}
+
+fn decision(part: Part, used: bool, why: Why) -> Decision {
+    Decision {
+        part,
+        name: part.name(),
+        used,
+        why,
+    }
+}
+
+impl Plan {
+    /// The rules, applied to the log's facts and the configuration's switches.
+    pub fn decide(facts: &LogFacts, config: &Config) -> Plan {
+        let mut decisions: Vec<Decision> = Sensor::ALL
+            .into_iter()
+            .map(|s| aid_decision(s, facts, config))
+            .collect();
+        let uses = |d: &[Decision], s: Sensor| d.iter().any(|x| x.part == Part::Aid(s) && x.used);
+        let dvl = uses(&decisions, Sensor::Dvl);
+        decisions.push(scale_misalignment(facts, config, dvl));
+        let follows = |part: &str, used: bool| Why::Follows {
+            part: part.into(),
+            used,
+        };
+        let bias = dvl && config.dvl.bias_sigma_m_s > 0.0;
+        decisions.push(decision(
+            Part::DvlBias,
+            bias,
+            if dvl && !bias {
+                Why::PriorZero
+            } else {
+                follows("dvl", dvl)
+            },
+        ));
+        let eml = uses(&decisions, Sensor::SpeedLog);
+        decisions.push(decision(Part::EmlScaleCurrent, eml, follows("eml", eml)));
+        let default = Config::default();
+        for (part, on, by_default) in [
+            (
+                Part::ImuBiases,
+                config.imu.estimate_biases,
+                default.imu.estimate_biases,
+            ),
+            (Part::Tuning, config.tune.enabled, default.tune.enabled),
+            (
+                Part::InMotionAlignment,
+                config.alignment.enabled,
+                default.alignment.enabled,
+            ),
+        ] {
+            let why = if on == by_default {
+                Why::ByDefault { on }
+            } else {
+                Why::Switched { on }
+            };
+            decisions.push(decision(part, on, why));
+        }
+        Plan {
+            decisions,
+            dvl_max_altitude_m: facts.dvl_max_altitude_m,
+        }
+    }
+
+    /// Whether the part is used.
+    pub fn uses(&self, part: Part) -> bool {
+        self.decisions.iter().any(|d| d.part == part && d.used)
+    }
+
+    /// The configuration the passes run with: every `auto` switch set as decided, and a part
+    /// forced on that the log cannot support turned off.
+    pub fn apply(&self, config: &Config) -> Config {
+        let mut c = config.clone();
+        c.rpm_velocity.enabled = Switch::from_bool(self.uses(Part::Aid(Sensor::RpmVelocity)));
+        c.model_velocity.enabled = Switch::from_bool(self.uses(Part::Aid(Sensor::ModelVelocity)));
+        c.dvl.scale_misalignment = Switch::from_bool(self.uses(Part::DvlScaleMisalignment));
+        c.dvl.max_altitude_m = self.dvl_max_altitude_m;
+        c
+    }
+
+    /// A part refused itself while running: not used, and why.
+    pub fn refuse(&mut self, part: Part, why: String) {
+        if let Some(d) = self.decisions.iter_mut().find(|d| d.part == part) {
+            d.used = false;
+            d.why = Why::Refused { why };
+        }
+    }
+
+    /// Decisions the user forced against the log (a part switched on that cannot run).
+    pub fn overruled(&self) -> impl Iterator<Item = &Decision> {
+        self.decisions
+            .iter()
+            .filter(|d| matches!(d.why, Why::ForcedButMissing { .. }))
+    }
+}
+
+impl fmt::Display for Plan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for d in &self.decisions {
+            let used = if d.used { "used" } else { "not used" };
+            writeln!(f, "{:<27} {:<9} {}", d.name, used, d.why)?;
+        }
+        Ok(())
+    }
+}
+
+/// An aiding sensor: present and switched on (its `use`), or the rules of the velocity
+/// filters.
+fn aid_decision(sensor: Sensor, facts: &LogFacts, config: &Config) -> Decision {
+    let part = Part::Aid(sensor);
+    match sensor {
+        Sensor::RpmVelocity => return rpm_velocity(facts, config),
+        Sensor::ModelVelocity => return model_velocity(facts, config),
+        _ => {}
+    }
+    let readings = facts.count(sensor);
+    if !config.uses(sensor) {
+        return decision(part, false, Why::Switched { on: false });
+    }
+    if sensor == Sensor::Dvl && readings > 0 && facts.dvl_in_range == 0 {
+        return decision(
+            part,
+            false,
+            Why::NoneInRange {
+                readings,
+                max_altitude_m: facts.dvl_max_altitude_m,
+            },
+        );
+    }
+    if sensor == Sensor::Dvl && readings > 0 {
+        return decision(
+            part,
+            true,
+            Why::InRange {
+                readings,
+                in_range: facts.dvl_in_range,
+                max_altitude_m: facts.dvl_max_altitude_m,
+                from_log: facts.dvl_max_altitude_m != config.dvl.max_altitude_m,
+            },
+        );
+    }
+    if readings == 0 {
+        return decision(
+            part,
+            false,
+            Why::Absent {
+                needs: sensor.topic().into(),
+            },
+        );
+    }
+    decision(part, true, Why::Present { readings })
+}
+
+/// What the model aid needs that the log lacks.
+fn model_needs(facts: &LogFacts) -> Option<String> {
+    let mut missing = Vec::new();
+    if facts.fins == 0 {
+        missing.push("/fins".to_string());
+    }
+    if facts.rpm == 0 {
+        missing.push("/rpm".to_string());
+    }
+    if let Err(why) = &facts.vehicle {
+        missing.push(format!("vehicle ({why})"));
+    }
+    (!missing.is_empty()).then(|| missing.join(", "))
+}
+
+/// Seed 000's model-aided filter: whenever /fins, /rpm and a vehicle are present.
+fn model_velocity(facts: &LogFacts, config: &Config) -> Decision {
+    let part = Part::Aid(Sensor::ModelVelocity);
+    let needs = model_needs(facts);
+    match (config.model_velocity.enabled, needs) {
+        (Switch::Off, _) => decision(part, false, Why::Switched { on: false }),
+        (Switch::On, Some(needs)) => decision(part, false, Why::ForcedButMissing { needs }),
+        (Switch::On, None) => decision(part, true, Why::Switched { on: true }),
+        (Switch::Auto, Some(needs)) => decision(part, false, Why::Absent { needs }),
+        (Switch::Auto, None) => decision(
+            part,
+            true,
+            Why::Present {
+                readings: facts.fins,
+            },
+        ),
+    }
+}
+
+/// Seed 003's propeller velocity filter: whenever /rpm exists and the DVL has gaps (and the
+/// model aid does not bridge them already).
+fn rpm_velocity(facts: &LogFacts, config: &Config) -> Decision {
+    let part = Part::Aid(Sensor::RpmVelocity);
+    let needs = match (facts.rpm, facts.dvl_in_range) {
+        (0, _) => Some("/rpm".to_string()),
+        (_, 0) => Some("DVL readings in range to learn the propeller's speed from".into()),
+        _ => None,
+    };
+    let model = model_velocity(facts, config).used;
+    match (config.rpm_velocity.enabled, needs) {
+        (Switch::Off, _) => decision(part, false, Why::Switched { on: false }),
+        (Switch::On, Some(needs)) => decision(part, false, Why::ForcedButMissing { needs }),
+        (Switch::On, None) => decision(part, true, Why::Switched { on: true }),
+        (Switch::Auto, Some(needs)) => decision(part, false, Why::Absent { needs }),
+        (Switch::Auto, None) if facts.dvl_gaps == 0 => decision(part, false, Why::NoDvlGaps),
+        (Switch::Auto, None) if model => decision(part, false, Why::ModelAidBridges),
+        (Switch::Auto, None) => decision(
+            part,
+            true,
+            Why::DvlGaps {
+                gaps: facts.dvl_gaps,
+                longest_s: facts.dvl_longest_gap_s,
+            },
+        ),
+    }
+}
+
+/// The DVL's scale and misalignment: estimated when absolute positions are far enough apart
+/// for their priors to show, else held.
+fn scale_misalignment(facts: &LogFacts, config: &Config, dvl: bool) -> Decision {
+    let part = Part::DvlScaleMisalignment;
+    let d = &config.dvl;
+    if !dvl {
+        return decision(
+            part,
+            false,
+            Why::Follows {
+                part: "dvl".into(),
+                used: false,
+            },
+        );
+    }
+    if let Some(on) = d.scale_misalignment.given() {
+        return decision(part, on, Why::Switched { on });
+    }
+    let prior = d.scale_sigma.hypot(d.misalignment_sigma_deg.to_radians());
+    if prior == 0.0 {
+        return decision(part, false, Why::PriorZero);
+    }
+    match facts.farthest_positions {
+        Some(p) if prior * p.distance_m >= OBSERVABLE_RATIO * p.sigma_m => decision(
+            part,
+            true,
+            Why::Observable {
+                distance_m: p.distance_m,
+                sigma_m: p.sigma_m,
+                predicted_m: prior * p.distance_m,
+            },
+        ),
+        Some(p) => decision(
+            part,
+            false,
+            Why::NotObservable {
+                detail: format!(
+                    "the farthest absolute positions are {:.0} m apart (1-sigma {:.1} m), where \
+                     the priors would show as only {:.1} m",
+                    p.distance_m,
+                    p.sigma_m,
+                    prior * p.distance_m
+                ),
+            },
+        ),
+        None => decision(
+            part,
+            false,
+            Why::NotObservable {
+                detail: "fewer than two absolute positions (GNSS, fixes)".into(),
+            },
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn facts() -> LogFacts {
+        LogFacts {
+            readings: Sensor::ALL.into_iter().map(|s| (s, 100)).collect(),
+            fins: 0,
+            rpm: 100,
+            dvl_in_range: 100,
+            dvl_reported_range_m: Some(80.0),
+            dvl_max_altitude_m: 100.0,
+            dvl_gaps: 0,
+            dvl_longest_gap_s: 0.0,
+            vehicle: Err("none".into()),
+            farthest_positions: None,
+        }
+    }
+
+    fn used(plan: &Plan, part: Part) -> bool {
+        plan.uses(part)
+    }
+
+    #[test]
+    fn gaps_are_counted_between_readings_and_after_the_last() {
+        let s = |t: f64| (t * 1e9) as i64;
+        let stamps = [s(0.0), s(1.0), s(40.0), s(41.0)];
+        let rounded = |(n, longest): (usize, f64)| (n, (longest * 1e6).round() / 1e6);
+        assert_eq!(rounded(gaps(&stamps, s(42.0))), (1, 39.0));
+        assert_eq!(rounded(gaps(&stamps, s(100.0))), (2, 59.0));
+        assert_eq!(gaps(&[], s(100.0)), (0, 0.0));
+    }
+
+    #[test]
+    fn the_propeller_filter_bridges_gaps_when_the_model_cannot() {
+        let config = Config::default();
+        let mut f = facts();
+        assert!(!used(
+            &Plan::decide(&f, &config),
+            Part::Aid(Sensor::RpmVelocity)
+        ));
+        f.dvl_gaps = 1;
+        f.dvl_longest_gap_s = 300.0;
+        let plan = Plan::decide(&f, &config);
+        assert!(used(&plan, Part::Aid(Sensor::RpmVelocity)));
+        assert!(!used(&plan, Part::Aid(Sensor::ModelVelocity)));
+        f.fins = 10;
+        f.vehicle = Ok("remus-100".into());
+        let plan = Plan::decide(&f, &config);
+        assert!(used(&plan, Part::Aid(Sensor::ModelVelocity)));
+        assert!(!used(&plan, Part::Aid(Sensor::RpmVelocity)));
+        let applied = plan.apply(&config);
+        assert!(applied.uses(Sensor::ModelVelocity) && !applied.uses(Sensor::RpmVelocity));
+    }
+
+    #[test]
+    fn a_part_forced_on_without_its_inputs_is_refused_with_the_reason() {
+        let mut config = Config::default();
+        config.model_velocity.enabled = Switch::On;
+        let plan = Plan::decide(&facts(), &config);
+        let d = plan
+            .decisions
+            .iter()
+            .find(|d| d.part == Part::Aid(Sensor::ModelVelocity))
+            .unwrap();
+        assert!(!d.used);
+        assert!(d.why.to_string().contains("/fins"), "{}", d.why);
+        assert_eq!(plan.overruled().count(), 1);
+        assert!(!plan.apply(&config).uses(Sensor::ModelVelocity));
+    }
+
+    #[test]
+    fn scale_and_misalignment_follow_the_distance_between_absolute_positions() {
+        let config = Config::default();
+        let mut f = facts();
+        let pair = |distance_m| PositionPair {
+            distance_m,
+            sigma_m: 3.5,
+            seconds_apart: 600.0,
+        };
+        // 0.5 % and 1 deg over 200 m: 3.6 m, about one sigma: held.
+        f.farthest_positions = Some(pair(200.0));
+        assert!(!Plan::decide(&f, &config).uses(Part::DvlScaleMisalignment));
+        // Over 2 km: 36 m, ten sigmas.
+        f.farthest_positions = Some(pair(2000.0));
+        let plan = Plan::decide(&f, &config);
+        assert!(plan.uses(Part::DvlScaleMisalignment));
+        let c = plan.apply(&config);
+        assert_eq!(c.dvl.calibration_sigma()[0], 0.005);
+        // Held where the user says so.
+        let mut off = config.clone();
+        off.dvl.scale_misalignment = Switch::Off;
+        assert!(!Plan::decide(&f, &off).uses(Part::DvlScaleMisalignment));
+    }
+}
