@@ -236,7 +236,11 @@ pub fn forward(
     };
     let mut times = StageTimes::default();
     stages.start(Stage::Plan);
-    let facts = LogFacts::of(streams, mission, config);
+    let with_mag = Streams {
+        mag: options.mag.as_deref().unwrap_or(streams.mag),
+        ..*streams
+    };
+    let facts = LogFacts::of(&with_mag, mission, config);
     let mut plan = Plan::decide(&facts, config);
     let planned = plan.apply(config);
     let mut warnings: Vec<Warning> = plan
@@ -389,8 +393,8 @@ struct Settled {
 /// when the check moved it beyond the two sigmas, tunes again from the checked heading.
 ///
 /// The first heading is settled with the configured (or default) figures; when those cannot
-/// settle it (no source, no decisive alignment), tuning scores each candidate with its own
-/// alignment instead.
+/// settle it, or the log has no heading source for the alignment to check, tuning scores each
+/// candidate with its own alignment instead.
 fn settle_and_tune(
     streams: &Streams<'_>,
     mission: &Mission,
@@ -408,7 +412,12 @@ fn settle_and_tune(
             warnings: Vec::new(),
         });
     }
-    let first = settled_start(streams, mission, config, mag).ok();
+    // A heading the alignment found from nothing (no source at all) rests on the untuned
+    // figures, which may be far off: the candidates then align themselves, each with its own
+    // figures (the right model finds the right heading and scores best).
+    let first = settled_start(streams, mission, config, mag)
+        .ok()
+        .filter(|start| !start.heading_sources.is_empty());
     times.align_s += stages.start(Stage::Tune);
     // The candidates are scored without the model aid: it would cost each a pass more, and
     // the IMU's noise is to be learnt from the sensors, not from the model's errors.

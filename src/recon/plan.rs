@@ -275,7 +275,7 @@ pub enum Why {
     /// The forced-on part cannot run: the log lacks what it needs.
     ForcedButMissing { needs: String },
     /// Depends on another part.
-    Follows { part: String, used: bool },
+    Follows { on: String, used: bool },
 }
 
 impl fmt::Display for Why {
@@ -327,8 +327,8 @@ impl fmt::Display for Why {
             Why::ForcedButMissing { needs } => {
                 write!(f, "switched on, but refused: the log has no {needs}")
             }
-            Why::Follows { part, used: true } => write!(f, "with the {part}"),
-            Why::Follows { part, used: false } => write!(f, "the {part} is not used"),
+            Why::Follows { on, used: true } => write!(f, "with the {on}"),
+            Why::Follows { on, used: false } => write!(f, "the {on} is not used"),
         }
     }
 }
@@ -370,8 +370,8 @@ impl Plan {
         let uses = |d: &[Decision], s: Sensor| d.iter().any(|x| x.part == Part::Aid(s) && x.used);
         let dvl = uses(&decisions, Sensor::Dvl);
         decisions.push(scale_misalignment(facts, config, dvl));
-        let follows = |part: &str, used: bool| Why::Follows {
-            part: part.into(),
+        let follows = |on: &str, used: bool| Why::Follows {
+            on: on.into(),
             used,
         };
         let bias = dvl && config.dvl.bias_sigma_m_s > 0.0;
@@ -574,7 +574,7 @@ fn scale_misalignment(facts: &LogFacts, config: &Config, dvl: bool) -> Decision 
             part,
             false,
             Why::Follows {
-                part: "dvl".into(),
+                on: "dvl".into(),
                 used: false,
             },
         );
