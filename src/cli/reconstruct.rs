@@ -21,6 +21,7 @@ use hindsight::recon::score::{self, EpochError, Scores};
 use hindsight::recon::stats::{self, SensorStats};
 use hindsight::recon::tune::Tuning;
 use hindsight::recon::{self, Reconstruction, Streams};
+use rayon::prelude::*;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -380,17 +381,31 @@ fn write_trajectory_mcap(
         let picked = solutions.map(|(_, sol)| sol.pick(rows));
         let [fwd, smo] = picked;
         let (fwd, smo) = (fwd?, smo?);
-        for (f, s) in fwd.iter().zip(&smo) {
-            for ((name, s), (fix_topic, pose_topic)) in
-                [("forward", f), ("smoothed", s)].iter().zip(&topics)
+        // The JSON payloads of a block are made in parallel, then written in order.
+        let payloads: Vec<[Vec<u8>; 4]> = fwd
+            .par_iter()
+            .zip(&smo)
+            .map(|(f, s)| {
+                [
+                    location_fix(f, "forward"),
+                    pose_in_frame(f, origin_rad, "map"),
+                    location_fix(s, "smoothed"),
+                    pose_in_frame(s, origin_rad, "map"),
+                ]
+            })
+            .collect();
+        for (f, [fwd_fix, fwd_pose, smo_fix, smo_pose]) in fwd.iter().zip(&payloads) {
+            let t = u64::try_from(f.stamp_ns).unwrap_or(0);
+            for ((fix, pose), (fix_topic, pose_topic)) in [(fwd_fix, fwd_pose), (smo_fix, smo_pose)]
+                .iter()
+                .zip(&topics)
             {
-                let t = u64::try_from(s.stamp_ns).unwrap_or(0);
                 w.write_raw(
                     fix_topic,
                     "foxglove.LocationFix",
                     LOCATION_FIX_SCHEMA,
                     "json",
-                    &location_fix(s, name),
+                    fix,
                     t,
                 )?;
                 w.write_raw(
@@ -398,7 +413,7 @@ fn write_trajectory_mcap(
                     "foxglove.PoseInFrame",
                     POSE_IN_FRAME_SCHEMA,
                     "json",
-                    &pose_in_frame(s, origin_rad, "map"),
+                    pose,
                     t,
                 )?;
             }

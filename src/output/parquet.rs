@@ -4,6 +4,7 @@ use arrow_array::RecordBatch;
 use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::properties::WriterProperties;
+use parquet::schema::types::ColumnPath;
 use std::io::Write;
 
 /// Rows per record batch and row group when writing a stream.
@@ -18,7 +19,26 @@ pub fn write_batches<W: Write + Send>(
     first: RecordBatch,
     mut next_batch: impl FnMut() -> Option<Result<RecordBatch, arrow_schema::ArrowError>>,
 ) -> Result<W, ParquetError> {
-    let props = WriterProperties::builder()
+    // Dictionaries only for text columns: a float column's values hardly repeat, and trying
+    // (then falling back) costs more than the rest of the write.
+    let text_columns = first
+        .schema()
+        .fields()
+        .iter()
+        .filter(|f| {
+            matches!(
+                f.data_type(),
+                arrow_schema::DataType::Utf8 | arrow_schema::DataType::Dictionary(..)
+            )
+        })
+        .map(|f| ColumnPath::from(f.name().as_str()))
+        .collect::<Vec<_>>();
+    let props = text_columns
+        .into_iter()
+        .fold(
+            WriterProperties::builder().set_dictionary_enabled(false),
+            |b, column| b.set_column_dictionary_enabled(column, true),
+        )
         .set_compression(Compression::ZSTD(ZstdLevel::default()))
         .set_created_by(concat!("hindsight ", env!("CARGO_PKG_VERSION")).to_string())
         // A row group is held in memory until it is written: bounded, so that a day-long
