@@ -30,7 +30,9 @@ use std::time::{Duration, Instant};
 /// the `reconstruct` command is run once for its wall time and peak memory. With --report besides: the
 /// `reconstruct` command itself is run on that log --repeat times (with the scenario's
 /// configuration) and the time of its report.html and PNGs is set against the command's
-/// (medians).
+/// (medians). With --default-run instead: the whole default command (no configuration) is
+/// run --repeat times and each of its stages (summary.json's run_time_s) set against its own
+/// ingest: `hindsight bench --reconstruct --default-run --scenario long-dive-dynamic`.
 ///
 /// With --attitude: every attitude method on a 1-hour 100 Hz AHRS log (pool-circle flown
 /// for an hour), each on one thread and all in parallel (medians).
@@ -71,6 +73,12 @@ pub struct BenchArgs {
     #[arg(long, requires = "reconstruct")]
     pub report: bool,
 
+    /// With --reconstruct: time the whole default command (`hindsight reconstruct LOG --out
+    /// DIR`, no configuration: plan, alignment, tuning, passes, outputs, report), each stage
+    /// as its ratio to the command's own ingest (medians of --repeat runs).
+    #[arg(long, requires = "reconstruct", conflicts_with = "report")]
+    pub default_run: bool,
+
     /// Benchmark every attitude method on a 1-hour 100 Hz AHRS log (simulated) instead.
     #[arg(long, conflicts_with = "reconstruct")]
     pub attitude: bool,
@@ -103,12 +111,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     if args.reconstruct {
         let scenario = args.scenario.as_deref().unwrap_or("long-dive");
-        return super::bench_reconstruct::run(
-            scenario,
-            args.repeat,
-            args.keep.as_deref(),
-            args.report,
-        );
+        let mode = if args.default_run {
+            super::bench_reconstruct::Mode::DefaultRun
+        } else if args.report {
+            super::bench_reconstruct::Mode::WithReport
+        } else {
+            super::bench_reconstruct::Mode::Stages
+        };
+        return super::bench_reconstruct::run(scenario, args.repeat, args.keep.as_deref(), mode);
     }
     if args.simulate {
         let scenario = args.scenario.as_deref().unwrap_or("long-dive-dynamic");

@@ -11,22 +11,32 @@ use std::time::{Duration, Instant};
 /// The sensors of seed 000's Table 2, which the `long-dive` scenario simulates.
 const LONG_DIVE_CONFIG: &str = include_str!("../../configs/long-dive.toml");
 
-/// Simulates `scenario` (seed 0) to a temporary file, then times ingest, the forward filter
-/// and the smoother over `repeat` runs each (medians), and runs the `reconstruct` command once
-/// for its peak memory.
-pub fn run(scenario_name: &str, repeat: usize, keep: Option<&Path>, report: bool) -> Result<()> {
+/// What the bench measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// Ingest, forward filter and smoother in this process; the command once for its memory.
+    Stages,
+    /// [`Mode::Stages`], and the command's report.html share.
+    WithReport,
+    /// The whole default command, each stage against its ingest.
+    DefaultRun,
+}
+
+/// Simulates `scenario` (seed 0) to a temporary file, then measures as `mode` says.
+pub fn run(scenario_name: &str, repeat: usize, keep: Option<&Path>, mode: Mode) -> Result<()> {
     let scenario =
         Scenario::built_in(scenario_name).with_context(|| format!("scenario `{scenario_name}`"))?;
     eprintln!("simulating `{scenario_name}` (seed 0) ...");
     super::bench::with_log_file(
         keep,
         |w| Ok(hindsight::sim::run::run(&scenario, 0, w).map(|_| ())?),
-        |path| {
-            measure(path, repeat, scenario_name)?;
-            if report {
-                report_cost(path, repeat, scenario_name)?;
+        |path| match mode {
+            Mode::DefaultRun => default_run_cost(path, repeat, scenario_name),
+            Mode::Stages => measure(path, repeat, scenario_name),
+            Mode::WithReport => {
+                measure(path, repeat, scenario_name)?;
+                report_cost(path, repeat, scenario_name)
             }
-            Ok(())
         },
     )
 }
@@ -39,7 +49,7 @@ fn report_cost(log: &Path, repeat: usize, scenario: &str) -> Result<()> {
     let out = dir.join("out");
     let (mut wall, mut report, mut html_mb) = (Vec::new(), Vec::new(), 0.0);
     for _ in 0..repeat {
-        wall.push(run_command(log, &config, &out)?.0);
+        wall.push(run_command(log, Some(&config), &out)?.0);
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("summary.json"))?)?;
         report.push(summary["run_time_s"]["report"].as_f64().unwrap_or(f64::NAN));
@@ -61,20 +71,71 @@ fn report_cost(log: &Path, repeat: usize, scenario: &str) -> Result<()> {
     Ok(())
 }
 
+/// The stages of summary.json's `run_time_s`, as the bench names them.
+const STAGES: [(&str, &str); 10] = [
+    ("ingest", "ingest"),
+    ("plan", "plan"),
+    ("magnetometer", "magnetometer"),
+    ("alignment", "align"),
+    ("self-tuning", "tune"),
+    ("forward filter", "forward"),
+    ("clock search", "clock_search"),
+    ("smoother", "smoother"),
+    ("outputs", "outputs"),
+    ("  of which report", "report"),
+];
+
+/// Runs the default command (no configuration) `repeat` times and prints each stage's median
+/// and its ratio to the median ingest, then the whole command's.
+fn default_run_cost(log: &Path, repeat: usize, scenario: &str) -> Result<()> {
+    let dir = std::env::temp_dir().join(format!("hindsight-bench-default-{}", std::process::id()));
+    let out = dir.join("out");
+    let mut times: Vec<Vec<f64>> = vec![Vec::new(); STAGES.len() + 1];
+    for _ in 0..repeat {
+        let wall = run_command(log, None, &out)?.0;
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json"))?)?;
+        for (k, (_, key)) in STAGES.iter().enumerate() {
+            times[k].push(summary["run_time_s"][key].as_f64().unwrap_or(f64::NAN));
+        }
+        times[STAGES.len()].push(wall);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    let medians: Vec<f64> = times
+        .iter_mut()
+        .map(|v| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        })
+        .collect();
+    let ingest = medians[0];
+    println!(
+        "log: {scenario} (seed 0); `hindsight reconstruct LOG --out DIR` with no configuration, \
+         medians of {repeat} runs"
+    );
+    println!(
+        "{:<22} {:>9} {:>16}",
+        "stage", "median s", "ratio to ingest"
+    );
+    let names = STAGES.iter().map(|(n, _)| *n).chain(["whole command"]);
+    for (name, s) in names.zip(&medians) {
+        println!("{name:<22} {s:>9.2} {:>16.2}", s / ingest);
+    }
+    Ok(())
+}
+
 /// Runs `hindsight reconstruct` (this executable, `--quiet`, self-tuning as by default) on
-/// `log` into `out`: its wall time, s, and its peak resident memory, bytes (`None` off Unix).
-fn run_command(log: &Path, config: &Path, out: &Path) -> Result<(f64, Option<u64>)> {
+/// `log` into `out`, with `config` when given: its wall time, s, and its peak resident
+/// memory, bytes (`None` off Unix).
+fn run_command(log: &Path, config: Option<&Path>, out: &Path) -> Result<(f64, Option<u64>)> {
     let exe = std::env::current_exe().context("locating this executable")?;
     let t = Instant::now();
-    let status = std::process::Command::new(&exe)
-        .arg("reconstruct")
-        .arg(log)
-        .arg("--out")
-        .arg(out)
-        .arg("--config")
-        .arg(config)
-        .arg("--quiet")
-        .status()?;
+    let mut command = std::process::Command::new(&exe);
+    command.arg("reconstruct").arg(log).arg("--out").arg(out);
+    if let Some(config) = config {
+        command.arg("--config").arg(config);
+    }
+    let status = command.arg("--quiet").status()?;
     let wall = t.elapsed().as_secs_f64();
     anyhow::ensure!(status.success(), "reconstruct failed on the bench log");
     Ok((wall, children_peak_rss_bytes()))
@@ -141,7 +202,7 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
         let t = Instant::now();
         let (tuned, _) = recon::tune::tune(&streams, &mission, &config);
         tune_t.push(t.elapsed());
-        let r = recon::reconstruct(&streams, &mission, &tuned)?;
+        let r = recon::run_configured(&streams, &mission, &tuned)?;
         forward_t.push(r.timing.forward);
         smoother_t.push(r.timing.smoother);
         epochs = r.forward.len();
@@ -149,7 +210,7 @@ fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
     }
     // The command a user runs, once, for its peak memory (and its wall time).
     let (dir, config_path) = scratch(scenario, "peak")?;
-    let command = run_command(path, &config_path, &dir.join("out"));
+    let command = run_command(path, Some(&config_path), &dir.join("out"));
     let _ = std::fs::remove_dir_all(&dir);
     let (command_s, peak) = command?;
     let median = |v: &mut Vec<Duration>| {
