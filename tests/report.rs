@@ -153,6 +153,7 @@ fn reconstruct_report_holds_what_an_engineer_looks_at_first() {
         [
             "Summary",
             "Inputs and initialisation",
+            "What was used and why",
             "Track",
             "Uncertainty",
             "Errors against /truth",
@@ -192,6 +193,13 @@ fn reconstruct_report_holds_what_an_engineer_looks_at_first() {
         .find(|i| i["topic"] == "/imu")
         .unwrap();
     assert!(html.contains(&format!("<td>{}</td>", imu["messages"])));
+    // The plan: every decision of summary.json, by its name, in the page's table.
+    let decisions = summary["plan"]["decisions"].as_array().unwrap();
+    assert!(decisions.len() >= 10, "{decisions:?}");
+    for d in decisions {
+        let name = escape(d["name"].as_str().unwrap());
+        assert!(html.contains(&format!("<td class=\"t\">{name}</td>")), "{name}");
+    }
     let init = &summary["initialisation"];
     assert!(html.contains(&format!(
         "{} (1-sigma {:.2} deg)",

@@ -6,8 +6,9 @@ mod common;
 
 use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, ImuGrade};
+use hindsight::recon::pipeline;
 use hindsight::recon::score::{scores, Scores};
-use hindsight::recon::tune::{self, Source};
+use hindsight::recon::tune::{self, Source, Tuning};
 use hindsight::recon::{run_configured as reconstruct, Streams};
 use hindsight::sim::scenario::{AccelGrade, GyroGrade, Scenario};
 
@@ -19,6 +20,21 @@ fn run(log: &Log, config: &Config) -> (Scores, Scores) {
     let r = reconstruct(&streams, &log.mission().unwrap(), config).unwrap();
     let (f, s) = errors(streams.truth, &r);
     (scores(&f).unwrap(), scores(&s).unwrap())
+}
+
+/// The default run as the library's entry makes it (the pipeline: plan, settled start,
+/// self-tuning, passes): its tuning and its forward and smoothed scores.
+fn default_pipeline(log: &hindsight::ingest::Log) -> (Tuning, Scores, Scores) {
+    let streams = Streams::of(log);
+    let mission = log.mission().unwrap();
+    let outcome =
+        pipeline::run(&streams, &mission, &Config::default(), Default::default()).unwrap();
+    let (f, s) = errors(streams.truth, &outcome.reconstruction);
+    (
+        outcome.tuning.unwrap(),
+        scores(&f).unwrap(),
+        scores(&s).unwrap(),
+    )
 }
 
 /// The short survey flown with an IMU of `grade`'s figures (no scale or misalignment error,
@@ -70,12 +86,8 @@ fn every_imu_grade_is_learnt_from_the_log() {
         ImuGrade::Mems,
     ] {
         let log = common::simulated_log(&survey_with(grade), 1);
-        let streams = Streams::of(&log);
-        let mission = log.mission().unwrap();
-        let (tuned, tuning) = tune::tune(&streams, &mission, &Config::default());
-        let tuning = tuning.unwrap();
+        let (tuning, fwd_t, smo_t) = default_pipeline(&log);
         let (fwd_c, smo_c) = run(&log, &configured(grade));
-        let (fwd_t, smo_t) = run(&log, &tuned);
         let (fwd_d, smo_d) = run(&log, &Config::default());
         eprintln!(
             "  untuned defaults: forward {:.3} m, smoothed {:.3} m",
@@ -178,8 +190,7 @@ fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
             .windows(2)
             .map(|w| (w[1].north_m - w[0].north_m).hypot(w[1].east_m - w[0].east_m))
             .sum();
-        let verdict = |config: &Config| {
-            let r = reconstruct(&streams, &mission, config).ok()?;
+        let judge = |r: &hindsight::recon::Reconstruction| {
             let dvl: Vec<bool> = r
                 .run
                 .residuals
@@ -192,10 +203,16 @@ fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
             let imu_blamed = warnings(&r.run, &r.init, &sensor_stats(&r.run.residuals))
                 .iter()
                 .any(|w| w.contains("the IMU is probably much noisier"));
-            Some((length, rejected, imu_blamed))
+            (length, rejected, imu_blamed)
         };
-        let (tuned, _) = tune::tune(&streams, &mission, &Config::default());
-        let (length, rejected, blamed) = verdict(&tuned).unwrap();
+        let verdict = |config: &Config| {
+            reconstruct(&streams, &mission, config)
+                .ok()
+                .map(|r| judge(&r))
+        };
+        let default_run =
+            pipeline::run(&streams, &mission, &Config::default(), Default::default()).unwrap();
+        let (length, rejected, blamed) = judge(&default_run.reconstruction);
         assert!(!blamed);
         eprintln!(
             "{name}: tuned length ratio {length:.3}, DVL rejected {:.1} %",

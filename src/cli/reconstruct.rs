@@ -28,11 +28,16 @@ use std::time::Instant;
 
 /// Reconstruct the trajectory: strapdown INS, 25-state error-state filter (with self-tuned noise), RTS smoother.
 ///
-/// Reads the log, initialises from it (position from GNSS, a `start` fix or the mission
+/// Reads the log and decides from it what to use (the plan, printed and kept in summary.json:
+/// every aid, calibration state and stage, used or not and why: the propeller's velocity
+/// filter when /rpm exists and the DVL has gaps, the vehicle model's when /fins, /rpm and a
+/// vehicle are there, the DVL's scale and misalignment when fixes far apart make them
+/// observable). Initialises from the log (position from GNSS, a `start` fix or the mission
 /// origin; levelling; heading by gyrocompass, magnetometer, the mission's initial_yaw_rad or
-/// --initial-yaw; the sources are printed), runs the forward filter at the IMU rate with DVL
-/// (bottom lock and altitude checked), depth, EM-log, GNSS and position-fix updates behind a
-/// chi-square gate, then smooths the whole mission. Writes to DIR, atomically:
+/// --initial-yaw, checked by the in-motion alignment; the sources are printed), self-tunes
+/// the noise from that start, checks the heading again with the tuned figures, runs the
+/// forward filter at the IMU rate with every aid of the plan behind a chi-square gate, then
+/// smooths the whole mission. Writes to DIR, atomically:
 ///
 ///   trajectory.parquet  forward and smoothed solutions at --output-rate: position (lat/lon
 ///                       and north/east/down in the mission frame), NED velocity,
@@ -41,8 +46,9 @@ use std::time::Instant;
 ///                       foxglove.PoseInFrame (3-D panel, `map` = east/north/up from the
 ///                       origin) on /hindsight/{forward,smoothed}/{fix,pose}
 ///   residuals.parquet   every aiding measurement: innovation, predicted sigma, NIS, accepted
-///   summary.json        inputs, initialisation, counts, rejections, NIS per sensor,
-///                       distance, final 1-sigma, run time, and truth scores when /truth exists
+///   summary.json        the plan, inputs, initialisation, tuning, counts, rejections, NIS
+///                       per sensor, distance, final 1-sigma, run time per stage, and truth
+///                       scores when /truth exists
 ///   errors.parquet      (logs with /truth) both solutions minus the truth, with 1-sigma, NEES
 ///
 /// Noise and every other setting: a TOML file (--config; `hindsight config` prints the

@@ -118,6 +118,29 @@ pub struct Inputs<'a> {
     pub init_text: String,
 }
 
+/// "What was used and why": every aid, calibration state and stage of the plan.
+fn plan(s: &Summary) -> Section {
+    let rows = s
+        .plan
+        .decisions
+        .iter()
+        .map(|d| {
+            vec![
+                d.name.to_string(),
+                if d.used { "used" } else { "not used" }.to_string(),
+                d.why.to_string(),
+            ]
+        })
+        .collect();
+    Section::new("What was used and why")
+        .with(Block::text(
+            "The plan decided from the log: each aiding sensor, calibration state and stage, \
+             and why it was used or not (present in the log, observable, refused by its own \
+             checks, or switched by the configuration).",
+        ))
+        .with(Block::table(["part", "used", "why"], rows))
+}
+
 pub fn build(x: &Inputs<'_>) -> std::io::Result<Report> {
     let s = x.summary;
     let rows = spread(x.keep, REPORT_ROWS);
@@ -137,7 +160,7 @@ pub fn build(x: &Inputs<'_>) -> std::io::Result<Report> {
         }
         p
     };
-    let mut sections = vec![overview(s), inputs(s, &x.init_text)];
+    let mut sections = vec![overview(s), inputs(s, &x.init_text), plan(s)];
     let mut track = Section::new("Track");
     track.push(Block::figure(
         "track",
