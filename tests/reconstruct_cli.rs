@@ -299,3 +299,40 @@ fn without_a_temporary_file_the_records_stay_in_memory_and_the_result_is_the_sam
     assert_eq!(said.len(), 1, "{held_warnings:?}");
     assert!(said[0].contains("hindsight-no-such-dir"), "{}", said[0]);
 }
+
+/// The plan is printed and kept in summary.json; a model aid the configuration forces on in a
+/// log without `/fins` is refused with the reason (a warning, exit 0) and the rest runs.
+#[test]
+fn the_plan_is_shown_and_a_forced_part_the_log_cannot_support_is_refused() {
+    let out = common::scratch_dir("reconstruct-plan");
+    let config = out.with_extension("toml");
+    std::fs::write(&config, "[model_velocity]\nuse = true\n").unwrap();
+    let o = hindsight(&[
+        "reconstruct",
+        SAMPLE,
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("plan (what is used and why):"), "{err}");
+    assert!(
+        err.contains("warning: model_velocity: switched on, but not used")
+            && err.contains("/fins"),
+        "{err}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let decisions = summary["plan"]["decisions"].as_array().unwrap();
+    let model = decisions
+        .iter()
+        .find(|d| d["name"] == "model_velocity")
+        .unwrap();
+    assert_eq!(model["used"], false);
+    assert_eq!(model["reason"], "forced_but_missing");
+    let dvl = decisions.iter().find(|d| d["name"] == "dvl").unwrap();
+    assert_eq!(dvl["used"], true);
+    assert!(summary["truth"]["forward"]["horizontal_rms_m"].as_f64().unwrap() < 2.0);
+}

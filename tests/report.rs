@@ -198,7 +198,10 @@ fn reconstruct_report_holds_what_an_engineer_looks_at_first() {
     assert!(decisions.len() >= 10, "{decisions:?}");
     for d in decisions {
         let name = escape(d["name"].as_str().unwrap());
-        assert!(html.contains(&format!("<td class=\"t\">{name}</td>")), "{name}");
+        assert!(
+            html.contains(&format!("<td class=\"t\">{name}</td>")),
+            "{name}"
+        );
     }
     let init = &summary["initialisation"];
     assert!(html.contains(&format!(

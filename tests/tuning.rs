@@ -8,6 +8,7 @@ use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, ImuGrade};
 use hindsight::recon::pipeline;
 use hindsight::recon::score::{scores, Scores};
+use hindsight::recon::stats::RunWarning;
 use hindsight::recon::tune::{self, Source, Tuning};
 use hindsight::recon::{run_configured as reconstruct, Streams};
 use hindsight::sim::scenario::{AccelGrade, GyroGrade, Scenario};
@@ -202,7 +203,7 @@ fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
             let length = distance_travelled_m(r.smoothed.iter()).unwrap() / truth_length_m;
             let imu_blamed = warnings(&r.run, &r.init, &sensor_stats(&r.run.residuals))
                 .iter()
-                .any(|w| w.contains("the IMU is probably much noisier"));
+                .any(|w| matches!(w, RunWarning::ImuNoisier { .. }));
             (length, rejected, imu_blamed)
         };
         let verdict = |config: &Config| {

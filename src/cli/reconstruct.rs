@@ -18,6 +18,7 @@ use hindsight::recon::consistency::{self, Consistency};
 use hindsight::recon::pipeline::{self, Stage, Warning};
 use hindsight::recon::plan::{Part, Plan};
 use hindsight::recon::score::{self, EpochError, Scores};
+use hindsight::recon::stats::RunWarning;
 use hindsight::recon::stats::{self, SensorStats};
 use hindsight::recon::tune::Tuning;
 use hindsight::recon::{self, Reconstruction, Streams};
@@ -637,6 +638,13 @@ fn render_warning(w: &Warning) -> String {
             "{w}: rerun with --offset /dvl={:.1} if the DVL's clock is off",
             s.offset_s
         ),
+        Warning::Run(RunWarning::InnovationsTooLarge(x)) => {
+            format!(
+                "{w} (a clock offset is given with --offset /{}=SECONDS)",
+                x.sensor
+            )
+        }
+        Warning::Run(RunWarning::DeclinationUnknown) => format!("{w}: pass --declination DEG"),
         Warning::ForcedOnRefused { .. } => {
             format!("{w} (the rest runs; leave its `use` at \"auto\" to let the log decide)")
         }

@@ -100,7 +100,7 @@ pub enum Warning {
     /// From self-tuning.
     Tuning { text: String },
     /// From the forward pass's statistics and the initialisation.
-    Run { text: String },
+    Run(stats::RunWarning),
     /// From the magnetometer's preparation.
     Magnetometer { text: String },
 }
@@ -140,9 +140,8 @@ impl fmt::Display for Warning {
                  better: the DVL's clock is not the cause",
                 clock::COARSE_SPAN_S
             ),
-            Warning::Tuning { text } | Warning::Run { text } | Warning::Magnetometer { text } => {
-                f.write_str(text)
-            }
+            Warning::Run(w) => write!(f, "{w}"),
+            Warning::Tuning { text } | Warning::Magnetometer { text } => f.write_str(text),
         }
     }
 }
@@ -286,7 +285,7 @@ pub fn forward(
     warnings.extend(
         stats::warnings(&pass.run, &pass.init, &sensors)
             .into_iter()
-            .map(|text| Warning::Run { text }),
+            .map(Warning::Run),
     );
     warnings.extend(
         super::magnetometer_warnings(&pass.mag, &config.mag)

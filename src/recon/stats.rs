@@ -85,85 +85,164 @@ pub fn innovations_too_large(s: &SensorStats) -> bool {
     s.count >= 20 && (s.mean_nis > 2.0 * s.dims as f64 || s.rejected as f64 / s.count as f64 > 0.05)
 }
 
+/// A sensor's innovation figures, for a warning.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Flagged {
+    pub sensor: &'static str,
+    pub mean_nis: f64,
+    pub dims: usize,
+    pub rejected_pct: f64,
+}
+
+impl From<&SensorStats> for Flagged {
+    fn from(s: &SensorStats) -> Self {
+        Flagged {
+            sensor: s.sensor,
+            mean_nis: s.mean_nis,
+            dims: s.dims,
+            rejected_pct: 100.0 * s.rejected as f64 / s.count.max(1) as f64,
+        }
+    }
+}
+
+/// What a navigation engineer should read of a run, with its data.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum RunWarning {
+    /// Every judged sensor's innovations are too large: the IMU is the one thing they share.
+    ImuNoisier { sensors: Vec<Flagged> },
+    /// One sensor's innovations are too large for its noise setting.
+    InnovationsTooLarge(Flagged),
+    /// Some of a sensor's measurements were rejected by the gate.
+    Rejected {
+        sensor: &'static str,
+        rejected: usize,
+        count: usize,
+    },
+    /// The gate was reopened after runs of rejections.
+    GateReopened { times: usize },
+    /// An IMU gap, bridged.
+    ImuGap { from_ns: i64, seconds: f64 },
+    /// No declination for the log's date: 0 with a 20 deg sigma.
+    DeclinationUnknown,
+    /// Heading sources (or the alignment) that disagree.
+    HeadingDisagreement { text: String },
+    /// Magnetometer readings left out as a disturbed field.
+    MagDisturbed { readings: usize },
+}
+
+impl std::fmt::Display for RunWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let figures = |x: &Flagged| {
+            format!(
+                "{} mean NIS {:.1} for {}, {:.0} % rejected",
+                x.sensor, x.mean_nis, x.dims, x.rejected_pct
+            )
+        };
+        match self {
+            RunWarning::ImuNoisier { sensors } => write!(
+                f,
+                "the innovations of every aiding sensor are too large ({}): the IMU is probably \
+                 much noisier than its figures ([imu]); let self-tuning estimate them, or give \
+                 the data sheet's",
+                sensors.iter().map(figures).collect::<Vec<_>>().join("; ")
+            ),
+            RunWarning::InnovationsTooLarge(x) => write!(
+                f,
+                "{}: mean NIS {:.1} for {} expected, {:.1} % rejected: its noise setting may be \
+                 too small, its clock offset or its mounting wrong",
+                x.sensor, x.mean_nis, x.dims, x.rejected_pct
+            ),
+            RunWarning::Rejected {
+                sensor,
+                rejected,
+                count,
+            } => write!(
+                f,
+                "{sensor}: {rejected} of {count} measurements rejected by the gate (see \
+                 residuals.parquet)"
+            ),
+            RunWarning::GateReopened { times } => write!(
+                f,
+                "the gate was reopened {times} times after a sensor's measurements had been \
+                 rejected many times in a row: the filter had drifted from it (see \
+                 residuals.parquet)"
+            ),
+            RunWarning::ImuGap { from_ns, seconds } => write!(
+                f,
+                "IMU gap of {seconds:.2} s at {}: bridged with grown covariance",
+                crate::time::format_utc(*from_ns)
+            ),
+            RunWarning::DeclinationUnknown => write!(
+                f,
+                "magnetic declination unknown (the World Magnetic Model has no value for the \
+                 log's date), taken as 0 with a 20 deg sigma"
+            ),
+            RunWarning::HeadingDisagreement { text } => f.write_str(text),
+            RunWarning::MagDisturbed { readings } => write!(
+                f,
+                "mag: {readings} readings left out, their field magnitude off the log's median \
+                 by more than mag.max_field_deviation (a disturbed field)"
+            ),
+        }
+    }
+}
+
 /// Warnings a navigation engineer should read: sensors whose innovations disagree with
 /// their noise settings, IMU gaps, an unknown declination.
-pub fn warnings(run: &ForwardRun, init: &Initialisation, sensors: &[SensorStats]) -> Vec<String> {
+pub fn warnings(
+    run: &ForwardRun,
+    init: &Initialisation,
+    sensors: &[SensorStats],
+) -> Vec<RunWarning> {
     let mut out = Vec::new();
-    let too_large = innovations_too_large;
-    let flagged: Vec<&SensorStats> = sensors.iter().filter(|s| too_large(s)).collect();
+    let flagged: Vec<&SensorStats> = sensors
+        .iter()
+        .filter(|s| innovations_too_large(s))
+        .collect();
     // Every judged sensor off at once points at the one thing they share: the IMU.
     let judged = sensors.iter().filter(|s| s.count >= 20).count();
     let blame_imu = flagged.len() >= 2 && flagged.len() == judged;
     if blame_imu {
-        out.push(format!(
-            "the innovations of every aiding sensor are too large ({}): the IMU is probably much \
-             noisier than its figures ([imu]); let self-tuning estimate them, or give the data \
-             sheet's",
-            flagged
-                .iter()
-                .map(|s| format!(
-                    "{} mean NIS {:.1} for {}, {:.0} % rejected",
-                    s.sensor,
-                    s.mean_nis,
-                    s.dims,
-                    100.0 * s.rejected as f64 / s.count as f64
-                ))
-                .collect::<Vec<_>>()
-                .join("; ")
-        ));
+        out.push(RunWarning::ImuNoisier {
+            sensors: flagged.iter().map(|s| Flagged::from(*s)).collect(),
+        });
     }
     for s in sensors {
-        let rejected = s.rejected as f64 / s.count as f64;
-        if too_large(s) && blame_imu {
-            continue;
-        }
-        if too_large(s) {
-            out.push(format!(
-                "{}: mean NIS {:.1} for {} expected, {:.1} % rejected: its noise setting may be too \
-                 small, its clock offset (--offset /{}=SECONDS), or its mounting wrong",
-                s.sensor,
-                s.mean_nis,
-                s.dims,
-                100.0 * rejected,
-                if s.sensor == "position_fix" { "position_fix" } else { s.sensor }
-            ));
+        if innovations_too_large(s) {
+            if !blame_imu {
+                out.push(RunWarning::InnovationsTooLarge(s.into()));
+            }
         } else if s.rejected > 0 {
-            out.push(format!(
-                "{}: {} of {} measurements rejected by the gate (see residuals.parquet)",
-                s.sensor, s.rejected, s.count
-            ));
+            out.push(RunWarning::Rejected {
+                sensor: s.sensor,
+                rejected: s.rejected,
+                count: s.count,
+            });
         }
     }
     if run.gate_resets > 0 {
-        out.push(format!(
-            "the gate was reopened {} times after a sensor's measurements had been rejected many \
-             times in a row: the filter had drifted from it (see residuals.parquet)",
-            run.gate_resets
-        ));
+        out.push(RunWarning::GateReopened {
+            times: run.gate_resets,
+        });
     }
-    for g in &run.imu_gaps {
-        out.push(format!(
-            "IMU gap of {:.2} s at {}: bridged with grown covariance",
-            (g.to_ns - g.from_ns) as f64 * 1e-9,
-            crate::time::format_utc(g.from_ns)
-        ));
+    out.extend(run.imu_gaps.iter().map(|g| RunWarning::ImuGap {
+        from_ns: g.from_ns,
+        seconds: (g.to_ns - g.from_ns) as f64 * 1e-9,
+    }));
+    let unknown = crate::recon::heading::DeclinationSource::Unknown;
+    if init.declination.is_some_and(|d| d.source == unknown) {
+        out.push(RunWarning::DeclinationUnknown);
     }
-    if let Some(d) = init.declination {
-        if d.source == crate::recon::heading::DeclinationSource::Unknown {
-            out.push(
-                "magnetic declination unknown (the World Magnetic Model has no value for the \
-                 log's date), taken as 0 with a 20 deg sigma: pass --declination DEG"
-                    .into(),
-            );
-        }
-    }
-    out.extend(init.heading_disagreements.iter().cloned());
+    out.extend(
+        init.heading_disagreements
+            .iter()
+            .map(|text| RunWarning::HeadingDisagreement { text: text.clone() }),
+    );
     if run.disturbed[Sensor::Magnetometer] > 0 {
-        out.push(format!(
-            "mag: {} readings left out, their field magnitude off the log's median by more \
-             than mag.max_field_deviation (a disturbed field)",
-            run.disturbed[Sensor::Magnetometer]
-        ));
+        out.push(RunWarning::MagDisturbed {
+            readings: run.disturbed[Sensor::Magnetometer],
+        });
     }
     out
 }
