@@ -319,8 +319,7 @@ fn the_plan_is_shown_and_a_forced_part_the_log_cannot_support_is_refused() {
     assert!(o.status.success(), "{err}");
     assert!(err.contains("plan (what is used and why):"), "{err}");
     assert!(
-        err.contains("warning: model_velocity: switched on, but not used")
-            && err.contains("/fins"),
+        err.contains("warning: model_velocity: switched on, but not used") && err.contains("/fins"),
         "{err}"
     );
     let summary: serde_json::Value =
@@ -334,5 +333,10 @@ fn the_plan_is_shown_and_a_forced_part_the_log_cannot_support_is_refused() {
     assert_eq!(model["reason"], "forced_but_missing");
     let dvl = decisions.iter().find(|d| d["name"] == "dvl").unwrap();
     assert_eq!(dvl["used"], true);
-    assert!(summary["truth"]["forward"]["horizontal_rms_m"].as_f64().unwrap() < 2.0);
+    assert!(
+        summary["truth"]["forward"]["horizontal_rms_m"]
+            .as_f64()
+            .unwrap()
+            < 2.0
+    );
 }
