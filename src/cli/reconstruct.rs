@@ -232,7 +232,7 @@ struct Summary {
     config: Config,
 }
 
-#[derive(Debug, Serialize)]
+#[derive(Debug, Clone, Serialize)]
 struct InputCount {
     /// The role's contract topic.
     topic: &'static str,
@@ -664,36 +664,120 @@ struct Written<'a> {
     started: Instant,
 }
 
+/// The scores against the log's truth, when it has one: both solutions' errors at the kept
+/// rows, and the truth's positions for the report's track.
+struct AgainstTruth {
+    errors: Option<(Vec<EpochError>, Vec<EpochError>)>,
+    from_log: report::FromLog,
+}
+
+/// The rows the outputs hold: every output epoch (and every epoch with `aiding_epochs`).
+fn kept_rows(r: &Reconstruction, config: &Config) -> Vec<usize> {
+    (0..r.forward.len())
+        .filter(|&k| r.output[k] || config.output.aiding_epochs)
+        .collect()
+}
+
 impl Written<'_> {
     fn write(self, outcome: pipeline::Outcome) -> Result<()> {
-        let Written {
-            job,
-            mission,
-            inputs,
-            from_log,
-            truth: (log_truth, parked_truth),
-            records_failure,
-            ingest_s,
-            started,
-        } = self;
-        let pipeline::Outcome {
-            plan,
-            config,
-            tuning,
-            reconstruction: r,
-            sensors,
-            warnings: typed,
-            times,
-            ..
-        } = outcome;
-        let mut warnings: Vec<String> = typed.iter().map(render_warning).collect();
-        let dvl_used = plan.uses(Part::Aid(Sensor::Dvl));
+        let outputs_started = Instant::now();
+        let r = &outcome.reconstruction;
+        let keep = kept_rows(r, &outcome.config);
+        let truth = self.against_truth(r, &keep)?;
+        let mut summary = self.summary(&outcome, &keep, &truth)?;
+        let job = self.job;
+        std::fs::create_dir_all(&job.out).with_context(|| OutputFailed {
+            path: job.out.clone(),
+        })?;
+        let mut staging = Staging::new();
         let origin = (
-            mission.origin_latitude_deg.to_radians(),
-            mission.origin_longitude_deg.to_radians(),
+            self.mission.origin_latitude_deg.to_radians(),
+            self.mission.origin_longitude_deg.to_radians(),
         );
+        let tables = Tables::create(&mut staging, &job.out, truth.errors.is_some())?;
+        let mut written = tables.paths();
+        if let Some(t) = &summary.tuning {
+            let path = job.out.join("tuned.toml");
+            let mut file = staging
+                .create(&path)
+                .with_context(|| OutputFailed { path: path.clone() })?;
+            std::io::Write::write_all(&mut file, t.as_toml().as_bytes())
+                .with_context(|| OutputFailed { path: path.clone() })?;
+            written.push(path);
+        }
+        // The tables and the report are independent: made side by side.
+        let (tables, report_s) = rayon::join(
+            || tables.write(r, &keep, origin, truth.errors.as_ref()),
+            || -> Result<f64> {
+                let started = Instant::now();
+                let page = report::build(&report::Inputs {
+                    summary: &summary,
+                    r,
+                    keep: &keep,
+                    origin_rad: origin,
+                    from_log: &truth.from_log,
+                    truth_errors: truth.errors.as_ref(),
+                    init_text: r.init.to_string(),
+                })
+                .context("reading the solutions back for report.html")?;
+                super::write_report(&mut staging, &job.out, &page, &mut written)?;
+                Ok(started.elapsed().as_secs_f64())
+            },
+        );
+        tables?;
+        summary.run_time_s.report = report_s?;
+        summary.run_time_s.outputs = outputs_started.elapsed().as_secs_f64();
+        summary.run_time_s.total = self.started.elapsed().as_secs_f64();
+        let path = job.out.join("summary.json");
+        super::write_json(&mut staging, &path, &summary)?;
+        written.push(path);
+        staging.commit().with_context(|| OutputFailed {
+            path: job.out.clone(),
+        })?;
+        print_report(&summary);
+        for p in written {
+            out!("wrote {}", p.display());
+        }
+        Ok(())
+    }
+
+    /// The truth read back (it waited on its temporary file through the smoother; held only
+    /// while the errors are taken: a day of it is 140 MB) and both solutions' errors.
+    fn against_truth(&self, r: &Reconstruction, keep: &[usize]) -> Result<AgainstTruth> {
+        let (log_truth, parked) = &self.truth;
+        let truth: Vec<Truth> = match (log_truth, parked) {
+            (Some(truth), _) => truth.clone(),
+            (None, Some(parked)) => parked.to_vec().context("reading the truth back")?,
+            (None, None) => Vec::new(),
+        };
+        let from_log = self.from_log.clone().with_truth(&truth);
+        let kept = keep_mask(r.forward.len(), keep);
+        let errors = if truth.is_empty() {
+            None
+        } else {
+            Some((
+                score::errors(&truth, &r.forward, &kept)?,
+                score::errors(&truth, &r.smoothed, &kept)?,
+            ))
+        };
+        Ok(AgainstTruth { errors, from_log })
+    }
+
+    /// summary.json, but the outputs' and the report's times and the whole run's (filled once
+    /// the files are written).
+    fn summary(
+        &self,
+        outcome: &pipeline::Outcome,
+        keep: &[usize],
+        against: &AgainstTruth,
+    ) -> Result<Summary> {
+        let r = &outcome.reconstruction;
+        let config = &outcome.config;
+        let mut warnings: Vec<String> = outcome.warnings.iter().map(render_warning).collect();
         // A full disk is no reason to fail: the run held in memory what it meant to spill.
-        for why in records_failure
+        for why in self
+            .records_failure
+            .clone()
             .into_iter()
             .chain(r.forward.spill_failure())
             .chain(r.smoothed.spill_failure())
@@ -704,159 +788,48 @@ impl Written<'_> {
                  ({why}); they were held in memory instead (set TMPDIR to a disk with room)"
             ));
         }
-        let outputs_started = Instant::now();
-        let keep: Vec<usize> = (0..r.forward.len())
-            .filter(|&k| r.output[k] || config.output.aiding_epochs)
-            .collect();
-        let kept = keep_mask(r.forward.len(), &keep);
-        // The truth waited on its temporary file through the smoother; it is held only while
-        // the errors are taken (a day of it is 140 MB).
-        let truth: Vec<Truth> = match (log_truth, &parked_truth) {
-            (Some(truth), _) => truth,
-            (None, Some(parked)) => parked.to_vec().context("reading the truth back")?,
-            (None, None) => Vec::new(),
-        };
-        drop(parked_truth);
-        let from_log = from_log.with_truth(&truth);
-        let truth_errors = if truth.is_empty() {
-            None
-        } else {
-            Some((
-                score::errors(&truth, &r.forward, &kept)?,
-                score::errors(&truth, &r.smoothed, &kept)?,
-            ))
-        };
-        drop(truth);
-        std::fs::create_dir_all(&job.out).with_context(|| OutputFailed {
-            path: job.out.clone(),
-        })?;
-        let mut staging = Staging::new();
-        // The tables are independent files: written side by side.
-        let create = |staging: &mut Staging, name: &str| -> Result<(PathBuf, std::fs::File)> {
-            let path = job.out.join(name);
-            let file = staging
-                .create(&path)
-                .with_context(|| OutputFailed { path: path.clone() })?;
-            Ok((path, file))
-        };
-        let (trajectory, foxglove, residuals) = (
-            create(&mut staging, "trajectory.parquet")?,
-            create(&mut staging, "trajectory.mcap")?,
-            create(&mut staging, "residuals.parquet")?,
-        );
-        let errors = match &truth_errors {
-            Some(_) => Some(create(&mut staging, "errors.parquet")?),
-            None => None,
-        };
-        let mut written = vec![
-            trajectory.0.clone(),
-            foxglove.0.clone(),
-            residuals.0.clone(),
-        ];
-        written.extend(errors.as_ref().map(|(path, _)| path.clone()));
-        let failed = |path: &PathBuf| OutputFailed { path: path.clone() };
-        let (tables, mcap) = rayon::join(
-            || -> Result<()> {
-                let (path, file) = trajectory;
-                write_trajectory(file, &r, &keep, origin).with_context(|| failed(&path))?;
-                let (path, file) = residuals;
-                write_chunks(file, &r.run.residuals, recon_tables::residuals_batch)
-                    .with_context(|| failed(&path))?;
-                if let (Some((path, file)), Some((fwd, smo))) = (errors, &truth_errors) {
-                    write_errors(file, fwd, smo).with_context(|| failed(&path))?;
-                }
-                Ok(())
-            },
-            || {
-                let (path, file) = foxglove;
-                write_trajectory_mcap(file, &r, &keep, origin).with_context(|| failed(&path))
-            },
-        );
-        tables?;
-        mcap?;
-
-        let truth = truth_errors.as_ref().map(|(fwd, smo)| TruthSummary {
+        let truth = against.errors.as_ref().map(|(fwd, smo)| TruthSummary {
             forward: score::scores(fwd),
             smoothed: score::scores(smo),
             nees_horizontal_bounds_95: score::bounds_95(2),
             nees_position_bounds_95: score::bounds_95(3),
         });
         let consistency = consistency::assess(
-            &sensors,
+            &outcome.sensors,
             truth.as_ref().and_then(|t| t.forward.as_ref()),
             truth.as_ref().and_then(|t| t.smoothed.as_ref()),
         );
         warnings.extend(consistency.warnings());
-        let nav = r.init.estimate.nav;
-        let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
         let (first_forward, last_forward) = (r.forward.first()?, r.forward.last()?);
         let last_smoothed = r.smoothed.last()?;
-        let outputs_s = outputs_started.elapsed().as_secs_f64();
-        let summary = Summary {
+        let times = &outcome.times;
+        let mission = self.mission;
+        Ok(Summary {
             hindsight_version: env!("CARGO_PKG_VERSION"),
-            log: job.log.display().to_string(),
+            log: self.job.log.display().to_string(),
             mission: MissionSummary {
                 origin_latitude_deg: mission.origin_latitude_deg,
                 origin_longitude_deg: mission.origin_longitude_deg,
                 vehicle: mission.vehicle.clone(),
                 description: mission.description.clone(),
             },
-            inputs,
-            tuning,
-            plan,
-            initialisation: InitSummary {
-                position_source: r.init.position.name(),
-                position_sigma_m: r.init.position_sigma_m,
-                velocity_source: r.init.velocity.name(),
-                velocity_sigma_m_s: r.init.velocity_sigma_m_s,
-                heading_source: r.init.heading.name(),
-                heading_sigma_deg: r.init.heading_sigma_deg,
-                tilt_sigma_deg: r.init.tilt_sigma_deg,
-                latitude_deg: nav.lat_rad.to_degrees(),
-                longitude_deg: nav.lon_rad.to_degrees(),
-                depth_m: -nav.height_m,
-                roll_deg: roll.to_degrees(),
-                pitch_deg: pitch.to_degrees(),
-                yaw_deg: yaw.to_degrees(),
-                heading_sources: r.init.heading_sources.clone(),
-                heading_unavailable: r.init.heading_unavailable.clone(),
-                declination: r.init.declination,
-                in_motion_alignment: r.init.in_motion.clone(),
-            },
-            magnetometer: MagSummary {
-                readings_used: r.mag.used,
-                saturated_spans: r.mag.saturated.clone(),
-                calibrated: r.mag.calibration.is_some(),
-                calibration_skipped: r.mag.calibration_skipped.clone(),
-                magnitude_variation_pct: r.mag.magnitude_variation * 100.0,
-                deviation_unknown: r.mag.deviation_unknown,
-                reference_field_nt: r.mag.reference_norm_t * 1e9,
-                skipped_by_interval: r.run.by_interval[Sensor::Magnetometer],
-                disturbed: r.run.disturbed[Sensor::Magnetometer],
-            },
+            inputs: self.inputs.clone(),
+            tuning: outcome.tuning.clone(),
+            plan: outcome.plan.clone(),
+            initialisation: init_summary(&r.init),
+            magnetometer: mag_summary(r),
             epochs: r.forward.len(),
             trajectory_rows_per_solution: keep.len(),
             residuals: r.run.residuals.len(),
             rejected: r.run.residuals.iter().filter(|x| !x.accepted).count(),
             dvl_out_of_range: r.run.unused[Sensor::Dvl],
-            dvl_calibration: dvl_used
+            dvl_calibration: outcome
+                .plan
+                .uses(Part::Aid(Sensor::Dvl))
                 .then_some(last_forward.as_ref())
                 .flatten()
                 .map(|last| calibration::report(last, &config.dvl.calibration_sigma())),
-            water: (config.eml.enabled
-                && !r.run.residuals.iter().all(|x| x.sensor != Sensor::SpeedLog))
-            .then_some(last_forward.as_ref())
-            .flatten()
-            .map(|last| {
-                calibration::water_report(
-                    last,
-                    &[
-                        config.eml.scale_sigma,
-                        config.eml.current_sigma_m_s,
-                        config.eml.current_sigma_m_s,
-                    ],
-                )
-            }),
+            water: water_summary(r, config, last_forward.as_ref()),
             gyro_scale_factor_z: last_forward
                 .as_ref()
                 .map(|last| calibration::gyro_scale_report(last, config.imu.spec().gyro_scale())),
@@ -873,7 +846,7 @@ impl Written<'_> {
                     seconds: (g.to_ns - g.from_ns) as f64 * 1e-9,
                 })
                 .collect(),
-            sensors,
+            sensors: outcome.sensors.clone(),
             duration_s: match (&first_forward, &last_forward) {
                 (Some(a), Some(b)) => (b.stamp_ns - a.stamp_ns) as f64 * 1e-9,
                 _ => 0.0,
@@ -887,7 +860,7 @@ impl Written<'_> {
             consistency,
             warnings,
             run_time_s: RunTime {
-                ingest: ingest_s,
+                ingest: self.ingest_s,
                 plan: times.plan_s,
                 magnetometer: times.magnetometer_s,
                 align: times.align_s,
@@ -895,49 +868,144 @@ impl Written<'_> {
                 forward: times.forward_s,
                 clock_search: times.clock_search_s,
                 smoother: times.smoother_s,
-                outputs: outputs_s,
+                outputs: 0.0,
                 report: 0.0,
-                total: started.elapsed().as_secs_f64(),
+                // So far (the report shows it); the whole run's once the files are written.
+                total: self.started.elapsed().as_secs_f64(),
             },
-            config,
-        };
-        if let Some(t) = &summary.tuning {
-            let path = job.out.join("tuned.toml");
-            let mut file = staging
+            config: config.clone(),
+        })
+    }
+}
+
+/// The initial state as summary.json has it.
+fn init_summary(init: &hindsight::recon::init::Initialisation) -> InitSummary {
+    let nav = init.estimate.nav;
+    let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
+    InitSummary {
+        position_source: init.position.name(),
+        position_sigma_m: init.position_sigma_m,
+        velocity_source: init.velocity.name(),
+        velocity_sigma_m_s: init.velocity_sigma_m_s,
+        heading_source: init.heading.name(),
+        heading_sigma_deg: init.heading_sigma_deg,
+        tilt_sigma_deg: init.tilt_sigma_deg,
+        latitude_deg: nav.lat_rad.to_degrees(),
+        longitude_deg: nav.lon_rad.to_degrees(),
+        depth_m: -nav.height_m,
+        roll_deg: roll.to_degrees(),
+        pitch_deg: pitch.to_degrees(),
+        yaw_deg: yaw.to_degrees(),
+        heading_sources: init.heading_sources.clone(),
+        heading_unavailable: init.heading_unavailable.clone(),
+        declination: init.declination,
+        in_motion_alignment: init.in_motion.clone(),
+    }
+}
+
+/// What was done with the magnetometer's readings.
+fn mag_summary(r: &Reconstruction) -> MagSummary {
+    MagSummary {
+        readings_used: r.mag.used,
+        saturated_spans: r.mag.saturated.clone(),
+        calibrated: r.mag.calibration.is_some(),
+        calibration_skipped: r.mag.calibration_skipped.clone(),
+        magnitude_variation_pct: r.mag.magnitude_variation * 100.0,
+        deviation_unknown: r.mag.deviation_unknown,
+        reference_field_nt: r.mag.reference_norm_t * 1e9,
+        skipped_by_interval: r.run.by_interval[Sensor::Magnetometer],
+        disturbed: r.run.disturbed[Sensor::Magnetometer],
+    }
+}
+
+/// The EM log's scale and the water current, when the EM log was used.
+fn water_summary(
+    r: &Reconstruction,
+    config: &Config,
+    last: Option<&Solution>,
+) -> Option<WaterReport> {
+    let used = config.eml.enabled && r.run.residuals.iter().any(|x| x.sensor == Sensor::SpeedLog);
+    let sigma = [
+        config.eml.scale_sigma,
+        config.eml.current_sigma_m_s,
+        config.eml.current_sigma_m_s,
+    ];
+    used.then_some(last)
+        .flatten()
+        .map(|last| calibration::water_report(last, &sigma))
+}
+
+/// The table files of a run, created (staged) before they are written.
+struct Tables {
+    trajectory: (PathBuf, std::fs::File),
+    foxglove: (PathBuf, std::fs::File),
+    residuals: (PathBuf, std::fs::File),
+    errors: Option<(PathBuf, std::fs::File)>,
+}
+
+impl Tables {
+    fn create(staging: &mut Staging, out: &std::path::Path, with_errors: bool) -> Result<Tables> {
+        let mut create = |name: &str| -> Result<(PathBuf, std::fs::File)> {
+            let path = out.join(name);
+            let file = staging
                 .create(&path)
                 .with_context(|| OutputFailed { path: path.clone() })?;
-            std::io::Write::write_all(&mut file, t.as_toml().as_bytes())
-                .with_context(|| OutputFailed { path: path.clone() })?;
-            written.push(path);
-        }
-        let report_started = Instant::now();
-        let page = report::build(&report::Inputs {
-            summary: &summary,
-            r: &r,
-            keep: &keep,
-            origin_rad: origin,
-            from_log: &from_log,
-            truth_errors: truth_errors.as_ref(),
-            init_text: r.init.to_string(),
+            Ok((path, file))
+        };
+        Ok(Tables {
+            trajectory: create("trajectory.parquet")?,
+            foxglove: create("trajectory.mcap")?,
+            residuals: create("residuals.parquet")?,
+            errors: if with_errors {
+                Some(create("errors.parquet")?)
+            } else {
+                None
+            },
         })
-        .context("reading the solutions back for report.html")?;
-        super::write_report(&mut staging, &job.out, &page, &mut written)?;
-        let mut summary = summary;
-        summary.run_time_s.report = report_started.elapsed().as_secs_f64();
-        summary.run_time_s.outputs += summary.run_time_s.report;
-        summary.run_time_s.total = started.elapsed().as_secs_f64();
-        let path = job.out.join("summary.json");
-        super::write_json(&mut staging, &path, &summary)?;
-        written.push(path);
-        staging.commit().with_context(|| OutputFailed {
-            path: job.out.clone(),
-        })?;
+    }
 
-        print_report(&summary);
-        for p in written {
-            out!("wrote {}", p.display());
-        }
-        Ok(())
+    fn paths(&self) -> Vec<PathBuf> {
+        [&self.trajectory, &self.foxglove, &self.residuals]
+            .into_iter()
+            .chain(&self.errors)
+            .map(|(path, _)| path.clone())
+            .collect()
+    }
+
+    /// Writes the tables: trajectory.mcap beside the Parquet files.
+    fn write(
+        self,
+        r: &Reconstruction,
+        keep: &[usize],
+        origin: (f64, f64),
+        errors: Option<&(Vec<EpochError>, Vec<EpochError>)>,
+    ) -> Result<()> {
+        let failed = |path: &PathBuf| OutputFailed { path: path.clone() };
+        let Tables {
+            trajectory,
+            foxglove,
+            residuals,
+            errors: errors_file,
+        } = self;
+        let (parquet, mcap) = rayon::join(
+            || -> Result<()> {
+                let (path, file) = trajectory;
+                write_trajectory(file, r, keep, origin).with_context(|| failed(&path))?;
+                let (path, file) = residuals;
+                write_chunks(file, &r.run.residuals, recon_tables::residuals_batch)
+                    .with_context(|| failed(&path))?;
+                if let (Some((path, file)), Some((fwd, smo))) = (errors_file, errors) {
+                    write_errors(file, fwd, smo).with_context(|| failed(&path))?;
+                }
+                Ok(())
+            },
+            || {
+                let (path, file) = foxglove;
+                write_trajectory_mcap(file, r, keep, origin).with_context(|| failed(&path))
+            },
+        );
+        parquet?;
+        mcap
     }
 }
 

@@ -22,7 +22,7 @@ const OUTLIER: f64 = 3.0;
 pub const OUTAGE_MIN_S: f64 = 2.0;
 
 /// What the report draws from the log, taken before the log is freed.
-#[derive(Debug, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct FromLog {
     /// GNSS fixes (east, north), m from the origin.
     pub gnss_en: Vec<(f64, f64)>,
