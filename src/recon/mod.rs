@@ -334,7 +334,6 @@ pub fn forward_with(
         }
         None => None,
     };
-    let keep_records = inputs.keep_records;
     if let Some((model, attitude)) = &model {
         aids.push(Box::new(model_aid(
             model, &streams, attitude, config, &settings,
@@ -345,7 +344,7 @@ pub fn forward_with(
         aids: &aids,
         output_stamps_ns: &stamps,
         progress,
-        keep_records,
+        keep_records: !scored_only,
     };
     let run = run_forward(&settings, &inputs, init.estimate)?;
     aid_notes.extend(aids.iter().flat_map(|aid| {
@@ -354,9 +353,9 @@ pub fn forward_with(
             .into_iter()
             .map(move |text| AidNote { sensor, text })
     }));
-    drop(aids); // it borrows the magnetometer's readings
-                // Readings prepared here are a copy of the log's: freed. Readings handed in are kept
-                // (the log no longer has them).
+    // The table borrows the magnetometer's readings. Readings prepared here are a copy of
+    // the log's: freed. Readings handed in are kept (the log no longer has them).
+    drop(aids);
     let summary = (!keep_owned).then(|| mag.without_readings());
     let mag = match (owned, summary) {
         (_, Some(summary)) => summary,
