@@ -171,7 +171,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
         aids: &aids,
         output_stamps_ns: &output_stamps,
         progress: None,
-        keep_records: true,
+        keep: hindsight::filters::ins::driver::Keep::Records,
     };
 
     let initial = initial_from_truth(&truth[0], &scenario, 3.0, 0.2, 2.0, 25.0);
@@ -275,7 +275,7 @@ fn position_fixes_bound_the_error_without_dvl() {
             aids: &aids,
             output_stamps_ns: &stamps,
             progress: None,
-            keep_records: true,
+            keep: hindsight::filters::ins::driver::Keep::Records,
         };
         let run = run_forward(&settings, &inputs, initial).unwrap();
         let records = run.records.to_vec().unwrap();

@@ -171,7 +171,7 @@ fn run_seed(scenario: &Scenario, config: &Config, seed: u64) -> Outcome {
             aids: &aids,
             output_stamps_ns: &stamps,
             progress: None,
-            keep_records: true,
+            keep: hindsight::filters::ins::driver::Keep::Records,
         };
         let run = run_forward(&settings, &inputs, start).unwrap();
         let errors: Vec<_> = run

@@ -26,7 +26,7 @@ pub mod tune;
 
 use crate::contract::Imu;
 use crate::filters::ins::aiding::{MagAiding, Sensor};
-use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs};
+use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs, Keep};
 use crate::filters::ins::record::Solution;
 use crate::filters::ins::solutions::Solutions;
 use crate::filters::velocity::model_aided::{AttitudeAt, ModelAidedFilter};
@@ -297,7 +297,11 @@ pub fn forward_with(
         aids: &aids,
         output_stamps_ns: &stamps,
         progress: None,
-        keep_records: !scored_only,
+        keep: if scored_only {
+            Keep::Nothing
+        } else {
+            Keep::Records
+        },
     };
     let started = Instant::now();
     match start {
@@ -344,7 +348,11 @@ pub fn forward_with(
         aids: &aids,
         output_stamps_ns: &stamps,
         progress,
-        keep_records: !scored_only,
+        keep: if scored_only {
+            Keep::Nothing
+        } else {
+            Keep::Records
+        },
     };
     let run = run_forward(&settings, &inputs, init.estimate)?;
     aid_notes.extend(aids.iter().flat_map(|aid| {
@@ -483,7 +491,7 @@ pub fn settled_start(
         output_stamps_ns: &[],
         progress: None,
         // The alignment smooths its winner back to the start: it needs the records.
-        keep_records: true,
+        keep: Keep::Records,
     };
     settle_heading(&settings, &inputs, &mut init, config)?;
     Ok(init)
@@ -498,15 +506,12 @@ fn attitude_of_pass(
     let run = run_forward(
         settings,
         &Inputs {
-            keep_records: true,
+            keep: Keep::Navigation,
             ..*inputs
         },
         init.estimate,
     )?;
-    Ok(Arc::new(
-        model_velocity::attitude_track(&run.records)
-            .map_err(|e| SmoothError::Records(e.to_string()))?,
-    ))
+    Ok(Arc::new(model_velocity::attitude_track(&run.navigation)))
 }
 
 /// Seed 000's model aid over the log, driven by `attitude`.

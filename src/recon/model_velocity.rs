@@ -5,12 +5,11 @@
 use super::config::{ModelMethod, ModelVelocityConfig};
 use super::Streams;
 use crate::filters::ins::aids::{ModelVelocityAid, ModelVelocityUse};
-use crate::filters::ins::record::EpochRecord;
+use crate::filters::ins::driver::NavAt;
 use crate::filters::velocity::model_aided::{
     self, AttitudeAt, BodyVelocityReading, Mode, ModelAidedFilter,
 };
 use crate::ingest::Mission;
-use crate::spill::Spilled;
 use crate::vehicle::six_dof::description::{Vehicle, BUILT_IN};
 use crate::vehicle::six_dof::model::SixDof;
 
@@ -73,15 +72,13 @@ pub fn model_for(
 }
 
 /// The attitude of a forward pass's epochs.
-pub fn attitude_track(records: &Spilled<EpochRecord>) -> std::io::Result<Vec<AttitudeAt>> {
-    records
+pub fn attitude_track(navigation: &[NavAt]) -> Vec<AttitudeAt> {
+    navigation
         .iter()
-        .map(|r| {
-            r.map(|r| AttitudeAt {
-                stamp_ns: r.stamp_ns,
-                ned_from_body: r.posterior.nav.ned_from_body,
-                lat_rad: r.posterior.nav.lat_rad,
-            })
+        .map(|n| AttitudeAt {
+            stamp_ns: n.stamp_ns,
+            ned_from_body: n.nav.ned_from_body,
+            lat_rad: n.nav.lat_rad,
         })
         .collect()
 }

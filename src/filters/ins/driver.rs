@@ -61,9 +61,27 @@ pub struct Inputs<'a> {
     pub output_stamps_ns: &'a [i64],
     /// Told the fraction of the IMU samples integrated, now and then.
     pub progress: crate::progress::Progress<'a>,
-    /// Keep the epoch records (for a smoother); a pass that is only scored (its residuals and
-    /// likelihood) keeps none.
-    pub keep_records: bool,
+    /// What the pass keeps of each epoch beyond its residuals and likelihood.
+    pub keep: Keep,
+}
+
+/// What a pass keeps of each epoch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Keep {
+    /// Nothing: a pass that is only scored (its residuals and likelihood).
+    Nothing,
+    /// The epoch records, for a smoother.
+    Records,
+    /// The navigation state after each epoch's updates, and no covariance: the track that
+    /// drives another filter (seed 000's model aid), at a small part of the records' cost.
+    Navigation,
+}
+
+/// The navigation state after one epoch's updates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NavAt {
+    pub stamp_ns: i64,
+    pub nav: NavState,
 }
 
 /// One aiding measurement as the filter saw it.
@@ -110,9 +128,10 @@ pub struct ImuGap {
 /// What the forward pass produced.
 #[derive(Debug, Default)]
 pub struct ForwardRun {
-    /// One per epoch, on a temporary file beyond a block; empty unless
-    /// [`Inputs::keep_records`].
+    /// One per epoch, on a temporary file beyond a block, when [`Keep::Records`].
     pub records: Spilled<EpochRecord>,
+    /// One per epoch when [`Keep::Navigation`].
+    pub navigation: Vec<NavAt>,
     pub residuals: Vec<Residual>,
     /// Readings the filter reached but did not use: a DVL without bottom lock or above its
     /// maximum altitude (its own or the echo sounder's), an EM log below 0.1 m/s forward
@@ -238,14 +257,8 @@ pub fn run_forward(
         pass.run.by_interval[aid.sensor()] += left.by_interval;
         pass.run.disturbed[aid.sensor()] += left.disturbed;
     }
-    pass.keep(EpochRecord::new(
-        t0,
-        true,
-        &ErrorMatrix::identity(),
-        &ErrorState::zeros(),
-        &NavPoint::from(&initial),
-        &initial,
-    ));
+    // The first epoch: the estimate is the initial one, its step the identity.
+    pass.keep(t0, true, &NavPoint::from(&initial));
 
     let usual_dt = usual_imu_interval_s(inputs.imu).unwrap_or(0.01);
     let gap_s = settings.propagation.imu_gap_s.max(3.0 * usual_dt);
@@ -281,9 +294,22 @@ pub fn run_forward(
 }
 
 impl Pass<'_> {
-    fn keep(&mut self, record: EpochRecord) {
-        if self.inputs.keep_records {
-            self.run.records.push(record);
+    /// Keeps what the inputs ask of the epoch at `t` whose prior estimate was `prior`.
+    fn keep(&mut self, t: i64, output: bool, prior: &NavPoint) {
+        match self.inputs.keep {
+            Keep::Nothing => {}
+            Keep::Records => self.run.records.push(EpochRecord::new(
+                t,
+                output,
+                &self.step_phi,
+                &self.step_q,
+                prior,
+                &self.est,
+            )),
+            Keep::Navigation => self.run.navigation.push(NavAt {
+                stamp_ns: t,
+                nav: self.est.nav,
+            }),
         }
     }
 
@@ -319,14 +345,7 @@ impl Pass<'_> {
                 .get(self.at.out)
                 .is_some_and(|&s| s <= t);
             self.apply_measurements(t)?;
-            self.keep(EpochRecord::new(
-                t,
-                output,
-                &self.step_phi,
-                &self.step_q,
-                &prior,
-                &self.est,
-            ));
+            self.keep(t, output, &prior);
             self.cov_nav = self.est.nav;
         }
         Ok(())

@@ -10,7 +10,7 @@
 use super::stationary::StillNoise;
 use crate::ingest::Mission;
 use crate::recon::config::{Config, ImuConfig, ImuGrade, ImuSpec};
-use crate::recon::init::InitError;
+use crate::recon::init::{InitError, Initialisation};
 use crate::recon::{forward_with, Prepared, ReconError, Streams};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -163,10 +163,10 @@ pub fn with_candidate(config: &Config, c: &Candidate, still: Option<&StillNoise>
     }
 }
 
-/// The log-likelihood of one model over the span; `None` when the pass fails. Every candidate
-/// starts from the settled heading when there is one; else the in-motion alignment is skipped
-/// while the log has a heading source (every candidate then starts from the same heading),
-/// and used only when it has none.
+/// The log-likelihood of one model over the span, with the start its pass took; `None` when
+/// the pass fails. Every candidate starts from the settled heading when there is one; else
+/// the in-motion alignment is skipped while the log has a heading source (every candidate
+/// then starts from the same heading), and used only when it has none.
 fn score(
     streams: &Streams<'_>,
     mission: &Mission,
@@ -174,7 +174,7 @@ fn score(
     c: &Candidate,
     still: Option<&StillNoise>,
     from: Prepared<'_>,
-) -> Option<f64> {
+) -> Option<(f64, Initialisation)> {
     let mut cfg = with_candidate(config, c, still);
     cfg.alignment.enabled = false;
     let pass = |cfg: &Config| forward_with(streams, mission, cfg, from.scored());
@@ -186,11 +186,11 @@ fn score(
         other => other,
     };
     pass.ok()
-        .map(|p| p.run.log_likelihood)
-        .filter(|l| l.is_finite())
+        .map(|p| (p.run.log_likelihood, p.init))
+        .filter(|(l, _)| l.is_finite())
 }
 
-/// Scores the candidates in parallel.
+/// Scores the candidates in parallel; each with the start its pass took.
 fn score_all(
     streams: &Streams<'_>,
     mission: &Mission,
@@ -198,13 +198,18 @@ fn score_all(
     candidates: &[Candidate],
     still: Option<&StillNoise>,
     from: Prepared<'_>,
-) -> Vec<Scored> {
+) -> Vec<(Scored, Option<Initialisation>)> {
     candidates
         .par_iter()
-        .map(|c| Scored {
-            label: c.label(),
-            candidate: *c,
-            log_likelihood: score(streams, mission, config, c, still, from),
+        .map(|c| {
+            let scored = score(streams, mission, config, c, still, from);
+            let (log_likelihood, start) = scored.map_or((None, None), |(l, i)| (Some(l), Some(i)));
+            let scored = Scored {
+                label: c.label(),
+                candidate: *c,
+                log_likelihood,
+            };
+            (scored, start)
         })
         .collect()
 }
@@ -229,7 +234,10 @@ pub fn search(
     still: Option<&StillNoise>,
     from: Prepared<'_>,
 ) -> Search {
-    let mut tried = score_all(streams, mission, config, &ladder(), still, from);
+    let (mut tried, starts): (Vec<Scored>, Vec<Option<Initialisation>>) =
+        score_all(streams, mission, config, &ladder(), still, from)
+            .into_iter()
+            .unzip();
     let Some((mut best, mut best_ll)) = best_of(&tried) else {
         return Search {
             best: None,
@@ -240,6 +248,21 @@ pub fn search(
                     .into(),
             ),
         };
+    };
+    // Without a settled start each grade aligned itself: the refinements, near the best
+    // grade, start from the start the best grade found (one alignment per grade, not per
+    // candidate).
+    let best_start = tried
+        .iter()
+        .zip(&starts)
+        .find(|(t, _)| t.candidate.same_as(&best))
+        .and_then(|(_, s)| s.as_ref());
+    let from = match (from.start, best_start) {
+        (None, Some(start)) => Prepared {
+            start: Some(start),
+            ..from
+        },
+        _ => from,
     };
     let mut settled = false;
     for _ in 0..MAX_ROUNDS {
@@ -252,7 +275,10 @@ pub fn search(
         .into_iter()
         .filter(|c| !tried.iter().any(|t| t.candidate.same_as(c)))
         .collect();
-        let round = score_all(streams, mission, config, &steps, still, from);
+        let round: Vec<Scored> = score_all(streams, mission, config, &steps, still, from)
+            .into_iter()
+            .map(|(scored, _)| scored)
+            .collect();
         let next = best_of(&round);
         tried.extend(round);
         match next {
