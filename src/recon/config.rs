@@ -208,6 +208,8 @@ found_sigma_floor_deg = 5.0       # least start sigma of a heading found this wa
 # by 3 while the likelihood improves). Figures the configuration gives are kept.
 use = true
 span_s = 1800.0            # the IMU is tuned on the mission's first span_s seconds
+settle_s = 300.0           # the innovations of the span's first settle_s (at most a third of
+                           # the span) are not scored: the start's uncertainty drives them
 
 [output]
 rate_hz = 10.0             # trajectory rows per second (per solution)
@@ -758,6 +760,9 @@ pub struct TuneConfig {
     #[serde(rename = "use")]
     pub enabled: bool,
     pub span_s: f64,
+    /// The innovations of the span's first `settle_s` (at most a third of the span) are left
+    /// out of each candidate's score.
+    pub settle_s: f64,
 }
 
 impl Default for TuneConfig {
@@ -765,6 +770,7 @@ impl Default for TuneConfig {
         TuneConfig {
             enabled: true,
             span_s: 1800.0,
+            settle_s: 300.0,
         }
     }
 }
@@ -988,8 +994,9 @@ impl Config {
                 });
             }
         }
-        let non_negative: [(&'static str, f64); 14] = [
+        let non_negative: [(&'static str, f64); 15] = [
             ("imu.gyro_scale_ppm", spec.gyro_scale_ppm),
+            ("tune.settle_s", self.tune.settle_s),
             ("eml.scale_sigma", self.eml.scale_sigma),
             ("eml.current_sigma_m_s", self.eml.current_sigma_m_s),
             ("eml.current_walk_m_s_rt_h", self.eml.current_walk_m_s_rt_h),

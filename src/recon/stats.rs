@@ -286,6 +286,7 @@ mod tests {
                     dims: 2,
                     nis: (innovation[0].powi(2) + innovation[1].powi(2)) / 4.0,
                     accepted: k % 100 != 0,
+                    log_likelihood: 0.0,
                 }
             })
             .collect();

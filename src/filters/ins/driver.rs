@@ -96,10 +96,17 @@ pub struct Residual {
     pub dims: usize,
     pub nis: f64,
     pub accepted: bool,
+    /// This reading's term of the pass's log-likelihood ([`ForwardRun::log_likelihood`]).
+    pub log_likelihood: f64,
 }
 
 impl Residual {
-    fn from_record<const M: usize>(stamp_ns: i64, sensor: Sensor, rec: &UpdateRecord<M>) -> Self {
+    fn from_record<const M: usize>(
+        stamp_ns: i64,
+        sensor: Sensor,
+        rec: &UpdateRecord<M>,
+        log_likelihood: f64,
+    ) -> Self {
         let mut innovation = [0.0; 3];
         let mut sigma = [0.0; 3];
         for i in 0..M.min(3) {
@@ -114,6 +121,7 @@ impl Residual {
             dims: M,
             nis: rec.nis,
             accepted: rec.accepted,
+            log_likelihood,
         }
     }
 }
@@ -148,6 +156,19 @@ pub struct ForwardRun {
     /// NIS capped at the gate's bound (so that an outlier counts as a rejection, not as a
     /// verdict on the noise): the score of the noise settings when they are tuned.
     pub log_likelihood: f64,
+}
+
+impl ForwardRun {
+    /// The log-likelihood of the innovations from `from_ns` on: a score that leaves out the
+    /// start's transient (there the start's uncertainty, not the noise, shapes the
+    /// innovations).
+    pub fn log_likelihood_after(&self, from_ns: i64) -> f64 {
+        self.residuals
+            .iter()
+            .filter(|r| r.stamp_ns >= from_ns)
+            .map(|r| r.log_likelihood)
+            .sum()
+    }
 }
 
 /// Why the forward pass stopped.
@@ -449,13 +470,17 @@ impl Pass<'_> {
         } else {
             self.consecutive_rejections[sensor] + 1
         };
-        self.run.log_likelihood -= 0.5
+        let log_likelihood = -0.5
             * (rec.nis.min(self.nis_cap[M])
                 + rec.log_det_innovation_cov
                 + M as f64 * (2.0 * std::f64::consts::PI).ln());
-        self.run
-            .residuals
-            .push(Residual::from_record(stamp_ns, sensor, &rec));
+        self.run.log_likelihood += log_likelihood;
+        self.run.residuals.push(Residual::from_record(
+            stamp_ns,
+            sensor,
+            &rec,
+            log_likelihood,
+        ));
         Ok(())
     }
 

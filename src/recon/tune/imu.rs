@@ -185,9 +185,21 @@ fn score(
         }
         other => other,
     };
+    let from_ns = scored_from_ns(streams, &config.tune);
     pass.ok()
-        .map(|p| (p.run.log_likelihood, p.init))
+        .map(|p| (p.run.log_likelihood_after(from_ns), p.init))
         .filter(|(l, _)| l.is_finite())
+}
+
+/// Where the score starts: `settle_s` into the span, at most a third of it. Before, the
+/// innovations answer the start's uncertainty (its heading above all), which the IMU's noise
+/// would otherwise be inflated to absorb.
+fn scored_from_ns(streams: &Streams<'_>, tune: &crate::recon::config::TuneConfig) -> i64 {
+    let (Some(first), Some(last)) = (streams.imu.first(), streams.imu.last()) else {
+        return i64::MIN;
+    };
+    let span_s = (last.stamp_ns - first.stamp_ns) as f64 * 1e-9;
+    first.stamp_ns + (tune.settle_s.min(span_s / 3.0) * 1e9) as i64
 }
 
 /// Scores the candidates in parallel; each with the start its pass took.
