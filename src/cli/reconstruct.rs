@@ -683,8 +683,6 @@ impl Written<'_> {
         let outputs_started = Instant::now();
         let r = &outcome.reconstruction;
         let keep = kept_rows(r, &outcome.config);
-        let truth = self.against_truth(r, &keep)?;
-        let mut summary = self.summary(&outcome, &keep, &truth)?;
         let job = self.job;
         std::fs::create_dir_all(&job.out).with_context(|| OutputFailed {
             path: job.out.clone(),
@@ -694,21 +692,29 @@ impl Written<'_> {
             self.mission.origin_latitude_deg.to_radians(),
             self.mission.origin_longitude_deg.to_radians(),
         );
-        let tables = Tables::create(&mut staging, &job.out, truth.errors.is_some())?;
+        let mut tables = Tables::create(&mut staging, &job.out, self.has_truth())?;
         let mut written = tables.paths();
-        if let Some(t) = &summary.tuning {
-            let path = job.out.join("tuned.toml");
-            let mut file = staging
-                .create(&path)
-                .with_context(|| OutputFailed { path: path.clone() })?;
-            std::io::Write::write_all(&mut file, t.as_toml().as_bytes())
-                .with_context(|| OutputFailed { path: path.clone() })?;
-            written.push(path);
-        }
-        // The tables and the report are independent: made side by side.
-        let (tables, report_s) = rayon::join(
-            || tables.write(r, &keep, origin, truth.errors.as_ref()),
-            || -> Result<f64> {
+        let errors_file = tables.errors.take();
+        // The trajectory's tables need nothing more: they are written beside the scores
+        // against the truth, the summary, the errors table and the report, which follow one
+        // another.
+        let (tables, scored) = rayon::join(
+            || tables.write(r, &keep, origin),
+            || -> Result<Summary> {
+                let truth = self.against_truth(r, &keep)?;
+                let mut summary = self.summary(&outcome, &keep, &truth)?;
+                if let (Some((path, file)), Some((fwd, smo))) = (errors_file, &truth.errors) {
+                    write_errors(file, fwd, smo).with_context(|| OutputFailed { path })?;
+                }
+                if let Some(t) = &summary.tuning {
+                    let path = job.out.join("tuned.toml");
+                    let mut file = staging
+                        .create(&path)
+                        .with_context(|| OutputFailed { path: path.clone() })?;
+                    std::io::Write::write_all(&mut file, t.as_toml().as_bytes())
+                        .with_context(|| OutputFailed { path: path.clone() })?;
+                    written.push(path);
+                }
                 let started = Instant::now();
                 let page = report::build(&report::Inputs {
                     summary: &summary,
@@ -721,11 +727,12 @@ impl Written<'_> {
                 })
                 .context("reading the solutions back for report.html")?;
                 super::write_report(&mut staging, &job.out, &page, &mut written)?;
-                Ok(started.elapsed().as_secs_f64())
+                summary.run_time_s.report = started.elapsed().as_secs_f64();
+                Ok(summary)
             },
         );
         tables?;
-        summary.run_time_s.report = report_s?;
+        let mut summary = scored?;
         summary.run_time_s.outputs = outputs_started.elapsed().as_secs_f64();
         summary.run_time_s.total = self.started.elapsed().as_secs_f64();
         let path = job.out.join("summary.json");
@@ -739,6 +746,15 @@ impl Written<'_> {
             out!("wrote {}", p.display());
         }
         Ok(())
+    }
+
+    /// Whether the log has a truth to score against (its errors table is then written).
+    fn has_truth(&self) -> bool {
+        match &self.truth {
+            (Some(truth), _) => !truth.is_empty(),
+            (None, Some(parked)) => !parked.is_empty(),
+            (None, None) => false,
+        }
     }
 
     /// The truth read back (it waited on its temporary file through the smoother; held only
@@ -972,20 +988,15 @@ impl Tables {
             .collect()
     }
 
-    /// Writes the tables: trajectory.mcap beside the Parquet files.
-    fn write(
-        self,
-        r: &Reconstruction,
-        keep: &[usize],
-        origin: (f64, f64),
-        errors: Option<&(Vec<EpochError>, Vec<EpochError>)>,
-    ) -> Result<()> {
+    /// Writes the trajectory's tables (trajectory.mcap beside the Parquet files); the errors
+    /// table, taken out before, is written with the scores.
+    fn write(self, r: &Reconstruction, keep: &[usize], origin: (f64, f64)) -> Result<()> {
         let failed = |path: &PathBuf| OutputFailed { path: path.clone() };
         let Tables {
             trajectory,
             foxglove,
             residuals,
-            errors: errors_file,
+            errors: _,
         } = self;
         let (parquet, mcap) = rayon::join(
             || -> Result<()> {
@@ -994,9 +1005,6 @@ impl Tables {
                 let (path, file) = residuals;
                 write_chunks(file, &r.run.residuals, recon_tables::residuals_batch)
                     .with_context(|| failed(&path))?;
-                if let (Some((path, file)), Some((fwd, smo))) = (errors_file, errors) {
-                    write_errors(file, fwd, smo).with_context(|| failed(&path))?;
-                }
                 Ok(())
             },
             || {

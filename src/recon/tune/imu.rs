@@ -1,7 +1,8 @@
 //! The IMU's noise by maximum likelihood of the filter's innovations.
 //!
 //! Each candidate noise model runs the forward filter over the same span of the log; its
-//! score is the log-likelihood of the innovations (`ForwardRun::log_likelihood`). The
+//! score is the log-likelihood of the innovations after the start's transient
+//! (`ForwardRun::log_likelihood_after`, `[tune] settle_s` into the span). The
 //! candidates are first the grades (navigation to MEMS, and MEMS 10 and 100 times worse),
 //! then, from the best, the gyro's and the accelerometer's figures each scaled by 3 up and
 //! down while the likelihood improves. An IMU whose data sheet nobody gave is thus learnt
