@@ -40,6 +40,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../../scenarios/trench-eml.toml"),
     ),
     (
+        "trench-turn",
+        include_str!("../../scenarios/trench-turn.toml"),
+    ),
+    (
         "survey-27h",
         include_str!("../../scenarios/survey-27h.toml"),
     ),

@@ -5,7 +5,7 @@ Usage: python3 tests/python/default_runs.py WORKDIR CASE [SEEDS...]
 
 CASE is one of:
   seed000-case1, seed000-case2   long-dive-dynamic, coefficients exact / 10 % off
-  trench-eml, dive-27min, survey-dvl-calibration, survey, survey-short
+  trench-eml, trench-turn, dive-27min, survey-dvl-calibration, survey, survey-short
 Each seed is simulated (`hindsight simulate`), reconstructed with the default command
 (`hindsight reconstruct LOG --out DIR`), and its summary.json's truth scores printed, one
 line per seed, then the worst forward and smoothed max.

@@ -512,3 +512,30 @@ impl Pass<'_> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_likelihood_after_a_time_sums_the_later_readings_terms() {
+        let residual = |stamp_ns, log_likelihood| Residual {
+            stamp_ns,
+            sensor: Sensor::Dvl,
+            innovation: [0.0; 3],
+            sigma: [1.0; 3],
+            dims: 3,
+            nis: 0.0,
+            accepted: true,
+            log_likelihood,
+        };
+        let run = ForwardRun {
+            residuals: vec![residual(10, -1.0), residual(20, -2.0), residual(30, -4.0)],
+            log_likelihood: -7.0,
+            ..ForwardRun::default()
+        };
+        assert_eq!(run.log_likelihood_after(i64::MIN), run.log_likelihood);
+        assert_eq!(run.log_likelihood_after(20), -6.0);
+        assert_eq!(run.log_likelihood_after(31), 0.0);
+    }
+}

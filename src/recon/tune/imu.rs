@@ -322,6 +322,43 @@ pub fn search(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contract::Imu;
+
+    fn imu_over(span_s: i64) -> Vec<Imu> {
+        (0..=span_s)
+            .map(|k| Imu {
+                stamp_ns: 5_000_000_000 + k * 1_000_000_000,
+                angular_velocity: [0.0; 3],
+                specific_force: [0.0, 0.0, -9.8],
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_score_starts_after_the_settle_span_and_at_most_a_third_in() {
+        let tune = crate::recon::config::TuneConfig::default();
+        assert_eq!(tune.settle_s, 300.0);
+        let long = imu_over(1800);
+        let streams = Streams {
+            imu: &long,
+            ..Streams::default()
+        };
+        assert_eq!(
+            scored_from_ns(&streams, &tune),
+            5_000_000_000 + 300_000_000_000
+        );
+        // A 6-minute log: a third of it (120 s), not 300 s.
+        let short = imu_over(360);
+        let streams = Streams {
+            imu: &short,
+            ..Streams::default()
+        };
+        assert_eq!(
+            scored_from_ns(&streams, &tune),
+            5_000_000_000 + 120_000_000_000
+        );
+        assert_eq!(scored_from_ns(&Streams::default(), &tune), i64::MIN);
+    }
 
     #[test]
     fn candidates_scale_their_grade() {
