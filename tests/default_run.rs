@@ -174,3 +174,44 @@ fn what_the_log_cannot_support_is_held_or_refused_with_the_reason() {
         .all(|r| r.sensor != Sensor::ModelVelocity));
     assert!(fwd.horizontal_rms_m < 2.0, "{}", fwd.horizontal_rms_m);
 }
+
+/// `trench-turn` (a U-turn inside a 6-minute DVL outage, a propeller and no EM log): the plan
+/// switches the propeller velocity filter on for the DVL's gap, and it holds the forward error
+/// to a small part of switching alone's, with honest sigmas. Measured: forward max 3.43 m
+/// against 28.4 m (seed 1); the issue's 3 m bar is not met on this log (README).
+#[test]
+fn the_propeller_bridges_an_outage_with_a_turn_in_it() {
+    let log = common::simulated_log(&Scenario::built_in("trench-turn").unwrap(), 1);
+    let (outcome, fwd, _) = run(&log, &Config::default());
+    let filter = outcome
+        .plan
+        .decisions
+        .iter()
+        .find(|d| d.part == Part::Aid(Sensor::RpmVelocity))
+        .unwrap();
+    assert!(
+        filter.used && matches!(filter.why, Why::DvlGaps { .. }),
+        "{:?}",
+        filter.why
+    );
+    let mut switching = Config::default();
+    switching.rpm_velocity.enabled = Switch::Off;
+    let (_, alone, _) = run(&log, &switching);
+    println!(
+        "trench-turn seed 1, forward max: {:.2} m with the propeller filter, {:.2} m switching \
+         alone; NEES inside {:.3}",
+        fwd.horizontal_max_m, alone.horizontal_max_m, fwd.nees_horizontal_inside_95
+    );
+    assert!(
+        fwd.horizontal_max_m < 0.25 * alone.horizontal_max_m,
+        "{} against {}",
+        fwd.horizontal_max_m,
+        alone.horizontal_max_m
+    );
+    assert!(fwd.horizontal_max_m < 4.5, "{}", fwd.horizontal_max_m);
+    assert!(
+        fwd.nees_horizontal_inside_95 >= 0.8,
+        "{}",
+        fwd.nees_horizontal_inside_95
+    );
+}
