@@ -208,8 +208,9 @@ found_sigma_floor_deg = 5.0       # least start sigma of a heading found this wa
 # by 3 while the likelihood improves). Figures the configuration gives are kept.
 use = true
 span_s = 1800.0            # the IMU is tuned on the mission's first span_s seconds
-settle_s = 300.0           # the innovations of the span's first settle_s (at most a third of
-                           # the span) are not scored: the start's uncertainty drives them
+settle_s = 300.0           # a start heading found in motion: the innovations of the span's
+                           # first settle_s (at most a third of it) are not scored (they
+                           # re-fit that heading)
 
 [output]
 rate_hz = 10.0             # trajectory rows per second (per solution)
@@ -760,8 +761,8 @@ pub struct TuneConfig {
     #[serde(rename = "use")]
     pub enabled: bool,
     pub span_s: f64,
-    /// The innovations of the span's first `settle_s` (at most a third of the span) are left
-    /// out of each candidate's score.
+    /// With a start heading the in-motion alignment found, the innovations of the span's
+    /// first `settle_s` (at most a third of the span) are left out of each candidate's score.
     pub settle_s: f64,
 }
 

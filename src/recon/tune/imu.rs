@@ -1,8 +1,8 @@
 //! The IMU's noise by maximum likelihood of the filter's innovations.
 //!
 //! Each candidate noise model runs the forward filter over the same span of the log; its
-//! score is the log-likelihood of the innovations after the start's transient
-//! (`ForwardRun::log_likelihood_after`, `[tune] settle_s` into the span). The
+//! score is the log-likelihood of the innovations (`ForwardRun::log_likelihood_after`: from
+//! `[tune] settle_s` into the span when the start heading was found in motion). The
 //! candidates are first the grades (navigation to MEMS, and MEMS 10 and 100 times worse),
 //! then, from the best, the gyro's and the accelerometer's figures each scaled by 3 up and
 //! down while the likelihood improves. An IMU whose data sheet nobody gave is thus learnt
@@ -11,6 +11,7 @@
 use super::stationary::StillNoise;
 use crate::ingest::Mission;
 use crate::recon::config::{Config, ImuConfig, ImuGrade, ImuSpec};
+use crate::recon::heading::HeadingSource;
 use crate::recon::init::{InitError, Initialisation};
 use crate::recon::{forward_with, Prepared, ReconError, Streams};
 use rayon::prelude::*;
@@ -186,15 +187,25 @@ fn score(
         }
         other => other,
     };
-    let from_ns = scored_from_ns(streams, &config.tune);
     pass.ok()
-        .map(|p| (p.run.log_likelihood_after(from_ns), p.init))
+        .map(|p| {
+            let from_ns = if p.init.heading == HeadingSource::InMotion {
+                scored_from_ns(streams, &config.tune)
+            } else {
+                i64::MIN
+            };
+            (p.run.log_likelihood_after(from_ns), p.init)
+        })
         .filter(|(l, _)| l.is_finite())
 }
 
-/// Where the score starts: `settle_s` into the span, at most a third of it. Before, the
-/// innovations answer the start's uncertainty (its heading above all), which the IMU's noise
-/// would otherwise be inflated to absorb.
+/// Where the score of a pass whose start heading the in-motion alignment found starts:
+/// `settle_s` into the span, at most a third of it. That heading was found from the span's
+/// own first minutes (with a floor of a few degrees on its sigma), so the innovations there
+/// re-fit it rather than tell the IMU's noise, which would otherwise be inflated to absorb
+/// them. A heading from another source (a magnetometer, a gyrocompass at rest, GNSS) is
+/// independent of them, and the span is scored whole: on a MEMS IMU the first minutes are
+/// where its gyro shows most.
 fn scored_from_ns(streams: &Streams<'_>, tune: &crate::recon::config::TuneConfig) -> i64 {
     let (Some(first), Some(last)) = (streams.imu.first(), streams.imu.last()) else {
         return i64::MIN;
