@@ -35,6 +35,21 @@ fn trajectory_column(batches: &[RecordBatch], name: &str, solution: &str) -> Vec
     out
 }
 
+/// `hindsight reconstruct SAMPLE --out OUT --config CONFIG`.
+fn reconstruct_sample_with(
+    out: &std::path::Path,
+    config: &std::path::Path,
+) -> std::process::Output {
+    hindsight(&[
+        "reconstruct",
+        SAMPLE,
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+    ])
+}
+
 fn rows(batches: &[RecordBatch]) -> usize {
     batches.iter().map(RecordBatch::num_rows).sum()
 }
@@ -211,14 +226,7 @@ fn bad_configuration_and_logs_without_imu_are_clear_errors() {
     let out = dir.join("out");
     let config = dir.join("bad.toml");
     std::fs::write(&config, "[dvl]\nsigma = 0.01\n").unwrap();
-    let o = hindsight(&[
-        "reconstruct",
-        SAMPLE,
-        "--out",
-        out.to_str().unwrap(),
-        "--config",
-        config.to_str().unwrap(),
-    ]);
+    let o = reconstruct_sample_with(&out, &config);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("sigma"), "{}", stderr(&o));
     assert!(!out.exists() || std::fs::read_dir(&out).unwrap().next().is_none());
@@ -307,14 +315,7 @@ fn the_plan_is_shown_and_a_forced_part_the_log_cannot_support_is_refused() {
     let out = common::scratch_dir("reconstruct-plan");
     let config = out.with_extension("toml");
     std::fs::write(&config, "[model_velocity]\nuse = true\n").unwrap();
-    let o = hindsight(&[
-        "reconstruct",
-        SAMPLE,
-        "--out",
-        out.to_str().unwrap(),
-        "--config",
-        config.to_str().unwrap(),
-    ]);
+    let o = reconstruct_sample_with(&out, &config);
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("plan (what is used and why):"), "{err}");
