@@ -127,6 +127,57 @@ fn drop_entry(seed: u64) -> (f64, f64, f64, f64) {
     )
 }
 
+/// A log from 2016 (before the World Magnetic Model's years) whose writer left the
+/// declination out: the magnetometer's heading takes IGRF-14's declination for the start's
+/// place and date, with a sigma under 0.5 deg, and no "declination unknown" warning. The
+/// simulated field is IGRF-14's own at the origin, so the start heading is checked against
+/// the truth.
+#[test]
+fn a_2016_log_without_a_declination_takes_igrfs() {
+    use hindsight::recon::heading::DeclinationSource;
+    let mut scenario = Scenario::built_in("survey-short").unwrap();
+    let day = hindsight::time::days_from_civil(2016, 6, 15);
+    scenario.start_stamp_ns = day * 86_400 * 1_000_000_000;
+    scenario.mission.declination_in_log = false;
+    let year = hindsight::geomag::decimal_year(scenario.start_stamp_ns);
+    let (lat, lon) = (
+        scenario.mission.origin_latitude_deg,
+        scenario.mission.origin_longitude_deg,
+    );
+    let field = hindsight::geomag::igrf::field_geodetic(year, lat, lon, 0.0).unwrap();
+    let mag = scenario.mag.as_mut().unwrap();
+    mag.field_ned_nt = [field.north_nt, field.east_nt, field.down_nt];
+    let log = common::simulated_log(&scenario, 1);
+    assert_eq!(log.mission().unwrap().magnetic_declination_deg, None);
+
+    let mut config = Config::default();
+    config.initial.heading = HeadingChoice::Magnetometer;
+    let (r, fwd, _) = run(&log, &config);
+    let used = r.init.declination.unwrap();
+    println!(
+        "declination {:.3} deg (1-sigma {:.2}) from {:?}; the field's {:.3} deg; start heading \
+         from {}; forward yaw RMS {:.3} deg",
+        used.declination_deg,
+        used.sigma_deg,
+        used.source,
+        field.declination_deg(),
+        r.init.heading.name(),
+        fwd.yaw_rms_deg
+    );
+    assert_eq!(used.source, DeclinationSource::Igrf);
+    assert!((used.declination_deg - field.declination_deg()).abs() < 0.05);
+    assert!(used.sigma_deg <= 0.5, "{}", used.sigma_deg);
+    assert_eq!(r.init.heading, HeadingSource::Magnetometer);
+    let truth_yaw = log.messages::<Truth>("/truth").unwrap()[0].attitude[2];
+    let (_, _, yaw) = r.init.estimate.nav.ned_from_body.euler_angles();
+    let error_deg = hindsight::angle::wrap_pi(yaw - truth_yaw).to_degrees();
+    assert!(
+        error_deg.abs() <= 3.0 * r.init.heading_sigma_deg,
+        "start heading {error_deg} deg off, 1-sigma {}",
+        r.init.heading_sigma_deg
+    );
+}
+
 /// `long-dive-dynamic` (5.5 h, no magnetometer, no heading in the mission) with its sensors'
 /// settings (`configs/long-dive.toml`): no heading source at all, the in-motion alignment
 /// finds it, and the smoothed yaw RMS is <= 0.5 deg.

@@ -102,7 +102,8 @@ pub struct AttitudeArgs {
     pub mag_calibration: MagCalibration,
 
     /// Magnetic declination, deg east [default: the mission's magnetic_declination_deg,
-    /// else the World Magnetic Model's at the mission origin on the log's date].
+    /// else the World Magnetic Model's (2020-2029) or IGRF-14's (1900-2030) at the mission
+    /// origin on the log's date].
     #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub declination: Option<f64>,
 }
@@ -332,8 +333,8 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     Ok(())
 }
 
-/// The declination, deg east: given, else the mission's, else the World Magnetic Model's at
-/// the mission origin on the log's date (0 with a warning when the model has none).
+/// The declination, deg east: given, else the mission's, else the World Magnetic Model's or
+/// IGRF-14's at the mission origin on the log's date (0 with a warning when none has one).
 fn declination_deg(
     given: Option<f64>,
     mission: &hindsight::ingest::Mission,
@@ -347,9 +348,11 @@ fn declination_deg(
     match hindsight::geomag::declination(lat, lon, 0.0, t0_ns) {
         Ok(d) => {
             said.info(format!(
-                "declination {:.2} deg (+-{:.2}) from the World Magnetic Model at {lat:.4}, \
-             {lon:.4} on the log's date",
-                d.declination_deg, d.sigma_deg
+                "declination {:.2} deg (+-{:.2}) from the {} at {lat:.4}, {lon:.4} on the \
+                 log's date",
+                d.declination_deg,
+                d.sigma_deg,
+                d.model.name()
             ));
             d.declination_deg
         }

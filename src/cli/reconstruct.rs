@@ -94,8 +94,8 @@ pub struct ReconstructArgs {
     pub initial_yaw: Option<f64>,
 
     /// Magnetic declination at the site, degrees, east positive, -180 to 180 [default: the
-    /// mission's magnetic_declination_deg, else the World Magnetic Model at the start's place
-    /// and date].
+    /// mission's magnetic_declination_deg, else the World Magnetic Model (2020-2029) or IGRF-14
+    /// (1900-2030) at the start's place and date].
     #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     pub declination: Option<f64>,
 

@@ -165,7 +165,8 @@ heading = "auto"
 # yaw_deg = 45.0             # a heading given by hand (also --initial-yaw)
 # declination_deg = -7.8     # magnetic declination, east positive, -180..180 (also
                              # --declination; else the mission's magnetic_declination_deg,
-                             # else the World Magnetic Model at the start's place and date)
+                             # else the World Magnetic Model, or IGRF-14 before 2020, at
+                             # the start's place and date)
 window_s = 30.0              # IMU data averaged for levelling and gyrocompassing
 gyrocompass_max_sigma_deg = 1.0   # gyrocompass only when its predicted error is smaller
 magnetometer_sigma_deg = 3.0      # heading error of a magnetometer (deviation, field)

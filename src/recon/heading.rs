@@ -17,9 +17,11 @@ use serde::Serialize;
 pub enum DeclinationSource {
     Given,
     Mission,
-    /// The World Magnetic Model at the start's place and date.
+    /// The World Magnetic Model at the start's place and date (2020-2029).
     Wmm,
-    /// None known (the model has no value for the log's date): taken as 0 with a wide sigma.
+    /// IGRF-14 at the start's place and date (1900-2030, outside the WMM's years).
+    Igrf,
+    /// None known (no model has a value for the log's date): taken as 0 with a wide sigma.
     Unknown,
 }
 

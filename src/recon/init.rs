@@ -12,7 +12,7 @@
 //!   `gyrocompass_max_sigma_deg`, the vehicle is not turning and its level axes held still
 //!   (moving base: the transport rate from the DVL velocity is removed); the magnetometer
 //!   (its readings carried to the start by the gyro, tilt-compensated, with the declination
-//!   given, from the mission, or from the World Magnetic Model); the mission's
+//!   given, from the mission, or from the World Magnetic Model or IGRF-14); the mission's
 //!   `initial_yaw_rad`; a heading given by hand.
 //! - Velocity: the first DVL reading in range, else the EM log's speed along the body x
 //!   axis, else at rest.
@@ -592,7 +592,8 @@ fn median_depth(src: &Streams<'_>, t0: i64) -> f64 {
     d.get(d.len() / 2).copied().unwrap_or(0.0)
 }
 
-/// The declination: given, else the mission's, else the World Magnetic Model's at the start.
+/// The declination: given, else the mission's, else the World Magnetic Model's or IGRF-14's
+/// at the start ([`crate::geomag::declination`]).
 fn declination(
     mission: &Mission,
     cfg: &InitialConfig,
@@ -616,7 +617,10 @@ fn declination(
     }
     match crate::geomag::declination(lat.to_degrees(), lon.to_degrees(), height_m, t0) {
         Ok(d) => DeclinationUsed {
-            source: DeclinationSource::Wmm,
+            source: match d.model {
+                crate::geomag::FieldModel::Wmm => DeclinationSource::Wmm,
+                crate::geomag::FieldModel::Igrf14 => DeclinationSource::Igrf,
+            },
             declination_deg: d.declination_deg,
             sigma_deg: d.sigma_deg,
         },
@@ -887,6 +891,7 @@ impl fmt::Display for Initialisation {
                     DeclinationSource::Given => "given",
                     DeclinationSource::Mission => "mission metadata",
                     DeclinationSource::Wmm => "World Magnetic Model",
+                    DeclinationSource::Igrf => "IGRF-14",
                     DeclinationSource::Unknown => "unknown, taken as 0: pass --declination",
                 },
                 d.sigma_deg

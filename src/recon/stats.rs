@@ -175,8 +175,8 @@ impl std::fmt::Display for RunWarning {
             ),
             RunWarning::DeclinationUnknown => write!(
                 f,
-                "magnetic declination unknown (the World Magnetic Model has no value for the \
-                 log's date), taken as 0 with a 20 deg sigma"
+                "magnetic declination unknown (no geomagnetic model covers the log's date: \
+                 IGRF-14 covers 1900-2030), taken as 0 with a 20 deg sigma"
             ),
             RunWarning::HeadingDisagreement { text } => f.write_str(text),
             RunWarning::MagDisturbed { readings } => write!(

@@ -121,6 +121,7 @@ pub fn run_with_progress<W: Write + Seek>(
         // What a field model (e.g. WMM) gives for the site: the declination of its field.
         magnetic_declination_deg: scenario
             .mag
+            .filter(|_| scenario.mission.declination_in_log)
             .map(|m| m.field_ned_nt[1].atan2(m.field_ned_nt[0]).to_degrees()),
     })?;
 

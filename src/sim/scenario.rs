@@ -148,6 +148,14 @@ pub struct MissionSpec {
     pub origin_latitude_deg: f64,
     pub origin_longitude_deg: f64,
     pub vehicle: String,
+    /// Whether the log's mission record gives the declination of the simulated field (true);
+    /// false leaves it out, as many real logs do, so that a field model must give it.
+    #[serde(default = "declination_in_log")]
+    pub declination_in_log: bool,
+}
+
+fn declination_in_log() -> bool {
+    true
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
