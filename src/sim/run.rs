@@ -140,6 +140,7 @@ pub fn run_with_progress<W: Write + Seek>(
             s.latency_s,
         )
     });
+    let dvl_delay_ns = scenario.dvl.map_or(0, |s| secs_ns(s.stamp_delay_s));
     let dvl_until_ns = scenario
         .dvl
         .and_then(|s| s.until_s)
@@ -226,13 +227,14 @@ pub fn run_with_progress<W: Write + Seek>(
         if let Some((d, sched, latency)) = dvl.as_mut() {
             if sched.due(t_ns) && t_ns <= dvl_until_ns {
                 let r = d.measure(&vel_body, altitude_m);
+                // Measured now, stamped late by the DVL's own clock.
                 let msg = Dvl {
-                    stamp_ns,
+                    stamp_ns: stamp_ns + dvl_delay_ns,
                     velocity: r.velocity_body_m_s.into(),
                     valid: r.valid,
                     altitude: r.altitude_m,
                 };
-                w.write("/dvl", &msg, log_ns(*latency))?;
+                w.write("/dvl", &msg, log_ns(*latency) + dvl_delay_ns as u64)?;
                 count += 1;
             }
         }

@@ -44,6 +44,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../../scenarios/trench-turn.toml"),
     ),
     (
+        "auv-at-sea",
+        include_str!("../../scenarios/auv-at-sea.toml"),
+    ),
+    (
         "survey-27h",
         include_str!("../../scenarios/survey-27h.toml"),
     ),
@@ -522,6 +526,15 @@ impl Scenario {
                 "a parameter is {v}: every number of the mission, start and sensors must be finite"
             )));
         }
+        if let Some(d) = &self.dvl {
+            if d.stamp_delay_s < 0.0 || d.correlated_m_s < 0.0 || d.correlation_s <= 0.0 {
+                return Err(bad(format!(
+                    "dvl.stamp_delay_s {} and dvl.correlated_m_s {} must not be negative, and \
+                     dvl.correlation_s {} must be above 0",
+                    d.stamp_delay_s, d.correlated_m_s, d.correlation_s
+                )));
+            }
+        }
         self.check_flight().map_err(bad)?;
         if self.seabed.profile.is_empty()
             || self.seabed.profile.windows(2).any(|w| w[1][0] <= w[0][0])
@@ -642,6 +655,9 @@ impl Scenario {
                 d.max_altitude_m,
                 d.out_of_range_noise_m_s,
                 d.latency_s,
+                d.stamp_delay_s,
+                d.correlated_m_s,
+                d.correlation_s,
             ]);
             v.extend(d.until_s);
         }

@@ -163,9 +163,14 @@ impl ForwardRun {
     /// start's transient (there the start's uncertainty, not the noise, shapes the
     /// innovations).
     pub fn log_likelihood_after(&self, from_ns: i64) -> f64 {
+        self.log_likelihood_of(from_ns, |_| true)
+    }
+
+    /// [`ForwardRun::log_likelihood_after`] over the sensors `counted` takes.
+    pub fn log_likelihood_of(&self, from_ns: i64, counted: impl Fn(Sensor) -> bool) -> f64 {
         self.residuals
             .iter()
-            .filter(|r| r.stamp_ns >= from_ns)
+            .filter(|r| r.stamp_ns >= from_ns && counted(r.sensor))
             .map(|r| r.log_likelihood)
             .sum()
     }

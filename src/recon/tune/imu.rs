@@ -7,8 +7,15 @@
 //! then, from the best, the gyro's and the accelerometer's figures each scaled by 3 up and
 //! down while the likelihood improves. An IMU whose data sheet nobody gave is thus learnt
 //! from how well each noise model predicts the aiding sensors.
+//!
+//! When the IMU's white noise was measured from its own data, the candidates are compared by
+//! their likelihood plus a prior on their biases ([`bias_prior`]): centred on the biases the
+//! grades pair with that white noise, one decade wide. Where the innovations cannot tell two
+//! models apart (a fibre-optic gyro's 0.01 deg/h moves a 400 s heading by 0.001 deg) the
+//! IMU's own noise decides; where they can, they outweigh it.
 
-use super::stationary::StillNoise;
+use super::ImuWhite;
+use crate::filters::ins::aiding::Sensor;
 use crate::ingest::Mission;
 use crate::recon::config::{Config, ImuConfig, ImuGrade, ImuSpec};
 use crate::recon::heading::HeadingSource;
@@ -58,10 +65,10 @@ impl Candidate {
         }
     }
 
-    /// The figures with the white noise measured where the vehicle was still, when it was.
-    pub fn spec_with(&self, still: Option<&StillNoise>) -> ImuSpec {
+    /// The figures with the white noise measured from the IMU's own data, when it was.
+    pub fn spec_with(&self, white: Option<&ImuWhite>) -> ImuSpec {
         let mut s = self.spec();
-        if let Some(w) = still {
+        if let Some(w) = white {
             s.gyro_arw_deg_rt_h = w.gyro_arw_deg_rt_h;
             s.accel_vrw_ug_rt_hz = w.accel_vrw_ug_rt_hz;
         }
@@ -121,6 +128,8 @@ pub struct Scored {
     pub candidate: Candidate,
     /// `None` when its forward pass failed.
     pub log_likelihood: Option<f64>,
+    /// The log of its prior ([`bias_prior`]; 0 without a measured white noise).
+    pub log_prior: f64,
 }
 
 /// The outcome of the search.
@@ -146,8 +155,8 @@ fn ladder() -> Vec<Candidate> {
 }
 
 /// The configuration with a candidate's figures, every one given.
-pub fn with_candidate(config: &Config, c: &Candidate, still: Option<&StillNoise>) -> Config {
-    let s = c.spec_with(still);
+pub fn with_candidate(config: &Config, c: &Candidate, white: Option<&ImuWhite>) -> Config {
+    let s = c.spec_with(white);
     Config {
         imu: ImuConfig {
             grade: c.grade,
@@ -174,10 +183,10 @@ fn score(
     mission: &Mission,
     config: &Config,
     c: &Candidate,
-    still: Option<&StillNoise>,
+    white: Option<&ImuWhite>,
     from: Prepared<'_>,
 ) -> Option<(f64, Initialisation)> {
-    let mut cfg = with_candidate(config, c, still);
+    let mut cfg = with_candidate(config, c, white);
     cfg.alignment.enabled = false;
     let pass = |cfg: &Config| forward_with(streams, mission, cfg, from.scored());
     let pass = match pass(&cfg) {
@@ -187,14 +196,26 @@ fn score(
         }
         other => other,
     };
+    // A magnetometer whose deviation is unknown (its hard iron could not be calibrated) has
+    // errors no model here describes: its innovations would be blamed on the gyro. It still
+    // aids the passes; it is not scored.
+    let mag_scored = !from.mag.is_some_and(|m| m.deviation_unknown);
     pass.ok()
         .map(|p| {
-            let from_ns = if p.init.heading == HeadingSource::InMotion {
+            // A start heading from such a magnetometer is no better than one found in
+            // motion: its first minutes re-fit it too.
+            let refit = match p.init.heading {
+                HeadingSource::InMotion => true,
+                HeadingSource::Magnetometer => !mag_scored,
+                _ => false,
+            };
+            let from_ns = if refit {
                 scored_from_ns(streams, &config.tune)
             } else {
                 i64::MIN
             };
-            (p.run.log_likelihood_after(from_ns), p.init)
+            let counted = |s: Sensor| s != Sensor::Magnetometer || mag_scored;
+            (p.run.log_likelihood_of(from_ns, counted), p.init)
         })
         .filter(|(l, _)| l.is_finite())
 }
@@ -220,46 +241,100 @@ fn score_all(
     mission: &Mission,
     config: &Config,
     candidates: &[Candidate],
-    still: Option<&StillNoise>,
+    white: Option<&ImuWhite>,
     from: Prepared<'_>,
 ) -> Vec<(Scored, Option<Initialisation>)> {
     candidates
         .par_iter()
         .map(|c| {
-            let scored = score(streams, mission, config, c, still, from);
+            let scored = score(streams, mission, config, c, white, from);
             let (log_likelihood, start) = scored.map_or((None, None), |(l, i)| (Some(l), Some(i)));
             let scored = Scored {
                 label: c.label(),
                 candidate: *c,
                 log_likelihood,
+                log_prior: bias_prior(c, white),
             };
             (scored, start)
         })
         .collect()
 }
 
+/// The candidate of highest posterior (likelihood times prior) and its log.
 fn best_of(scored: &[Scored]) -> Option<(Candidate, f64)> {
     scored
         .iter()
-        .filter_map(|s| s.log_likelihood.map(|l| (s.candidate, l)))
+        .filter_map(|s| s.log_likelihood.map(|l| (s.candidate, l + s.log_prior)))
         .max_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// Width of the bias prior: one decade, 1-sigma, in log scale.
+const PRIOR_DECADES: f64 = 1.0;
+
+/// The grades' (white noise, bias) pairs, gyro (deg/sqrt(h), deg/h) and accelerometer
+/// (ug/sqrt(Hz), ug), in order of noise.
+fn grade_pairs() -> [([f64; 2], [f64; 2]); 4] {
+    [
+        ImuGrade::Navigation,
+        ImuGrade::Intermediate,
+        ImuGrade::Tactical,
+        ImuGrade::Mems,
+    ]
+    .map(|g| {
+        let s = g.spec();
+        (
+            [s.gyro_arw_deg_rt_h, s.gyro_bias_deg_h],
+            [s.accel_vrw_ug_rt_hz, s.accel_bias_ug],
+        )
+    })
+}
+
+/// The bias the grades pair with a white noise: interpolated between them in log scale
+/// (extended past the ends along the nearest two).
+fn paired_bias(pairs: &[[f64; 2]], white: f64) -> f64 {
+    let i = pairs
+        .windows(2)
+        .position(|w| white <= w[1][0])
+        .unwrap_or(pairs.len() - 2);
+    let ([x0, y0], [x1, y1]) = (pairs[i], pairs[i + 1]);
+    let t = (white / x0).ln() / (x1 / x0).ln();
+    (y0.ln() + t * (y1 / y0).ln()).exp()
+}
+
+/// The log prior of a candidate's gyro and accelerometer biases given the white noise the
+/// IMU's own data showed: log-normal about the biases the grades pair with that noise.
+pub fn bias_prior(c: &Candidate, white: Option<&ImuWhite>) -> f64 {
+    let Some(w) = white else {
+        return 0.0;
+    };
+    let pairs = grade_pairs();
+    let gyro: Vec<[f64; 2]> = pairs.iter().map(|p| p.0).collect();
+    let accel: Vec<[f64; 2]> = pairs.iter().map(|p| p.1).collect();
+    let s = c.spec();
+    let term = |bias: f64, paired: f64| {
+        let decades = (bias / paired).log10() / PRIOR_DECADES;
+        -0.5 * decades * decades
+    };
+    term(s.gyro_bias_deg_h, paired_bias(&gyro, w.gyro_arw_deg_rt_h))
+        + term(s.accel_bias_ug, paired_bias(&accel, w.accel_vrw_ug_rt_hz))
 }
 
 /// The most likely IMU noise model for the streams (already cut to the tuning span).
 ///
-/// With `still` (the white noise measured where the vehicle was still), every model takes
-/// its angle and velocity random walks from it: the search then finds the biases alone.
+/// With `white` (the white noise measured from the IMU's own data: still, or moving), every
+/// model takes its angle and velocity random walks from it: the search then finds the
+/// biases alone.
 /// When the refinement has not settled after [`MAX_ROUNDS`], the best model scored is still
 /// the answer (with a warning): it is the most likely of all tried.
 pub fn search(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
-    still: Option<&StillNoise>,
+    white: Option<&ImuWhite>,
     from: Prepared<'_>,
 ) -> Search {
     let (mut tried, starts): (Vec<Scored>, Vec<Option<Initialisation>>) =
-        score_all(streams, mission, config, &ladder(), still, from)
+        score_all(streams, mission, config, &ladder(), white, from)
             .into_iter()
             .unzip();
     let Some((mut best, mut best_ll)) = best_of(&tried) else {
@@ -299,7 +374,7 @@ pub fn search(
         .into_iter()
         .filter(|c| !tried.iter().any(|t| t.candidate.same_as(c)))
         .collect();
-        let round: Vec<Scored> = score_all(streams, mission, config, &steps, still, from)
+        let round: Vec<Scored> = score_all(streams, mission, config, &steps, white, from)
             .into_iter()
             .map(|(scored, _)| scored)
             .collect();

@@ -4,12 +4,15 @@
 //!   consecutive readings;
 //! - `stationary`: the IMU's angle and velocity random walks from the Allan deviation where
 //!   the vehicle was still, when it was for a minute or more;
+//! - `moving`: else the same from the high-frequency content of the IMU's samples while the
+//!   vehicle moves;
 //! - `imu`: the IMU's noise by maximum likelihood of the forward filter's innovations over
-//!   the mission's first span (the biases alone, when `stationary` found the white noise).
+//!   the mission's first span (the biases alone: the white noise is the IMU's own, measured).
 //!
 //! A figure the configuration gives is kept ([`Config::fixed`]) and reported as kept.
 
 pub mod imu;
+pub mod moving;
 pub mod stationary;
 pub mod white;
 
@@ -43,6 +46,43 @@ pub struct SensorNoise {
     pub differences: Option<usize>,
 }
 
+/// How the IMU's white noise was measured from its own data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WhiteFrom {
+    /// The Allan deviation at 1 s over a still stretch.
+    Still,
+    /// The fourth differences of the samples while the vehicle moved.
+    Moving,
+}
+
+/// The IMU's white noise measured from its own data, used by every candidate model.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ImuWhite {
+    pub gyro_arw_deg_rt_h: f64,
+    pub accel_vrw_ug_rt_hz: f64,
+    pub from: WhiteFrom,
+}
+
+impl ImuWhite {
+    /// A still stretch's, else the moving samples'.
+    fn of(
+        still: Option<&stationary::StillNoise>,
+        moving: Option<&moving::MovingNoise>,
+    ) -> Option<Self> {
+        let still = still.map(|s| ImuWhite {
+            gyro_arw_deg_rt_h: s.gyro_arw_deg_rt_h,
+            accel_vrw_ug_rt_hz: s.accel_vrw_ug_rt_hz,
+            from: WhiteFrom::Still,
+        });
+        still.or(moving.map(|m| ImuWhite {
+            gyro_arw_deg_rt_h: m.gyro_arw_deg_rt_h,
+            accel_vrw_ug_rt_hz: m.accel_vrw_ug_rt_hz,
+            from: WhiteFrom::Moving,
+        }))
+    }
+}
+
 /// The IMU's noise.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ImuNoiseTuning {
@@ -52,8 +92,13 @@ pub struct ImuNoiseTuning {
     pub figures: ImuSpec,
     /// Every model tried, with its log-likelihood.
     pub candidates: Vec<imu::Scored>,
-    /// The white noise measured where the vehicle was still (used by every model).
+    /// The white noise measured where the vehicle was still ...
     pub still: Option<stationary::StillNoise>,
+    /// ... and from the samples while it moved (measured when there was no still stretch).
+    pub moving: Option<moving::MovingNoise>,
+    /// The one every model used: the ARW and VRW then come from the IMU's data, and the
+    /// search finds the biases alone.
+    pub white: Option<ImuWhite>,
 }
 
 /// What self-tuning did.
@@ -195,21 +240,30 @@ pub fn tune_from(
             figures: config.imu.spec(),
             candidates: Vec::new(),
             still: None,
+            moving: None,
+            white: None,
         }
     } else {
         let still = stationary::still_noise(streams.imu, streams.dvl);
         let span = first_span(streams, config.tune.span_s);
-        let search = imu::search(&span, mission, &tuned, still.as_ref(), from);
+        let moving = still
+            .is_none()
+            .then(|| moving::moving_noise(span.imu))
+            .flatten();
+        let white = ImuWhite::of(still.as_ref(), moving.as_ref());
+        let search = imu::search(&span, mission, &tuned, white.as_ref(), from);
         warnings.extend(search.warning);
         match search.best {
             Some(best) => {
-                tuned = imu::with_candidate(&tuned, &best, still.as_ref());
+                tuned = imu::with_candidate(&tuned, &best, white.as_ref());
                 ImuNoiseTuning {
                     source: Source::Estimated,
                     model: best.label(),
-                    figures: best.spec_with(still.as_ref()),
+                    figures: best.spec_with(white.as_ref()),
                     candidates: search.tried,
                     still,
+                    moving,
+                    white,
                 }
             }
             None => ImuNoiseTuning {
@@ -218,6 +272,8 @@ pub fn tune_from(
                 figures: config.imu.spec(),
                 candidates: search.tried,
                 still,
+                moving,
+                white,
             },
         }
     };
@@ -251,10 +307,12 @@ impl Tuning {
              accel_vrw_ug_rt_hz = {}\n\
              bias_correlation_s = {}\n",
             self.imu.model,
-            if self.imu.still.is_some() {
-                "; ARW and VRW from a still stretch (Allan deviation)"
-            } else {
-                ""
+            match self.imu.white.map(|w| w.from) {
+                Some(WhiteFrom::Still) => "; ARW and VRW from a still stretch (Allan deviation)",
+                Some(WhiteFrom::Moving) => {
+                    "; ARW and VRW from the IMU's samples while moving (fourth differences)"
+                }
+                None => "",
             },
             f.gyro_bias_deg_h,
             f.gyro_bias_instability_deg_h,

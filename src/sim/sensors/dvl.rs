@@ -30,6 +30,16 @@ pub struct DvlSpec {
     /// Logging latency, s.
     #[serde(default)]
     pub latency_s: f64,
+    /// The DVL stamps each reading this long after the instant it measured (its own clock's
+    /// latency: ping averaging and processing), s.
+    #[serde(default)]
+    pub stamp_delay_s: f64,
+    /// 1-sigma of an error correlated in time (first-order Gauss-Markov, per axis), m/s ...
+    #[serde(default)]
+    pub correlated_m_s: f64,
+    /// ... and its correlation time, s.
+    #[serde(default = "default_correlation_s")]
+    pub correlation_s: f64,
     /// The DVL logs nothing after this time from the start, s (switched off or failed).
     #[serde(default)]
     pub until_s: Option<f64>,
@@ -44,6 +54,10 @@ pub struct DvlSpec {
 
 fn default_max_altitude() -> f64 {
     100.0
+}
+
+fn default_correlation_s() -> f64 {
+    60.0
 }
 
 /// What the DVL logs at one ping.
@@ -62,6 +76,8 @@ pub struct DvlSensor {
     pub scale: f64,
     /// Drawn bias.
     pub bias_m_s: Vector3<f64>,
+    /// The correlated error now.
+    correlated_m_s: Vector3<f64>,
     rng: ChaCha8Rng,
 }
 
@@ -69,16 +85,33 @@ impl DvlSensor {
     pub fn new(spec: DvlSpec, mut rng: ChaCha8Rng) -> Self {
         let scale = spec.scale * normal(&mut rng) + spec.scale_error;
         let bias_m_s = Vector3::from_fn(|_, _| spec.bias_m_s * normal(&mut rng));
+        // Started from its stationary spread.
+        let correlated_m_s = Vector3::from_fn(|_, _| spec.correlated_m_s * normal(&mut rng));
         DvlSensor {
             spec,
             scale,
             bias_m_s,
+            correlated_m_s,
             rng,
+        }
+    }
+
+    /// The correlated error one ping on.
+    fn advance_correlated(&mut self) {
+        if self.spec.correlated_m_s <= 0.0 {
+            return;
+        }
+        let phi = (-1.0 / (self.spec.rate_hz * self.spec.correlation_s.max(1e-9))).exp();
+        let drive = self.spec.correlated_m_s * (1.0 - phi * phi).sqrt();
+        for k in 0..3 {
+            self.correlated_m_s[k] = phi * self.correlated_m_s[k] + drive * normal(&mut self.rng);
         }
     }
 
     pub fn measure(&mut self, velocity_body_m_s: &Vector3<f64>, altitude_m: f64) -> DvlReading {
         let in_range = (0.0..=self.spec.max_altitude_m).contains(&altitude_m);
+        self.advance_correlated();
+        let correlated = self.correlated_m_s;
         let mut noise = |sigma: f64| Vector3::from_fn(|_, _| sigma * normal(&mut self.rng));
         if in_range {
             let n = noise(self.spec.noise_m_s);
@@ -86,7 +119,7 @@ impl DvlSensor {
             let turned =
                 velocity_body_m_s - Vector3::new(0.0, pitch, heading).cross(velocity_body_m_s);
             DvlReading {
-                velocity_body_m_s: (1.0 + self.scale) * turned + self.bias_m_s + n,
+                velocity_body_m_s: (1.0 + self.scale) * turned + self.bias_m_s + correlated + n,
                 valid: true,
                 altitude_m: Some(altitude_m),
             }
@@ -121,6 +154,9 @@ mod tests {
             max_altitude_m: 100.0,
             out_of_range_noise_m_s: 0.0,
             latency_s: 0.0,
+            stamp_delay_s: 0.0,
+            correlated_m_s: 0.0,
+            correlation_s: 60.0,
             until_s: None,
             scale_error: 0.0,
             misalignment_deg: [0.0; 2],
