@@ -375,3 +375,28 @@ impl fmt::Display for Tuning {
         Ok(())
     }
 }
+
+/// Simulated IMU white noise for the tests of the random-walk estimates.
+#[cfg(test)]
+pub(crate) mod test_noise {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    /// Per-sample sigmas at `fs` Hz (rad/s, m/s^2) of an angle random walk (deg/sqrt(h)) and
+    /// a velocity random walk (ug/sqrt(Hz)).
+    pub fn per_sample(arw_deg_rt_h: f64, vrw_ug_rt_hz: f64, fs: f64) -> (f64, f64) {
+        (
+            arw_deg_rt_h.to_radians() / 60.0 * fs.sqrt(),
+            vrw_ug_rt_hz * 9.80665e-6 * fs.sqrt(),
+        )
+    }
+
+    /// Seeded normal draws of a given sigma.
+    pub fn normal(seed: u64) -> impl FnMut(f64) -> f64 {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        move |sigma: f64| {
+            let z: f64 = StandardNormal.sample(&mut rng);
+            z * sigma
+        }
+    }
+}

@@ -89,20 +89,14 @@ fn mean_interval_s(imu: &[Imu]) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, StandardNormal};
+    use crate::recon::tune::test_noise;
 
     /// 100 Hz samples of a vehicle turning and rolling with the waves (0.15 Hz, 3 deg/s)
     /// under white noise of the given densities, stamped regularly or in host bursts.
     fn moving(arw_deg_rt_h: f64, vrw_ug_rt_hz: f64, bursty: bool) -> Vec<Imu> {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
         let fs = 100.0;
-        let gyro_sigma = arw_deg_rt_h.to_radians() / 60.0 * f64::sqrt(fs);
-        let accel_sigma = vrw_ug_rt_hz * G0 * 1e-6 * f64::sqrt(fs);
-        let mut n = |s: f64| {
-            let z: f64 = StandardNormal.sample(&mut rng);
-            z * s
-        };
+        let (gyro_sigma, accel_sigma) = test_noise::per_sample(arw_deg_rt_h, vrw_ug_rt_hz, fs);
+        let mut n = test_noise::normal(5);
         let mut stamp = 1_000_000_000_000_i64;
         (0..60_000)
             .map(|k| {

@@ -164,20 +164,14 @@ pub fn still_noise(imu: &[Imu], dvl: &[Dvl]) -> Option<StillNoise> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, StandardNormal};
+    use crate::recon::tune::test_noise;
 
     /// 100 Hz samples: still for `still_s` (tilted, with Earth rate and white noise of the
     /// given densities), then turning at 5 deg/s.
     fn log(still_s: usize, arw_deg_rt_h: f64, vrw_ug_rt_hz: f64) -> Vec<Imu> {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(71);
         let fs = 100.0;
-        let gyro_sigma = arw_deg_rt_h.to_radians() / 60.0 * f64::sqrt(fs);
-        let accel_sigma = vrw_ug_rt_hz * G0 * 1e-6 * f64::sqrt(fs);
-        let mut n = |s: f64| {
-            let z: f64 = StandardNormal.sample(&mut rng);
-            z * s
-        };
+        let (gyro_sigma, accel_sigma) = test_noise::per_sample(arw_deg_rt_h, vrw_ug_rt_hz, fs);
+        let mut n = test_noise::normal(71);
         let gravity = Vector3::new(0.3, -0.2, -9.79);
         (0..(still_s + 120) * 100)
             .map(|k| {
