@@ -369,7 +369,9 @@ fn an_uncalibrated_hard_iron_neither_misleads_nor_hurts() {
 /// the likelihood search is left with the biases; the tuned gyro is then graded navigation
 /// or intermediate (before: "intermediate, gyro x9", a gyro bias of 0.9 deg/h for a true
 /// 0.01), its bias under 0.1 deg/h, and the start heading is gyrocompassed in motion within
-/// 3 of its sigmas of the truth.
+/// 3 of its sigmas of the truth. With `[tune] dvl_bias_walk = true`, the DVL's correlated
+/// error is tuned as a random walk of its bias (without it: an accelerometer bias of 900 ug
+/// for a true 50).
 #[test]
 fn a_fibre_optic_imu_at_sea_is_graded_by_its_own_white_noise() {
     use hindsight::recon::heading::HeadingSource;
@@ -383,8 +385,9 @@ fn a_fibre_optic_imu_at_sea_is_graded_by_its_own_white_noise() {
         let log = common::simulated_log(&scenario, seed);
         let streams = Streams::of(&log);
         let mission = log.mission().unwrap();
-        let outcome =
-            pipeline::run(&streams, &mission, &Config::default(), Default::default()).unwrap();
+        let mut config = Config::default();
+        config.tune.dvl_bias_walk = true;
+        let outcome = pipeline::run(&streams, &mission, &config, Default::default()).unwrap();
         let tuning = outcome.tuning.as_ref().unwrap();
         let white = tuning.imu.white.expect("white noise measured");
         let f = tuning.imu.figures;
@@ -414,5 +417,16 @@ fn a_fibre_optic_imu_at_sea_is_graded_by_its_own_white_noise() {
         assert!(f.gyro_bias_deg_h < 0.1, "{}", tuning.imu.model);
         assert_eq!(init.heading, HeadingSource::Gyrocompass, "seed {seed}");
         assert!(heading_error.abs() <= 3.0 * init.heading_sigma_deg);
+        // The DVL's correlated error is modelled (a random walk of its bias) rather than
+        // blamed on the accelerometer, and tuned.toml gives it back.
+        let walk = tuning
+            .sensors
+            .iter()
+            .find(|s| s.key == "dvl.bias_walk_m_s_rt_h")
+            .expect("the DVL bias walk tuned");
+        assert_eq!(walk.source, Source::Estimated, "{walk:?}");
+        assert!(f.accel_bias_ug < 500.0, "{}", tuning.imu.model);
+        let reused = Config::from_toml(&tuning.as_toml()).unwrap();
+        assert_eq!(reused.dvl.bias_walk_m_s_rt_h, walk.value);
     }
 }

@@ -58,6 +58,11 @@ scale_misalignment = "auto"       # true / false: estimate them, or hold them, w
 scale_sigma = 0.005               # 1-sigma of the scale factor error (0.005 = 0.5 %)
 misalignment_sigma_deg = 1.0      # 1-sigma of the mounting's pitch and heading error
 bias_sigma_m_s = 0.001            # 1-sigma of the bias, per axis (data sheets: +-0.1 cm/s)
+# bias_walk_m_s_rt_h = 0.1        # random walk of the bias, per axis, m/s/sqrt(h): a DVL
+                                  # error correlated in time (bottom type, beam geometry);
+                                  # sigma s over correlation time T is about s sqrt(2/T).
+                                  # Not given: 0, or the tuning's choice of 0.03, 0.1, 0.3
+                                  # where it makes the innovations clearly more likely
 # "estimate": the forward filter estimates them. "consider": carried as consider states
 # (Schmidt-Kalman), never corrected, so the uncertainty they cause grows honestly where
 # nothing can tell them; it costs accuracy (the other states' gains allow for them).
@@ -212,6 +217,11 @@ span_s = 1800.0            # the IMU is tuned on the mission's first span_s seco
 settle_s = 300.0           # a start heading found in motion: the innovations of the span's
                            # first settle_s (at most a third of it) are not scored (they
                            # re-fit that heading)
+dvl_bias_walk = false      # true: choose [dvl] bias_walk_m_s_rt_h (0.03, 0.1, 0.3) by the
+                           # likelihood before the IMU's refinements, so that a DVL error
+                           # correlated in time is not blamed on the IMU. Off by default: on
+                           # MEMS pool runs it also soaks up the IMU's unmodelled
+                           # misalignment (honest sigmas, larger errors)
 
 [output]
 rate_hz = 10.0             # trajectory rows per second (per solution)
@@ -400,6 +410,7 @@ pub struct DvlConfig {
     pub scale_sigma: f64,
     pub misalignment_sigma_deg: f64,
     pub bias_sigma_m_s: f64,
+    pub bias_walk_m_s_rt_h: f64,
     pub calibration: CalibrationMode,
 }
 
@@ -429,6 +440,7 @@ impl Default for DvlConfig {
             scale_sigma: 0.005,
             misalignment_sigma_deg: 1.0,
             bias_sigma_m_s: 0.001,
+            bias_walk_m_s_rt_h: 0.0,
             calibration: CalibrationMode::Estimate,
         }
     }
@@ -765,6 +777,8 @@ pub struct TuneConfig {
     /// With a start heading the in-motion alignment found, the innovations of the span's
     /// first `settle_s` (at most a third of the span) are left out of each candidate's score.
     pub settle_s: f64,
+    /// Whether the DVL bias's random walk is chosen by the likelihood (when not given).
+    pub dvl_bias_walk: bool,
 }
 
 impl Default for TuneConfig {
@@ -773,13 +787,14 @@ impl Default for TuneConfig {
             enabled: true,
             span_s: 1800.0,
             settle_s: 300.0,
+            dvl_bias_walk: false,
         }
     }
 }
 
 /// The settings estimated from the log (self-tuning, the plan), as dotted keys. A configuration that gives one keeps
 /// it (see [`Config::fixed`]).
-pub const TUNABLE_KEYS: [&str; 12] = [
+pub const TUNABLE_KEYS: [&str; 13] = [
     "imu.grade",
     "imu.gyro_bias_deg_h",
     "imu.gyro_bias_instability_deg_h",
@@ -792,6 +807,7 @@ pub const TUNABLE_KEYS: [&str; 12] = [
     "depth.sigma_m",
     "eml.sigma_m_s",
     "dvl.max_altitude_m",
+    "dvl.bias_walk_m_s_rt_h",
 ];
 
 /// Everything a reconstruction can be told.
@@ -996,7 +1012,7 @@ impl Config {
                 });
             }
         }
-        let non_negative: [(&'static str, f64); 15] = [
+        let non_negative: [(&'static str, f64); 16] = [
             ("imu.gyro_scale_ppm", spec.gyro_scale_ppm),
             ("tune.settle_s", self.tune.settle_s),
             ("eml.scale_sigma", self.eml.scale_sigma),
@@ -1009,6 +1025,7 @@ impl Config {
                 self.dvl.misalignment_sigma_deg,
             ),
             ("dvl.bias_sigma_m_s", self.dvl.bias_sigma_m_s),
+            ("dvl.bias_walk_m_s_rt_h", self.dvl.bias_walk_m_s_rt_h),
             (
                 "imu.gyro_bias_instability_deg_h",
                 spec.gyro_bias_instability_deg_h,
@@ -1108,6 +1125,7 @@ impl Config {
                 noise,
                 height_damping: None,
                 current_walk: self.eml.current_walk_m_s_rt_h / 60.0,
+                dvl_bias_walk: self.dvl.bias_walk_m_s_rt_h / 60.0,
                 considered: self.considered(),
             },
             propagation: Propagation {

@@ -87,6 +87,8 @@ pub struct Filter {
     pub height_damping: Option<HeightDamping>,
     /// Random walk of the water current, per horizontal axis, m/s/sqrt(s).
     pub current_walk: f64,
+    /// Random walk of the DVL's bias, per axis, m/s/sqrt(s) (0: a constant).
+    pub dvl_bias_walk: f64,
     /// Error states carried as consider states: in the covariance, never corrected.
     pub considered: [bool; N],
 }
@@ -219,7 +221,7 @@ impl Filter {
         f += error_state::continuous_matrix(nav_to, f_body, w_body);
         f *= 0.5;
         *phi = error_state::transition(&f, dt_s);
-        let q = process_noise(noise, self.current_walk, dt_s).diagonal();
+        let q = process_noise(noise, self.current_walk, self.dvl_bias_walk, dt_s).diagonal();
         let top = phi.fixed_rows::<{ error_state::NAV_ROWS }>(0).into_owned();
         error_state::predict_cov_in_place(&top, cov, &q);
         q
@@ -268,7 +270,7 @@ impl Filter {
 /// Discrete process noise over `dt_s` (white noise integrated over the step). The noise
 /// enters along body axes, but `C C^T = I`, so in the NED frame it is isotropic: `Q` is
 /// diagonal (the smoother's records keep only its diagonal).
-fn process_noise(n: &ImuNoise, current_walk: f64, dt_s: f64) -> ErrorMatrix {
+fn process_noise(n: &ImuNoise, current_walk: f64, dvl_bias_walk: f64, dt_s: f64) -> ErrorMatrix {
     let mut q = ErrorMatrix::zeros();
     let mut block = |at: usize, density: f64| {
         q.fixed_view_mut::<3, 3>(at, at)
@@ -280,6 +282,9 @@ fn process_noise(n: &ImuNoise, current_walk: f64, dt_s: f64) -> ErrorMatrix {
     block(idx::ACCEL_BIAS, n.accel_bias_walk);
     for k in 0..2 {
         q[(idx::CURRENT + k, idx::CURRENT + k)] = current_walk.powi(2) * dt_s;
+    }
+    for k in 0..3 {
+        q[(idx::DVL_BIAS + k, idx::DVL_BIAS + k)] = dvl_bias_walk.powi(2) * dt_s;
     }
     q
 }
@@ -617,6 +622,7 @@ mod tests {
             },
             height_damping: None,
             current_walk: 0.0,
+            dvl_bias_walk: 0.0,
             considered: [false; N],
         };
         let est = Estimate {

@@ -137,9 +137,58 @@ pub struct Scored {
 pub struct Search {
     /// The most likely model; `None` when no pass succeeded.
     pub best: Option<Candidate>,
+    /// The DVL bias's random walk the IMU was scored with, m/s/sqrt(h), and the
+    /// log-likelihood gain over none (`None`: the configuration's, kept).
+    pub dvl_bias_walk: Option<(f64, f64)>,
     /// Every model tried, in the order tried.
     pub tried: Vec<Scored>,
     pub warning: Option<String>,
+}
+
+/// The DVL bias walks tried, m/s/sqrt(h): a 1 cm/s error correlated over a minute is about
+/// 0.1 (`sigma sqrt(2 / T)`).
+const DVL_WALKS: [f64; 3] = [0.03, 0.1, 0.3];
+
+/// Whether the configuration leaves the DVL bias's walk to the tuning (`[tune]
+/// dvl_bias_walk`, and no `[dvl] bias_walk_m_s_rt_h` given).
+fn dvl_walk_unset(config: &Config) -> bool {
+    config.tune.dvl_bias_walk
+        && config.dvl.enabled
+        && !config.fixed.contains("dvl.bias_walk_m_s_rt_h")
+}
+
+fn with_dvl_walk(config: &Config, walk: f64) -> Config {
+    let mut c = config.clone();
+    c.dvl.bias_walk_m_s_rt_h = walk;
+    c
+}
+
+/// The DVL bias walk (of [`DVL_WALKS`], or the configuration's) that makes the innovations
+/// most likely with the IMU model `best` (posterior `best_ll` with the configuration's), by
+/// more than [`MIN_GAIN`]: the walk, the posterior with it, and its gain.
+fn dvl_bias_walk(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    best: &Candidate,
+    white: Option<&ImuWhite>,
+    from: Prepared<'_>,
+    best_ll: f64,
+) -> (f64, f64, f64) {
+    let prior = bias_prior(best, white);
+    let scored: Vec<(f64, f64)> = DVL_WALKS
+        .par_iter()
+        .filter_map(|&walk| {
+            let c = with_dvl_walk(config, walk);
+            score(streams, mission, &c, best, white, from).map(|(ll, _)| (walk, ll + prior))
+        })
+        .collect();
+    let none = (config.dvl.bias_walk_m_s_rt_h, best_ll, 0.0);
+    scored
+        .into_iter()
+        .filter(|&(_, ll)| ll > best_ll + MIN_GAIN)
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(none, |(walk, ll)| (walk, ll, ll - best_ll))
 }
 
 /// The grades first tried.
@@ -341,6 +390,7 @@ pub fn search(
         return Search {
             best: None,
             tried,
+            dvl_bias_walk: None,
             warning: Some(
                 "imu: no candidate noise model could run over the tuning span; the \
                  configuration's figures are used"
@@ -362,6 +412,21 @@ pub fn search(
             ..from
         },
         _ => from,
+    };
+    // The DVL's error correlated in time is modelled before the refinements, so that they
+    // do not blame it on the IMU.
+    let dvl_bias_walk = dvl_walk_unset(config).then(|| {
+        let (walk, ll, gain) = dvl_bias_walk(streams, mission, config, &best, white, from, best_ll);
+        best_ll = ll;
+        (walk, gain)
+    });
+    let with_walk;
+    let config = match dvl_bias_walk {
+        Some((walk, _)) if walk > 0.0 => {
+            with_walk = with_dvl_walk(config, walk);
+            &with_walk
+        }
+        _ => config,
     };
     let mut settled = false;
     for _ in 0..MAX_ROUNDS {
@@ -400,6 +465,7 @@ pub fn search(
     });
     Search {
         best: Some(best),
+        dvl_bias_walk,
         tried,
         warning,
     }

@@ -233,6 +233,7 @@ pub fn tune_from(
         .collect();
 
     let imu_fixed = config.fixed.iter().any(|k| k.starts_with("imu."));
+    let mut dvl_walk = None;
     let imu = if imu_fixed {
         ImuNoiseTuning {
             source: Source::Configured,
@@ -252,7 +253,20 @@ pub fn tune_from(
             .flatten();
         let white = ImuWhite::of(still.as_ref(), moving.as_ref());
         let search = imu::search(&span, mission, &tuned, white.as_ref(), from);
-        warnings.extend(search.warning);
+        warnings.extend(search.warning.clone());
+        if let Some((walk, gain)) = search.dvl_bias_walk {
+            tuned.dvl.bias_walk_m_s_rt_h = walk;
+            dvl_walk = Some(SensorNoise {
+                key: "dvl.bias_walk_m_s_rt_h",
+                value: walk,
+                source: if gain > 0.0 {
+                    Source::Estimated
+                } else {
+                    Source::Default
+                },
+                differences: None,
+            });
+        }
         match search.best {
             Some(best) => {
                 tuned = imu::with_candidate(&tuned, &best, white.as_ref());
@@ -278,6 +292,7 @@ pub fn tune_from(
         }
     };
     let span_s = config.tune.span_s;
+    let sensors = sensors.into_iter().chain(dvl_walk).collect();
     (
         tuned,
         Some(Tuning {
@@ -322,9 +337,18 @@ impl Tuning {
             f.accel_vrw_ug_rt_hz,
             f.bias_correlation_s
         );
+        // One table per section (a TOML table may not be given twice).
+        let mut sections: Vec<(&str, String)> = Vec::new();
         for s in &self.sensors {
             let (section, key) = s.key.split_once('.').unwrap_or(("", s.key));
-            out.push_str(&format!("\n[{section}]\n{key} = {:.6}\n", s.value));
+            let line = format!("{key} = {:.6}\n", s.value);
+            match sections.iter_mut().find(|(name, _)| *name == section) {
+                Some((_, lines)) => lines.push_str(&line),
+                None => sections.push((section, line)),
+            }
+        }
+        for (section, lines) in sections {
+            out.push_str(&format!("\n[{section}]\n{lines}"));
         }
         out
     }
