@@ -193,14 +193,11 @@ fn dvl_bias_walk(
 
 /// The grades first tried.
 fn ladder() -> Vec<Candidate> {
-    vec![
-        Candidate::of(ImuGrade::Navigation, 1.0),
-        Candidate::of(ImuGrade::Intermediate, 1.0),
-        Candidate::of(ImuGrade::Tactical, 1.0),
-        Candidate::of(ImuGrade::Mems, 1.0),
-        Candidate::of(ImuGrade::Mems, 10.0),
-        Candidate::of(ImuGrade::Mems, 100.0),
-    ]
+    GRADES
+        .iter()
+        .map(|&g| Candidate::of(g, 1.0))
+        .chain([10.0, 100.0].map(|f| Candidate::of(ImuGrade::Mems, f)))
+        .collect()
 }
 
 /// The configuration with a candidate's figures, every one given.
@@ -320,23 +317,13 @@ fn best_of(scored: &[Scored]) -> Option<(Candidate, f64)> {
 /// Width of the bias prior: one decade, 1-sigma, in log scale.
 const PRIOR_DECADES: f64 = 1.0;
 
-/// The grades' (white noise, bias) pairs, gyro (deg/sqrt(h), deg/h) and accelerometer
-/// (ug/sqrt(Hz), ug), in order of noise.
-fn grade_pairs() -> [([f64; 2], [f64; 2]); 4] {
-    [
-        ImuGrade::Navigation,
-        ImuGrade::Intermediate,
-        ImuGrade::Tactical,
-        ImuGrade::Mems,
-    ]
-    .map(|g| {
-        let s = g.spec();
-        (
-            [s.gyro_arw_deg_rt_h, s.gyro_bias_deg_h],
-            [s.accel_vrw_ug_rt_hz, s.accel_bias_ug],
-        )
-    })
-}
+/// The grades, in order of noise.
+const GRADES: [ImuGrade; 4] = [
+    ImuGrade::Navigation,
+    ImuGrade::Intermediate,
+    ImuGrade::Tactical,
+    ImuGrade::Mems,
+];
 
 /// The bias the grades pair with a white noise: interpolated between them in log scale
 /// (extended past the ends along the nearest two).
@@ -356,9 +343,10 @@ pub fn bias_prior(c: &Candidate, white: Option<&ImuWhite>) -> f64 {
     let Some(w) = white else {
         return 0.0;
     };
-    let pairs = grade_pairs();
-    let gyro: Vec<[f64; 2]> = pairs.iter().map(|p| p.0).collect();
-    let accel: Vec<[f64; 2]> = pairs.iter().map(|p| p.1).collect();
+    // The grades' (white noise, bias) pairs: gyro (deg/sqrt(h), deg/h), accelerometer
+    // (ug/sqrt(Hz), ug).
+    let gyro = GRADES.map(|g| [g.spec().gyro_arw_deg_rt_h, g.spec().gyro_bias_deg_h]);
+    let accel = GRADES.map(|g| [g.spec().accel_vrw_ug_rt_hz, g.spec().accel_bias_ug]);
     let s = c.spec();
     let term = |bias: f64, paired: f64| {
         let decades = (bias / paired).log10() / PRIOR_DECADES;
@@ -420,14 +408,10 @@ pub fn search(
         best_ll = ll;
         (walk, gain)
     });
-    let with_walk;
-    let config = match dvl_bias_walk {
-        Some((walk, _)) if walk > 0.0 => {
-            with_walk = with_dvl_walk(config, walk);
-            &with_walk
-        }
-        _ => config,
-    };
+    let walked = dvl_bias_walk
+        .filter(|&(walk, _)| walk > 0.0)
+        .map(|(walk, _)| with_dvl_walk(config, walk));
+    let config = walked.as_ref().unwrap_or(config);
     let mut settled = false;
     for _ in 0..MAX_ROUNDS {
         let steps: Vec<Candidate> = [

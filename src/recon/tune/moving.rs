@@ -13,6 +13,7 @@
 //! moves their stamps, not their values. The sample interval is the mean over the log's
 //! regular stretches (intervals under [`MAX_INTERVAL_S`]), which bursts do not bias.
 
+use super::stationary::G0;
 use super::white::MIN_DIFFERENCES;
 use crate::contract::Imu;
 use serde::Serialize;
@@ -21,8 +22,6 @@ use serde::Serialize;
 pub const MAX_INTERVAL_S: f64 = 0.5;
 /// Variance of a fourth difference of unit white noise (1 + 16 + 36 + 16 + 1).
 const FOURTH_DIFFERENCE_VARIANCE: f64 = 70.0;
-/// Standard gravity, m/s^2.
-const G0: f64 = 9.80665;
 
 /// The white noise measured from the IMU's own samples while it moved.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

@@ -21,7 +21,7 @@ pub const MAX_GRAVITY_OFFSET_M_S2: f64 = 0.1;
 pub const MAX_TILT_CHANGE_DEG: f64 = 0.2;
 pub const MAX_DVL_SPEED_M_S: f64 = 0.05;
 /// Standard gravity, m/s^2 (the local value differs by under 0.03 m/s^2).
-const G0: f64 = 9.80665;
+pub(crate) const G0: f64 = 9.80665;
 const NS_PER_S: f64 = 1e9;
 
 /// The white noise measured in a still stretch.
