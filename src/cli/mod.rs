@@ -242,7 +242,8 @@ pub struct LogArgs {
     pub log: PathBuf,
 
     /// Clock offset of one topic, added to its stamps: TOPIC=SECONDS (repeatable),
-    /// e.g. --offset /dvl=-0.120 when the DVL stamps run 120 ms late.
+    /// e.g. --offset /dvl=-0.120 when the DVL stamps run 120 ms late. Without one for the
+    /// DVL, its stamp delay is estimated from the log (and used when it is clear: the plan).
     #[arg(long = "offset", value_name = "TOPIC=SECONDS")]
     pub offsets: Vec<ClockOffset>,
 

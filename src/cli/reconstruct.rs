@@ -188,6 +188,17 @@ impl ReconstructArgs {
             config.output.rate_hz = r;
         }
         config.output.aiding_epochs |= self.aiding_epochs;
+        // A clock offset given for the DVL's topic replaces the estimate of its delay.
+        let dvl_topic = (self.log.source.topics.iter().rev())
+            .find(|(role, _)| role == "dvl")
+            .map(|(_, topic)| topic.as_str())
+            .or(config.topics.get("dvl").map(String::as_str))
+            .unwrap_or("/dvl");
+        if self.log.offsets.iter().any(|o| o.topic == dvl_topic) {
+            config
+                .fixed
+                .insert(hindsight::recon::plan::DVL_DELAY_KEY.into());
+        }
         config.check().context("command-line options")?;
         Ok(config)
     }

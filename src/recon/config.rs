@@ -47,6 +47,11 @@ check_range = true         # false: use every reading, even without bottom lock 
                            # range (to see what trusting a bad DVL costs; not for real use)
 lever_arm_m = [0.0, 0.0, 0.0]     # DVL position from the reference point, body FRD
 rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z-Y-X)
+# stamp_delay_s = 0.3       # how late the DVL stamps a reading after it measured it, s
+                            # (negative: early). Not given: estimated from the IMU and the
+                            # DVL before any filter runs, and used when it is clear (the plan
+                            # says which, summary.json `plan`); 0 when --offset moves the
+                            # DVL's topic
 # The DVL's calibration estimated with the trajectory (summary.json `dvl_calibration`):
 # scale factor, misalignment in pitch and heading beyond rotation_deg, and a bias along each
 # of its axes, from these prior sigmas. 0 holds one at zero. The bias is always estimated.
@@ -405,6 +410,8 @@ pub struct DvlConfig {
     pub check_range: bool,
     pub lever_arm_m: [f64; 3],
     pub rotation_deg: [f64; 3],
+    /// How late the DVL stamps a reading after it measured it, s.
+    pub stamp_delay_s: f64,
     /// Whether the scale and misalignment are estimated (else held at zero).
     pub scale_misalignment: crate::recon::switch::Switch,
     pub scale_sigma: f64,
@@ -436,6 +443,7 @@ impl Default for DvlConfig {
             check_range: true,
             lever_arm_m: [0.0; 3],
             rotation_deg: [0.0; 3],
+            stamp_delay_s: 0.0,
             scale_misalignment: crate::recon::switch::Switch::Auto,
             scale_sigma: 0.005,
             misalignment_sigma_deg: 1.0,
@@ -794,7 +802,7 @@ impl Default for TuneConfig {
 
 /// The settings estimated from the log (self-tuning, the plan), as dotted keys. A configuration that gives one keeps
 /// it (see [`Config::fixed`]).
-pub const TUNABLE_KEYS: [&str; 13] = [
+pub const TUNABLE_KEYS: [&str; 14] = [
     "imu.grade",
     "imu.gyro_bias_deg_h",
     "imu.gyro_bias_instability_deg_h",
@@ -808,6 +816,7 @@ pub const TUNABLE_KEYS: [&str; 13] = [
     "eml.sigma_m_s",
     "dvl.max_altitude_m",
     "dvl.bias_walk_m_s_rt_h",
+    "dvl.stamp_delay_s",
 ];
 
 /// Everything a reconstruction can be told.
@@ -1053,6 +1062,13 @@ impl Config {
                     reason: "must be zero or positive",
                 });
             }
+        }
+        if !(self.dvl.stamp_delay_s.is_finite() && self.dvl.stamp_delay_s.abs() <= 60.0) {
+            return Err(ConfigError::Bad {
+                key: "dvl.stamp_delay_s",
+                value: self.dvl.stamp_delay_s,
+                reason: "must be a delay in seconds, -60 to 60",
+            });
         }
         if let Some(d) = self.initial.declination_deg {
             if !(d.is_finite() && (-180.0..=180.0).contains(&d)) {

@@ -11,6 +11,7 @@ pub mod carry;
 pub mod clock;
 pub mod config;
 pub mod consistency;
+pub mod dvl_delay;
 pub mod heading;
 pub mod in_motion;
 pub mod in_run;

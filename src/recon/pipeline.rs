@@ -21,7 +21,7 @@ use super::{
     PassOptions, Prepared, ReconError, Reconstruction, Streams,
 };
 use crate::angle::wrap_pi;
-use crate::contract::MagneticField;
+use crate::contract::{Dvl, MagneticField};
 use crate::filters::ins::aiding::Sensor;
 use crate::ingest::Mission;
 use crate::progress::Progress;
@@ -242,6 +242,11 @@ pub fn forward(
     let facts = LogFacts::of(&with_mag, mission, config);
     let mut plan = Plan::decide(&facts, config);
     let planned = plan.apply(config);
+    let shifted_dvl = delayed_dvl(streams.dvl, planned.dvl.stamp_delay_s);
+    let streams = &Streams {
+        dvl: shifted_dvl.as_deref().unwrap_or(streams.dvl),
+        ..*streams
+    };
     let mut warnings: Vec<Warning> = plan
         .overruled()
         .map(|d| Warning::ForcedOnRefused {
@@ -363,6 +368,19 @@ impl Forward {
     pub fn forward_time(&self) -> Duration {
         self.pass.time
     }
+}
+
+/// The DVL's readings stamped when they were measured (`None`: no delay to take out).
+fn delayed_dvl(dvl: &[Dvl], delay_s: f64) -> Option<Vec<Dvl>> {
+    let delay_ns = (delay_s * 1e9).round() as i64;
+    (delay_ns != 0).then(|| {
+        dvl.iter()
+            .map(|d| Dvl {
+                stamp_ns: d.stamp_ns - delay_ns,
+                ..d.clone()
+            })
+            .collect()
+    })
 }
 
 /// The magnetometer's readings prepared once (moved in, or copied from the streams).

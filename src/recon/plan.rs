@@ -9,6 +9,7 @@
 //! marked afterwards with [`Plan::refuse`].
 
 use super::config::Config;
+use super::dvl_delay::{self, StampDelay};
 use super::switch::Switch;
 use super::Streams;
 use crate::filters::ins::aiding::Sensor;
@@ -21,6 +22,15 @@ pub const DVL_GAP_S: f64 = 30.0;
 
 /// The configuration key of the DVL's range.
 pub const DVL_RANGE_KEY: &str = "dvl.max_altitude_m";
+
+/// The configuration key of the DVL's stamp delay.
+pub const DVL_DELAY_KEY: &str = "dvl.stamp_delay_s";
+
+/// A DVL stamp delay is used when it is this many sigmas from zero ...
+pub const DELAY_MIN_SIGMAS: f64 = 3.0;
+/// ... and explains the DVL's velocity changes clearly better than none: its chi-square
+/// against zero delay is at least this (5 sigmas' worth).
+pub const DELAY_MIN_CHI_SQUARE: f64 = 25.0;
 
 /// A pair of absolute positions makes the DVL's scale and misalignment observable when the
 /// error their priors would build up between the two is this many times the pair's sigma.
@@ -52,6 +62,9 @@ pub struct LogFacts {
     pub vehicle: Result<String, String>,
     /// The farthest pair of absolute positions (GNSS, fixes), when there are two.
     pub farthest_positions: Option<PositionPair>,
+    /// The DVL's stamp delay estimated from the IMU and the DVL (when the configuration
+    /// gives none and the DVL is used).
+    pub dvl_delay: Option<StampDelay>,
 }
 
 /// Two absolute positions and what lies between them.
@@ -85,14 +98,18 @@ impl LogFacts {
         };
         let mut ranged = config.clone();
         ranged.dvl.max_altitude_m = dvl_max_altitude_m;
-        let in_range: Vec<i64> = ranged
-            .settings()
-            .aiding
-            .dvl(streams)
-            .in_range_body_velocities()
-            .iter()
-            .map(|r| r.stamp_ns)
-            .collect();
+        let dvl = ranged.settings().aiding.dvl(streams);
+        let readings_in_range = dvl.in_range_body_velocities();
+        let in_range: Vec<i64> = readings_in_range.iter().map(|r| r.stamp_ns).collect();
+        let dvl_delay = (config.dvl.enabled && !config.fixed.contains(DVL_DELAY_KEY))
+            .then(|| {
+                dvl_delay::estimate(
+                    streams.imu,
+                    &readings_in_range,
+                    &dvl.mounting.lever_arm_body_m,
+                )
+            })
+            .flatten();
         let imu_end = streams.imu.last().map_or(0, |m| m.stamp_ns);
         let (dvl_gaps, dvl_longest_gap_s) = gaps(&in_range, imu_end);
         LogFacts {
@@ -106,6 +123,7 @@ impl LogFacts {
             dvl_longest_gap_s,
             vehicle: vehicle_of(config, mission),
             farthest_positions: farthest_positions(streams, mission),
+            dvl_delay,
         }
     }
 
@@ -205,6 +223,8 @@ pub enum Part {
     DvlScaleMisalignment,
     /// The DVL's bias states.
     DvlBias,
+    /// The delay of the DVL's stamps, taken out of them.
+    DvlStampDelay,
     /// The EM log's scale factor and the water current.
     EmlScaleCurrent,
     /// The IMU's biases (and the z gyro's scale factor).
@@ -221,6 +241,7 @@ impl Part {
             Part::Aid(s) => s.name(),
             Part::DvlScaleMisalignment => "dvl scale and misalignment",
             Part::DvlBias => "dvl bias",
+            Part::DvlStampDelay => "dvl stamp delay",
             Part::EmlScaleCurrent => "eml scale and current",
             Part::ImuBiases => "imu biases",
             Part::Tuning => "self-tuning",
@@ -276,6 +297,17 @@ pub enum Why {
     ForcedButMissing { needs: String },
     /// Depends on another part.
     Follows { on: String, used: bool },
+    /// The configuration gives it.
+    Given { value: f64 },
+    /// Estimated from the log, clearly (used) or not (not used).
+    Estimated {
+        delay_s: f64,
+        sigma_s: f64,
+        chi_square_vs_zero: f64,
+        pairs: usize,
+    },
+    /// The log's readings could not tell it.
+    CannotTell { detail: String },
 }
 
 impl fmt::Display for Why {
@@ -329,6 +361,29 @@ impl fmt::Display for Why {
             }
             Why::Follows { on, used: true } => write!(f, "with the {on}"),
             Why::Follows { on, used: false } => write!(f, "the {on} is not used"),
+            Why::Given { value } => write!(f, "{value:+.3} s, as given"),
+            Why::Estimated {
+                delay_s,
+                sigma_s,
+                chi_square_vs_zero,
+                pairs,
+            } => {
+                write!(
+                    f,
+                    "{delay_s:+.3} s (1-sigma {sigma_s:.3} s, chi-square {chi_square_vs_zero:.1} \
+                     against none) from the IMU and {pairs} pairs of DVL readings"
+                )?;
+                if delay_clear(*delay_s, *sigma_s, *chi_square_vs_zero) {
+                    write!(f, ": taken out of the DVL's stamps")
+                } else {
+                    write!(
+                        f,
+                        ": not clearly other than 0 (the velocity changes too little to tell); \
+                         0 is used"
+                    )
+                }
+            }
+            Why::CannotTell { detail } => write!(f, "cannot tell: {detail}; 0 is used"),
         }
     }
 }
@@ -384,6 +439,7 @@ impl Plan {
                 follows("dvl", dvl)
             },
         ));
+        decisions.push(stamp_delay(facts, config, dvl));
         let eml = uses(&decisions, Sensor::SpeedLog);
         decisions.push(decision(Part::EmlScaleCurrent, eml, follows("eml", eml)));
         let default = Config::default();
@@ -413,6 +469,19 @@ impl Plan {
         }
     }
 
+    /// The delay taken out of the DVL's stamps, s (0 when none is).
+    pub fn dvl_stamp_delay_s(&self) -> f64 {
+        let d = self
+            .decisions
+            .iter()
+            .find(|d| d.part == Part::DvlStampDelay);
+        match d.map(|d| (d.used, &d.why)) {
+            Some((true, Why::Given { value })) => *value,
+            Some((true, Why::Estimated { delay_s, .. })) => *delay_s,
+            _ => 0.0,
+        }
+    }
+
     /// Whether the part is used.
     pub fn uses(&self, part: Part) -> bool {
         self.decisions.iter().any(|d| d.part == part && d.used)
@@ -426,6 +495,7 @@ impl Plan {
         c.model_velocity.enabled = Switch::from_bool(self.uses(Part::Aid(Sensor::ModelVelocity)));
         c.dvl.scale_misalignment = Switch::from_bool(self.uses(Part::DvlScaleMisalignment));
         c.dvl.max_altitude_m = self.dvl_max_altitude_m;
+        c.dvl.stamp_delay_s = self.dvl_stamp_delay_s();
         c
     }
 
@@ -452,6 +522,56 @@ impl fmt::Display for Plan {
             writeln!(f, "{:<27} {:<9} {}", d.name, used, d.why)?;
         }
         Ok(())
+    }
+}
+
+/// Whether an estimated delay is clearly other than zero.
+fn delay_clear(delay_s: f64, sigma_s: f64, chi_square_vs_zero: f64) -> bool {
+    delay_s.abs() >= DELAY_MIN_SIGMAS * sigma_s && chi_square_vs_zero >= DELAY_MIN_CHI_SQUARE
+}
+
+/// The DVL's stamp delay: the configuration's, else the estimate when it is clear.
+fn stamp_delay(facts: &LogFacts, config: &Config, dvl: bool) -> Decision {
+    let part = Part::DvlStampDelay;
+    if !dvl {
+        return decision(
+            part,
+            false,
+            Why::Follows {
+                on: "dvl".into(),
+                used: false,
+            },
+        );
+    }
+    if config.fixed.contains(DVL_DELAY_KEY) {
+        let value = config.dvl.stamp_delay_s;
+        return decision(part, value != 0.0, Why::Given { value });
+    }
+    match facts.dvl_delay {
+        None => decision(
+            part,
+            false,
+            Why::CannotTell {
+                detail: format!(
+                    "fewer than {} windows of {} s with DVL readings in range in pairs",
+                    dvl_delay::MIN_WINDOWS,
+                    dvl_delay::WINDOW_S
+                ),
+            },
+        ),
+        Some(d) => {
+            let round = |x: f64| (x * 1000.0).round() / 1000.0;
+            decision(
+                part,
+                delay_clear(d.delay_s, d.sigma_s, d.chi_square_vs_zero),
+                Why::Estimated {
+                    delay_s: round(d.delay_s),
+                    sigma_s: round(d.sigma_s),
+                    chi_square_vs_zero: (d.chi_square_vs_zero * 10.0).round() / 10.0,
+                    pairs: d.pairs,
+                },
+            )
+        }
     }
 }
 
@@ -635,7 +755,53 @@ mod tests {
             dvl_longest_gap_s: 0.0,
             vehicle: Err("none".into()),
             farthest_positions: None,
+            dvl_delay: None,
         }
+    }
+
+    fn delay(delay_s: f64, sigma_s: f64, chi_square_vs_zero: f64) -> Option<StampDelay> {
+        Some(StampDelay {
+            delay_s,
+            sigma_s,
+            chi_square_vs_zero,
+            pairs: 500,
+            windows: 25,
+            residual_m_s: 0.007,
+        })
+    }
+
+    #[test]
+    fn a_clear_dvl_delay_is_taken_out_and_an_unclear_one_is_not() {
+        let config = Config::default();
+        for (estimate, taken) in [
+            (delay(0.3, 0.02, 400.0), 0.3),
+            (delay(0.3, 0.2, 400.0), 0.0),
+            (delay(0.3, 0.02, 9.0), 0.0),
+            (None, 0.0),
+        ] {
+            let facts = LogFacts {
+                dvl_delay: estimate,
+                ..facts()
+            };
+            let plan = Plan::decide(&facts, &config);
+            assert_eq!(plan.dvl_stamp_delay_s(), taken, "{estimate:?}");
+            assert_eq!(plan.uses(Part::DvlStampDelay), taken != 0.0);
+            assert_eq!(plan.apply(&config).dvl.stamp_delay_s, taken);
+        }
+    }
+
+    #[test]
+    fn a_given_dvl_delay_is_kept_whatever_the_estimate() {
+        let mut config = Config::from_toml("[dvl]\nstamp_delay_s = 0.25\n").unwrap();
+        let facts = LogFacts {
+            dvl_delay: delay(1.0, 0.01, 900.0),
+            ..facts()
+        };
+        assert_eq!(Plan::decide(&facts, &config).dvl_stamp_delay_s(), 0.25);
+        config.dvl.enabled = false;
+        let plan = Plan::decide(&facts, &config);
+        assert!(!plan.uses(Part::DvlStampDelay));
+        assert_eq!(plan.dvl_stamp_delay_s(), 0.0);
     }
 
     fn used(plan: &Plan, part: Part) -> bool {
