@@ -208,8 +208,13 @@ hypotheses = 12
 first_span_s = 300.0
 hint_outlier_probability = 0.01   # prior probability that the initial heading is wrong
 decisive_weight = 0.99            # posterior weight a hypothesis needs to decide
-found_sigma_floor_deg = 5.0       # least start sigma of a heading found this way (the
-                                  # forward pass uses the span's data again)
+found_sigma_floor_deg = 5.0       # least start sigma of a heading found this way with a
+                                  # gyro that cannot see the Earth's rate (its bias over the
+                                  # horizontal Earth rate above 1 deg: MEMS, most tactical);
+                                  # the found heading then rests on the aiding's pattern, and
+                                  # its smoothed sigma on a linearisation that may not hold.
+                                  # Either way the sigma is sqrt(2) times the smoothed one at
+                                  # least (the forward pass uses the span's data again)
 
 [tune]
 # Self-tuning: the noise figures the configuration does not give are estimated from the
@@ -222,11 +227,13 @@ span_s = 1800.0            # the IMU is tuned on the mission's first span_s seco
 settle_s = 300.0           # a start heading found in motion: the innovations of the span's
                            # first settle_s (at most a third of it) are not scored (they
                            # re-fit that heading)
-dvl_bias_walk = false      # true: choose [dvl] bias_walk_m_s_rt_h (0.03, 0.1, 0.3) by the
+dvl_bias_walk = "auto"     # choose [dvl] bias_walk_m_s_rt_h (0.03, 0.1, 0.3) by the
                            # likelihood before the IMU's refinements, so that a DVL error
-                           # correlated in time is not blamed on the IMU. Off by default: on
-                           # MEMS pool runs it also soaks up the IMU's unmodelled
-                           # misalignment (honest sigmas, larger errors)
+                           # correlated in time is not blamed on the IMU. "auto": when the
+                           # IMU grades navigation or intermediate (a MEMS or tactical IMU's
+                           # own unmodelled errors, misalignment above all, would be soaked
+                           # up by it: honest sigmas, larger errors); true / false: always,
+                           # never
 
 [output]
 rate_hz = 10.0             # trajectory rows per second (per solution)
@@ -786,7 +793,7 @@ pub struct TuneConfig {
     /// first `settle_s` (at most a third of the span) are left out of each candidate's score.
     pub settle_s: f64,
     /// Whether the DVL bias's random walk is chosen by the likelihood (when not given).
-    pub dvl_bias_walk: bool,
+    pub dvl_bias_walk: crate::recon::switch::Switch,
 }
 
 impl Default for TuneConfig {
@@ -795,7 +802,7 @@ impl Default for TuneConfig {
             enabled: true,
             span_s: 1800.0,
             settle_s: 300.0,
-            dvl_bias_walk: false,
+            dvl_bias_walk: crate::recon::switch::Switch::Auto,
         }
     }
 }

@@ -46,6 +46,10 @@ pub enum HeadingSource {
     /// The in-motion alignment: the heading the log's aiding supports, carried back to the
     /// start.
     InMotion,
+    /// Gyrocompassing in motion: the gyrocompass's heading refined by the filter over the
+    /// alignment's span (the Earth's rate seen with the DVL's velocity), smoothed back to the
+    /// start.
+    GyrocompassInMotion,
     /// No source: unknown.
     Unknown,
 }
@@ -59,6 +63,7 @@ impl HeadingSource {
             HeadingSource::Given => "given",
             HeadingSource::Combined => "combined",
             HeadingSource::InMotion => "in_motion",
+            HeadingSource::GyrocompassInMotion => "gyrocompass_in_motion",
             HeadingSource::Unknown => "unknown",
         }
     }

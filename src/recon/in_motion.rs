@@ -21,6 +21,7 @@
 //! what commercial ones do (forward and backward passes, or the log processed several times).
 
 use super::config::AlignmentConfig;
+use super::heading::HeadingSource;
 use super::init::Initialisation;
 use crate::angle::wrap_pi;
 use crate::filters::ins::driver::{run_forward, ForwardError, Inputs, Residual, Settings};
@@ -57,6 +58,13 @@ pub struct InMotion {
     /// Found heading, degrees in [0, 360), for the summary.
     pub heading_deg: Option<f64>,
     pub sigma_deg: Option<f64>,
+    /// A gyrocompassed initial heading confirmed by the bank and refined over the span:
+    /// heading (rad) and 1-sigma (deg).
+    #[serde(skip)]
+    pub refined: Option<(f64, f64)>,
+    /// The refined heading, degrees in [0, 360), and its sigma, for the summary.
+    pub refined_heading_deg: Option<f64>,
+    pub refined_sigma_deg: Option<f64>,
 }
 
 /// The inputs up to `end_ns` (the output stamps left out: the bank needs no output rows).
@@ -148,14 +156,21 @@ pub fn align(
         if decisive || span_s >= whole_s {
             let found = if decisive && (best != 0 || !known) {
                 let (yaw, sigma, _) = hypotheses[best];
-                Some(refine(
-                    settings,
-                    &cut,
-                    init,
-                    yaw,
-                    sigma,
-                    cfg.found_sigma_floor_deg,
-                )?)
+                let floor = if sees_earth_rate(init) {
+                    0.0
+                } else {
+                    cfg.found_sigma_floor_deg
+                };
+                Some(refine(settings, &cut, init, yaw, sigma, floor)?)
+            } else {
+                None
+            };
+            // A gyrocompassed heading the bank confirms: the filter over the span sees the
+            // Earth's rate with the DVL's velocity (gyrocompassing in motion), far better
+            // than the still gyrocompass's window.
+            let refined = if decisive && best == 0 && init.heading == HeadingSource::Gyrocompass {
+                let (yaw, sigma, _) = hypotheses[0];
+                Some(refine(settings, &cut, init, yaw, sigma, 0.0)?)
             } else {
                 None
             };
@@ -176,10 +191,26 @@ pub fn align(
                 heading_deg: found.map(|f| f.0.to_degrees().rem_euclid(360.0)),
                 sigma_deg: found.map(|f| f.1),
                 found,
+                refined_heading_deg: refined.map(|f| f.0.to_degrees().rem_euclid(360.0)),
+                refined_sigma_deg: refined.map(|f| f.1),
+                refined,
             }));
         }
         span_s = (span_s * 3.0).min(whole_s);
     }
+}
+
+/// A gyro's bias over the horizontal Earth rate, as a heading error, at most this: its
+/// filter sees the Earth's rate (the same bar as the gyrocompass at rest).
+const EARTH_RATE_HEADING_DEG: f64 = 1.0;
+
+/// Whether the start's gyro sees the Earth's rate: its horizontal bias sigma, as the heading
+/// error it would make a gyrocompass, is at most [`EARTH_RATE_HEADING_DEG`].
+fn sees_earth_rate(init: &Initialisation) -> bool {
+    let bias_rad_s = init.estimate.cov[(idx::GYRO_BIAS, idx::GYRO_BIAS)].sqrt();
+    let horizontal =
+        crate::filters::ins::alignment::horizontal_earth_rate(init.estimate.nav.lat_rad);
+    (bias_rad_s / horizontal).to_degrees() <= EARTH_RATE_HEADING_DEG
 }
 
 /// The winner's run over the span, smoothed: its start heading (rad) and 1-sigma (deg). Twice,
@@ -203,7 +234,9 @@ fn refine(
         yaw = start.euler_rad()[2];
         sigma_deg = start.sigma[idx::ATT + 2].to_degrees();
     }
-    // The forward pass will use the span's data again: its start sigma is kept at
-    // `found_sigma_floor_deg` at least, so that they are not counted twice with full weight.
-    Ok((yaw, sigma_deg.max(floor_deg)))
+    // The forward pass will use the span's data again. Started with the smoothed sigma, it
+    // would hold twice their information by the span's end (sigma 0.71 times the error's);
+    // started with sqrt(2) times it, it is 1.41 times the error's at the start and 0.82 at
+    // the span's end: off by the same factor either way. And at least the floor.
+    Ok((yaw, (std::f64::consts::SQRT_2 * sigma_deg).max(floor_deg)))
 }

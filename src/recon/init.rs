@@ -932,6 +932,10 @@ impl fmt::Display for Initialisation {
                 HeadingSource::Combined => "the sources above, combined by their sigmas",
                 HeadingSource::Unknown => "no source: the in-motion alignment finds it",
                 HeadingSource::InMotion => "the in-motion alignment over the log",
+                HeadingSource::GyrocompassInMotion => {
+                    "gyrocompassing in motion: the source above refined over the alignment's \
+                     span and smoothed back to the start"
+                }
                 _ => "the source above",
             },
             self.heading_sigma_deg

@@ -567,6 +567,10 @@ fn align_in_motion(
         init.estimate = init.estimate_with_heading(yaw, sigma_deg);
         init.heading = heading::HeadingSource::InMotion;
         init.heading_sigma_deg = sigma_deg;
+    } else if let Some((yaw, sigma_deg)) = found.as_ref().and_then(|f| f.refined) {
+        init.estimate = init.estimate_with_heading(yaw, sigma_deg);
+        init.heading = heading::HeadingSource::GyrocompassInMotion;
+        init.heading_sigma_deg = sigma_deg;
     } else if !known {
         init.in_motion = found;
         return Err(InitError::NoHeading(init.heading_unavailable.join("; ")).into());

@@ -149,12 +149,65 @@ pub struct Search {
 /// 0.1 (`sigma sqrt(2 / T)`).
 const DVL_WALKS: [f64; 3] = [0.03, 0.1, 0.3];
 
-/// Whether the configuration leaves the DVL bias's walk to the tuning (`[tune]
-/// dvl_bias_walk`, and no `[dvl] bias_walk_m_s_rt_h` given).
-fn dvl_walk_unset(config: &Config) -> bool {
-    config.tune.dvl_bias_walk
+/// The walk the fine grades are scored with in the ladder (see [`fine_grades_with_walk`]).
+const LADDER_WALK: f64 = DVL_WALKS[1];
+
+/// Whether a grade is fine enough for a DVL bias walk under `auto`: its own unmodelled errors
+/// are small next to a DVL's correlated error (a tactical or MEMS IMU's, its misalignment
+/// above all, would be soaked up by the walk: honest sigmas, larger errors).
+fn fine(grade: ImuGrade) -> bool {
+    matches!(grade, ImuGrade::Navigation | ImuGrade::Intermediate)
+}
+
+/// Whether the DVL bias's walk is left to the tuning with the IMU graded `best`: no `[dvl]
+/// bias_walk_m_s_rt_h` given, and `[tune] dvl_bias_walk` on, or `auto` with a [`fine`] grade.
+fn dvl_walk_unset(config: &Config, best: &Candidate) -> bool {
+    config
+        .tune
+        .dvl_bias_walk
+        .given()
+        .unwrap_or(fine(best.grade))
         && config.dvl.enabled
         && !config.fixed.contains("dvl.bias_walk_m_s_rt_h")
+}
+
+/// The fine grades scored again with a DVL bias walk, when the walk is the tuning's to
+/// choose: a fibre-optic IMU whose DVL's error drifts would otherwise lose the ladder to a
+/// noisy model that absorbs that error. The better of them, when it beats `best` (posterior
+/// `best_ll`), becomes the best, with its posterior without the walk (the walk's own search
+/// then takes it up); the scores join `tried`.
+#[allow(clippy::too_many_arguments)]
+fn fine_grades_with_walk(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    white: Option<&ImuWhite>,
+    from: Prepared<'_>,
+    tried: &mut Vec<Scored>,
+    best: &mut Candidate,
+    best_ll: &mut f64,
+) {
+    let candidates: Vec<Candidate> = ladder().into_iter().filter(|c| fine(c.grade)).collect();
+    if candidates.iter().all(|c| !dvl_walk_unset(config, c)) {
+        return;
+    }
+    let walked = with_dvl_walk(config, LADDER_WALK);
+    let round: Vec<Scored> = score_all(streams, mission, &walked, &candidates, white, from)
+        .into_iter()
+        .map(|(mut scored, _)| {
+            scored.label = format!("{}, dvl bias walk {LADDER_WALK}", scored.label);
+            scored
+        })
+        .collect();
+    if let Some((c, ll)) = best_of(&round).filter(|&(_, ll)| ll > *best_ll + MIN_GAIN) {
+        let without_walk = tried
+            .iter()
+            .find(|t| t.candidate.same_as(&c))
+            .and_then(|t| t.log_likelihood.map(|l| l + t.log_prior));
+        *best = c;
+        *best_ll = without_walk.unwrap_or(ll);
+    }
+    tried.extend(round);
 }
 
 fn with_dvl_walk(config: &Config, walk: f64) -> Config {
@@ -386,6 +439,18 @@ pub fn search(
             ),
         };
     };
+    // The fine grades with a walk start as the ladder's did (each aligns itself without a
+    // settled start).
+    fine_grades_with_walk(
+        streams,
+        mission,
+        config,
+        white,
+        from,
+        &mut tried,
+        &mut best,
+        &mut best_ll,
+    );
     // Without a settled start each grade aligned itself: the refinements, near the best
     // grade, start from the start the best grade found (one alignment per grade, not per
     // candidate).
@@ -403,7 +468,7 @@ pub fn search(
     };
     // The DVL's error correlated in time is modelled before the refinements, so that they
     // do not blame it on the IMU.
-    let dvl_bias_walk = dvl_walk_unset(config).then(|| {
+    let dvl_bias_walk = dvl_walk_unset(config, &best).then(|| {
         let (walk, ll, gain) = dvl_bias_walk(streams, mission, config, &best, white, from, best_ll);
         best_ll = ll;
         (walk, gain)
