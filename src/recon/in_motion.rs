@@ -168,9 +168,15 @@ pub fn align(
             // A gyrocompassed heading the bank confirms: the filter over the span sees the
             // Earth's rate with the DVL's velocity (gyrocompassing in motion), far better
             // than the still gyrocompass's window.
+            // It must agree with the gyrocompass (within 3 sigmas of their difference): a span
+            // whose aiding misleads the filter would otherwise replace a sound heading with a
+            // confident wrong one.
             let refined = if decisive && best == 0 && init.heading == HeadingSource::Gyrocompass {
                 let (yaw, sigma, _) = hypotheses[0];
-                Some(refine(settings, &cut, init, yaw, sigma, 0.0)?)
+                let (refined_yaw, refined_sigma) = refine(settings, &cut, init, yaw, sigma, 0.0)?;
+                let apart_deg = wrap_pi(refined_yaw - yaw).to_degrees().abs();
+                (apart_deg <= 3.0 * sigma.hypot(refined_sigma))
+                    .then_some((refined_yaw, refined_sigma))
             } else {
                 None
             };

@@ -68,6 +68,37 @@ impl Schedule {
     }
 }
 
+/// The host's stamps of an IMU whose samples reach it in bursts: each burst arrives after a
+/// random wait of 1 ms to `burst_s`, and its samples are stamped on arrival, 2 us apart.
+struct HostStamps {
+    burst_ns: i64,
+    rng: rand_chacha::ChaCha8Rng,
+    arrival_ns: i64,
+    in_burst: i64,
+}
+
+impl HostStamps {
+    const SPACING_NS: i64 = 2_000;
+    const MIN_WAIT_NS: i64 = 1_000_000;
+
+    /// The stamp of a sample measured at `measured_ns` (itself when there are no bursts).
+    fn stamp(&mut self, measured_ns: i64) -> i64 {
+        use rand::Rng;
+        if self.burst_ns <= 0 {
+            return measured_ns;
+        }
+        while measured_ns > self.arrival_ns {
+            let wait = self
+                .rng
+                .random_range(Self::MIN_WAIT_NS..=self.burst_ns.max(Self::MIN_WAIT_NS));
+            self.arrival_ns += wait;
+            self.in_burst = 0;
+        }
+        self.in_burst += 1;
+        self.arrival_ns + (self.in_burst - 1) * Self::SPACING_NS
+    }
+}
+
 fn secs_ns(s: f64) -> i64 {
     (s * 1e9).round() as i64
 }
@@ -141,6 +172,12 @@ pub fn run_with_progress<W: Write + Seek>(
         )
     });
     let dvl_delay_ns = scenario.dvl.map_or(0, |s| secs_ns(s.stamp_delay_s));
+    let mut host = HostStamps {
+        burst_ns: secs_ns(scenario.imu.host_burst_s),
+        rng: rng_for(seed, stream::HOST),
+        arrival_ns: scenario.start_stamp_ns,
+        in_burst: 0,
+    };
     let dvl_until_ns = scenario
         .dvl
         .and_then(|s| s.until_s)
@@ -201,17 +238,22 @@ pub fn run_with_progress<W: Write + Seek>(
         let vel_body = ned_from_body.inverse() * motion.vel_ned;
 
         let ideal = perfect_imu(motion, lat, height);
+        let host_ns = host.stamp(stamp_ns);
         let imu = Imu {
-            stamp_ns,
+            stamp_ns: host_ns,
             angular_velocity: gyro.measure(&ideal.omega_ib_body, dt_s).into(),
             specific_force: accel.measure(&ideal.specific_force_body, dt_s).into(),
         };
-        w.write("/imu", &imu, log_ns(scenario.imu.latency_s))?;
+        w.write(
+            "/imu",
+            &imu,
+            (host_ns + secs_ns(scenario.imu.latency_s)).max(0) as u64,
+        )?;
         count += 1;
 
         if let Some((m, sched)) = mag.as_mut() {
             if sched.due(t_ns) {
-                let magnetic_field = m.measure(&ned_from_body).into();
+                let magnetic_field = m.measure_at(&ned_from_body, north, east).into();
                 w.write(
                     "/mag",
                     &MagneticField {

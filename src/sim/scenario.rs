@@ -27,6 +27,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../../scenarios/pool-rectangle.toml"),
     ),
     (
+        "pool-mems-host",
+        include_str!("../../scenarios/pool-mems-host.toml"),
+    ),
+    (
         "dive-27min",
         include_str!("../../scenarios/dive-27min.toml"),
     ),
@@ -280,6 +284,11 @@ pub struct ImuSpec {
     pub rate_hz: f64,
     #[serde(default)]
     pub latency_s: f64,
+    /// Host stamping: the IMU's samples reach the host in bursts, each burst after a random
+    /// wait of up to this many seconds, and are stamped on arrival, 2 us apart (0: each
+    /// sample stamped when it was measured).
+    #[serde(default)]
+    pub host_burst_s: f64,
     #[serde(default)]
     pub gyro: GyroGrade,
     #[serde(default)]
@@ -526,6 +535,12 @@ impl Scenario {
                 "a parameter is {v}: every number of the mission, start and sensors must be finite"
             )));
         }
+        if self.imu.host_burst_s < 0.0 {
+            return Err(bad(format!(
+                "imu.host_burst_s {} must not be negative",
+                self.imu.host_burst_s
+            )));
+        }
         if let Some(d) = &self.dvl {
             if d.stamp_delay_s < 0.0 || d.correlated_m_s < 0.0 || d.correlation_s <= 0.0 {
                 return Err(bad(format!(
@@ -624,6 +639,7 @@ impl Scenario {
             self.start.roll_deg,
             self.start.pitch_deg,
             self.imu.latency_s,
+            self.imu.host_burst_s,
             g.bias_deg_h,
             g.bias_instability_deg_h,
             g.bias_correlation_s,
@@ -646,6 +662,10 @@ impl Scenario {
                     .chain(m.soft_iron.iter().flatten()),
             );
             v.push(m.noise_nt);
+            if let Some(steel) = &m.steel {
+                v.extend([steel.north_m, steel.east_m, steel.radius_m]);
+                v.extend(steel.field_ned_nt);
+            }
         }
         if let Some(d) = &self.dvl {
             v.extend([

@@ -22,6 +22,29 @@ pub struct MagSpec {
     /// 1-sigma white noise per axis, nT.
     #[serde(default)]
     pub noise_nt: f64,
+    /// Steel near the track (a pool's wall, a pier): its field added to the Earth's.
+    #[serde(default)]
+    pub steel: Option<SteelSpec>,
+}
+
+/// A local disturbance of the field: `field_ned_nt` at the point, fading as a Gaussian of
+/// the horizontal distance from it with `radius_m`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SteelSpec {
+    pub north_m: f64,
+    pub east_m: f64,
+    pub radius_m: f64,
+    pub field_ned_nt: [f64; 3],
+}
+
+impl SteelSpec {
+    /// Its field at a point, tesla, NED.
+    fn field_ned_t(&self, north_m: f64, east_m: f64) -> Vector3<f64> {
+        let d2 = (north_m - self.north_m).powi(2) + (east_m - self.east_m).powi(2);
+        let fade = (-0.5 * d2 / self.radius_m.powi(2).max(1e-6)).exp();
+        Vector3::from(self.field_ned_nt) * 1e-9 * fade
+    }
 }
 
 /// The magnetometer of one run.
@@ -31,6 +54,7 @@ pub struct MagSensor {
     distortion: Matrix3<f64>,
     hard_iron_t: Vector3<f64>,
     noise_t: f64,
+    steel: Option<SteelSpec>,
     rng: ChaCha8Rng,
 }
 
@@ -42,14 +66,30 @@ impl MagSensor {
             distortion: Matrix3::identity() + Matrix3::from_fn(|i, j| spec.soft_iron[i][j]),
             hard_iron_t: Vector3::from(spec.hard_iron_nt) * nt,
             noise_t: spec.noise_nt * nt,
+            steel: spec.steel,
             rng,
         }
     }
 
-    /// Field measured in the body, tesla.
+    /// Field measured in the body, tesla (away from any steel).
     pub fn measure(&mut self, ned_from_body: &Rotation3<f64>) -> Vector3<f64> {
+        self.measure_at(ned_from_body, f64::INFINITY, f64::INFINITY)
+    }
+
+    /// Field measured in the body at a place (north, east from the origin, m), tesla.
+    pub fn measure_at(
+        &mut self,
+        ned_from_body: &Rotation3<f64>,
+        north_m: f64,
+        east_m: f64,
+    ) -> Vector3<f64> {
         let noise = Vector3::from_fn(|_, _| self.noise_t * normal(&mut self.rng));
-        self.distortion * (ned_from_body.inverse() * self.field_ned_t) + self.hard_iron_t + noise
+        let steel = self
+            .steel
+            .filter(|_| north_m.is_finite() && east_m.is_finite())
+            .map_or(Vector3::zeros(), |s| s.field_ned_t(north_m, east_m));
+        let field = ned_from_body.inverse() * (self.field_ned_t + steel);
+        self.distortion * field + self.hard_iron_t + noise
     }
 }
 
@@ -61,6 +101,7 @@ mod tests {
     #[test]
     fn recovers_hard_iron_and_noise() {
         let spec = MagSpec {
+            steel: None,
             rate_hz: 50.0,
             field_ned_nt: [30_000.0, -4_000.0, 40_000.0],
             hard_iron_nt: [500.0, -200.0, 100.0],

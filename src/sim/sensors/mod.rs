@@ -26,6 +26,7 @@ pub mod stream {
     pub const GNSS: u64 = 9;
     pub const FIX: u64 = 10;
     pub const AHRS: u64 = 11;
+    pub const HOST: u64 = 12;
 }
 
 /// The generator of one sensor in one run.
