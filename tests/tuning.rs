@@ -16,6 +16,34 @@ use hindsight::sim::scenario::{AccelGrade, GyroGrade, Scenario};
 use common::output_errors as errors;
 use serde_json::Value;
 
+/// Length of the truth's horizontal track, m.
+fn truth_length_m(log: &Log) -> f64 {
+    let truth = log
+        .messages::<hindsight::contract::Truth>("/truth")
+        .unwrap();
+    truth
+        .windows(2)
+        .map(|w| (w[1].north_m - w[0].north_m).hypot(w[1].east_m - w[0].east_m))
+        .sum()
+}
+
+/// The smoothed track's length over the truth's, and the fraction of the DVL's readings
+/// rejected.
+fn length_and_dvl_rejected(r: &hindsight::recon::Reconstruction, truth_m: f64) -> (f64, f64) {
+    use hindsight::filters::ins::aiding::Sensor;
+    use hindsight::recon::stats::distance_travelled_m;
+    let dvl: Vec<bool> = r
+        .run
+        .residuals
+        .iter()
+        .filter(|x| x.sensor == Sensor::Dvl)
+        .map(|x| x.accepted)
+        .collect();
+    let rejected = dvl.iter().filter(|a| !**a).count() as f64 / dvl.len() as f64;
+    let length = distance_travelled_m(r.smoothed.iter()).unwrap() / truth_m;
+    (length, rejected)
+}
+
 fn run(log: &Log, config: &Config) -> (Scores, Scores) {
     let streams = Streams::of(log);
     let r = reconstruct(&streams, &log.mission().unwrap(), config).unwrap();
@@ -165,9 +193,7 @@ fn given_figures_are_kept() {
 /// defaults diverge and their warning says that the IMU is noisier than assumed.
 #[test]
 fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
-    use hindsight::contract::Truth;
-    use hindsight::filters::ins::aiding::Sensor;
-    use hindsight::recon::stats::{distance_travelled_m, sensor_stats, warnings};
+    use hindsight::recon::stats::{sensor_stats, warnings};
     let m = ImuGrade::Mems.spec();
     for name in ["pool-rectangle", "pool-circle"] {
         let mut scenario = Scenario::built_in(name).unwrap();
@@ -186,21 +212,9 @@ fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
         let log = common::simulated_log(&scenario, 1);
         let streams = Streams::of(&log);
         let mission = log.mission().unwrap();
-        let truth = log.messages::<Truth>("/truth").unwrap();
-        let truth_length_m: f64 = truth
-            .windows(2)
-            .map(|w| (w[1].north_m - w[0].north_m).hypot(w[1].east_m - w[0].east_m))
-            .sum();
+        let truth_m = truth_length_m(&log);
         let judge = |r: &hindsight::recon::Reconstruction| {
-            let dvl: Vec<bool> = r
-                .run
-                .residuals
-                .iter()
-                .filter(|x| x.sensor == Sensor::Dvl)
-                .map(|x| x.accepted)
-                .collect();
-            let rejected = dvl.iter().filter(|a| !**a).count() as f64 / dvl.len() as f64;
-            let length = distance_travelled_m(r.smoothed.iter()).unwrap() / truth_length_m;
+            let (length, rejected) = length_and_dvl_rejected(r, truth_m);
             let imu_blamed = warnings(&r.run, &r.init, &sensor_stats(&r.run.residuals))
                 .iter()
                 .any(|w| matches!(w, RunWarning::ImuNoisier { .. }));
@@ -452,10 +466,7 @@ fn a_fibre_optic_imu_at_sea_is_graded_by_its_own_white_noise() {
 /// rejected, within 3 m of the truth; no DVL delay is taken out of an on-time DVL.
 #[test]
 fn a_mems_pool_run_with_host_stamps_and_steel_does_not_diverge() {
-    use hindsight::contract::Truth;
-    use hindsight::filters::ins::aiding::Sensor;
     use hindsight::recon::plan::Part;
-    use hindsight::recon::stats::distance_travelled_m;
     let scenario = Scenario::built_in("pool-mems-host").unwrap();
     for seed in 1..=5 {
         let log = common::simulated_log(&scenario, seed);
@@ -466,24 +477,11 @@ fn a_mems_pool_run_with_host_stamps_and_steel_does_not_diverge() {
             .map(|w| w[1].stamp_ns - w[0].stamp_ns);
         assert!(bursts.clone().min().unwrap() <= 2_000, "host bursts");
         assert!(bursts.max().unwrap() > 50_000_000, "host bursts");
-        let truth = log.messages::<Truth>("/truth").unwrap();
-        let truth_length_m: f64 = truth
-            .windows(2)
-            .map(|w| (w[1].north_m - w[0].north_m).hypot(w[1].east_m - w[0].east_m))
-            .sum();
         let mission = log.mission().unwrap();
         let outcome =
             pipeline::run(&streams, &mission, &Config::default(), Default::default()).unwrap();
         let r = &outcome.reconstruction;
-        let dvl: Vec<bool> = r
-            .run
-            .residuals
-            .iter()
-            .filter(|x| x.sensor == Sensor::Dvl)
-            .map(|x| x.accepted)
-            .collect();
-        let rejected = dvl.iter().filter(|a| !**a).count() as f64 / dvl.len() as f64;
-        let length = distance_travelled_m(r.smoothed.iter()).unwrap() / truth_length_m;
+        let (length, rejected) = length_and_dvl_rejected(r, truth_length_m(&log));
         let (_, smoothed) = errors(streams.truth, r);
         let smoothed = scores(&smoothed).unwrap();
         eprintln!(

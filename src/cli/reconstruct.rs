@@ -33,12 +33,13 @@ use std::time::Instant;
 /// every aid, calibration state and stage, used or not and why: the propeller's velocity
 /// filter when /rpm exists and the DVL has gaps, the vehicle model's when /fins, /rpm and a
 /// vehicle are there, the DVL's scale and misalignment when fixes far apart make them
-/// observable). Initialises from the log (position from GNSS, a `start` fix or the mission
-/// origin; levelling; heading by gyrocompass, magnetometer, the mission's initial_yaw_rad or
-/// --initial-yaw, checked by the in-motion alignment; the sources are printed), self-tunes
-/// the noise from that start, checks the heading again with the tuned figures, runs the
-/// forward filter at the IMU rate with every aid of the plan behind a chi-square gate, then
-/// smooths the whole mission. Writes to DIR, atomically:
+/// observable, the DVL's stamp delay when the IMU and the DVL show it clearly). Initialises
+/// from the log (position from GNSS, a `start` fix or the mission origin; levelling; heading
+/// by gyrocompass, magnetometer, the mission's initial_yaw_rad or --initial-yaw, checked by
+/// the in-motion alignment, which also refines a gyrocompass heading while the vehicle
+/// moves; the sources are printed), self-tunes the noise from that start, checks the heading
+/// again with the tuned figures, runs the forward filter at the IMU rate with every aid of
+/// the plan behind a chi-square gate, then smooths the whole mission. Writes to DIR, atomically:
 ///
 ///   trajectory.parquet  forward and smoothed solutions at --output-rate: position (lat/lon
 ///                       and north/east/down in the mission frame), NED velocity,

@@ -530,18 +530,20 @@ fn delay_clear(delay_s: f64, sigma_s: f64, chi_square_vs_zero: f64) -> bool {
     delay_s.abs() >= DELAY_MIN_SIGMAS * sigma_s && chi_square_vs_zero >= DELAY_MIN_CHI_SQUARE
 }
 
+/// A part of the DVL's, the DVL not being used.
+fn without_dvl(part: Part) -> Decision {
+    let why = Why::Follows {
+        on: "dvl".into(),
+        used: false,
+    };
+    decision(part, false, why)
+}
+
 /// The DVL's stamp delay: the configuration's, else the estimate when it is clear.
 fn stamp_delay(facts: &LogFacts, config: &Config, dvl: bool) -> Decision {
     let part = Part::DvlStampDelay;
     if !dvl {
-        return decision(
-            part,
-            false,
-            Why::Follows {
-                on: "dvl".into(),
-                used: false,
-            },
-        );
+        return without_dvl(part);
     }
     if config.fixed.contains(DVL_DELAY_KEY) {
         let value = config.dvl.stamp_delay_s;
@@ -690,14 +692,7 @@ fn scale_misalignment(facts: &LogFacts, config: &Config, dvl: bool) -> Decision 
     let part = Part::DvlScaleMisalignment;
     let d = &config.dvl;
     if !dvl {
-        return decision(
-            part,
-            false,
-            Why::Follows {
-                on: "dvl".into(),
-                used: false,
-            },
-        );
+        return without_dvl(part);
     }
     if let Some(on) = d.scale_misalignment.given() {
         return decision(part, on, Why::Switched { on });
