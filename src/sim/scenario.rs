@@ -541,6 +541,14 @@ impl Scenario {
                 self.imu.host_burst_s
             )));
         }
+        if let Some(steel) = self.mag.as_ref().and_then(|m| m.steel) {
+            if steel.radius_m <= 0.0 {
+                return Err(bad(format!(
+                    "mag.steel.radius_m {} must be above 0",
+                    steel.radius_m
+                )));
+            }
+        }
         if let Some(d) = &self.dvl {
             if d.stamp_delay_s < 0.0 || d.correlated_m_s < 0.0 || d.correlation_s <= 0.0 {
                 return Err(bad(format!(
@@ -896,6 +904,29 @@ mod tests {
             Scenario::built_in("nope"),
             Err(ScenarioError::Unknown { .. })
         ));
+    }
+
+    #[test]
+    fn host_bursts_and_steel_are_checked() {
+        let text = BUILT_IN
+            .iter()
+            .find(|(n, _)| *n == "pool-mems-host")
+            .unwrap()
+            .1;
+        for (from, to) in [
+            ("host_burst_s = 0.075", "host_burst_s = -0.075"),
+            ("radius_m = 4.0", "radius_m = 0.0"),
+            ("radius_m = 4.0", "radius_m = nan"),
+        ] {
+            assert!(text.contains(from), "{from}");
+            assert!(
+                matches!(
+                    Scenario::from_toml(&text.replacen(from, to, 1)),
+                    Err(ScenarioError::Invalid { .. })
+                ),
+                "{to}"
+            );
+        }
     }
 
     #[test]
