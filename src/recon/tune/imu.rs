@@ -171,43 +171,28 @@ fn dvl_walk_unset(config: &Config, best: &Candidate) -> bool {
         && !config.fixed.contains("dvl.bias_walk_m_s_rt_h")
 }
 
-/// The fine grades scored again with a DVL bias walk, when the walk is the tuning's to
-/// choose: a fibre-optic IMU whose DVL's error drifts would otherwise lose the ladder to a
-/// noisy model that absorbs that error. The better of them, when it beats `best` (posterior
-/// `best_ll`), becomes the best, with its posterior without the walk (the walk's own search
-/// then takes it up); the scores join `tried`.
-#[allow(clippy::too_many_arguments)]
+/// The fine grades scored with a DVL bias walk, when the walk is the tuning's to choose (an
+/// empty list otherwise): a fibre-optic IMU whose DVL's error drifts would otherwise lose
+/// the ladder to a noisy model that absorbs that error.
 fn fine_grades_with_walk(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
     white: Option<&ImuWhite>,
     from: Prepared<'_>,
-    tried: &mut Vec<Scored>,
-    best: &mut Candidate,
-    best_ll: &mut f64,
-) {
+) -> Vec<Scored> {
     let candidates: Vec<Candidate> = ladder().into_iter().filter(|c| fine(c.grade)).collect();
-    if candidates.iter().all(|c| !dvl_walk_unset(config, c)) {
-        return;
+    if !candidates.iter().any(|c| dvl_walk_unset(config, c)) {
+        return Vec::new();
     }
     let walked = with_dvl_walk(config, LADDER_WALK);
-    let round: Vec<Scored> = score_all(streams, mission, &walked, &candidates, white, from)
+    score_all(streams, mission, &walked, &candidates, white, from)
         .into_iter()
         .map(|(mut scored, _)| {
             scored.label = format!("{}, dvl bias walk {LADDER_WALK}", scored.label);
             scored
         })
-        .collect();
-    if let Some((c, ll)) = best_of(&round).filter(|&(_, ll)| ll > *best_ll + MIN_GAIN) {
-        let without_walk = tried
-            .iter()
-            .find(|t| t.candidate.same_as(&c))
-            .and_then(|t| t.log_likelihood.map(|l| l + t.log_prior));
-        *best = c;
-        *best_ll = without_walk.unwrap_or(ll);
-    }
-    tried.extend(round);
+        .collect()
 }
 
 fn with_dvl_walk(config: &Config, walk: f64) -> Config {
@@ -441,16 +426,18 @@ pub fn search(
     };
     // The fine grades with a walk start as the ladder's did (each aligns itself without a
     // settled start).
-    fine_grades_with_walk(
-        streams,
-        mission,
-        config,
-        white,
-        from,
-        &mut tried,
-        &mut best,
-        &mut best_ll,
-    );
+    // The better of them, when it beats the ladder's best, becomes the best, with its
+    // posterior without the walk (the walk's own search below then takes it up).
+    let with_walk = fine_grades_with_walk(streams, mission, config, white, from);
+    if let Some((c, ll)) = best_of(&with_walk).filter(|&(_, ll)| ll > best_ll + MIN_GAIN) {
+        let without_walk = tried
+            .iter()
+            .find(|t| t.candidate.same_as(&c))
+            .and_then(|t| t.log_likelihood.map(|l| l + t.log_prior));
+        best = c;
+        best_ll = without_walk.unwrap_or(ll);
+    }
+    tried.extend(with_walk);
     // Without a settled start each grade aligned itself: the refinements, near the best
     // grade, start from the start the best grade found (one alignment per grade, not per
     // candidate).
