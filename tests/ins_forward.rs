@@ -61,6 +61,7 @@ fn settings_for(scenario: &Scenario, aiding: Aiding) -> Settings {
         height_damping: None,
         current_walk: 0.0,
         dvl_bias_walk: 0.0,
+        dvl_bias_correlation_s: None,
         considered: [false; hindsight::filters::ins::error_state::N],
     };
     Settings {

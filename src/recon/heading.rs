@@ -46,9 +46,10 @@ pub enum HeadingSource {
     /// The in-motion alignment: the heading the log's aiding supports, carried back to the
     /// start.
     InMotion,
-    /// Gyrocompassing in motion: the gyrocompass's heading refined by the filter over the
-    /// alignment's span (the Earth's rate seen with the DVL's velocity), smoothed back to the
-    /// start.
+    /// The gyrocompass's heading, confirmed by gyrocompassing in motion: refined by the filter
+    /// over the alignment's span (the Earth's rate seen with the DVL's velocity) and smoothed
+    /// back to the start, within 3 sigmas of it. The forward pass starts from the
+    /// gyrocompass's heading and sigma (the refined one is in the alignment's record).
     GyrocompassInMotion,
     /// No source: unknown.
     Unknown,

@@ -161,7 +161,8 @@ pub fn align(
                 } else {
                     cfg.found_sigma_floor_deg
                 };
-                Some(refine(settings, &cut, init, yaw, sigma, floor)?)
+                let (yaw, sigma) = for_another_pass(refine(settings, &cut, init, yaw, sigma)?);
+                Some((yaw, sigma.max(floor)))
             } else {
                 None
             };
@@ -173,7 +174,8 @@ pub fn align(
             // confident wrong one.
             let refined = if decisive && best == 0 && init.heading == HeadingSource::Gyrocompass {
                 let (yaw, sigma, _) = hypotheses[0];
-                let (refined_yaw, refined_sigma) = refine(settings, &cut, init, yaw, sigma, 0.0)?;
+                let (refined_yaw, refined_sigma) =
+                    for_another_pass(refine(settings, &cut, init, yaw, sigma)?);
                 let apart_deg = wrap_pi(refined_yaw - yaw).to_degrees().abs();
                 (apart_deg <= 3.0 * sigma.hypot(refined_sigma))
                     .then_some((refined_yaw, refined_sigma))
@@ -219,18 +221,38 @@ fn sees_earth_rate(init: &Initialisation) -> bool {
     (bias_rad_s / horizontal).to_degrees() <= EARTH_RATE_HEADING_DEG
 }
 
+/// A prior heading sigma small enough for the error state to stay linear, deg: a filter
+/// started within it corrects its heading by a small angle.
+const LINEAR_SIGMA_DEG: f64 = 5.0;
+
 /// The winner's run over the span, smoothed: its start heading (rad) and 1-sigma (deg). Twice,
 /// the second from the first's heading, so that the linearisation is about the answer.
+///
+/// The second pass starts with the prior's sigma when that is within [`LINEAR_SIGMA_DEG`]:
+/// started with the smoothed one it would count the span's data twice, and follow whatever
+/// misled them twice as far (a DVL's correlated error read as heading: 0.3 deg on
+/// `auv-at-sea`, reported as 0.11). A wider prior (a bank's hypothesis, tens of degrees)
+/// would make the second pass's first corrections large and non-linear again: it starts with
+/// the smoothed sigma, and its answer is widened by [`for_another_pass`].
 fn refine(
     settings: &Settings,
     inputs: &Inputs<'_>,
     init: &Initialisation,
     mut yaw: f64,
-    mut sigma_deg: f64,
-    floor_deg: f64,
+    prior_sigma_deg: f64,
 ) -> Result<(f64, f64), ForwardError> {
+    let mut sigma_deg = prior_sigma_deg;
     for _ in 0..2 {
-        let run = run_forward(settings, inputs, init.estimate_with_heading(yaw, sigma_deg))?;
+        let start_sigma_deg = if prior_sigma_deg <= LINEAR_SIGMA_DEG {
+            prior_sigma_deg
+        } else {
+            sigma_deg
+        };
+        let run = run_forward(
+            settings,
+            inputs,
+            init.estimate_with_heading(yaw, start_sigma_deg),
+        )?;
         let Ok(smoothed) = smooth(&run.records) else {
             break;
         };
@@ -240,9 +262,13 @@ fn refine(
         yaw = start.euler_rad()[2];
         sigma_deg = start.sigma[idx::ATT + 2].to_degrees();
     }
-    // The forward pass will use the span's data again. Started with the smoothed sigma, it
-    // would hold twice their information by the span's end (sigma 0.71 times the error's);
-    // started with sqrt(2) times it, it is 1.41 times the error's at the start and 0.82 at
-    // the span's end: off by the same factor either way. And at least the floor.
-    Ok((yaw, (std::f64::consts::SQRT_2 * sigma_deg).max(floor_deg)))
+    Ok((yaw, sigma_deg))
+}
+
+/// The sigma a forward pass over the span's data again starts a heading found from them
+/// with. Started with the smoothed sigma, it would hold twice their information by the span's
+/// end (sigma 0.71 times the error's); started with sqrt(2) times it, it is 1.41 times the
+/// error's at the start and 0.82 at the span's end: off by the same factor either way.
+fn for_another_pass(found: (f64, f64)) -> (f64, f64) {
+    (found.0, std::f64::consts::SQRT_2 * found.1)
 }

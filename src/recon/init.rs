@@ -40,6 +40,8 @@ pub struct InitSettings<'a> {
     pub imu: ImuSpec,
     pub dvl_max_altitude_m: f64,
     pub dvl_sigma_m_s: f64,
+    /// Random walk of the DVL's correlated error, m/s/sqrt(s) (0: none).
+    pub dvl_bias_walk_m_s_rt_s: f64,
     pub dvl_mounting: DvlMounting,
     /// Prior 1-sigma of the DVL's calibration states (scale, misalignment pitch and heading
     /// rad, bias m/s).
@@ -235,8 +237,10 @@ pub fn initialise(
         let ((a0, a1), (b0, b1)) = (stamps(a), stamps(b));
         let third_s = ((a1 - a0) as f64 * 1e-9).max(1e-3);
         let accel_change = dvl_accel(b0, b1) - dvl_accel(a0, a1);
-        // Two DVL differences over a third each, differenced.
-        let accel_noise = 2.0 * set.dvl_sigma_m_s / third_s;
+        // Two DVL differences over a third each, differenced: the white noise of their four
+        // readings, and the correlated error's drift over each third.
+        let drift_m_s = set.dvl_bias_walk_m_s_rt_s * (2.0 * third_s).sqrt();
+        let accel_noise = (2.0 * set.dvl_sigma_m_s).hypot(drift_m_s) / third_s;
         let (accel_change, accel_noise) = if accel_change.norm() > 3.0 * accel_noise {
             (accel_change, accel_noise)
         } else {
@@ -924,18 +928,27 @@ impl fmt::Display for Initialisation {
         for reason in &self.heading_unavailable {
             writeln!(f, "  no source {reason}")?;
         }
+        let refined = self.in_motion.as_ref().and_then(|m| {
+            m.refined_heading_deg
+                .zip(m.refined_sigma_deg)
+                .map(|r| (r, m.span_s))
+        });
+        let confirmed = match (self.heading, refined) {
+            (HeadingSource::GyrocompassInMotion, Some(((deg, sigma), span_s))) => format!(
+                ", confirmed by gyrocompassing in motion: refined over the first {span_s:.0} s \
+                 and smoothed back, {deg:.2} deg (1-sigma {sigma:.2}); the forward pass starts \
+                 from the gyrocompass's"
+            ),
+            _ => String::new(),
+        };
         write!(
             f,
-            "heading    {:.2} deg   from {} (1-sigma {:.2} deg)",
+            "heading    {:.2} deg   from {}{confirmed} (1-sigma {:.2} deg)",
             crate::angle::wrap_pi(yaw).to_degrees().rem_euclid(360.0),
             match self.heading {
                 HeadingSource::Combined => "the sources above, combined by their sigmas",
                 HeadingSource::Unknown => "no source: the in-motion alignment finds it",
                 HeadingSource::InMotion => "the in-motion alignment over the log",
-                HeadingSource::GyrocompassInMotion => {
-                    "gyrocompassing in motion: the source above refined over the alignment's \
-                     span and smoothed back to the start"
-                }
                 _ => "the source above",
             },
             self.heading_sigma_deg

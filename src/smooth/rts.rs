@@ -59,8 +59,7 @@ impl ForwardEpoch<{ error_state::N }> for EpochRecord {
         prior: &mut ErrorMatrix,
         phi_p: &mut ErrorMatrix,
     ) {
-        error_state::predicted_cov_and_phi_p_into(
-            self.phi_from_previous.top_rows(),
+        self.phi_from_previous.predicted_cov_and_phi_p_into(
             previous_posterior,
             &self.process_noise,
             prior,

@@ -290,6 +290,24 @@ fn with_top_rows(p: &ErrorMatrix, x: &TransitionRows) -> ErrorMatrix {
     out
 }
 
+/// `D P D` in place, with `D` the identity but `decay` on the DVL bias's diagonal: a
+/// Gauss-Markov DVL bias's part of a transition. Its rows are `decay e_i` and the navigation
+/// rows have no DVL column, so a transition with it is `Phi_0 D = D Phi_0`, and
+/// `Phi P Phi^T = Phi_0 (D P D) Phi_0^T`.
+pub fn decay_dvl_bias(p: &mut ErrorMatrix, decay: f64) {
+    decay_dvl_bias_rows(p, decay);
+    for k in 0..3 {
+        p.column_mut(idx::DVL_BIAS + k).scale_mut(decay);
+    }
+}
+
+/// `D P` in place ([`decay_dvl_bias`]'s `D`): the DVL bias's rows scaled by `decay`.
+pub fn decay_dvl_bias_rows(p: &mut ErrorMatrix, decay: f64) {
+    for k in 0..3 {
+        p.row_mut(idx::DVL_BIAS + k).scale_mut(decay);
+    }
+}
+
 /// The predicted covariance `Phi P Phi^T + diag(q)`, symmetric, for a transition whose rows
 /// below [`NAV_ROWS`] are `[0 I]`, given its top rows `[T M]`: with `X = [T M] P` (the top
 /// rows of `Phi P`), the top-left block is `X [T M]^T`, the top-right `X`'s right block, and

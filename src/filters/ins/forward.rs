@@ -89,6 +89,10 @@ pub struct Filter {
     pub current_walk: f64,
     /// Random walk of the DVL's bias, per axis, m/s/sqrt(s) (0: a constant).
     pub dvl_bias_walk: f64,
+    /// Correlation time of the DVL's bias, s: with it the bias is a first-order Gauss-Markov
+    /// process whose driving noise is `dvl_bias_walk` (its steady sigma `walk sqrt(tau / 2)`);
+    /// without it, a random walk.
+    pub dvl_bias_correlation_s: Option<f64>,
     /// Error states carried as consider states: in the covariance, never corrected.
     pub considered: [bool; N],
 }
@@ -221,10 +225,32 @@ impl Filter {
         f += error_state::continuous_matrix(nav_to, f_body, w_body);
         f *= 0.5;
         *phi = error_state::transition(&f, dt_s);
-        let q = process_noise(noise, self.current_walk, self.dvl_bias_walk, dt_s).diagonal();
+        let decay = self.dvl_bias_decay(dt_s);
+        let mut q = process_noise(noise, self.current_walk, self.dvl_bias_walk, dt_s).diagonal();
+        if decay < 1.0 {
+            error_state::decay_dvl_bias(cov, decay);
+            for k in 0..3 {
+                phi[(idx::DVL_BIAS + k, idx::DVL_BIAS + k)] = decay;
+                // The walk's variance over the step, walk^2 tau / 2 (1 - decay^2), which
+                // tends to walk^2 dt as tau grows.
+                q[idx::DVL_BIAS + k] = self.dvl_bias_walk.powi(2)
+                    * self.dvl_bias_correlation_s.unwrap_or(f64::INFINITY)
+                    / 2.0
+                    * (1.0 - decay * decay);
+            }
+        }
         let top = phi.fixed_rows::<{ error_state::NAV_ROWS }>(0).into_owned();
         error_state::predict_cov_in_place(&top, cov, &q);
         q
+    }
+
+    /// The factor by which the DVL bias's mean decays over `dt_s`, `exp(-dt / tau)` (1 for a
+    /// random walk).
+    pub fn dvl_bias_decay(&self, dt_s: f64) -> f64 {
+        match self.dvl_bias_correlation_s {
+            Some(tau) if tau > 0.0 && tau.is_finite() => (-dt_s / tau).exp(),
+            _ => 1.0,
+        }
     }
 
     /// Applies a measurement with innovation `y` and matrix `h` (in the error state), then
@@ -623,6 +649,7 @@ mod tests {
             height_damping: None,
             current_walk: 0.0,
             dvl_bias_walk: 0.0,
+            dvl_bias_correlation_s: None,
             considered: [false; N],
         };
         let est = Estimate {
@@ -641,5 +668,72 @@ mod tests {
         );
         assert!(post.cov[(idx::POS + 2, idx::POS + 2)] < 0.011);
         assert!(post.cov.cholesky().is_some());
+    }
+
+    /// A Gauss-Markov DVL bias: over many steps its variance tends to `walk^2 tau / 2` from
+    /// any start, its correlation with another state decays as `exp(-t / tau)`, and the
+    /// transition carries that decay; a random walk's variance grows as `walk^2 t`.
+    #[test]
+    fn a_gauss_markov_dvl_bias_settles_at_its_sigma_and_forgets_its_past() {
+        let (walk, tau) = (0.0018, 60.0);
+        let filter = |correlation| Filter {
+            noise: ImuNoise {
+                gyro_noise_density: 0.0,
+                accel_noise_density: 0.0,
+                gyro_bias_walk: 0.0,
+                accel_bias_walk: 0.0,
+            },
+            height_damping: None,
+            current_walk: 0.0,
+            dvl_bias_walk: walk,
+            dvl_bias_correlation_s: correlation,
+            considered: [false; N],
+        };
+        let est = estimate();
+        let b = idx::DVL_BIAS;
+        let mut cov = ErrorMatrix::identity() * 1e-6;
+        // The bias correlated with the current (a state with no dynamics).
+        cov[(b, idx::CURRENT)] = 5e-7;
+        cov[(idx::CURRENT, b)] = 5e-7;
+        let imu = ImuSample {
+            omega_ib_body: Vector3::zeros(),
+            specific_force_body: Vector3::new(0.0, 0.0, -9.8),
+        };
+        let (dt, steps) = (0.5, 1200); // 600 s, ten correlation times
+        let run = |f: &Filter| {
+            let (mut c, mut phi) = (cov, ErrorMatrix::zeros());
+            for _ in 0..steps {
+                f.propagate_covariance_in_place(
+                    &mut c, &mut phi, &est.nav, &est.nav, &imu, dt, &f.noise,
+                );
+            }
+            (c, phi)
+        };
+        let (gm, phi) = run(&filter(Some(tau)));
+        let steady = walk * walk * tau / 2.0;
+        let want = steady + (1e-6 - steady) * (-2.0 * 600.0 / tau).exp();
+        assert!(
+            (gm[(b, b)] / want - 1.0).abs() < 1e-9,
+            "{} vs {want}",
+            gm[(b, b)]
+        );
+        assert!((phi[(b, b)] - (-dt / tau).exp()).abs() < 1e-15);
+        let cross_want = 5e-7 * (-600.0 / tau).exp();
+        assert!(
+            (gm[(b, idx::CURRENT)] / cross_want - 1.0).abs() < 1e-9,
+            "{} vs {cross_want}",
+            gm[(b, idx::CURRENT)]
+        );
+        assert_eq!(gm[(b, idx::CURRENT)], gm[(idx::CURRENT, b)]);
+        let block = nalgebra::Matrix2::new(
+            gm[(b, b)],
+            gm[(b, idx::CURRENT)],
+            gm[(idx::CURRENT, b)],
+            gm[(idx::CURRENT, idx::CURRENT)],
+        );
+        assert!(block.cholesky().is_some());
+        let (rw, phi) = run(&filter(None));
+        assert!((rw[(b, b)] - (1e-6 + walk * walk * 600.0)).abs() < 1e-12);
+        assert_eq!(phi[(b, b)], 1.0);
     }
 }

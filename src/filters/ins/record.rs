@@ -78,25 +78,44 @@ impl PackedCov {
     }
 }
 
-/// A transition matrix whose bias rows are `[0 I]`, stored as its top nine rows.
+/// A transition matrix whose bias rows are `[0 I]` but for a Gauss-Markov DVL bias's decay,
+/// stored as its top nine rows and that decay.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PackedTransition(TransitionRows);
+pub struct PackedTransition {
+    top: TransitionRows,
+    /// The DVL bias's diagonal entry (1: a random walk or a constant).
+    dvl_bias_decay: f64,
+}
 
 impl PackedTransition {
-    /// Packs `phi`; its bias rows must be `[0 I]` (true of every transition of the model).
+    /// Packs `phi`; its bias rows must be `[0 I]` but for the DVL bias's equal diagonal
+    /// entries (true of every transition of the model).
     pub fn pack(phi: &ErrorMatrix) -> Self {
+        let dvl_bias_decay = phi[(idx::DVL_BIAS, idx::DVL_BIAS)];
         debug_assert!(
             (phi.fixed_view::<{ N - NAV_ROWS }, N>(NAV_ROWS, 0)
-                - ErrorMatrix::identity().fixed_view::<{ N - NAV_ROWS }, N>(NAV_ROWS, 0))
+                - Self::bottom_rows(dvl_bias_decay).fixed_view::<{ N - NAV_ROWS }, N>(NAV_ROWS, 0))
             .amax()
                 == 0.0,
-            "transition's bias rows are not [0 I]"
+            "transition's bias rows are not [0 D]"
         );
         debug_assert!(
             (idx::DVL..idx::GYRO_SCALE_Z).all(|c| phi.column(c).rows(0, NAV_ROWS).amax() == 0.0),
             "transition's top rows involve the DVL or water states"
         );
-        PackedTransition(phi.fixed_view::<NAV_ROWS, N>(0, 0).into_owned())
+        PackedTransition {
+            top: phi.fixed_view::<NAV_ROWS, N>(0, 0).into_owned(),
+            dvl_bias_decay,
+        }
+    }
+
+    /// The identity with `decay` on the DVL bias's diagonal.
+    fn bottom_rows(decay: f64) -> ErrorMatrix {
+        let mut m = ErrorMatrix::identity();
+        for k in 0..3 {
+            m[(idx::DVL_BIAS + k, idx::DVL_BIAS + k)] = decay;
+        }
+        m
     }
 
     pub fn identity() -> Self {
@@ -104,19 +123,53 @@ impl PackedTransition {
     }
 
     pub fn unpack(&self) -> ErrorMatrix {
-        let mut m = ErrorMatrix::identity();
-        m.fixed_view_mut::<NAV_ROWS, N>(0, 0).copy_from(&self.0);
+        let mut m = Self::bottom_rows(self.dvl_bias_decay);
+        m.fixed_view_mut::<NAV_ROWS, N>(0, 0).copy_from(&self.top);
         m
     }
 
     /// The top rows.
     pub fn top_rows(&self) -> &TransitionRows {
-        &self.0
+        &self.top
     }
 
-    /// `Phi P`.
+    /// The DVL bias's decay over the transition (1: none).
+    pub fn dvl_bias_decay(&self) -> f64 {
+        self.dvl_bias_decay
+    }
+
+    /// `Phi P` (`P` symmetric): the top rows `[T M] P` (`M` has no DVL column, so the decay
+    /// does not enter them), the bias rows `P`'s with the DVL bias's scaled by the decay.
     pub fn times(&self, p: &ErrorMatrix) -> ErrorMatrix {
-        error_state::transition_times(&self.0, p)
+        let mut out = error_state::transition_times(&self.top, p);
+        if self.dvl_bias_decay != 1.0 {
+            error_state::decay_dvl_bias_rows(&mut out, self.dvl_bias_decay);
+        }
+        out
+    }
+
+    /// `Phi P Phi^T + diag(q)`.
+    pub fn predicted_cov(&self, p: &ErrorMatrix, q: &ErrorState) -> ErrorMatrix {
+        let mut dpd = *p;
+        error_state::decay_dvl_bias(&mut dpd, self.dvl_bias_decay);
+        error_state::predicted_cov(&self.top, &dpd, q)
+    }
+
+    /// [`PackedTransition::predicted_cov`] and [`PackedTransition::times`] together, into
+    /// `prior` and `phi_p` (sharing their work when there is no decay).
+    pub fn predicted_cov_and_phi_p_into(
+        &self,
+        p: &ErrorMatrix,
+        q: &ErrorState,
+        prior: &mut ErrorMatrix,
+        phi_p: &mut ErrorMatrix,
+    ) {
+        if self.dvl_bias_decay == 1.0 {
+            error_state::predicted_cov_and_phi_p_into(&self.top, p, q, prior, phi_p);
+        } else {
+            *prior = self.predicted_cov(p, q);
+            *phi_p = self.times(p);
+        }
     }
 }
 
@@ -177,11 +230,8 @@ impl EpochRecord {
     /// The covariance predicted to this epoch from the previous epoch's posterior covariance
     /// (what the forward pass had before this epoch's updates).
     pub fn prior_cov(&self, previous_posterior: &ErrorMatrix) -> ErrorMatrix {
-        error_state::predicted_cov(
-            &self.phi_from_previous.0,
-            previous_posterior,
-            &self.process_noise,
-        )
+        self.phi_from_previous
+            .predicted_cov(previous_posterior, &self.process_noise)
     }
 
     /// The full posterior estimate.
@@ -344,14 +394,15 @@ impl NavPoint {
 
 impl Fixed for EpochRecord {
     const BYTES: usize =
-        8 * (2 + NAV_ROWS * TRANSITION_COLUMNS.len() + N + N + NAV_POINT_NUMBERS + PACKED);
+        8 * (3 + NAV_ROWS * TRANSITION_COLUMNS.len() + N + N + NAV_POINT_NUMBERS + PACKED);
 
     fn encode(&self, out: &mut Encoder) {
         out.i64(self.stamp_ns);
         out.i64(i64::from(self.output));
         for c in TRANSITION_COLUMNS {
-            out.f64s(self.phi_from_previous.0.column(c).as_slice());
+            out.f64s(self.phi_from_previous.top.column(c).as_slice());
         }
+        out.f64(self.phi_from_previous.dvl_bias_decay);
         out.f64s(self.process_noise.as_slice());
         out.f64s(self.correction.as_slice());
         self.posterior.encode(out);
@@ -367,7 +418,10 @@ impl Fixed for EpochRecord {
                 for c in TRANSITION_COLUMNS {
                     top.set_column(c, &d.f64s::<NAV_ROWS>().into());
                 }
-                PackedTransition(top)
+                PackedTransition {
+                    top,
+                    dvl_bias_decay: d.f64(),
+                }
             },
             process_noise: ErrorState::from(d.f64s::<N>()),
             correction: ErrorState::from(d.f64s::<N>()),
@@ -418,6 +472,65 @@ mod tests {
         phi.view_mut((0, idx::DVL), (NAV_ROWS, idx::GYRO_SCALE_Z - idx::DVL))
             .fill(0.0);
         assert_eq!(PackedTransition::pack(&phi).unpack(), phi);
+    }
+
+    /// A transition with a Gauss-Markov DVL bias's decay: packing keeps it, and its products
+    /// equal the dense ones (`Phi P`, `Phi P Phi^T + Q`, and both together).
+    #[test]
+    fn a_decaying_dvl_bias_is_kept_and_multiplied_exactly() {
+        let a = ErrorMatrix::from_fn(|i, j| ((i * 13 + j * 5) as f64 * 0.29).cos() * 0.1);
+        let mut phi = ErrorMatrix::identity();
+        phi.fixed_view_mut::<NAV_ROWS, N>(0, 0)
+            .copy_from(&(ErrorMatrix::identity() + a).fixed_view::<NAV_ROWS, N>(0, 0));
+        phi.view_mut((0, idx::DVL), (NAV_ROWS, idx::GYRO_SCALE_Z - idx::DVL))
+            .fill(0.0);
+        let decay = (-0.1f64 / 60.0).exp();
+        for k in 0..3 {
+            phi[(idx::DVL_BIAS + k, idx::DVL_BIAS + k)] = decay;
+        }
+        let packed = PackedTransition::pack(&phi);
+        assert_eq!(packed.unpack(), phi);
+        assert_eq!(packed.dvl_bias_decay(), decay);
+        let b = ErrorMatrix::from_fn(|i, j| ((i * 7 + j * 11) as f64 * 0.41).sin());
+        let p = b * b.transpose();
+        let q = ErrorState::from_fn(|i, _| 1e-3 * i as f64);
+        let dense_phi_p = phi * p;
+        let dense_prior = phi * p * phi.transpose() + ErrorMatrix::from_diagonal(&q);
+        let close = |x: &ErrorMatrix, y: &ErrorMatrix| (x - y).amax() < 1e-12 * y.amax();
+        assert!(close(&packed.times(&p), &dense_phi_p));
+        assert!(close(&packed.predicted_cov(&p, &q), &dense_prior));
+        let (mut prior, mut phi_p) = (ErrorMatrix::zeros(), ErrorMatrix::zeros());
+        packed.predicted_cov_and_phi_p_into(&p, &q, &mut prior, &mut phi_p);
+        assert!(close(&prior, &dense_prior) && close(&phi_p, &dense_phi_p));
+        // And through a record's encoding.
+        let bytes = encoded(&EpochRecord::new(
+            7,
+            false,
+            &phi,
+            &q,
+            &NavPoint::from(&est_with(p)),
+            &est_with(p),
+        ));
+        let rec = EpochRecord::decode(&mut Decoder::new(&bytes));
+        assert_eq!(rec.phi_from_previous.dvl_bias_decay(), decay);
+    }
+
+    fn est_with(cov: ErrorMatrix) -> Estimate {
+        Estimate {
+            nav: NavState {
+                lat_rad: 0.6,
+                lon_rad: 0.1,
+                height_m: -10.0,
+                vel_ned_m_s: Vector3::new(1.0, 0.5, 0.0),
+                ned_from_body: UnitQuaternion::identity(),
+            },
+            gyro_bias: Vector3::zeros(),
+            accel_bias: Vector3::zeros(),
+            dvl: DvlCalibration::zeros(),
+            water: WaterState::zeros(),
+            gyro_scale_z: 0.0,
+            cov,
+        }
     }
 
     fn encoded<T: Fixed>(r: &T) -> Vec<u8> {

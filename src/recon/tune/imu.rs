@@ -137,9 +137,8 @@ pub struct Scored {
 pub struct Search {
     /// The most likely model; `None` when no pass succeeded.
     pub best: Option<Candidate>,
-    /// The DVL bias's random walk the IMU was scored with, m/s/sqrt(h), and the
-    /// log-likelihood gain over none (`None`: the configuration's, kept).
-    pub dvl_bias_walk: Option<(f64, f64)>,
+    /// The DVL bias's drift the IMU was scored with (`None`: the configuration's, kept).
+    pub dvl_bias_walk: Option<DvlDrift>,
     /// Every model tried, in the order tried.
     pub tried: Vec<Scored>,
     pub warning: Option<String>,
@@ -148,6 +147,25 @@ pub struct Search {
 /// The DVL bias walks tried, m/s/sqrt(h): a 1 cm/s error correlated over a minute is about
 /// 0.1 (`sigma sqrt(2 / T)`).
 const DVL_WALKS: [f64; 3] = [0.03, 0.1, 0.3];
+
+/// The correlation times tried with the chosen walk, s: a DVL's error that follows the
+/// bottom's type or the beams' geometry holds for tens of seconds to minutes, and bounded,
+/// it tells the heading and the position more than a walk that may wander off.
+const DVL_CORRELATIONS_S: [f64; 3] = [30.0, 120.0, 600.0];
+
+/// The DVL bias's drift chosen by the likelihood: a random walk, first-order Gauss-Markov
+/// when a correlation time makes the innovations more likely still.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DvlDrift {
+    /// Driving noise, m/s/sqrt(h) (0: a constant bias).
+    pub walk_m_s_rt_h: f64,
+    /// Correlation time, s (0: a random walk).
+    pub correlation_s: f64,
+    /// Log-likelihood gain of the walk over none.
+    pub walk_gain: f64,
+    /// Log-likelihood gain of the correlation time over the plain walk.
+    pub correlation_gain: f64,
+}
 
 /// The walk the fine grades are scored with in the ladder (see [`fine_grades_with_walk`]).
 const LADDER_WALK: f64 = DVL_WALKS[1];
@@ -185,7 +203,7 @@ fn fine_grades_with_walk(
     if !candidates.iter().any(|c| dvl_walk_unset(config, c)) {
         return Vec::new();
     }
-    let walked = with_dvl_walk(config, LADDER_WALK);
+    let walked = with_dvl_walk(config, LADDER_WALK, config.dvl.bias_correlation_s);
     score_all(streams, mission, &walked, &candidates, white, from)
         .into_iter()
         .map(|(mut scored, _)| {
@@ -195,16 +213,20 @@ fn fine_grades_with_walk(
         .collect()
 }
 
-fn with_dvl_walk(config: &Config, walk: f64) -> Config {
+fn with_dvl_walk(config: &Config, walk: f64, correlation_s: f64) -> Config {
     let mut c = config.clone();
     c.dvl.bias_walk_m_s_rt_h = walk;
+    c.dvl.bias_correlation_s = correlation_s;
     c
 }
 
-/// The DVL bias walk (of [`DVL_WALKS`], or the configuration's) that makes the innovations
-/// most likely with the IMU model `best` (posterior `best_ll` with the configuration's), by
-/// more than [`MIN_GAIN`]: the walk, the posterior with it, and its gain.
-fn dvl_bias_walk(
+/// The DVL bias's drift that makes the innovations most likely with the IMU model `best`
+/// (posterior `best_ll` with the configuration's): the walk of [`DVL_WALKS`] that gains more
+/// than [`MIN_GAIN`] over the configuration's, then, with it and when `[tune]
+/// dvl_bias_correlation` asks, the correlation time of [`DVL_CORRELATIONS_S`] that gains more
+/// than that over the plain walk (unless the configuration gives one). Returns the drift and
+/// the posterior with it.
+fn dvl_bias_drift(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
@@ -212,21 +234,93 @@ fn dvl_bias_walk(
     white: Option<&ImuWhite>,
     from: Prepared<'_>,
     best_ll: f64,
-) -> (f64, f64, f64) {
+) -> (DvlDrift, f64) {
     let prior = bias_prior(best, white);
-    let scored: Vec<(f64, f64)> = DVL_WALKS
-        .par_iter()
-        .filter_map(|&walk| {
-            let c = with_dvl_walk(config, walk);
-            score(streams, mission, &c, best, white, from).map(|(ll, _)| (walk, ll + prior))
-        })
-        .collect();
-    let none = (config.dvl.bias_walk_m_s_rt_h, best_ll, 0.0);
-    scored
+    // The (walk, correlation time) of `tries` most likely, by more than MIN_GAIN over `over`.
+    let most_likely = |tries: Vec<(f64, f64)>, over: f64| {
+        let scored: Vec<((f64, f64), f64)> = tries
+            .par_iter()
+            .filter_map(|&(walk, correlation_s)| {
+                let c = with_dvl_walk(config, walk, correlation_s);
+                let scored = score(streams, mission, &c, best, white, from);
+                scored.map(|(ll, _)| ((walk, correlation_s), ll + prior))
+            })
+            .collect();
+        scored
+            .into_iter()
+            .filter(|&(_, ll)| ll > over + MIN_GAIN)
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+    };
+    let given_correlation = config.dvl.bias_correlation_s;
+    let walks = DVL_WALKS.iter().map(|&w| (w, given_correlation)).collect();
+    let Some(((walk, _), walk_ll)) = most_likely(walks, best_ll) else {
+        let kept = DvlDrift {
+            walk_m_s_rt_h: config.dvl.bias_walk_m_s_rt_h,
+            correlation_s: given_correlation,
+            walk_gain: 0.0,
+            correlation_gain: 0.0,
+        };
+        return (kept, best_ll);
+    };
+    let mut drift = DvlDrift {
+        walk_m_s_rt_h: walk,
+        correlation_s: given_correlation,
+        walk_gain: walk_ll - best_ll,
+        correlation_gain: 0.0,
+    };
+    if !config.tune.dvl_bias_correlation || config.fixed.contains("dvl.bias_correlation_s") {
+        return (drift, walk_ll);
+    }
+    let correlations = DVL_CORRELATIONS_S.iter().map(|&t| (walk, t)).collect();
+    match most_likely(correlations, walk_ll) {
+        Some(((_, correlation_s), ll)) => {
+            drift.correlation_s = correlation_s;
+            drift.correlation_gain = ll - walk_ll;
+            (drift, ll)
+        }
+        None => (drift, walk_ll),
+    }
+}
+
+/// Steps the gyro's and the accelerometer's factors of the best model by [`STEP`] either way
+/// while the likelihood rises by more than [`MIN_GAIN`], for at most [`MAX_ROUNDS`]; the
+/// steps scored join `tried`. Returns whether the search settled (a round gained nothing).
+/// (Steps of sqrt(3) after it were tried on `auv-at-sea` seeds 1-10: they moved only the
+/// accelerometer, never the gyro's 3.3 times the truth.)
+fn climb(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    white: Option<&ImuWhite>,
+    from: Prepared<'_>,
+    (best, best_ll): (&mut Candidate, &mut f64),
+    tried: &mut Vec<Scored>,
+) -> bool {
+    for _ in 0..MAX_ROUNDS {
+        let steps: Vec<Candidate> = [
+            best.scaled(STEP, 1.0),
+            best.scaled(1.0 / STEP, 1.0),
+            best.scaled(1.0, STEP),
+            best.scaled(1.0, 1.0 / STEP),
+        ]
         .into_iter()
-        .filter(|&(_, ll)| ll > best_ll + MIN_GAIN)
-        .max_by(|a, b| a.1.total_cmp(&b.1))
-        .map_or(none, |(walk, ll)| (walk, ll, ll - best_ll))
+        .filter(|c| !tried.iter().any(|t| t.candidate.same_as(c)))
+        .collect();
+        let round: Vec<Scored> = score_all(streams, mission, config, &steps, white, from)
+            .into_iter()
+            .map(|(scored, _)| scored)
+            .collect();
+        let next = best_of(&round);
+        tried.extend(round);
+        match next {
+            Some((c, ll)) if ll > *best_ll + MIN_GAIN => {
+                *best = c;
+                *best_ll = ll;
+            }
+            _ => return true,
+        }
+    }
+    false
 }
 
 /// The grades first tried.
@@ -456,42 +550,23 @@ pub fn search(
     // The DVL's error correlated in time is modelled before the refinements, so that they
     // do not blame it on the IMU.
     let dvl_bias_walk = dvl_walk_unset(config, &best).then(|| {
-        let (walk, ll, gain) = dvl_bias_walk(streams, mission, config, &best, white, from, best_ll);
+        let (drift, ll) = dvl_bias_drift(streams, mission, config, &best, white, from, best_ll);
         best_ll = ll;
-        (walk, gain)
+        drift
     });
     let walked = dvl_bias_walk
-        .filter(|&(walk, _)| walk > 0.0)
-        .map(|(walk, _)| with_dvl_walk(config, walk));
+        .filter(|d| d.walk_m_s_rt_h > 0.0)
+        .map(|d| with_dvl_walk(config, d.walk_m_s_rt_h, d.correlation_s));
     let config = walked.as_ref().unwrap_or(config);
-    let mut settled = false;
-    for _ in 0..MAX_ROUNDS {
-        let steps: Vec<Candidate> = [
-            best.scaled(STEP, 1.0),
-            best.scaled(1.0 / STEP, 1.0),
-            best.scaled(1.0, STEP),
-            best.scaled(1.0, 1.0 / STEP),
-        ]
-        .into_iter()
-        .filter(|c| !tried.iter().any(|t| t.candidate.same_as(c)))
-        .collect();
-        let round: Vec<Scored> = score_all(streams, mission, config, &steps, white, from)
-            .into_iter()
-            .map(|(scored, _)| scored)
-            .collect();
-        let next = best_of(&round);
-        tried.extend(round);
-        match next {
-            Some((c, ll)) if ll > best_ll + MIN_GAIN => {
-                best = c;
-                best_ll = ll;
-            }
-            _ => {
-                settled = true;
-                break;
-            }
-        }
-    }
+    let settled = climb(
+        streams,
+        mission,
+        config,
+        white,
+        from,
+        (&mut best, &mut best_ll),
+        &mut tried,
+    );
     let warning = (!settled).then(|| {
         format!(
             "imu: the noise estimate was still rising after {MAX_ROUNDS} refinement rounds; \

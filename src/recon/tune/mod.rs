@@ -233,7 +233,7 @@ pub fn tune_from(
         .collect();
 
     let imu_fixed = config.fixed.iter().any(|k| k.starts_with("imu."));
-    let mut dvl_walk = None;
+    let mut dvl_walk = Vec::new();
     let imu = if imu_fixed {
         ImuNoiseTuning {
             source: Source::Configured,
@@ -254,18 +254,31 @@ pub fn tune_from(
         let white = ImuWhite::of(still.as_ref(), moving.as_ref());
         let search = imu::search(&span, mission, &tuned, white.as_ref(), from);
         warnings.extend(search.warning.clone());
-        if let Some((walk, gain)) = search.dvl_bias_walk {
-            tuned.dvl.bias_walk_m_s_rt_h = walk;
-            dvl_walk = Some(SensorNoise {
-                key: "dvl.bias_walk_m_s_rt_h",
-                value: walk,
+        if let Some(drift) = search.dvl_bias_walk {
+            tuned.dvl.bias_walk_m_s_rt_h = drift.walk_m_s_rt_h;
+            tuned.dvl.bias_correlation_s = drift.correlation_s;
+            let noise = |key, value, gain: f64| SensorNoise {
+                key,
+                value,
                 source: if gain > 0.0 {
                     Source::Estimated
                 } else {
                     Source::Default
                 },
                 differences: None,
-            });
+            };
+            dvl_walk.push(noise(
+                "dvl.bias_walk_m_s_rt_h",
+                drift.walk_m_s_rt_h,
+                drift.walk_gain,
+            ));
+            if drift.correlation_s > 0.0 {
+                dvl_walk.push(noise(
+                    "dvl.bias_correlation_s",
+                    drift.correlation_s,
+                    drift.correlation_gain,
+                ));
+            }
         }
         match search.best {
             Some(best) => {
