@@ -269,8 +269,9 @@ fn a_mems_pool_run_with_a_magnetometer_start_is_scored_whole() {
 
 /// The DVL's stamp delay is estimated from the IMU and the DVL before anything runs:
 /// `zigzag-rudder-20-20` (a 6-DOF vehicle whose sway changes in every swing) with its DVL
-/// stamped 2 s late is found within 3 sigmas of 2 s and the stamps are corrected; on time,
-/// no delay is taken out. The plan gives the estimate either way.
+/// stamped 2 s late is found within 3 sigmas of 2 s and the stamps are corrected, and
+/// tuned.toml gives it back; on time, no delay is taken out. The plan gives the estimate
+/// either way.
 #[test]
 fn a_late_dvl_clock_is_found_before_anything_runs() {
     use hindsight::recon::plan::{LogFacts, Plan};
@@ -292,6 +293,11 @@ fn a_late_dvl_clock_is_found_before_anything_runs() {
             assert!(estimate.sigma_s < 0.2, "{estimate:?}");
             assert!(plan.uses(Part::DvlStampDelay));
             assert!((plan.dvl_stamp_delay_s() - delay_s).abs() < 0.1);
+            // tuned.toml gives the delay back, and a rerun with it keeps it as given.
+            let (outcome, _, _) = run(&log, &config);
+            let toml = outcome.tuning.as_ref().unwrap().as_toml();
+            let reused = Config::from_toml(&toml).unwrap();
+            assert_eq!(reused.dvl.stamp_delay_s, plan.dvl_stamp_delay_s(), "{toml}");
         } else {
             assert!(!plan.uses(Part::DvlStampDelay), "{estimate:?}");
             assert_eq!(plan.dvl_stamp_delay_s(), 0.0);

@@ -261,10 +261,22 @@ pub fn forward(
     warnings.extend(settled.warnings);
     let Settled {
         config,
-        tuning,
+        mut tuning,
         start,
         ..
     } = settled;
+    // A delay the plan estimated and took out is a figure of the log like the tuned ones:
+    // tuned.toml gives it back, so that a rerun with it corrects the stamps the same way.
+    if let Some(t) = tuning.as_mut().filter(|_| plan.uses(Part::DvlStampDelay)) {
+        if !config.fixed.contains("dvl.stamp_delay_s") {
+            t.sensors.push(super::tune::SensorNoise {
+                key: "dvl.stamp_delay_s",
+                value: planned.dvl.stamp_delay_s,
+                source: super::tune::Source::Estimated,
+                differences: None,
+            });
+        }
+    }
     times.align_s += stages.start(Stage::Forward);
     let pass = forward_with(
         streams,
