@@ -225,18 +225,12 @@ impl Filter {
         f += error_state::continuous_matrix(nav_to, f_body, w_body);
         f *= 0.5;
         *phi = error_state::transition(&f, dt_s);
-        let decay = self.dvl_bias_decay(dt_s);
         let mut q = process_noise(noise, self.current_walk, self.dvl_bias_walk, dt_s).diagonal();
-        if decay < 1.0 {
+        if let Some((decay, variance)) = self.dvl_bias_markov_step(dt_s) {
             error_state::decay_dvl_bias(cov, decay);
             for k in 0..3 {
                 phi[(idx::DVL_BIAS + k, idx::DVL_BIAS + k)] = decay;
-                // The walk's variance over the step, walk^2 tau / 2 (1 - decay^2), which
-                // tends to walk^2 dt as tau grows.
-                q[idx::DVL_BIAS + k] = self.dvl_bias_walk.powi(2)
-                    * self.dvl_bias_correlation_s.unwrap_or(f64::INFINITY)
-                    / 2.0
-                    * (1.0 - decay * decay);
+                q[idx::DVL_BIAS + k] = variance;
             }
         }
         let top = phi.fixed_rows::<{ error_state::NAV_ROWS }>(0).into_owned();
@@ -244,13 +238,18 @@ impl Filter {
         q
     }
 
-    /// The factor by which the DVL bias's mean decays over `dt_s`, `exp(-dt / tau)` (1 for a
-    /// random walk).
-    pub fn dvl_bias_decay(&self, dt_s: f64) -> f64 {
-        match self.dvl_bias_correlation_s {
-            Some(tau) if tau > 0.0 && tau.is_finite() => (-dt_s / tau).exp(),
-            _ => 1.0,
-        }
+    /// A Gauss-Markov DVL bias's step over `dt_s`: the factor its mean decays by,
+    /// `exp(-dt / tau)`, and the variance its driving noise adds, `walk^2 tau / 2 (1 -
+    /// decay^2)` (which tends to a walk's `walk^2 dt` as tau grows). `None` for a random walk.
+    fn dvl_bias_markov_step(&self, dt_s: f64) -> Option<(f64, f64)> {
+        let tau = self
+            .dvl_bias_correlation_s
+            .filter(|t| *t > 0.0 && t.is_finite())?;
+        let decay = (-dt_s / tau).exp();
+        Some((
+            decay,
+            self.dvl_bias_walk.powi(2) * tau / 2.0 * (1.0 - decay * decay),
+        ))
     }
 
     /// Applies a measurement with innovation `y` and matrix `h` (in the error state), then
