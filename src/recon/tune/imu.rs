@@ -192,19 +192,14 @@ fn dvl_walk_unset(config: &Config, best: &Candidate) -> bool {
 /// The fine grades scored with a DVL bias walk, when the walk is the tuning's to choose (an
 /// empty list otherwise): a fibre-optic IMU whose DVL's error drifts would otherwise lose
 /// the ladder to a noisy model that absorbs that error.
-fn fine_grades_with_walk(
-    streams: &Streams<'_>,
-    mission: &Mission,
-    config: &Config,
-    white: Option<&ImuWhite>,
-    from: Prepared<'_>,
-) -> Vec<Scored> {
+fn fine_grades_with_walk(scorer: Scorer<'_>, config: &Config) -> Vec<Scored> {
     let candidates: Vec<Candidate> = ladder().into_iter().filter(|c| fine(c.grade)).collect();
     if !candidates.iter().any(|c| dvl_walk_unset(config, c)) {
         return Vec::new();
     }
     let walked = with_dvl_walk(config, LADDER_WALK, config.dvl.bias_correlation_s);
-    score_all(streams, mission, &walked, &candidates, white, from)
+    scorer
+        .score_all(&walked, &candidates)
         .into_iter()
         .map(|(mut scored, _)| {
             scored.label = format!("{}, dvl bias walk {LADDER_WALK}", scored.label);
@@ -227,22 +222,19 @@ fn with_dvl_walk(config: &Config, walk: f64, correlation_s: f64) -> Config {
 /// than that over the plain walk (unless the configuration gives one). Returns the drift and
 /// the posterior with it.
 fn dvl_bias_drift(
-    streams: &Streams<'_>,
-    mission: &Mission,
+    scorer: Scorer<'_>,
     config: &Config,
     best: &Candidate,
-    white: Option<&ImuWhite>,
-    from: Prepared<'_>,
     best_ll: f64,
 ) -> (DvlDrift, f64) {
-    let prior = bias_prior(best, white);
+    let prior = bias_prior(best, scorer.white);
     // The (walk, correlation time) of `tries` most likely, by more than MIN_GAIN over `over`.
     let most_likely = |tries: Vec<(f64, f64)>, over: f64| {
         let scored: Vec<((f64, f64), f64)> = tries
             .par_iter()
             .filter_map(|&(walk, correlation_s)| {
                 let c = with_dvl_walk(config, walk, correlation_s);
-                let scored = score(streams, mission, &c, best, white, from);
+                let scored = scorer.score(&c, best);
                 scored.map(|(ll, _)| ((walk, correlation_s), ll + prior))
             })
             .collect();
@@ -288,11 +280,8 @@ fn dvl_bias_drift(
 /// (Steps of sqrt(3) after it were tried on `auv-at-sea` seeds 1-10: they moved only the
 /// accelerometer, never the gyro's 3.3 times the truth.)
 fn climb(
-    streams: &Streams<'_>,
-    mission: &Mission,
+    scorer: Scorer<'_>,
     config: &Config,
-    white: Option<&ImuWhite>,
-    from: Prepared<'_>,
     (best, best_ll): (&mut Candidate, &mut f64),
     tried: &mut Vec<Scored>,
 ) -> bool {
@@ -306,7 +295,8 @@ fn climb(
         .into_iter()
         .filter(|c| !tried.iter().any(|t| t.candidate.same_as(c)))
         .collect();
-        let round: Vec<Scored> = score_all(streams, mission, config, &steps, white, from)
+        let round: Vec<Scored> = scorer
+            .score_all(config, &steps)
             .into_iter()
             .map(|(scored, _)| scored)
             .collect();
@@ -352,52 +342,6 @@ pub fn with_candidate(config: &Config, c: &Candidate, white: Option<&ImuWhite>) 
     }
 }
 
-/// The log-likelihood of one model over the span, with the start its pass took; `None` when
-/// the pass fails. Every candidate starts from the settled heading when there is one; else
-/// the in-motion alignment is skipped while the log has a heading source (every candidate
-/// then starts from the same heading), and used only when it has none.
-fn score(
-    streams: &Streams<'_>,
-    mission: &Mission,
-    config: &Config,
-    c: &Candidate,
-    white: Option<&ImuWhite>,
-    from: Prepared<'_>,
-) -> Option<(f64, Initialisation)> {
-    let mut cfg = with_candidate(config, c, white);
-    cfg.alignment.enabled = false;
-    let pass = |cfg: &Config| forward_with(streams, mission, cfg, from.scored());
-    let pass = match pass(&cfg) {
-        Err(ReconError::Init(InitError::NoHeading(_))) if config.alignment.enabled => {
-            cfg.alignment.enabled = true;
-            pass(&cfg)
-        }
-        other => other,
-    };
-    // A magnetometer whose deviation is unknown (its hard iron could not be calibrated) has
-    // errors no model here describes: its innovations would be blamed on the gyro. It still
-    // aids the passes; it is not scored.
-    let mag_scored = !from.mag.is_some_and(|m| m.deviation_unknown);
-    pass.ok()
-        .map(|p| {
-            // A start heading from such a magnetometer is no better than one found in
-            // motion: its first minutes re-fit it too.
-            let refit = match p.init.heading {
-                HeadingSource::InMotion => true,
-                HeadingSource::Magnetometer => !mag_scored,
-                _ => false,
-            };
-            let from_ns = if refit {
-                scored_from_ns(streams, &config.tune)
-            } else {
-                i64::MIN
-            };
-            let counted = |s: Sensor| s != Sensor::Magnetometer || mag_scored;
-            (p.run.log_likelihood_of(from_ns, counted), p.init)
-        })
-        .filter(|(l, _)| l.is_finite())
-}
-
 /// Where the score of a pass whose start heading the in-motion alignment found starts:
 /// `settle_s` into the span, at most a third of it. That heading was found from the span's
 /// own first minutes (with a floor of a few degrees on its sigma), so the innovations there
@@ -413,29 +357,84 @@ fn scored_from_ns(streams: &Streams<'_>, tune: &crate::recon::config::TuneConfig
     first.stamp_ns + (tune.settle_s.min(span_s / 3.0) * 1e9) as i64
 }
 
-/// Scores the candidates in parallel; each with the start its pass took.
-fn score_all(
-    streams: &Streams<'_>,
-    mission: &Mission,
-    config: &Config,
-    candidates: &[Candidate],
-    white: Option<&ImuWhite>,
-    from: Prepared<'_>,
-) -> Vec<(Scored, Option<Initialisation>)> {
-    candidates
-        .par_iter()
-        .map(|c| {
-            let scored = score(streams, mission, config, c, white, from);
-            let (log_likelihood, start) = scored.map_or((None, None), |(l, i)| (Some(l), Some(i)));
-            let scored = Scored {
-                label: c.label(),
-                candidate: *c,
-                log_likelihood,
-                log_prior: bias_prior(c, white),
-            };
-            (scored, start)
-        })
-        .collect()
+/// What every candidate is scored against: the log, its mission, the IMU's measured white
+/// noise, and the prepared start and magnetometer.
+#[derive(Clone, Copy)]
+struct Scorer<'s> {
+    streams: &'s Streams<'s>,
+    mission: &'s Mission,
+    white: Option<&'s ImuWhite>,
+    from: Prepared<'s>,
+}
+
+impl Scorer<'_> {
+    /// The log-likelihood of one model over the span, with the start its pass took; `None` when
+    /// the pass fails. Every candidate starts from the settled heading when there is one; else
+    /// the in-motion alignment is skipped while the log has a heading source (every candidate
+    /// then starts from the same heading), and used only when it has none.
+    fn score(&self, config: &Config, c: &Candidate) -> Option<(f64, Initialisation)> {
+        let Scorer {
+            streams,
+            mission,
+            white,
+            from,
+        } = *self;
+        let mut cfg = with_candidate(config, c, white);
+        cfg.alignment.enabled = false;
+        let pass = |cfg: &Config| forward_with(streams, mission, cfg, from.scored());
+        let pass = match pass(&cfg) {
+            Err(ReconError::Init(InitError::NoHeading(_))) if config.alignment.enabled => {
+                cfg.alignment.enabled = true;
+                pass(&cfg)
+            }
+            other => other,
+        };
+        // A magnetometer whose deviation is unknown (its hard iron could not be calibrated) has
+        // errors no model here describes: its innovations would be blamed on the gyro. It still
+        // aids the passes; it is not scored.
+        let mag_scored = !from.mag.is_some_and(|m| m.deviation_unknown);
+        pass.ok()
+            .map(|p| {
+                // A start heading from such a magnetometer is no better than one found in
+                // motion: its first minutes re-fit it too.
+                let refit = match p.init.heading {
+                    HeadingSource::InMotion => true,
+                    HeadingSource::Magnetometer => !mag_scored,
+                    _ => false,
+                };
+                let from_ns = if refit {
+                    scored_from_ns(streams, &config.tune)
+                } else {
+                    i64::MIN
+                };
+                let counted = |s: Sensor| s != Sensor::Magnetometer || mag_scored;
+                (p.run.log_likelihood_of(from_ns, counted), p.init)
+            })
+            .filter(|(l, _)| l.is_finite())
+    }
+
+    /// Scores the candidates in parallel; each with the start its pass took.
+    fn score_all(
+        &self,
+        config: &Config,
+        candidates: &[Candidate],
+    ) -> Vec<(Scored, Option<Initialisation>)> {
+        candidates
+            .par_iter()
+            .map(|c| {
+                let scored = self.score(config, c);
+                let (log_likelihood, start) =
+                    scored.map_or((None, None), |(l, i)| (Some(l), Some(i)));
+                let scored = Scored {
+                    label: c.label(),
+                    candidate: *c,
+                    log_likelihood,
+                    log_prior: bias_prior(c, self.white),
+                };
+                (scored, start)
+            })
+            .collect()
+    }
 }
 
 /// The candidate of highest posterior (likelihood times prior) and its log.
@@ -502,10 +501,14 @@ pub fn search(
     white: Option<&ImuWhite>,
     from: Prepared<'_>,
 ) -> Search {
+    let scorer = Scorer {
+        streams,
+        mission,
+        white,
+        from,
+    };
     let (mut tried, starts): (Vec<Scored>, Vec<Option<Initialisation>>) =
-        score_all(streams, mission, config, &ladder(), white, from)
-            .into_iter()
-            .unzip();
+        scorer.score_all(config, &ladder()).into_iter().unzip();
     let Some((mut best, mut best_ll)) = best_of(&tried) else {
         return Search {
             best: None,
@@ -522,7 +525,7 @@ pub fn search(
     // settled start).
     // The better of them, when it beats the ladder's best, becomes the best, with its
     // posterior without the walk (the walk's own search below then takes it up).
-    let with_walk = fine_grades_with_walk(streams, mission, config, white, from);
+    let with_walk = fine_grades_with_walk(scorer, config);
     if let Some((c, ll)) = best_of(&with_walk).filter(|&(_, ll)| ll > best_ll + MIN_GAIN) {
         let without_walk = tried
             .iter()
@@ -540,17 +543,20 @@ pub fn search(
         .zip(&starts)
         .find(|(t, _)| t.candidate.same_as(&best))
         .and_then(|(_, s)| s.as_ref());
-    let from = match (from.start, best_start) {
-        (None, Some(start)) => Prepared {
-            start: Some(start),
-            ..from
+    let scorer = match (from.start, best_start) {
+        (None, Some(start)) => Scorer {
+            from: Prepared {
+                start: Some(start),
+                ..from
+            },
+            ..scorer
         },
-        _ => from,
+        _ => scorer,
     };
     // The DVL's error correlated in time is modelled before the refinements, so that they
     // do not blame it on the IMU.
     let dvl_bias_walk = dvl_walk_unset(config, &best).then(|| {
-        let (drift, ll) = dvl_bias_drift(streams, mission, config, &best, white, from, best_ll);
+        let (drift, ll) = dvl_bias_drift(scorer, config, &best, best_ll);
         best_ll = ll;
         drift
     });
@@ -558,15 +564,7 @@ pub fn search(
         .filter(|d| d.walk_m_s_rt_h > 0.0)
         .map(|d| with_dvl_walk(config, d.walk_m_s_rt_h, d.correlation_s));
     let config = walked.as_ref().unwrap_or(config);
-    let settled = climb(
-        streams,
-        mission,
-        config,
-        white,
-        from,
-        (&mut best, &mut best_ll),
-        &mut tried,
-    );
+    let settled = climb(scorer, config, (&mut best, &mut best_ll), &mut tried);
     let warning = (!settled).then(|| {
         format!(
             "imu: the noise estimate was still rising after {MAX_ROUNDS} refinement rounds; \
