@@ -45,7 +45,10 @@ altimeter_max_age_s = 2.0  # a reading without altitude is checked against the e
                            # sounder's (/altimeter) latest altitude of at most this age
 check_range = true         # false: use every reading, even without bottom lock or out of
                            # range (to see what trusting a bad DVL costs; not for real use)
-lever_arm_m = [0.0, 0.0, 0.0]     # DVL position from the reference point, body FRD
+# lever_arm_m = [1.0, 0.0, 0.3]   # DVL position from the IMU, body FRD, m. Not given:
+                            # estimated from the IMU's rates and the DVL (in turns and pitch
+                            # changes its point moves with omega x l), and used when it is
+                            # clear (summary.json `plan`); else 0
 rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z-Y-X)
 # stamp_delay_s = 0.3       # how late the DVL stamps a reading after it measured it, s
                             # (negative: early). Not given: estimated from the IMU and the
@@ -835,7 +838,7 @@ impl Default for TuneConfig {
 
 /// The settings estimated from the log (self-tuning, the plan), as dotted keys. A configuration that gives one keeps
 /// it (see [`Config::fixed`]).
-pub const TUNABLE_KEYS: [&str; 15] = [
+pub const TUNABLE_KEYS: [&str; 16] = [
     "imu.grade",
     "imu.gyro_bias_deg_h",
     "imu.gyro_bias_instability_deg_h",
@@ -851,6 +854,7 @@ pub const TUNABLE_KEYS: [&str; 15] = [
     "dvl.bias_walk_m_s_rt_h",
     "dvl.bias_correlation_s",
     "dvl.stamp_delay_s",
+    "dvl.lever_arm_m",
 ];
 
 /// Everything a reconstruction can be told.

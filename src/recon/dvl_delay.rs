@@ -48,9 +48,17 @@ const BOOTSTRAP_DRAWS: usize = 200;
 const BOOTSTRAP_SEED: u64 = 0x0d71_de1a;
 /// Seconds of DVL readings used, at most (the first ones): a delay does not change in a log.
 const MAX_SPAN_S: f64 = 3600.0;
+/// The lever arm's prior sigma per axis, m: it keeps an axis the motion does not show near
+/// the configured lever arm.
+pub const LEVER_PRIOR_M: f64 = 2.0;
+/// The lever arm is fitted when it explains the windows this much better than the configured
+/// one (a chi-square of 3 degrees: 25 is about 4.3 sigmas' worth).
+pub const LEVER_MIN_CHI_SQUARE: f64 = 25.0;
 /// Unknowns per window: gravity in the window's first body axes, its drift and its curvature,
 /// and the gyro's bias (which turns the gravity the integrated attitude sees).
 const UNKNOWNS: usize = 12;
+/// With the lever arm's three, global to the windows.
+const ALL: usize = UNKNOWNS + 3;
 
 /// The estimated delay: a reading stamped `t` was measured at `t - delay_s`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -67,31 +75,81 @@ pub struct StampDelay {
     pub chi_square_vs_zero: f64,
     /// RMS of the velocity differences left unexplained at `delay_s`, per axis, m/s.
     pub residual_m_s: f64,
+    /// The DVL's lever arm the same differences show.
+    pub lever_arm: LeverArm,
+}
+
+/// The DVL's position from the IMU as its readings show it: in a turn or a pitch change the
+/// DVL's point moves with `omega x l` on top of the body's velocity.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LeverArm {
+    /// The lever arm, body FRD, m: the configured one plus `correction_m`.
+    pub lever_arm_m: [f64; 3],
+    pub correction_m: [f64; 3],
+    /// 1-sigma per axis, m (an axis the motion does not show keeps about its prior's
+    /// [`LEVER_PRIOR_M`]).
+    pub sigma_m: [f64; 3],
+    /// How much better the correction explains the differences than the configured lever arm
+    /// alone (a chi-square of 3 degrees, were the errors white).
+    pub chi_square_vs_configured: f64,
+    /// Whether the delay was searched with the lever arm fitted (its chi-square over every
+    /// window reached [`LEVER_MIN_CHI_SQUARE`]).
+    pub fitted: bool,
+}
+
+/// What is integrated over time, per unit time (a sample's integrands) or summed.
+#[derive(Debug, Clone, Copy)]
+struct Integrals {
+    /// The specific force.
+    f: Vector3<f64>,
+    /// `C^T`, the body from the window's first axes.
+    c: Matrix3<f64>,
+    /// `omega x v`.
+    w: Vector3<f64>,
+    /// How gravity in the body moves with a gyro bias error (per rad/s).
+    b: Matrix3<f64>,
+    /// `[omega x][omega x]`: how `omega x v` moves with the lever arm (`v` is the DVL's
+    /// reading less `omega x l`).
+    ww: Matrix3<f64>,
+}
+
+impl Integrals {
+    fn zero() -> Integrals {
+        Integrals {
+            f: Vector3::zeros(),
+            c: Matrix3::zeros(),
+            w: Vector3::zeros(),
+            b: Matrix3::zeros(),
+            ww: Matrix3::zeros(),
+        }
+    }
+
+    /// `self + rate * dt`.
+    fn plus(&self, rate: &Integrals, dt: f64) -> Integrals {
+        Integrals {
+            f: self.f + rate.f * dt,
+            c: self.c + rate.c * dt,
+            w: self.w + rate.w * dt,
+            b: self.b + rate.b * dt,
+            ww: self.ww + rate.ww * dt,
+        }
+    }
 }
 
 /// One IMU sample's integrands over the interval before it, and where that interval starts.
 struct Sample {
     start_s: f64,
     end_s: f64,
-    specific_force: Vector3<f64>,
-    body_from_first: Matrix3<f64>,
-    rate_cross_velocity: Vector3<f64>,
-    /// How gravity in the body moves with a gyro bias error (per rad/s).
-    gravity_by_gyro_bias: Matrix3<f64>,
+    /// The gyro's rate over the interval, rad/s (for the lever arm's term).
+    rate: Vector3<f64>,
+    integrands: Integrals,
 }
-
-/// Running integrals at a time: specific force, `C^T`, `omega x v`, gravity's sensitivity to
-/// the gyro bias.
-type Integrals = (Vector3<f64>, Matrix3<f64>, Vector3<f64>, Matrix3<f64>);
 
 /// Integrals from the window's first IMU stamp, sample by sample (running sums at each end).
 struct Window {
     samples: Vec<Sample>,
-    /// Running integrals at each sample's end: f, C^T, omega x v.
-    sum_f: Vec<Vector3<f64>>,
-    sum_c: Vec<Matrix3<f64>>,
-    sum_w: Vec<Vector3<f64>>,
-    sum_b: Vec<Matrix3<f64>>,
+    /// Running integrals at each sample's end.
+    sums: Vec<Integrals>,
     /// Pairs: the two stamps (s from the window's origin) and the DVL's velocity change.
     pairs: Vec<(f64, f64, Vector3<f64>)>,
     mid_s: f64,
@@ -105,45 +163,29 @@ impl Window {
     fn integrals(&self, t: f64) -> Integrals {
         let i = self.samples.partition_point(|s| s.end_s < t);
         if i >= self.samples.len() {
-            let n = self.samples.len() - 1;
-            return (self.sum_f[n], self.sum_c[n], self.sum_w[n], self.sum_b[n]);
+            return self.sums[self.samples.len() - 1];
         }
         let s = &self.samples[i];
-        let part = (t - s.start_s).max(0.0);
-        let (f0, c0, w0, b0) = if i == 0 {
-            (
-                Vector3::zeros(),
-                Matrix3::zeros(),
-                Vector3::zeros(),
-                Matrix3::zeros(),
-            )
+        let before = if i == 0 {
+            Integrals::zero()
         } else {
-            (
-                self.sum_f[i - 1],
-                self.sum_c[i - 1],
-                self.sum_w[i - 1],
-                self.sum_b[i - 1],
-            )
+            self.sums[i - 1]
         };
-        (
-            f0 + s.specific_force * part,
-            c0 + s.body_from_first * part,
-            w0 + s.rate_cross_velocity * part,
-            b0 + s.gravity_by_gyro_bias * part,
-        )
+        before.plus(&s.integrands, (t - s.start_s).max(0.0))
     }
 
-    /// The least-squares residual (sum of squares) of the window with the given delay.
-    fn residual(&self, delay_s: f64) -> Option<f64> {
-        let e = self.fitted_residuals(delay_s)?;
-        Some(e.iter().map(|r| r.norm_squared()).sum())
+    /// The gyro's rate at `t` (the sample whose interval holds it).
+    fn rate_at(&self, t: f64) -> Vector3<f64> {
+        let i = self
+            .samples
+            .partition_point(|s| s.end_s < t)
+            .min(self.samples.len() - 1);
+        self.samples[i].rate
     }
 
-    /// The velocity differences left unexplained by the best gravity and drift, per pair.
-    fn fitted_residuals(&self, delay_s: f64) -> Option<Vec<Vector3<f64>>> {
-        let mut normal = SMatrix::<f64, UNKNOWNS, UNKNOWNS>::zeros();
-        let mut rhs = SVector::<f64, UNKNOWNS>::zeros();
-        let mut rows = Vec::with_capacity(self.pairs.len());
+    /// Each pair's design row (the window's unknowns, then the lever arm's three) and the
+    /// part of its velocity change the IMU's integrals leave, with the given delay.
+    fn rows(&self, delay_s: f64) -> Vec<(SMatrix<f64, 3, ALL>, Vector3<f64>)> {
         // Integrals of the normalised time and its square over [a, b].
         let poly = |a: f64, b: f64, power: i32| {
             let (x, y) = (
@@ -152,48 +194,156 @@ impl Window {
             );
             (y.powi(power + 1) - x.powi(power + 1)) / (power + 1) as f64 * self.half_s
         };
-        for &(t1, t2, dv) in &self.pairs {
-            let (a, b) = (t1 - delay_s, t2 - delay_s);
-            let (fa, ca, wa, ba) = self.integrals(a);
-            let (fb, cb, wb, bb) = self.integrals(b);
-            let r = dv - (fb - fa) + (wb - wa);
-            let mut design = SMatrix::<f64, 3, UNKNOWNS>::zeros();
-            design.fixed_view_mut::<3, 3>(0, 0).copy_from(&(cb - ca));
-            let identity = Matrix3::identity();
-            design
-                .fixed_view_mut::<3, 3>(0, 3)
-                .copy_from(&(identity * poly(a, b, 1)));
-            design
-                .fixed_view_mut::<3, 3>(0, 6)
-                .copy_from(&(identity * poly(a, b, 2)));
-            if self.gyro_bias {
-                design.fixed_view_mut::<3, 3>(0, 9).copy_from(&(bb - ba));
-            }
-            normal += design.transpose() * design;
-            rhs += design.transpose() * r;
-            rows.push((design, r));
+        let identity = Matrix3::identity();
+        self.pairs
+            .iter()
+            .map(|&(t1, t2, dv)| {
+                let (a, b) = (t1 - delay_s, t2 - delay_s);
+                let (at_a, at_b) = (self.integrals(a), self.integrals(b));
+                let r = dv - (at_b.f - at_a.f) + (at_b.w - at_a.w);
+                let mut design = SMatrix::<f64, 3, ALL>::zeros();
+                design
+                    .fixed_view_mut::<3, 3>(0, 0)
+                    .copy_from(&(at_b.c - at_a.c));
+                design
+                    .fixed_view_mut::<3, 3>(0, 3)
+                    .copy_from(&(identity * poly(a, b, 1)));
+                design
+                    .fixed_view_mut::<3, 3>(0, 6)
+                    .copy_from(&(identity * poly(a, b, 2)));
+                if self.gyro_bias {
+                    design
+                        .fixed_view_mut::<3, 3>(0, 9)
+                        .copy_from(&(at_b.b - at_a.b));
+                }
+                // The DVL's point moves with omega x l: its change between the two
+                // measurements is (omega_b - omega_a) x l; and the body's velocity, in
+                // omega x v, is the reading less omega x l.
+                let turned = self.rate_at(b) - self.rate_at(a);
+                design
+                    .fixed_view_mut::<3, 3>(0, UNKNOWNS)
+                    .copy_from(&(turned.cross_matrix() + (at_b.ww - at_a.ww)));
+                (design, r)
+            })
+            .collect()
+    }
+
+    /// The window's fit at the given delay with its own unknowns solved for any lever arm
+    /// (see [`Reduced`]), and the solver that gives them.
+    fn fit(&self, delay_s: f64) -> Option<(Reduced, WindowSolve)> {
+        let rows = self.rows(delay_s);
+        let mut normal = SMatrix::<f64, ALL, ALL>::zeros();
+        let mut rhs = SVector::<f64, ALL>::zeros();
+        for (a, r) in &rows {
+            normal += a.transpose() * a;
+            rhs += a.transpose() * r;
         }
+        let mut own = normal.fixed_view::<UNKNOWNS, UNKNOWNS>(0, 0).into_owned();
         // Some columns coincide for a level vehicle that does not turn (a gyro bias then
         // turns gravity as the linear drift does, and not at all about the vertical): a
         // ridge of 1e-9 of the largest diagonal term keeps the system solvable.
-        let ridge = 1e-9 * normal.diagonal().max();
-        normal += SMatrix::<f64, UNKNOWNS, UNKNOWNS>::identity() * ridge.max(1e-300);
-        let solved = normal.cholesky()?.solve(&rhs);
-        Some(rows.iter().map(|(a, r)| r - a * solved).collect())
+        let ridge = 1e-9 * own.diagonal().max();
+        own += SMatrix::<f64, UNKNOWNS, UNKNOWNS>::identity() * ridge.max(1e-300);
+        let cholesky = own.cholesky()?;
+        let through_cross = cholesky.solve(&normal.fixed_view::<UNKNOWNS, 3>(0, UNKNOWNS));
+        let through_rhs = cholesky.solve(&rhs.fixed_rows::<UNKNOWNS>(0));
+        // From the residuals themselves (not the normal equations, where the ridge would
+        // add to them): each pair's residual is `e - G l`.
+        let mut reduced = Reduced::zero();
+        for (a, r) in &rows {
+            let own_part = a.fixed_view::<3, UNKNOWNS>(0, 0);
+            let e = r - own_part * through_rhs;
+            let g = a.fixed_view::<3, 3>(0, UNKNOWNS) - own_part * through_cross;
+            reduced.ss += e.norm_squared();
+            reduced.s += g.transpose() * e;
+            reduced.big_s += g.transpose() * g;
+        }
+        Some((
+            reduced,
+            WindowSolve {
+                rows,
+                through_cross,
+                through_rhs,
+            },
+        ))
+    }
+
+    /// The least-squares residual (sum of squares) of the window with the given delay and
+    /// lever arm.
+    fn residual(&self, delay_s: f64, lever_arm_m: &Vector3<f64>) -> Option<f64> {
+        Some(self.fit(delay_s)?.0.at(lever_arm_m))
+    }
+
+    /// The velocity differences left unexplained by the best gravity and drift, per pair.
+    fn fitted_residuals(
+        &self,
+        delay_s: f64,
+        lever_arm_m: &Vector3<f64>,
+    ) -> Option<Vec<Vector3<f64>>> {
+        Some(self.fit(delay_s)?.1.residuals(lever_arm_m))
     }
 
     /// How fast the fitted residuals change with the delay: sum of squares of their
     /// derivative (the information on the delay per unit noise variance, without the noise's
     /// own wiggles that a second difference of the residual would carry).
-    fn sensitivity(&self, delay_s: f64, h: f64) -> Option<f64> {
-        let plus = self.fitted_residuals(delay_s + h)?;
-        let minus = self.fitted_residuals(delay_s - h)?;
+    fn sensitivity(&self, delay_s: f64, h: f64, lever_arm_m: &Vector3<f64>) -> Option<f64> {
+        let plus = self.fitted_residuals(delay_s + h, lever_arm_m)?;
+        let minus = self.fitted_residuals(delay_s - h, lever_arm_m)?;
         Some(
             plus.iter()
                 .zip(&minus)
                 .map(|(p, m)| ((p - m) / (2.0 * h)).norm_squared())
                 .sum(),
         )
+    }
+}
+
+/// A window's least squares with its own unknowns solved out, as a function of the lever
+/// arm `l` (global to the windows): its residual sum of squares is `ss - 2 l.s + l^T S l`.
+#[derive(Debug, Clone, Copy)]
+struct Reduced {
+    ss: f64,
+    s: Vector3<f64>,
+    big_s: Matrix3<f64>,
+}
+
+impl Reduced {
+    fn at(&self, l: &Vector3<f64>) -> f64 {
+        self.ss - 2.0 * l.dot(&self.s) + l.dot(&(self.big_s * l))
+    }
+
+    fn zero() -> Reduced {
+        Reduced {
+            ss: 0.0,
+            s: Vector3::zeros(),
+            big_s: Matrix3::zeros(),
+        }
+    }
+
+    fn add(&mut self, other: &Reduced) {
+        self.ss += other.ss;
+        self.s += other.s;
+        self.big_s += other.big_s;
+    }
+}
+
+/// What a window's residuals need once the lever arm is known.
+struct WindowSolve {
+    rows: Vec<(SMatrix<f64, 3, ALL>, Vector3<f64>)>,
+    /// The window's normal matrix's inverse times its lever-arm columns and its right side.
+    through_cross: SMatrix<f64, UNKNOWNS, 3>,
+    through_rhs: SVector<f64, UNKNOWNS>,
+}
+
+impl WindowSolve {
+    fn residuals(&self, l: &Vector3<f64>) -> Vec<Vector3<f64>> {
+        let own = self.through_rhs - self.through_cross * l;
+        self.rows
+            .iter()
+            .map(|(a, r)| {
+                r - a.fixed_view::<3, UNKNOWNS>(0, 0) * own - a.fixed_view::<3, 3>(0, UNKNOWNS) * l
+            })
+            .collect()
     }
 }
 
@@ -225,6 +375,29 @@ fn window(
     let slice = imu.get(from.saturating_sub(1)..to)?;
     let origin_ns = slice.first()?.stamp_ns;
     let seconds = |ns: i64| (ns - origin_ns) as f64 * 1e-9;
+    // The DVL's point moves with omega x lever arm too: taken out of each reading.
+    let rate_at = |ns: i64| {
+        let i = slice
+            .partition_point(|m| m.stamp_ns < ns)
+            .min(slice.len() - 1);
+        Vector3::from(slice[i].angular_velocity)
+    };
+    let at_reference =
+        |d: &BodyVelocityReading| d.v_body_m_s - rate_at(d.stamp_ns).cross(lever_arm_body_m);
+    // The readings over the IMU's slice (the window's, and those its margins reach).
+    let (slice_start, slice_end) = (origin_ns, slice.last()?.stamp_ns);
+    let lo = dvl
+        .partition_point(|d| d.stamp_ns < slice_start)
+        .saturating_sub(1)
+        .min(first);
+    let hi = dvl.partition_point(|d| d.stamp_ns <= slice_end).max(last + 1);
+    let referenced: Vec<BodyVelocityReading> = dvl[lo..hi]
+        .iter()
+        .map(|d| BodyVelocityReading {
+            stamp_ns: d.stamp_ns,
+            v_body_m_s: at_reference(d),
+        })
+        .collect();
     let mut attitude = UnitQuaternion::identity();
     let mut samples = Vec::with_capacity(slice.len());
     // The attitude's integral (for a gyro bias's effect) and gravity in the first axes, from
@@ -243,10 +416,14 @@ fn window(
         samples.push(Sample {
             start_s,
             end_s,
-            specific_force: Vector3::from(w[1].specific_force),
-            body_from_first: first_from_body.transpose(),
-            rate_cross_velocity: rate.cross(&velocity_at(dvl, w[1].stamp_ns)),
-            gravity_by_gyro_bias: Matrix3::zeros(),
+            rate,
+            integrands: Integrals {
+                f: Vector3::from(w[1].specific_force),
+                c: first_from_body.transpose(),
+                w: rate.cross(&velocity_at(&referenced, w[1].stamp_ns)),
+                b: Matrix3::zeros(),
+                ww: rate.cross_matrix() * rate.cross_matrix(),
+            },
         });
     }
     let span_s = samples.last()?.end_s - samples.first()?.start_s;
@@ -257,56 +434,34 @@ fn window(
     // attitude's integral), and gravity in the body by g_b x phi.
     let gravity_first = -force_first / span_s;
     for (s, m) in samples.iter_mut().zip(&integrals_at) {
-        let gravity_body = s.body_from_first * gravity_first;
-        s.gravity_by_gyro_bias = -gravity_body.cross_matrix() * s.body_from_first * m;
+        let body_from_first = s.integrands.c;
+        let gravity_body = body_from_first * gravity_first;
+        s.integrands.b = -gravity_body.cross_matrix() * body_from_first * m;
     }
-    let mut sums = (
-        Vector3::zeros(),
-        Matrix3::zeros(),
-        Vector3::zeros(),
-        Matrix3::zeros(),
-    );
-    let (mut sum_f, mut sum_c, mut sum_w, mut sum_b) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for s in &samples {
-        let dt = s.end_s - s.start_s;
-        sums.0 += s.specific_force * dt;
-        sums.1 += s.body_from_first * dt;
-        sums.2 += s.rate_cross_velocity * dt;
-        sums.3 += s.gravity_by_gyro_bias * dt;
-        sum_f.push(sums.0);
-        sum_c.push(sums.1);
-        sum_w.push(sums.2);
-        sum_b.push(sums.3);
-    }
-    // The DVL's point moves with omega x lever arm too: taken out of each reading.
-    let rate_at = |ns: i64| {
-        let i = slice
-            .partition_point(|m| m.stamp_ns < ns)
-            .min(slice.len() - 1);
-        Vector3::from(slice[i].angular_velocity)
-    };
-    let at_reference =
-        |d: &BodyVelocityReading| d.v_body_m_s - rate_at(d.stamp_ns).cross(lever_arm_body_m);
+    let mut running = Integrals::zero();
+    let sums: Vec<Integrals> = samples
+        .iter()
+        .map(|s| {
+            running = running.plus(&s.integrands, s.end_s - s.start_s);
+            running
+        })
+        .collect();
     let max_gap_ns = (MAX_PAIR_GAP_S * 1e9) as i64;
-    let pairs: Vec<(f64, f64, Vector3<f64>)> = dvl[first..=last]
+    let pairs: Vec<(f64, f64, Vector3<f64>)> = referenced[first - lo..=last - lo]
         .windows(2)
         .filter(|p| p[1].stamp_ns > p[0].stamp_ns && p[1].stamp_ns - p[0].stamp_ns <= max_gap_ns)
         .map(|p| {
             (
                 seconds(p[0].stamp_ns),
                 seconds(p[1].stamp_ns),
-                at_reference(&p[1]) - at_reference(&p[0]),
+                p[1].v_body_m_s - p[0].v_body_m_s,
             )
         })
         .collect();
     let (t_first, t_last) = (seconds(dvl[first].stamp_ns), seconds(dvl[last].stamp_ns));
     (pairs.len() >= MIN_PAIRS).then(|| Window {
         samples,
-        sum_f,
-        sum_c,
-        sum_w,
-        sum_b,
+        sums,
         pairs,
         mid_s: 0.5 * (t_first + t_last),
         half_s: (0.5 * (t_last - t_first)).max(1.0),
@@ -357,17 +512,19 @@ fn grid_minimum(delays: &[f64], ss: &[f64]) -> f64 {
     }
 }
 
-/// The delay of the DVL's stamps (`dvl`: its readings in range, body axes), or `None` when
-/// fewer than [`MIN_WINDOWS`] windows of readings pair up. The IMU must be sorted by stamp,
-/// as ingest leaves it.
+/// The delay of the DVL's stamps and the DVL's lever arm (`dvl`: its readings in range, body
+/// axes, at the configured lever arm `lever_arm_body_m`), or `None` when fewer than
+/// [`MIN_WINDOWS`] windows of readings pair up. With `given_delay_s` the delay is held at it
+/// and only the lever arm is estimated. The IMU must be sorted by stamp, as ingest leaves it.
 ///
-/// The sigma is the larger of two: the bootstrap's over the windows (resampled with
+/// The delay's sigma is the larger of two: the bootstrap's over the windows (resampled with
 /// replacement: it holds whatever the windows' errors are, white or not, modelled or not) and
-/// the Gauss-Newton one from the residuals' sensitivity.
+/// the Gauss-Newton one from the residuals' sensitivity; the lever arm's likewise per axis.
 pub fn estimate(
     imu: &[Imu],
     dvl: &[BodyVelocityReading],
     lever_arm_body_m: &Vector3<f64>,
+    given_delay_s: Option<f64>,
 ) -> Option<StampDelay> {
     if imu.len() < 2 {
         return None;
@@ -377,73 +534,181 @@ pub fn estimate(
         return None;
     }
     with_gyro_bias(&mut windows);
-    let steps = (SEARCH_S / GRID_STEP_S).round() as i32;
-    let delays: Vec<f64> = (-steps..=steps).map(|k| k as f64 * GRID_STEP_S).collect();
-    // Each window's residual at each delay of the grid (a window that cannot be fitted at
-    // some delay is left out).
-    let fitted: Vec<(&Window, Vec<f64>)> = windows
+    let delays: Vec<f64> = match given_delay_s {
+        Some(d) => vec![d],
+        None => {
+            let steps = (SEARCH_S / GRID_STEP_S).round() as i32;
+            (-steps..=steps).map(|k| k as f64 * GRID_STEP_S).collect()
+        }
+    };
+    // Each window's fit at each delay of the grid (a window that cannot be fitted at some
+    // delay is left out).
+    let fitted: Vec<(&Window, Vec<Reduced>)> = windows
         .iter()
         .filter_map(|w| {
-            Some((
-                w,
-                delays
-                    .iter()
-                    .map(|&d| w.residual(d))
-                    .collect::<Option<_>>()?,
-            ))
+            let row = delays
+                .iter()
+                .map(|&d| Some(w.fit(d)?.0))
+                .collect::<Option<_>>()?;
+            Some((w, row))
         })
         .collect();
-    let (windows, grid): (Vec<&Window>, Vec<Vec<f64>>) = consistent(fitted).into_iter().unzip();
+    if fitted.len() < MIN_WINDOWS {
+        return None;
+    }
+    // The lever arm's prior, weighed against the differences' variance without it.
+    let dof_all: usize = fitted.iter().map(|(w, _)| dof(w)).sum();
+    let sums_all = summed(fitted.iter().map(|(_, row)| row), delays.len());
+    let variance_without = sums_all
+        .iter()
+        .map(|r| r.ss)
+        .fold(f64::INFINITY, f64::min)
+        / dof_all as f64;
+    let prior_weight = variance_without / LEVER_PRIOR_M.powi(2);
+    let levers_all: Vec<Vector3<f64>> = sums_all
+        .iter()
+        .map(|r| solve_lever(r, prior_weight))
+        .collect();
+    let with_lever = lever_chi_square(&sums_all, &levers_all, dof_all) >= LEVER_MIN_CHI_SQUARE;
+    let levers_of = |sums: &[Reduced]| -> Vec<Vector3<f64>> {
+        sums.iter()
+            .map(|r| {
+                if with_lever {
+                    solve_lever(r, prior_weight)
+                } else {
+                    Vector3::zeros()
+                }
+            })
+            .collect()
+    };
+    let (windows, grid): (Vec<&Window>, Vec<Vec<Reduced>>) =
+        consistent(fitted, &levers_of(&sums_all)).into_iter().unzip();
     let n = grid.len();
     if n < MIN_WINDOWS {
         return None;
     }
-    let all: Vec<f64> = (0..delays.len())
-        .map(|k| grid.iter().map(|row| row[k]).sum())
-        .collect();
+    let sums = summed(grid.iter(), delays.len());
+    let levers = levers_of(&sums);
+    let all: Vec<f64> = sums.iter().zip(&levers).map(|(r, l)| r.at(l)).collect();
     let delay_s = grid_minimum(&delays, &all);
     // The windows resampled with replacement, a seeded draw (the same log gives the same
-    // answer).
+    // answer): the delay and the lever arm of each draw.
     let mut rng = ChaCha8Rng::seed_from_u64(BOOTSTRAP_SEED);
-    let resampled: Vec<f64> = (0..BOOTSTRAP_DRAWS)
+    let draws: Vec<(f64, Vector3<f64>)> = (0..BOOTSTRAP_DRAWS)
         .map(|_| {
-            let mut sum = vec![0.0; delays.len()];
-            for _ in 0..n {
-                let row = &grid[rng.random_range(0..n)];
-                sum.iter_mut().zip(row).for_each(|(s, r)| *s += r);
-            }
-            grid_minimum(&delays, &sum)
+            let picked: Vec<&Vec<Reduced>> =
+                (0..n).map(|_| &grid[rng.random_range(0..n)]).collect();
+            let sums = summed(picked.into_iter(), delays.len());
+            let levers = levers_of(&sums);
+            let total: Vec<f64> = sums.iter().zip(&levers).map(|(r, l)| r.at(l)).collect();
+            let d = grid_minimum(&delays, &total);
+            let k = nearest(&delays, d);
+            (d, solve_lever(&sums[k], prior_weight))
         })
         .collect();
-    let mean = resampled.iter().sum::<f64>() / resampled.len() as f64;
-    let spread = (resampled.iter().map(|d| (d - mean).powi(2)).sum::<f64>()
-        / (resampled.len() - 1) as f64)
-        .sqrt();
+    let spread = |x: &dyn Fn(&(f64, Vector3<f64>)) -> f64| {
+        let mean = draws.iter().map(x).sum::<f64>() / draws.len() as f64;
+        (draws.iter().map(|d| (x(d) - mean).powi(2)).sum::<f64>() / (draws.len() - 1) as f64)
+            .sqrt()
+    };
     let pairs: usize = windows.iter().map(|w| w.pairs.len()).sum();
-    let ss: f64 = windows
-        .iter()
-        .map(|w| w.residual(delay_s))
-        .sum::<Option<f64>>()?;
-    let dof: usize = windows.iter().map(|w| dof(w)).sum();
-    let variance = ss / dof as f64;
+    // At the delay found: the windows' sum, the lever arm and the residual variance.
+    let at_delay = summed(
+        windows
+            .iter()
+            .map(|w| Some(vec![w.fit(delay_s)?.0]))
+            .collect::<Option<Vec<_>>>()?
+            .iter(),
+        1,
+    )[0];
+    let lever_fit = solve_lever(&at_delay, prior_weight);
+    let lever = if with_lever {
+        lever_fit
+    } else {
+        Vector3::zeros()
+    };
+    let dof: usize = windows.iter().map(|w| dof(w)).sum::<usize>()
+        - if with_lever { 3 } else { 0 };
+    let ss = at_delay.at(&lever);
+    let variance = ss / dof.max(1) as f64;
     let information: f64 = windows
         .iter()
-        .map(|w| w.sensitivity(delay_s, 0.01))
+        .map(|w| w.sensitivity(delay_s, 0.01, &lever))
         .sum::<Option<f64>>()?;
     let gauss_newton = if information > 0.0 {
         (variance / information).sqrt()
     } else {
         f64::INFINITY
     };
-    let at_zero = all[steps as usize];
+    let lever_covariance = (at_delay.big_s + Matrix3::identity() * prior_weight)
+        .try_inverse()
+        .map(|c| c * variance);
+    let lever_sigma = |i: usize| {
+        let gn = lever_covariance.map_or(f64::INFINITY, |c| c[(i, i)].max(0.0).sqrt());
+        gn.max(spread(&|d| d.1[i]))
+    };
+    let at_zero = delays.iter().position(|&d| d == 0.0).map(|k| all[k]);
     Some(StampDelay {
         delay_s,
-        sigma_s: spread.max(gauss_newton),
-        chi_square_vs_zero: (at_zero - ss).max(0.0) / variance,
+        sigma_s: if given_delay_s.is_some() {
+            0.0
+        } else {
+            spread(&|d| d.0).max(gauss_newton)
+        },
+        chi_square_vs_zero: at_zero.map_or(0.0, |z| (z - ss).max(0.0) / variance),
         pairs,
         windows: windows.len(),
         residual_m_s: variance.sqrt(),
+        lever_arm: LeverArm {
+            lever_arm_m: (lever_arm_body_m + lever_fit).into(),
+            correction_m: lever_fit.into(),
+            sigma_m: [0, 1, 2].map(lever_sigma),
+            chi_square_vs_configured: (at_delay.ss - at_delay.at(&lever_fit)).max(0.0)
+                / (at_delay.at(&lever_fit) / dof.max(1) as f64),
+            fitted: with_lever,
+        },
     })
+}
+
+/// The windows' fits summed per delay.
+fn summed<'a>(rows: impl Iterator<Item = &'a Vec<Reduced>>, delays: usize) -> Vec<Reduced> {
+    let mut sums = vec![Reduced::zero(); delays];
+    for row in rows {
+        sums.iter_mut().zip(row).for_each(|(s, r)| s.add(r));
+    }
+    sums
+}
+
+/// The lever arm that minimises a sum's residual, drawn towards the configured one by its
+/// prior (`weight`: the differences' variance over the prior's).
+fn solve_lever(sum: &Reduced, weight: f64) -> Vector3<f64> {
+    (sum.big_s + Matrix3::identity() * weight)
+        .cholesky()
+        .map_or(Vector3::zeros(), |c| c.solve(&sum.s))
+}
+
+/// How much better the best delay explains the windows with the lever arm fitted than
+/// without: the residual's drop over the variance with it.
+fn lever_chi_square(sums: &[Reduced], levers: &[Vector3<f64>], dof: usize) -> f64 {
+    let without = sums.iter().map(|r| r.ss).fold(f64::INFINITY, f64::min);
+    let with = sums
+        .iter()
+        .zip(levers)
+        .map(|(r, l)| r.at(l))
+        .fold(f64::INFINITY, f64::min);
+    let variance = with / dof.saturating_sub(3).max(1) as f64;
+    if variance > 0.0 {
+        (without - with).max(0.0) / variance
+    } else {
+        0.0
+    }
+}
+
+/// The grid point nearest `x`.
+fn nearest(grid: &[f64], x: f64) -> usize {
+    (0..grid.len())
+        .min_by(|&a, &b| (grid[a] - x).abs().total_cmp(&(grid[b] - x).abs()))
+        .unwrap_or(0)
 }
 
 /// Degrees of freedom of a window's fit.
@@ -465,7 +730,7 @@ fn with_gyro_bias(windows: &mut [Window]) {
             .filter_map(|w| {
                 let ss = coarse
                     .iter()
-                    .filter_map(|&d| w.residual(d))
+                    .filter_map(|&d| w.residual(d, &Vector3::zeros()))
                     .fold(f64::INFINITY, f64::min);
                 ss.is_finite().then(|| (ss, dof(w)))
             })
@@ -484,9 +749,16 @@ fn with_gyro_bias(windows: &mut [Window]) {
 /// out. Such a window holds what the model lacks (a MEMS gyro's misalignment and bias turning
 /// gravity in a turn, a lever arm): fitted, it would pull the delay wherever that misfit is
 /// smallest, the same way in every such window.
-fn consistent(fitted: Vec<(&Window, Vec<f64>)>) -> Vec<(&Window, Vec<f64>)> {
-    let variance = |(w, row): &(&Window, Vec<f64>)| {
-        row.iter().copied().fold(f64::INFINITY, f64::min) / dof(w) as f64
+fn consistent<'a>(
+    fitted: Vec<(&'a Window, Vec<Reduced>)>,
+    levers: &[Vector3<f64>],
+) -> Vec<(&'a Window, Vec<Reduced>)> {
+    let variance = |(w, row): &(&Window, Vec<Reduced>)| {
+        row.iter()
+            .zip(levers)
+            .map(|(r, l)| r.at(l))
+            .fold(f64::INFINITY, f64::min)
+            / dof(w) as f64
     };
     let mut variances: Vec<f64> = fitted.iter().map(variance).collect();
     variances.sort_by(f64::total_cmp);
@@ -523,6 +795,17 @@ mod tests {
         seed: u64,
         gyro_bias_deg_h: f64,
     ) -> (Vec<Imu>, Vec<BodyVelocityReading>) {
+        log_with(delay_s, manoeuvres, seed, gyro_bias_deg_h, Vector3::zeros())
+    }
+
+    /// [`log_with_gyro_bias`] with the DVL at `lever_arm_m` from the IMU (body FRD).
+    fn log_with(
+        delay_s: f64,
+        manoeuvres: bool,
+        seed: u64,
+        gyro_bias_deg_h: f64,
+        lever_arm_m: Vector3<f64>,
+    ) -> (Vec<Imu>, Vec<BodyVelocityReading>) {
         let bias = (gyro_bias_deg_h / 3600.0).to_radians();
         let amplitude = if manoeuvres { 1.0 } else { 0.0 };
         let speed = |t: f64| 1.5 + amplitude * 0.3 * (t * std::f64::consts::TAU / 20.0).sin();
@@ -547,7 +830,8 @@ mod tests {
         let dvl = (0..600)
             .map(|k| {
                 let t = k as f64 * 0.5;
-                let mut v = Vector3::new(speed(t), 0.0, 0.0);
+                let rate = Vector3::new(0.0, 0.0, yaw_rate(t));
+                let mut v = Vector3::new(speed(t), 0.0, 0.0) + rate.cross(&lever_arm_m);
                 v.iter_mut().for_each(|x| *x += noise.sample(&mut rng));
                 BodyVelocityReading {
                     stamp_ns: ns(t + delay_s),
@@ -562,7 +846,7 @@ mod tests {
     fn a_late_dvl_is_found_with_an_honest_sigma() {
         for seed in 1..=3 {
             let (imu, dvl) = log(0.4, true, seed);
-            let d = estimate(&imu, &dvl, &Vector3::zeros()).unwrap();
+            let d = estimate(&imu, &dvl, &Vector3::zeros(), None).unwrap();
             assert!((d.delay_s - 0.4).abs() < 3.0 * d.sigma_s, "{d:?}");
             assert!(d.sigma_s < 0.05, "{d:?}");
             assert!(d.chi_square_vs_zero > 25.0, "{d:?}");
@@ -572,7 +856,7 @@ mod tests {
     #[test]
     fn an_early_dvl_is_found_too() {
         let (imu, dvl) = log(-1.2, true, 4);
-        let d = estimate(&imu, &dvl, &Vector3::zeros()).unwrap();
+        let d = estimate(&imu, &dvl, &Vector3::zeros(), None).unwrap();
         assert!(
             (d.delay_s + 1.2).abs() < 3.0 * d.sigma_s && d.sigma_s < 0.05,
             "{d:?}"
@@ -583,7 +867,7 @@ mod tests {
     fn a_dvl_on_time_shows_no_clear_delay() {
         for seed in 1..=3 {
             let (imu, dvl) = log(0.0, true, seed);
-            let d = estimate(&imu, &dvl, &Vector3::zeros()).unwrap();
+            let d = estimate(&imu, &dvl, &Vector3::zeros(), None).unwrap();
             assert!(d.delay_s.abs() < 3.0 * d.sigma_s, "{d:?}");
         }
     }
@@ -591,7 +875,7 @@ mod tests {
     #[test]
     fn a_straight_cruise_cannot_tell_a_delay() {
         let (imu, dvl) = log(0.4, false, 5);
-        let d = estimate(&imu, &dvl, &Vector3::zeros()).unwrap();
+        let d = estimate(&imu, &dvl, &Vector3::zeros(), None).unwrap();
         assert!(
             d.chi_square_vs_zero < 25.0 || d.sigma_s > 0.4 / 3.0,
             "{d:?}"
@@ -605,18 +889,64 @@ mod tests {
     fn a_mems_gyro_bias_does_not_fake_a_delay() {
         for seed in 1..=3 {
             let (imu, dvl) = log_with_gyro_bias(0.0, true, seed, 1000.0);
-            let d = estimate(&imu, &dvl, &Vector3::zeros()).unwrap();
+            let d = estimate(&imu, &dvl, &Vector3::zeros(), None).unwrap();
             assert!(d.delay_s.abs() < 3.0 * d.sigma_s, "{d:?}");
             let (imu, dvl) = log_with_gyro_bias(0.4, true, seed, 1000.0);
-            let d = estimate(&imu, &dvl, &Vector3::zeros()).unwrap();
+            let d = estimate(&imu, &dvl, &Vector3::zeros(), None).unwrap();
             assert!((d.delay_s - 0.4).abs() < 3.0 * d.sigma_s, "{d:?}");
         }
+    }
+
+    /// In the turns the DVL's point moves with `omega x l`: the arm's x and y are found
+    /// within 3 sigmas with the delay, and z, which a level vehicle's yaw cannot show, keeps
+    /// about its prior's sigma.
+    #[test]
+    fn a_lever_arm_is_found_with_the_delay_and_an_honest_sigma() {
+        let truth = Vector3::new(1.0, -0.3, 0.5);
+        for seed in 1..=3 {
+            let (imu, dvl) = log_with(0.4, true, seed, 0.0, truth);
+            let d = estimate(&imu, &dvl, &Vector3::zeros(), None).unwrap();
+            let l = d.lever_arm;
+            assert!(l.fitted && l.chi_square_vs_configured > 25.0, "{d:?}");
+            for i in 0..2 {
+                assert!(
+                    (l.lever_arm_m[i] - truth[i]).abs() < 3.0 * l.sigma_m[i] && l.sigma_m[i] < 0.2,
+                    "axis {i}: {d:?}"
+                );
+            }
+            assert!(l.sigma_m[2] > 0.5 * LEVER_PRIOR_M, "{d:?}");
+            assert!((d.delay_s - 0.4).abs() < 3.0 * d.sigma_s, "{d:?}");
+            // A configured arm is a starting point: the estimate is its correction.
+            let given = Vector3::new(0.8, 0.0, 0.0);
+            let from_given = estimate(&imu, &dvl, &given, None).unwrap().lever_arm;
+            assert!((from_given.lever_arm_m[0] - truth[0]).abs() < 3.0 * from_given.sigma_m[0]);
+            assert!((from_given.correction_m[0] - 0.2).abs() < 3.0 * from_given.sigma_m[0]);
+        }
+    }
+
+    /// No lever arm is fitted where there is none, nor on a straight cruise, where no turn
+    /// shows one; and a held delay leaves the search to the lever arm.
+    #[test]
+    fn no_lever_arm_is_fitted_where_none_shows() {
+        for seed in 1..=3 {
+            let (imu, dvl) = log(0.4, true, seed);
+            let d = estimate(&imu, &dvl, &Vector3::zeros(), None).unwrap();
+            assert!(!d.lever_arm.fitted, "{d:?}");
+        }
+        let (imu, dvl) = log_with(0.0, false, 4, 0.0, Vector3::new(1.0, 0.0, 0.0));
+        let d = estimate(&imu, &dvl, &Vector3::zeros(), None).unwrap();
+        assert!(!d.lever_arm.fitted, "{d:?}");
+        let (imu, dvl) = log_with(0.4, true, 5, 0.0, Vector3::new(1.0, 0.0, 0.0));
+        let d = estimate(&imu, &dvl, &Vector3::zeros(), Some(0.4)).unwrap();
+        assert_eq!(d.delay_s, 0.4);
+        let l = d.lever_arm;
+        assert!(l.fitted && (l.lever_arm_m[0] - 1.0).abs() < 3.0 * l.sigma_m[0], "{d:?}");
     }
 
     #[test]
     fn too_few_readings_give_no_estimate() {
         let (imu, dvl) = log(0.4, true, 6);
-        assert_eq!(estimate(&imu, &dvl[..20], &Vector3::zeros()), None);
-        assert_eq!(estimate(&imu[..1], &dvl, &Vector3::zeros()), None);
+        assert_eq!(estimate(&imu, &dvl[..20], &Vector3::zeros(), None), None);
+        assert_eq!(estimate(&imu[..1], &dvl, &Vector3::zeros(), None), None);
     }
 }

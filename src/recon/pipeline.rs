@@ -277,6 +277,9 @@ pub fn forward(
             });
         }
     }
+    if let Some(t) = tuning.as_mut() {
+        t.dvl_lever_arm_m = plan.dvl_lever_arm_m();
+    }
     times.align_s += stages.start(Stage::Forward);
     let pass = forward_with(
         streams,

@@ -26,6 +26,9 @@ pub const DVL_RANGE_KEY: &str = "dvl.max_altitude_m";
 /// The configuration key of the DVL's stamp delay.
 pub const DVL_DELAY_KEY: &str = "dvl.stamp_delay_s";
 
+/// The configuration key of the DVL's lever arm.
+pub const DVL_LEVER_ARM_KEY: &str = "dvl.lever_arm_m";
+
 /// A DVL stamp delay is used when it is this many sigmas from zero ...
 pub const DELAY_MIN_SIGMAS: f64 = 3.0;
 /// ... and explains the DVL's velocity changes clearly better than none: its chi-square
@@ -101,12 +104,20 @@ impl LogFacts {
         let dvl = ranged.settings().aiding.dvl(streams);
         let readings_in_range = dvl.in_range_body_velocities();
         let in_range: Vec<i64> = readings_in_range.iter().map(|r| r.stamp_ns).collect();
-        let dvl_delay = (config.dvl.enabled && !config.fixed.contains(DVL_DELAY_KEY))
+        // The delay and the lever arm, unless the configuration gives both (a given delay is
+        // held while the lever arm is estimated).
+        let given_delay = config
+            .fixed
+            .contains(DVL_DELAY_KEY)
+            .then_some(config.dvl.stamp_delay_s);
+        let estimated = given_delay.is_none() || !config.fixed.contains(DVL_LEVER_ARM_KEY);
+        let dvl_delay = (config.dvl.enabled && estimated)
             .then(|| {
                 dvl_delay::estimate(
                     streams.imu,
                     &readings_in_range,
                     &dvl.mounting.lever_arm_body_m,
+                    given_delay,
                 )
             })
             .flatten();
@@ -225,6 +236,8 @@ pub enum Part {
     DvlBias,
     /// The delay of the DVL's stamps, taken out of them.
     DvlStampDelay,
+    /// The DVL's lever arm from the IMU.
+    DvlLeverArm,
     /// The EM log's scale factor and the water current.
     EmlScaleCurrent,
     /// The IMU's biases (and the z gyro's scale factor).
@@ -242,6 +255,7 @@ impl Part {
             Part::DvlScaleMisalignment => "dvl scale and misalignment",
             Part::DvlBias => "dvl bias",
             Part::DvlStampDelay => "dvl stamp delay",
+            Part::DvlLeverArm => "dvl lever arm",
             Part::EmlScaleCurrent => "eml scale and current",
             Part::ImuBiases => "imu biases",
             Part::Tuning => "self-tuning",
@@ -308,6 +322,16 @@ pub enum Why {
     },
     /// The log's readings could not tell it.
     CannotTell { detail: String },
+    /// The configuration gives the lever arm, body FRD, m.
+    GivenLeverArm { lever_arm_m: [f64; 3] },
+    /// The lever arm estimated from the log, clearly other than the configured one (used) or
+    /// not (not used).
+    EstimatedLeverArm {
+        lever_arm_m: [f64; 3],
+        sigma_m: [f64; 3],
+        chi_square_vs_configured: f64,
+        pairs: usize,
+    },
 }
 
 impl fmt::Display for Why {
@@ -384,6 +408,31 @@ impl fmt::Display for Why {
                 }
             }
             Why::CannotTell { detail } => write!(f, "cannot tell: {detail}; 0 is used"),
+            Why::GivenLeverArm { lever_arm_m: [x, y, z] } => {
+                write!(f, "[{x:+.2}, {y:+.2}, {z:+.2}] m (body FRD), as given")
+            }
+            Why::EstimatedLeverArm {
+                lever_arm_m: [x, y, z],
+                sigma_m: [sx, sy, sz],
+                chi_square_vs_configured,
+                pairs,
+            } => {
+                write!(
+                    f,
+                    "[{x:+.2}, {y:+.2}, {z:+.2}] m (body FRD; 1-sigma {sx:.2}, {sy:.2}, {sz:.2} m; \
+                     chi-square {chi_square_vs_configured:.1} against the configured one) from \
+                     the IMU's rates and {pairs} pairs of DVL readings"
+                )?;
+                if lever_clear(*chi_square_vs_configured) {
+                    write!(f, ": used for every pass")
+                } else {
+                    write!(
+                        f,
+                        ": not clearly other than the configured one (the body turns too \
+                         little to tell); the configured one is used"
+                    )
+                }
+            }
         }
     }
 }
@@ -440,6 +489,7 @@ impl Plan {
             },
         ));
         decisions.push(stamp_delay(facts, config, dvl));
+        decisions.push(lever_arm(facts, config, dvl));
         let eml = uses(&decisions, Sensor::SpeedLog);
         decisions.push(decision(Part::EmlScaleCurrent, eml, follows("eml", eml)));
         let default = Config::default();
@@ -482,6 +532,18 @@ impl Plan {
         }
     }
 
+    /// The DVL's lever arm the plan estimated and uses, body FRD, m (`None`: the
+    /// configuration's is used).
+    pub fn dvl_lever_arm_m(&self) -> Option<[f64; 3]> {
+        self.decisions
+            .iter()
+            .find(|d| d.part == Part::DvlLeverArm && d.used)
+            .and_then(|d| match d.why {
+                Why::EstimatedLeverArm { lever_arm_m, .. } => Some(lever_arm_m),
+                _ => None,
+            })
+    }
+
     /// Whether the part is used.
     pub fn uses(&self, part: Part) -> bool {
         self.decisions.iter().any(|d| d.part == part && d.used)
@@ -496,6 +558,9 @@ impl Plan {
         c.dvl.scale_misalignment = Switch::from_bool(self.uses(Part::DvlScaleMisalignment));
         c.dvl.max_altitude_m = self.dvl_max_altitude_m;
         c.dvl.stamp_delay_s = self.dvl_stamp_delay_s();
+        if let Some(lever_arm_m) = self.dvl_lever_arm_m() {
+            c.dvl.lever_arm_m = lever_arm_m;
+        }
         c
     }
 
@@ -528,6 +593,50 @@ impl fmt::Display for Plan {
 /// Whether an estimated delay is clearly other than zero.
 fn delay_clear(delay_s: f64, sigma_s: f64, chi_square_vs_zero: f64) -> bool {
     delay_s.abs() >= DELAY_MIN_SIGMAS * sigma_s && chi_square_vs_zero >= DELAY_MIN_CHI_SQUARE
+}
+
+/// Whether an estimated lever arm is clearly other than the configured one.
+fn lever_clear(chi_square_vs_configured: f64) -> bool {
+    chi_square_vs_configured >= dvl_delay::LEVER_MIN_CHI_SQUARE
+}
+
+/// The DVL's lever arm: the configuration's, else the estimate when it is clear.
+fn lever_arm(facts: &LogFacts, config: &Config, dvl: bool) -> Decision {
+    let part = Part::DvlLeverArm;
+    if !dvl {
+        return without_dvl(part);
+    }
+    let lever_arm_m = config.dvl.lever_arm_m;
+    if config.fixed.contains(DVL_LEVER_ARM_KEY) {
+        return decision(part, true, Why::GivenLeverArm { lever_arm_m });
+    }
+    match facts.dvl_delay {
+        None => decision(
+            part,
+            false,
+            Why::CannotTell {
+                detail: format!(
+                    "fewer than {} windows of {} s with DVL readings in range in pairs",
+                    dvl_delay::MIN_WINDOWS,
+                    dvl_delay::WINDOW_S
+                ),
+            },
+        ),
+        Some(d) => {
+            let l = d.lever_arm;
+            let round = |x: f64| (x * 1000.0).round() / 1000.0;
+            decision(
+                part,
+                l.fitted && lever_clear(l.chi_square_vs_configured),
+                Why::EstimatedLeverArm {
+                    lever_arm_m: l.lever_arm_m.map(round),
+                    sigma_m: l.sigma_m.map(round),
+                    chi_square_vs_configured: (l.chi_square_vs_configured * 10.0).round() / 10.0,
+                    pairs: d.pairs,
+                },
+            )
+        }
+    }
 }
 
 /// A part of the DVL's, the DVL not being used.
@@ -762,7 +871,53 @@ mod tests {
             pairs: 500,
             windows: 25,
             residual_m_s: 0.007,
+            lever_arm: lever(false, 0.0),
         })
+    }
+
+    fn lever(fitted: bool, chi_square_vs_configured: f64) -> dvl_delay::LeverArm {
+        dvl_delay::LeverArm {
+            lever_arm_m: [1.0, 0.0, 0.3],
+            correction_m: [1.0, 0.0, 0.3],
+            sigma_m: [0.1, 0.2, 0.3],
+            chi_square_vs_configured,
+            fitted,
+        }
+    }
+
+    #[test]
+    fn a_clear_lever_arm_is_used_and_a_given_one_is_kept() {
+        let config = Config::default();
+        for (fitted, chi_square, used) in [
+            (true, 120.0, true),
+            (true, 9.0, false),
+            (false, 30.0, false),
+        ] {
+            let mut estimate = delay(0.3, 0.2, 4.0);
+            if let Some(d) = estimate.as_mut() {
+                d.lever_arm = lever(fitted, chi_square);
+            }
+            let facts = LogFacts {
+                dvl_delay: estimate,
+                ..facts()
+            };
+            let plan = Plan::decide(&facts, &config);
+            assert_eq!(plan.uses(Part::DvlLeverArm), used, "{estimate:?}");
+            let applied = plan.apply(&config).dvl.lever_arm_m;
+            assert_eq!(applied, if used { [1.0, 0.0, 0.3] } else { [0.0; 3] });
+        }
+        let given = Config::from_toml("[dvl]\nlever_arm_m = [0.5, 0.0, 0.2]\n").unwrap();
+        let mut estimate = delay(0.3, 0.2, 4.0);
+        if let Some(d) = estimate.as_mut() {
+            d.lever_arm = lever(true, 120.0);
+        }
+        let facts = LogFacts {
+            dvl_delay: estimate,
+            ..facts()
+        };
+        let plan = Plan::decide(&facts, &given);
+        assert_eq!(plan.dvl_lever_arm_m(), None);
+        assert_eq!(plan.apply(&given).dvl.lever_arm_m, [0.5, 0.0, 0.2]);
     }
 
     #[test]

@@ -268,7 +268,7 @@ pub fn run_with_progress<W: Write + Seek>(
         let altitude_m = scenario.seabed.depth_m(north, east) - depth_m;
         if let Some((d, sched, latency)) = dvl.as_mut() {
             if sched.due(t_ns) && t_ns <= dvl_until_ns {
-                let r = d.measure(&vel_body, altitude_m);
+                let r = d.measure(&vel_body, &motion.omega_nb_body, altitude_m);
                 // Measured now, stamped late by the DVL's own clock.
                 let msg = Dvl {
                     stamp_ns: stamp_ns + dvl_delay_ns,

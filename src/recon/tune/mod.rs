@@ -110,6 +110,9 @@ pub struct Tuning {
     pub log_start_ns: i64,
     pub imu: ImuNoiseTuning,
     pub sensors: Vec<SensorNoise>,
+    /// The DVL's lever arm the plan estimated and used, body FRD, m (given back with the
+    /// tuned figures).
+    pub dvl_lever_arm_m: Option<[f64; 3]>,
     pub warnings: Vec<String>,
 }
 
@@ -313,6 +316,7 @@ pub fn tune_from(
             log_start_ns: streams.imu.first().map_or(0, |m| m.stamp_ns),
             imu,
             sensors,
+            dvl_lever_arm_m: None,
             warnings,
         }),
     )
@@ -358,6 +362,13 @@ impl Tuning {
             match sections.iter_mut().find(|(name, _)| *name == section) {
                 Some((_, lines)) => lines.push_str(&line),
                 None => sections.push((section, line)),
+            }
+        }
+        if let Some([x, y, z]) = self.dvl_lever_arm_m {
+            let line = format!("lever_arm_m = [{x:.3}, {y:.3}, {z:.3}]\n");
+            match sections.iter_mut().find(|(name, _)| *name == "dvl") {
+                Some((_, lines)) => lines.push_str(&line),
+                None => sections.push(("dvl", line)),
             }
         }
         for (section, lines) in sections {
@@ -408,6 +419,12 @@ impl fmt::Display for Tuning {
                 write!(f, " from {d} differences")?;
             }
             writeln!(f)?;
+        }
+        if let Some([x, y, z]) = self.dvl_lever_arm_m {
+            writeln!(
+                f,
+                "dvl.lever_arm_m [{x:.3}, {y:.3}, {z:.3}] m, body FRD (estimated)"
+            )?;
         }
         Ok(())
     }

@@ -50,6 +50,10 @@ pub struct DvlSpec {
     /// `(1 + s)(I - [m x]) v + b` with `m = (0, pitch, heading)`.
     #[serde(default)]
     pub misalignment_deg: [f64; 2],
+    /// The DVL's position from the IMU, body FRD, m: it reads the velocity over ground of
+    /// that point, `v_b + omega_nb x l`.
+    #[serde(default)]
+    pub lever_arm_m: [f64; 3],
 }
 
 fn default_max_altitude() -> f64 {
@@ -108,7 +112,16 @@ impl DvlSensor {
         }
     }
 
-    pub fn measure(&mut self, velocity_body_m_s: &Vector3<f64>, altitude_m: f64) -> DvlReading {
+    /// The reading of the body velocity (at the IMU) `velocity_body_m_s` while the body turns
+    /// at `omega_nb_body` (rad/s), at that altitude.
+    pub fn measure(
+        &mut self,
+        velocity_body_m_s: &Vector3<f64>,
+        omega_nb_body: &Vector3<f64>,
+        altitude_m: f64,
+    ) -> DvlReading {
+        let velocity_body_m_s =
+            &(velocity_body_m_s + omega_nb_body.cross(&Vector3::from(self.spec.lever_arm_m)));
         let in_range = (0.0..=self.spec.max_altitude_m).contains(&altitude_m);
         self.advance_correlated();
         let correlated = self.correlated_m_s;
@@ -160,6 +173,7 @@ mod tests {
             until_s: None,
             scale_error: 0.0,
             misalignment_deg: [0.0; 2],
+            lever_arm_m: [0.0; 3],
         }
     }
 
@@ -168,7 +182,7 @@ mod tests {
         let mut d = DvlSensor::new(spec(), rng_for(2, stream::DVL));
         let v = Vector3::new(5.0, 0.0, 0.0);
         let n = 100_000;
-        let r: Vec<DvlReading> = (0..n).map(|_| d.measure(&v, 50.0)).collect();
+        let r: Vec<DvlReading> = (0..n).map(|_| d.measure(&v, &Vector3::zeros(), 50.0)).collect();
         assert!(r.iter().all(|x| x.valid && x.altitude_m == Some(50.0)));
         let mean = r.iter().map(|x| x.velocity_body_m_s).sum::<Vector3<f64>>() / n as f64;
         let expected = (1.0 + d.scale) * v + d.bias_m_s;
@@ -185,7 +199,7 @@ mod tests {
     #[test]
     fn loses_lock_above_max_altitude_or_reports_noise() {
         let mut d = DvlSensor::new(spec(), rng_for(2, stream::DVL));
-        let r = d.measure(&Vector3::new(5.0, 0.0, 0.0), 150.0);
+        let r = d.measure(&Vector3::new(5.0, 0.0, 0.0), &Vector3::zeros(), 150.0);
         assert!(!r.valid && r.altitude_m.is_none());
         let mut noisy = DvlSensor::new(
             DvlSpec {
@@ -198,7 +212,7 @@ mod tests {
         let xs: Vec<f64> = (0..n)
             .map(|_| {
                 noisy
-                    .measure(&Vector3::new(5.0, 0.0, 0.0), 150.0)
+                    .measure(&Vector3::new(5.0, 0.0, 0.0), &Vector3::zeros(), 150.0)
                     .velocity_body_m_s
                     .x
             })
