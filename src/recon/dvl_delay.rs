@@ -33,6 +33,8 @@ pub const SEARCH_S: f64 = 3.0;
 const GRID_STEP_S: f64 = 0.05;
 /// Two readings further apart than this are not paired, s.
 const MAX_PAIR_GAP_S: f64 = 3.0;
+/// Readings paired are at least this far apart, s (a 1 Hz DVL's consecutive ones).
+const PAIR_SPACING_S: f64 = 0.9;
 /// Readings paired in a window, at least (twelve unknowns, three equations a pair).
 const MIN_PAIRS: usize = 8;
 /// Windows needed, at least (the bootstrap resamples them).
@@ -48,9 +50,13 @@ const BOOTSTRAP_DRAWS: usize = 200;
 const BOOTSTRAP_SEED: u64 = 0x0d71_de1a;
 /// Seconds of DVL readings used, at most (the first ones): a delay does not change in a log.
 const MAX_SPAN_S: f64 = 3600.0;
+/// The gyro's rate in the lever arm's term is its mean over this span about a reading, s.
+const RATE_MEAN_S: f64 = 0.2;
 /// The lever arm's prior sigma per axis, m: it keeps an axis the motion does not show near
 /// the configured lever arm.
 pub const LEVER_PRIOR_M: f64 = 2.0;
+/// An axis of the lever arm is used when its correction is this many sigmas from zero.
+pub const LEVER_AXIS_SIGMAS: f64 = 3.0;
 /// The lever arm is fitted when it explains the windows this much better than the configured
 /// one (a chi-square of 3 degrees: 25 is about 4.3 sigmas' worth).
 pub const LEVER_MIN_CHI_SQUARE: f64 = 25.0;
@@ -89,12 +95,22 @@ pub struct LeverArm {
     /// 1-sigma per axis, m (an axis the motion does not show keeps about its prior's
     /// [`LEVER_PRIOR_M`]).
     pub sigma_m: [f64; 3],
+    /// The configured arm with only the corrections of [`LEVER_AXIS_SIGMAS`] or more: what
+    /// the plan uses.
+    pub clear_lever_arm_m: [f64; 3],
+    /// How much those corrections move the DVL's readings about each window's mean rate
+    /// (RMS of `(omega - mean) x correction`), m/s: in a steady turn a lever arm changes
+    /// nothing, and what "shows" one there is something else.
+    pub clear_effect_m_s: f64,
     /// How much better the correction explains the differences than the configured lever arm
     /// alone (a chi-square of 3 degrees, were the errors white).
     pub chi_square_vs_configured: f64,
     /// Whether the delay was searched with the lever arm fitted (its chi-square over every
-    /// window reached [`LEVER_MIN_CHI_SQUARE`]).
+    /// window reached [`LEVER_MIN_CHI_SQUARE`], and the rates are not biased).
     pub fitted: bool,
+    /// The gyro's bias is among the delay's unknowns (a MEMS gyro): it is in the rates the
+    /// lever arm's term multiplies, and the lever arm is not fitted.
+    pub rates_biased: bool,
 }
 
 /// What is integrated over time, per unit time (a sample's integrands) or summed.
@@ -111,6 +127,8 @@ struct Integrals {
     /// `[omega x][omega x]`: how `omega x v` moves with the lever arm (`v` is the DVL's
     /// reading less `omega x l`).
     ww: Matrix3<f64>,
+    /// The rate itself (for its mean about a reading).
+    r: Vector3<f64>,
 }
 
 impl Integrals {
@@ -121,6 +139,7 @@ impl Integrals {
             w: Vector3::zeros(),
             b: Matrix3::zeros(),
             ww: Matrix3::zeros(),
+            r: Vector3::zeros(),
         }
     }
 
@@ -132,6 +151,7 @@ impl Integrals {
             w: self.w + rate.w * dt,
             b: self.b + rate.b * dt,
             ww: self.ww + rate.ww * dt,
+            r: self.r + rate.r * dt,
         }
     }
 }
@@ -140,8 +160,6 @@ impl Integrals {
 struct Sample {
     start_s: f64,
     end_s: f64,
-    /// The gyro's rate over the interval, rad/s (for the lever arm's term).
-    rate: Vector3<f64>,
     integrands: Integrals,
 }
 
@@ -174,13 +192,12 @@ impl Window {
         before.plus(&s.integrands, (t - s.start_s).max(0.0))
     }
 
-    /// The gyro's rate at `t` (the sample whose interval holds it).
+    /// The gyro's mean rate over [`RATE_MEAN_S`] about `t`: a regressor of the lever arm,
+    /// whose noise would draw the estimate towards zero (a MEMS gyro's sample is 0.003 rad/s
+    /// of noise, as much as a pool vehicle's rate changes between readings).
     fn rate_at(&self, t: f64) -> Vector3<f64> {
-        let i = self
-            .samples
-            .partition_point(|s| s.end_s < t)
-            .min(self.samples.len() - 1);
-        self.samples[i].rate
+        let half = 0.5 * RATE_MEAN_S;
+        (self.integrals(t + half).r - self.integrals(t - half).r) / RATE_MEAN_S
     }
 
     /// Each pair's design row (the window's unknowns, then the lever arm's three) and the
@@ -266,6 +283,21 @@ impl Window {
                 through_rhs,
             },
         ))
+    }
+
+    /// How far a lever arm `l` moves the readings paired about the window's mean (its
+    /// `omega x l` less the mean rate's): the sum of squares over the pairs' second readings,
+    /// and their count.
+    fn lever_effect(&self, delay_s: f64, l: &Vector3<f64>) -> (f64, usize) {
+        let (first, last) = (&self.samples[0], &self.samples[self.samples.len() - 1]);
+        let span_s = last.end_s - first.start_s;
+        let mean = self.sums[self.samples.len() - 1].r / span_s;
+        let sum = self
+            .pairs
+            .iter()
+            .map(|&(_, t2, _)| (self.rate_at(t2 - delay_s) - mean).cross(l).norm_squared())
+            .sum();
+        (sum, self.pairs.len())
     }
 
     /// The least-squares residual (sum of squares) of the window with the given delay and
@@ -390,7 +422,9 @@ fn window(
         .partition_point(|d| d.stamp_ns < slice_start)
         .saturating_sub(1)
         .min(first);
-    let hi = dvl.partition_point(|d| d.stamp_ns <= slice_end).max(last + 1);
+    let hi = dvl
+        .partition_point(|d| d.stamp_ns <= slice_end)
+        .max(last + 1);
     let referenced: Vec<BodyVelocityReading> = dvl[lo..hi]
         .iter()
         .map(|d| BodyVelocityReading {
@@ -416,13 +450,13 @@ fn window(
         samples.push(Sample {
             start_s,
             end_s,
-            rate,
             integrands: Integrals {
                 f: Vector3::from(w[1].specific_force),
                 c: first_from_body.transpose(),
                 w: rate.cross(&velocity_at(&referenced, w[1].stamp_ns)),
                 b: Matrix3::zeros(),
                 ww: rate.cross_matrix() * rate.cross_matrix(),
+                r: rate,
             },
         });
     }
@@ -447,7 +481,19 @@ fn window(
         })
         .collect();
     let max_gap_ns = (MAX_PAIR_GAP_S * 1e9) as i64;
-    let pairs: Vec<(f64, f64, Vector3<f64>)> = referenced[first - lo..=last - lo]
+    // Readings at least PAIR_SPACING_S apart: a faster DVL's neighbours differ by its noise
+    // more than by what a delay or a lever arm changes in a fifth of a second.
+    let spacing_ns = (PAIR_SPACING_S * 1e9) as i64;
+    let mut chain: Vec<&BodyVelocityReading> = Vec::new();
+    for d in &referenced[first - lo..=last - lo] {
+        if chain
+            .last()
+            .is_none_or(|c| d.stamp_ns - c.stamp_ns >= spacing_ns)
+        {
+            chain.push(d);
+        }
+    }
+    let pairs: Vec<(f64, f64, Vector3<f64>)> = chain
         .windows(2)
         .filter(|p| p[1].stamp_ns > p[0].stamp_ns && p[1].stamp_ns - p[0].stamp_ns <= max_gap_ns)
         .map(|p| {
@@ -541,77 +587,22 @@ pub fn estimate(
             (-steps..=steps).map(|k| k as f64 * GRID_STEP_S).collect()
         }
     };
-    // Each window's fit at each delay of the grid (a window that cannot be fitted at some
-    // delay is left out).
-    let fitted: Vec<(&Window, Vec<Reduced>)> = windows
-        .iter()
-        .filter_map(|w| {
-            let row = delays
-                .iter()
-                .map(|&d| Some(w.fit(d)?.0))
-                .collect::<Option<_>>()?;
-            Some((w, row))
-        })
-        .collect();
+    let fitted = fit_grid(&windows, &delays);
     if fitted.len() < MIN_WINDOWS {
         return None;
     }
-    // The lever arm's prior, weighed against the differences' variance without it.
-    let dof_all: usize = fitted.iter().map(|(w, _)| dof(w)).sum();
-    let sums_all = summed(fitted.iter().map(|(_, row)| row), delays.len());
-    let variance_without = sums_all
-        .iter()
-        .map(|r| r.ss)
-        .fold(f64::INFINITY, f64::min)
-        / dof_all as f64;
-    let prior_weight = variance_without / LEVER_PRIOR_M.powi(2);
-    let levers_all: Vec<Vector3<f64>> = sums_all
-        .iter()
-        .map(|r| solve_lever(r, prior_weight))
-        .collect();
-    let with_lever = lever_chi_square(&sums_all, &levers_all, dof_all) >= LEVER_MIN_CHI_SQUARE;
-    let levers_of = |sums: &[Reduced]| -> Vec<Vector3<f64>> {
-        sums.iter()
-            .map(|r| {
-                if with_lever {
-                    solve_lever(r, prior_weight)
-                } else {
-                    Vector3::zeros()
-                }
-            })
-            .collect()
-    };
+    let search = Search::new(delays, &fitted, windows.iter().any(|w| w.gyro_bias));
+    let sums_all = summed(fitted.iter().map(|(_, row)| row), search.delays.len());
     let (windows, grid): (Vec<&Window>, Vec<Vec<Reduced>>) =
-        consistent(fitted, &levers_of(&sums_all)).into_iter().unzip();
-    let n = grid.len();
-    if n < MIN_WINDOWS {
+        consistent(fitted, &search.levers(&sums_all))
+            .into_iter()
+            .unzip();
+    if grid.len() < MIN_WINDOWS {
         return None;
     }
-    let sums = summed(grid.iter(), delays.len());
-    let levers = levers_of(&sums);
-    let all: Vec<f64> = sums.iter().zip(&levers).map(|(r, l)| r.at(l)).collect();
-    let delay_s = grid_minimum(&delays, &all);
-    // The windows resampled with replacement, a seeded draw (the same log gives the same
-    // answer): the delay and the lever arm of each draw.
-    let mut rng = ChaCha8Rng::seed_from_u64(BOOTSTRAP_SEED);
-    let draws: Vec<(f64, Vector3<f64>)> = (0..BOOTSTRAP_DRAWS)
-        .map(|_| {
-            let picked: Vec<&Vec<Reduced>> =
-                (0..n).map(|_| &grid[rng.random_range(0..n)]).collect();
-            let sums = summed(picked.into_iter(), delays.len());
-            let levers = levers_of(&sums);
-            let total: Vec<f64> = sums.iter().zip(&levers).map(|(r, l)| r.at(l)).collect();
-            let d = grid_minimum(&delays, &total);
-            let k = nearest(&delays, d);
-            (d, solve_lever(&sums[k], prior_weight))
-        })
-        .collect();
-    let spread = |x: &dyn Fn(&(f64, Vector3<f64>)) -> f64| {
-        let mean = draws.iter().map(x).sum::<f64>() / draws.len() as f64;
-        (draws.iter().map(|d| (x(d) - mean).powi(2)).sum::<f64>() / (draws.len() - 1) as f64)
-            .sqrt()
-    };
-    let pairs: usize = windows.iter().map(|w| w.pairs.len()).sum();
+    let all = search.totals(&summed(grid.iter(), search.delays.len()));
+    let delay_s = grid_minimum(&search.delays, &all);
+    let draws = search.bootstrap(&grid);
     // At the delay found: the windows' sum, the lever arm and the residual variance.
     let at_delay = summed(
         windows
@@ -621,14 +612,14 @@ pub fn estimate(
             .iter(),
         1,
     )[0];
-    let lever_fit = solve_lever(&at_delay, prior_weight);
-    let lever = if with_lever {
+    let lever_fit = solve_lever(&at_delay, search.prior_weight);
+    let lever = if search.with_lever {
         lever_fit
     } else {
         Vector3::zeros()
     };
-    let dof: usize = windows.iter().map(|w| dof(w)).sum::<usize>()
-        - if with_lever { 3 } else { 0 };
+    let dof: usize =
+        windows.iter().map(|w| dof(w)).sum::<usize>() - if search.with_lever { 3 } else { 0 };
     let ss = at_delay.at(&lever);
     let variance = ss / dof.max(1) as f64;
     let information: f64 = windows
@@ -640,34 +631,186 @@ pub fn estimate(
     } else {
         f64::INFINITY
     };
-    let lever_covariance = (at_delay.big_s + Matrix3::identity() * prior_weight)
-        .try_inverse()
-        .map(|c| c * variance);
-    let lever_sigma = |i: usize| {
-        let gn = lever_covariance.map_or(f64::INFINITY, |c| c[(i, i)].max(0.0).sqrt());
-        gn.max(spread(&|d| d.1[i]))
+    let at_zero = search.delays.iter().position(|&d| d == 0.0).map(|k| all[k]);
+    let fit = LeverFit {
+        windows: &windows,
+        delay_s,
+        at_delay,
+        lever_fit,
+        variance,
+        draws: &draws,
     };
-    let at_zero = delays.iter().position(|&d| d == 0.0).map(|k| all[k]);
     Some(StampDelay {
         delay_s,
         sigma_s: if given_delay_s.is_some() {
             0.0
         } else {
-            spread(&|d| d.0).max(gauss_newton)
+            spread(draws.iter().map(|d| d.delay_s)).max(gauss_newton)
         },
         chi_square_vs_zero: at_zero.map_or(0.0, |z| (z - ss).max(0.0) / variance),
-        pairs,
+        pairs: windows.iter().map(|w| w.pairs.len()).sum(),
         windows: windows.len(),
         residual_m_s: variance.sqrt(),
-        lever_arm: LeverArm {
-            lever_arm_m: (lever_arm_body_m + lever_fit).into(),
-            correction_m: lever_fit.into(),
-            sigma_m: [0, 1, 2].map(lever_sigma),
-            chi_square_vs_configured: (at_delay.ss - at_delay.at(&lever_fit)).max(0.0)
-                / (at_delay.at(&lever_fit) / dof.max(1) as f64),
-            fitted: with_lever,
-        },
+        lever_arm: fit.report(&search, lever_arm_body_m),
     })
+}
+
+/// Each window's fit at each delay of the grid (a window that cannot be fitted at some delay
+/// is left out).
+fn fit_grid<'a>(windows: &'a [Window], delays: &[f64]) -> Vec<(&'a Window, Vec<Reduced>)> {
+    windows
+        .iter()
+        .filter_map(|w| {
+            let row = delays
+                .iter()
+                .map(|&d| Some(w.fit(d)?.0))
+                .collect::<Option<_>>()?;
+            Some((w, row))
+        })
+        .collect()
+}
+
+/// The grid of delays and how the lever arm is fitted at each.
+struct Search {
+    delays: Vec<f64>,
+    /// The lever arm's prior, weighed against the differences' variance without it.
+    prior_weight: f64,
+    /// Whether the lever arm is fitted at all.
+    with_lever: bool,
+    rates_biased: bool,
+}
+
+/// One bootstrap draw's delay and lever arm.
+struct Draw {
+    delay_s: f64,
+    lever: Vector3<f64>,
+}
+
+impl Search {
+    /// The lever arm is fitted when it explains every window clearly better than none, and
+    /// the rates are not a MEMS gyro's (when its bias is among the unknowns it is in the
+    /// rates the lever arm's term multiplies: the arm fitted would be the bias's; a pool
+    /// run's "found" its z at -1.1 to -1.5 m with none there).
+    fn new(delays: Vec<f64>, fitted: &[(&Window, Vec<Reduced>)], rates_biased: bool) -> Search {
+        let dof: usize = fitted.iter().map(|(w, _)| dof(w)).sum();
+        let sums = summed(fitted.iter().map(|(_, row)| row), delays.len());
+        let without = sums.iter().map(|r| r.ss).fold(f64::INFINITY, f64::min) / dof as f64;
+        let prior_weight = without / LEVER_PRIOR_M.powi(2);
+        let levers: Vec<Vector3<f64>> = sums.iter().map(|r| solve_lever(r, prior_weight)).collect();
+        let with_lever =
+            !rates_biased && lever_chi_square(&sums, &levers, dof) >= LEVER_MIN_CHI_SQUARE;
+        Search {
+            delays,
+            prior_weight,
+            with_lever,
+            rates_biased,
+        }
+    }
+
+    /// The lever arm at each delay (zero when it is not fitted).
+    fn levers(&self, sums: &[Reduced]) -> Vec<Vector3<f64>> {
+        sums.iter()
+            .map(|r| {
+                if self.with_lever {
+                    solve_lever(r, self.prior_weight)
+                } else {
+                    Vector3::zeros()
+                }
+            })
+            .collect()
+    }
+
+    /// The residual sum of squares at each delay, with its lever arm.
+    fn totals(&self, sums: &[Reduced]) -> Vec<f64> {
+        sums.iter()
+            .zip(self.levers(sums))
+            .map(|(r, l)| r.at(&l))
+            .collect()
+    }
+
+    /// The windows resampled with replacement, a seeded draw (the same log gives the same
+    /// answer): the delay and the lever arm of each draw.
+    fn bootstrap(&self, grid: &[Vec<Reduced>]) -> Vec<Draw> {
+        let n = grid.len();
+        let mut rng = ChaCha8Rng::seed_from_u64(BOOTSTRAP_SEED);
+        (0..BOOTSTRAP_DRAWS)
+            .map(|_| {
+                let sums = summed(
+                    (0..n).map(|_| &grid[rng.random_range(0..n)]),
+                    self.delays.len(),
+                );
+                let delay_s = grid_minimum(&self.delays, &self.totals(&sums));
+                let k = nearest(&self.delays, delay_s);
+                Draw {
+                    delay_s,
+                    lever: solve_lever(&sums[k], self.prior_weight),
+                }
+            })
+            .collect()
+    }
+}
+
+/// The sample standard deviation.
+fn spread(values: impl Iterator<Item = f64>) -> f64 {
+    let values: Vec<f64> = values.collect();
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    (values.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt()
+}
+
+/// The lever arm fitted at the delay found.
+struct LeverFit<'a> {
+    windows: &'a [&'a Window],
+    delay_s: f64,
+    at_delay: Reduced,
+    lever_fit: Vector3<f64>,
+    variance: f64,
+    draws: &'a [Draw],
+}
+
+impl LeverFit<'_> {
+    /// Its sigmas (the larger of the bootstrap's and the least squares'), its clear axes and
+    /// what they do to the readings.
+    fn report(&self, search: &Search, configured: &Vector3<f64>) -> LeverArm {
+        let covariance = (self.at_delay.big_s + Matrix3::identity() * search.prior_weight)
+            .try_inverse()
+            .map(|c| c * self.variance);
+        let sigma_m = [0, 1, 2].map(|i| {
+            let least_squares = covariance.map_or(f64::INFINITY, |c| c[(i, i)].max(0.0).sqrt());
+            least_squares.max(spread(self.draws.iter().map(|d| d.lever[i])))
+        });
+        let l = self.lever_fit;
+        let clear = Vector3::from_fn(|i, _| {
+            if l[i].abs() >= LEVER_AXIS_SIGMAS * sigma_m[i] {
+                l[i]
+            } else {
+                0.0
+            }
+        });
+        let (effect, count) = self
+            .windows
+            .iter()
+            .map(|w| w.lever_effect(self.delay_s, &clear))
+            .fold((0.0, 0), |(s, n), (a, b)| (s + a, n + b));
+        let dof = self
+            .windows
+            .iter()
+            .map(|w| dof(w))
+            .sum::<usize>()
+            .saturating_sub(3)
+            .max(1);
+        LeverArm {
+            lever_arm_m: (configured + l).into(),
+            correction_m: l.into(),
+            sigma_m,
+            clear_lever_arm_m: (configured + clear).into(),
+            clear_effect_m_s: (effect / count.max(1) as f64).sqrt(),
+            chi_square_vs_configured: (self.at_delay.ss - self.at_delay.at(&l)).max(0.0)
+                / (self.at_delay.at(&l) / dof as f64),
+            fitted: search.with_lever,
+            rates_biased: search.rates_biased,
+        }
+    }
 }
 
 /// The windows' fits summed per delay.
@@ -940,7 +1083,10 @@ mod tests {
         let d = estimate(&imu, &dvl, &Vector3::zeros(), Some(0.4)).unwrap();
         assert_eq!(d.delay_s, 0.4);
         let l = d.lever_arm;
-        assert!(l.fitted && (l.lever_arm_m[0] - 1.0).abs() < 3.0 * l.sigma_m[0], "{d:?}");
+        assert!(
+            l.fitted && (l.lever_arm_m[0] - 1.0).abs() < 3.0 * l.sigma_m[0],
+            "{d:?}"
+        );
     }
 
     #[test]

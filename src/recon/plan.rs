@@ -327,10 +327,18 @@ pub enum Why {
     /// The lever arm estimated from the log, clearly other than the configured one (used) or
     /// not (not used).
     EstimatedLeverArm {
+        /// The arm used: the configured one with the estimate's clear axes.
         lever_arm_m: [f64; 3],
+        /// The whole estimate and its sigmas.
+        estimate_m: [f64; 3],
         sigma_m: [f64; 3],
         chi_square_vs_configured: f64,
+        /// How much the clear axes move the readings, and the noise of their differences,
+        /// m/s.
+        effect_m_s: f64,
+        noise_m_s: f64,
         pairs: usize,
+        verdict: LeverVerdict,
     },
 }
 
@@ -413,28 +421,64 @@ impl fmt::Display for Why {
             }
             Why::EstimatedLeverArm {
                 lever_arm_m: [x, y, z],
+                estimate_m: [ex, ey, ez],
                 sigma_m: [sx, sy, sz],
                 chi_square_vs_configured,
+                effect_m_s,
+                noise_m_s,
                 pairs,
+                verdict,
             } => {
                 write!(
                     f,
-                    "[{x:+.2}, {y:+.2}, {z:+.2}] m (body FRD; 1-sigma {sx:.2}, {sy:.2}, {sz:.2} m; \
-                     chi-square {chi_square_vs_configured:.1} against the configured one) from \
-                     the IMU's rates and {pairs} pairs of DVL readings"
+                    "[{ex:+.2}, {ey:+.2}, {ez:+.2}] m (body FRD; 1-sigma {sx:.2}, {sy:.2}, \
+                     {sz:.2} m; chi-square {chi_square_vs_configured:.1} against the configured \
+                     one) from the IMU's rates and {pairs} pairs of DVL readings"
                 )?;
-                if lever_clear(*chi_square_vs_configured) {
-                    write!(f, ": used for every pass")
-                } else {
-                    write!(
+                match verdict {
+                    LeverVerdict::Used => write!(
+                        f,
+                        ": [{x:+.2}, {y:+.2}, {z:+.2}] m used for every pass (the axes {:.0} \
+                         sigmas clear; they move the readings by {:.1} cm/s in the turns)",
+                        dvl_delay::LEVER_AXIS_SIGMAS,
+                        effect_m_s * 100.0
+                    ),
+                    LeverVerdict::RatesBiased => write!(
+                        f,
+                        ": not used, the gyro's bias (a MEMS gyro's) is in the rates it \
+                         multiplies; the configured one is used"
+                    ),
+                    LeverVerdict::NotClear => write!(
                         f,
                         ": not clearly other than the configured one (the body turns too \
                          little to tell); the configured one is used"
-                    )
+                    ),
+                    LeverVerdict::NoEffect => write!(
+                        f,
+                        ": not used, its clear axes move the readings by {:.1} cm/s about \
+                         each window's mean rate, under the {:.1} cm/s of their differences' \
+                         noise; the configured one is used",
+                        effect_m_s * 100.0,
+                        noise_m_s * 100.0
+                    ),
                 }
             }
         }
     }
+}
+
+/// Whether an estimated lever arm is used, or why not.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LeverVerdict {
+    Used,
+    /// A MEMS gyro's bias is in the rates: it was not fitted.
+    RatesBiased,
+    /// No axis is clearly other than the configured arm's.
+    NotClear,
+    /// The clear axes change the readings less than their noise (a steady turn "shows" an
+    /// arm that is something else).
+    NoEffect,
 }
 
 /// One decision.
@@ -625,14 +669,30 @@ fn lever_arm(facts: &LogFacts, config: &Config, dvl: bool) -> Decision {
         Some(d) => {
             let l = d.lever_arm;
             let round = |x: f64| (x * 1000.0).round() / 1000.0;
+            let verdict = if l.rates_biased {
+                LeverVerdict::RatesBiased
+            } else if !(l.fitted
+                && lever_clear(l.chi_square_vs_configured)
+                && l.clear_lever_arm_m != lever_arm_m)
+            {
+                LeverVerdict::NotClear
+            } else if l.clear_effect_m_s < d.residual_m_s {
+                LeverVerdict::NoEffect
+            } else {
+                LeverVerdict::Used
+            };
             decision(
                 part,
-                l.fitted && lever_clear(l.chi_square_vs_configured),
+                verdict == LeverVerdict::Used,
                 Why::EstimatedLeverArm {
-                    lever_arm_m: l.lever_arm_m.map(round),
+                    lever_arm_m: l.clear_lever_arm_m.map(round),
+                    estimate_m: l.lever_arm_m.map(round),
                     sigma_m: l.sigma_m.map(round),
                     chi_square_vs_configured: (l.chi_square_vs_configured * 10.0).round() / 10.0,
+                    effect_m_s: round(l.clear_effect_m_s),
+                    noise_m_s: round(d.residual_m_s),
                     pairs: d.pairs,
+                    verdict,
                 },
             )
         }
@@ -882,6 +942,9 @@ mod tests {
             sigma_m: [0.1, 0.2, 0.3],
             chi_square_vs_configured,
             fitted,
+            rates_biased: false,
+            clear_lever_arm_m: [1.0, 0.0, 0.3],
+            clear_effect_m_s: 0.05,
         }
     }
 

@@ -182,7 +182,9 @@ mod tests {
         let mut d = DvlSensor::new(spec(), rng_for(2, stream::DVL));
         let v = Vector3::new(5.0, 0.0, 0.0);
         let n = 100_000;
-        let r: Vec<DvlReading> = (0..n).map(|_| d.measure(&v, &Vector3::zeros(), 50.0)).collect();
+        let r: Vec<DvlReading> = (0..n)
+            .map(|_| d.measure(&v, &Vector3::zeros(), 50.0))
+            .collect();
         assert!(r.iter().all(|x| x.valid && x.altitude_m == Some(50.0)));
         let mean = r.iter().map(|x| x.velocity_body_m_s).sum::<Vector3<f64>>() / n as f64;
         let expected = (1.0 + d.scale) * v + d.bias_m_s;
