@@ -307,6 +307,7 @@ pub fn tune_from(
             },
         }
     };
+    warnings.extend(instability_beyond_bound(&imu));
     let span_s = config.tune.span_s;
     let sensors = sensors.into_iter().chain(dvl_walk).collect();
     (
@@ -320,6 +321,43 @@ pub fn tune_from(
             warnings,
         }),
     )
+}
+
+/// A warning when the tuned bias instabilities let the biases wander faster than a still
+/// stretch's Allan deviation allows: the likelihood gave the IMU errors that are elsewhere.
+fn instability_beyond_bound(imu: &ImuNoiseTuning) -> Vec<String> {
+    let (Some(still), Source::Estimated) = (&imu.still, imu.source) else {
+        return Vec::new();
+    };
+    let f = &imu.figures;
+    let t = f.bias_correlation_s;
+    let checks = [
+        (
+            "gyro",
+            f.gyro_bias_instability_deg_h,
+            still.gyro_bias_instability_bound_deg_h(t),
+            "deg/h",
+        ),
+        (
+            "accelerometer",
+            f.accel_bias_instability_ug,
+            still.accel_bias_instability_bound_ug(t),
+            "ug",
+        ),
+    ];
+    checks
+        .into_iter()
+        .filter_map(|(what, tuned, bound, unit)| {
+            let bound = bound.filter(|b| tuned > *b)?;
+            Some(format!(
+                "the tuned {what} bias instability {tuned:.3} {unit} (correlation {t:.0} s) lets \
+                 the bias wander faster than the {:.0} s still stretch's Allan deviation allows \
+                 (at most {bound:.3} {unit}): the likelihood may have given the IMU errors of \
+                 the aiding sensors",
+                still.duration_s()
+            ))
+        })
+        .collect()
 }
 
 impl Tuning {
@@ -404,6 +442,18 @@ impl fmt::Display for Tuning {
                 w.duration_s(),
                 (w.from_ns - self.log_start_ns) / 1_000_000_000
             )?;
+            let t = s.bias_correlation_s;
+            if let (Some(g), Some(a)) = (
+                w.gyro_bias_instability_bound_deg_h(t),
+                w.accel_bias_instability_bound_ug(t),
+            ) {
+                writeln!(
+                    f,
+                    "           bias instability at most {g:.3} deg/h and {a:.1} ug \
+                     (correlation {t:.0} s) from the same stretch; tuned {:.3} deg/h, {:.1} ug",
+                    s.gyro_bias_instability_deg_h, s.accel_bias_instability_ug
+                )?;
+            }
         }
         if !self.imu.candidates.is_empty() {
             writeln!(
@@ -452,5 +502,49 @@ pub(crate) mod test_noise {
             let z: f64 = StandardNormal.sample(&mut rng);
             z * sigma
         }
+    }
+}
+
+#[cfg(test)]
+mod bound_tests {
+    use super::*;
+    use crate::recon::config::ImuGrade;
+
+    fn tuning(gyro_instability_deg_h: f64, source: Source) -> ImuNoiseTuning {
+        let mut figures = ImuGrade::Mems.spec();
+        figures.gyro_bias_instability_deg_h = gyro_instability_deg_h;
+        ImuNoiseTuning {
+            source,
+            model: "mems".into(),
+            figures,
+            candidates: Vec::new(),
+            still: Some(stationary::StillNoise {
+                from_ns: 0,
+                to_ns: 600_000_000_000,
+                gyro_arw_deg_rt_h: 0.3,
+                accel_vrw_ug_rt_hz: 80.0,
+                clusters: 590,
+                // For the 3600 s correlation: 10 deg/h and 1000 ug at most.
+                gyro_bias_walk_bound_deg_h_rt_h: Some(10.0 * 2f64.sqrt()),
+                accel_bias_walk_bound_ug_rt_h: Some(1000.0 * 2f64.sqrt()),
+            }),
+            moving: None,
+            white: None,
+        }
+    }
+
+    /// A tuned bias instability beyond what the still stretch allows is reported; one within
+    /// it, or a configured one, is not.
+    #[test]
+    fn a_tuned_instability_beyond_the_still_bound_is_reported() {
+        let warned = instability_beyond_bound(&tuning(30.0, Source::Estimated));
+        assert_eq!(warned.len(), 1, "{warned:?}");
+        assert!(
+            warned[0].contains("gyro bias instability 30.000 deg/h"),
+            "{warned:?}"
+        );
+        assert!(warned[0].contains("at most 10.000 deg/h"), "{warned:?}");
+        assert!(instability_beyond_bound(&tuning(3.0, Source::Estimated)).is_empty());
+        assert!(instability_beyond_bound(&tuning(30.0, Source::Configured)).is_empty());
     }
 }

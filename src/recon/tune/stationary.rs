@@ -35,12 +35,56 @@ pub struct StillNoise {
     pub accel_vrw_ug_rt_hz: f64,
     /// One-second clusters the estimate rests on.
     pub clusters: usize,
+    /// The most the biases can wander, as the stretch's Allan deviation allows (see
+    /// [`walk_bound`]): the gyro's rate random walk, deg/h/sqrt(h), and the
+    /// accelerometer's, ug/sqrt(h). `None` when the stretch is too short to tell.
+    pub gyro_bias_walk_bound_deg_h_rt_h: Option<f64>,
+    pub accel_bias_walk_bound_ug_rt_h: Option<f64>,
 }
 
 impl StillNoise {
     pub fn duration_s(&self) -> f64 {
         (self.to_ns - self.from_ns) as f64 / NS_PER_S
     }
+
+    /// The gyro's bias instability the stretch allows for a first-order Gauss-Markov bias of
+    /// correlation time `correlation_s` (whose random walk is `B sqrt(2 / T)`), deg/h.
+    pub fn gyro_bias_instability_bound_deg_h(&self, correlation_s: f64) -> Option<f64> {
+        self.gyro_bias_walk_bound_deg_h_rt_h
+            .map(|k| k * (correlation_s / 3600.0 / 2.0).sqrt())
+    }
+
+    /// The same for the accelerometer, ug.
+    pub fn accel_bias_instability_bound_ug(&self, correlation_s: f64) -> Option<f64> {
+        self.accel_bias_walk_bound_ug_rt_h
+            .map(|k| k * (correlation_s / 3600.0 / 2.0).sqrt())
+    }
+}
+
+/// Means of consecutive clusters that an Allan deviation of the bound rests on, at least.
+const MIN_AVERAGES: usize = 9;
+
+/// The largest rate random walk `K` (per sqrt(s)) that the 1 s cluster means allow: a bias
+/// that walks gives an Allan deviation of at least `K sqrt(tau / 3)` at every cluster time,
+/// so `K <= sqrt(3 / tau) sigma(tau)`, least at the longest cluster times. Each Allan
+/// deviation is raised by twice its relative scatter (`1 / sqrt(2 (n - 1))` for `n` means
+/// on three axes) before the least is taken, so that a low draw does not make the bound
+/// too tight. Cluster times 1, 2, 4, ... s with at least [`MIN_AVERAGES`] means each;
+/// `None` with fewer than three of them.
+fn walk_bound(means: &[Vector3<f64>]) -> Option<f64> {
+    let mut bounds = Vec::new();
+    let mut m = 1;
+    while means.len() / m >= MIN_AVERAGES {
+        let averaged: Vec<Vector3<f64>> = means
+            .chunks_exact(m)
+            .map(|c| c.iter().sum::<Vector3<f64>>() / m as f64)
+            .collect();
+        let scatter = 1.0 / (2.0 * (3 * (averaged.len() - 1)) as f64).sqrt();
+        let tau = m as f64;
+        bounds.push((3.0 / tau).sqrt() * allan_deviation(&averaged) * (1.0 + 2.0 * scatter));
+        m *= 2;
+    }
+    (bounds.len() >= 3).then(|| bounds.into_iter().fold(f64::INFINITY, f64::min))
 }
 
 /// One second of IMU data: its mean rate and specific force, and its span of samples.
@@ -158,6 +202,9 @@ pub fn still_noise(imu: &[Imu], dvl: &[Dvl]) -> Option<StillNoise> {
         gyro_arw_deg_rt_h: arw_rad_rt_s.to_degrees() * 60.0,
         accel_vrw_ug_rt_hz: vrw_m_s_rt_s / (G0 * 1e-6),
         clusters: clusters.len(),
+        // rad/s/sqrt(s) -> deg/h/sqrt(h); m/s^2/sqrt(s) -> ug/sqrt(h).
+        gyro_bias_walk_bound_deg_h_rt_h: walk_bound(&rates).map(|k| k.to_degrees() * 3600.0 * 60.0),
+        accel_bias_walk_bound_ug_rt_h: walk_bound(&forces).map(|k| k / (G0 * 1e-6) * 60.0),
     })
 }
 
@@ -169,23 +216,64 @@ mod tests {
     /// 100 Hz samples: still for `still_s` (tilted, with Earth rate and white noise of the
     /// given densities), then turning at 5 deg/s.
     fn log(still_s: usize, arw_deg_rt_h: f64, vrw_ug_rt_hz: f64) -> Vec<Imu> {
+        log_with_walk(still_s, arw_deg_rt_h, vrw_ug_rt_hz, 0.0, 71)
+    }
+
+    /// [`log`] with the gyro's bias walking at `walk_deg_h_rt_h` on each axis.
+    fn log_with_walk(
+        still_s: usize,
+        arw_deg_rt_h: f64,
+        vrw_ug_rt_hz: f64,
+        walk_deg_h_rt_h: f64,
+        seed: u64,
+    ) -> Vec<Imu> {
         let fs = 100.0;
         let (gyro_sigma, accel_sigma) = test_noise::per_sample(arw_deg_rt_h, vrw_ug_rt_hz, fs);
-        let mut n = test_noise::normal(71);
+        let mut n = test_noise::normal(seed);
+        // rad/s per sqrt(s), times sqrt(dt).
+        let step = (walk_deg_h_rt_h / 3600.0 / 60.0).to_radians() * (1.0 / fs).sqrt();
+        let mut bias = Vector3::zeros();
         let gravity = Vector3::new(0.3, -0.2, -9.79);
         (0..(still_s + 120) * 100)
             .map(|k| {
                 let turning = k >= still_s * 100;
                 let rate_z = if turning { 5f64.to_radians() } else { 4e-5 };
+                bias += Vector3::new(n(step), n(step), n(step));
                 Imu {
                     stamp_ns: 1_000_000_000_000 + k as i64 * 10_000_000,
-                    angular_velocity: [n(gyro_sigma), 2e-5 + n(gyro_sigma), rate_z + n(gyro_sigma)],
+                    angular_velocity: [
+                        bias.x + n(gyro_sigma),
+                        2e-5 + bias.y + n(gyro_sigma),
+                        rate_z + bias.z + n(gyro_sigma),
+                    ],
                     specific_force: (gravity
                         + Vector3::new(n(accel_sigma), n(accel_sigma), n(accel_sigma)))
                     .into(),
                 }
             })
             .collect()
+    }
+
+    /// A gyro bias that walks at K is bounded at or above K, and not far above it where the
+    /// walk shows over the white noise; without a walk the bound is what the white noise
+    /// allows, and it shrinks as the stretch grows.
+    #[test]
+    fn a_still_stretch_bounds_the_bias_walk() {
+        for seed in 1..=5 {
+            let noise = still_noise(&log_with_walk(600, 0.3, 80.0, 30.0, seed), &[]).unwrap();
+            let bound = noise.gyro_bias_walk_bound_deg_h_rt_h.unwrap();
+            assert!((30.0..90.0).contains(&bound), "{noise:?}");
+            let b = noise.gyro_bias_instability_bound_deg_h(3600.0).unwrap();
+            assert!((b - bound * 0.5f64.sqrt()).abs() < 1e-9);
+        }
+        let short = still_noise(&log(120, 0.3, 80.0), &[]).unwrap();
+        let long = still_noise(&log(1200, 0.3, 80.0), &[]).unwrap();
+        let (s, l) = (
+            short.gyro_bias_walk_bound_deg_h_rt_h.unwrap(),
+            long.gyro_bias_walk_bound_deg_h_rt_h.unwrap(),
+        );
+        assert!(l < 0.5 * s, "{short:?} {long:?}");
+        assert!(long.accel_bias_walk_bound_ug_rt_h.unwrap() > 0.0);
     }
 
     #[test]
