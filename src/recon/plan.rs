@@ -639,6 +639,16 @@ fn delay_clear(delay_s: f64, sigma_s: f64, chi_square_vs_zero: f64) -> bool {
     delay_s.abs() >= DELAY_MIN_SIGMAS * sigma_s && chi_square_vs_zero >= DELAY_MIN_CHI_SQUARE
 }
 
+/// A part the DVL's windows decide, when too few of them pair up.
+fn too_few_windows(part: Part) -> Decision {
+    let detail = format!(
+        "fewer than {} windows of {} s with DVL readings in range in pairs",
+        dvl_delay::MIN_WINDOWS,
+        dvl_delay::WINDOW_S
+    );
+    decision(part, false, Why::CannotTell { detail })
+}
+
 /// Whether an estimated lever arm is clearly other than the configured one.
 fn lever_clear(chi_square_vs_configured: f64) -> bool {
     chi_square_vs_configured >= dvl_delay::LEVER_MIN_CHI_SQUARE
@@ -655,17 +665,7 @@ fn lever_arm(facts: &LogFacts, config: &Config, dvl: bool) -> Decision {
         return decision(part, true, Why::GivenLeverArm { lever_arm_m });
     }
     match facts.dvl_delay {
-        None => decision(
-            part,
-            false,
-            Why::CannotTell {
-                detail: format!(
-                    "fewer than {} windows of {} s with DVL readings in range in pairs",
-                    dvl_delay::MIN_WINDOWS,
-                    dvl_delay::WINDOW_S
-                ),
-            },
-        ),
+        None => too_few_windows(part),
         Some(d) => {
             let l = d.lever_arm;
             let round = |x: f64| (x * 1000.0).round() / 1000.0;
@@ -719,17 +719,7 @@ fn stamp_delay(facts: &LogFacts, config: &Config, dvl: bool) -> Decision {
         return decision(part, value != 0.0, Why::Given { value });
     }
     match facts.dvl_delay {
-        None => decision(
-            part,
-            false,
-            Why::CannotTell {
-                detail: format!(
-                    "fewer than {} windows of {} s with DVL readings in range in pairs",
-                    dvl_delay::MIN_WINDOWS,
-                    dvl_delay::WINDOW_S
-                ),
-            },
-        ),
+        None => too_few_windows(part),
         Some(d) => {
             let round = |x: f64| (x * 1000.0).round() / 1000.0;
             decision(
