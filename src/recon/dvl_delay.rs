@@ -1,4 +1,5 @@
-//! The DVL's stamp delay, from the IMU and the DVL alone, before any filter runs.
+//! The DVL's stamp delay and lever arm, from the IMU and the DVL alone, before any filter
+//! runs.
 //!
 //! A DVL stamps a reading some time after it measured it (its ping, its processing, a 1 Hz
 //! clock of its own). Between two readings the body velocity changes by what the IMU says:
@@ -17,6 +18,12 @@
 //!
 //! What makes the delay observable is a change of acceleration (a turn starting or ending,
 //! a speed or depth change): a vehicle that cruises straight shows none, and the sigma says so.
+//!
+//! The DVL reads the velocity of its own point, `v_b + omega x l`: between two readings that
+//! adds `(omega_2 - omega_1) x l`, and the body velocity in `omega x v_b` is the reading less
+//! `omega x l`. The lever arm `l` is common to every window: it is solved out of each
+//! window's own unknowns (see [`Reduced`]) and fitted at each delay of the grid, when it
+//! explains the windows clearly better than the configured arm alone.
 
 use crate::contract::Imu;
 use crate::filters::velocity::model_aided::BodyVelocityReading;
