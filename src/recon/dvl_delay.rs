@@ -22,7 +22,7 @@
 //! The DVL reads the velocity of its own point, `v_b + omega x l`: between two readings that
 //! adds `(omega_2 - omega_1) x l`, and the body velocity in `omega x v_b` is the reading less
 //! `omega x l`. The lever arm `l` is common to every window: it is solved out of each
-//! window's own unknowns (see [`Reduced`]) and fitted at each delay of the grid, when it
+//! window's own unknowns (see `Reduced`) and fitted at each delay of the grid, when it
 //! explains the windows clearly better than the configured arm alone.
 
 use crate::contract::Imu;

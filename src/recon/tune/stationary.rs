@@ -36,7 +36,7 @@ pub struct StillNoise {
     /// One-second clusters the estimate rests on.
     pub clusters: usize,
     /// The most the biases can wander, as the stretch's Allan deviation allows (see
-    /// [`walk_bound`]): the gyro's rate random walk, deg/h/sqrt(h), and the
+    /// `walk_bound`): the gyro's rate random walk, deg/h/sqrt(h), and the
     /// accelerometer's, ug/sqrt(h). `None` when the stretch is too short to tell.
     pub gyro_bias_walk_bound_deg_h_rt_h: Option<f64>,
     pub accel_bias_walk_bound_ug_rt_h: Option<f64>,
