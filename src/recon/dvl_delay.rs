@@ -611,14 +611,10 @@ pub fn estimate(
     let delay_s = grid_minimum(&search.delays, &all);
     let draws = search.bootstrap(&grid);
     // At the delay found: the windows' sum, the lever arm and the residual variance.
-    let at_delay = summed(
-        windows
-            .iter()
-            .map(|w| Some(vec![w.fit(delay_s)?.0]))
-            .collect::<Option<Vec<_>>>()?
-            .iter(),
-        1,
-    )[0];
+    let mut at_delay = Reduced::zero();
+    for w in &windows {
+        at_delay.add(&w.fit(delay_s)?.0);
+    }
     let lever_fit = solve_lever(&at_delay, search.prior_weight);
     let lever = if search.with_lever {
         lever_fit

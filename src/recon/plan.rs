@@ -327,7 +327,8 @@ pub enum Why {
     /// The lever arm estimated from the log, clearly other than the configured one (used) or
     /// not (not used).
     EstimatedLeverArm {
-        /// The arm used: the configured one with the estimate's clear axes.
+        /// The arm used: the configured one, with the estimate's clear axes when they are
+        /// used.
         lever_arm_m: [f64; 3],
         /// The whole estimate and its sigmas.
         estimate_m: [f64; 3],
@@ -685,7 +686,11 @@ fn lever_arm(facts: &LogFacts, config: &Config, dvl: bool) -> Decision {
                 part,
                 verdict == LeverVerdict::Used,
                 Why::EstimatedLeverArm {
-                    lever_arm_m: l.clear_lever_arm_m.map(round),
+                    lever_arm_m: if verdict == LeverVerdict::Used {
+                        l.clear_lever_arm_m.map(round)
+                    } else {
+                        lever_arm_m
+                    },
                     estimate_m: l.lever_arm_m.map(round),
                     sigma_m: l.sigma_m.map(round),
                     chi_square_vs_configured: (l.chi_square_vs_configured * 10.0).round() / 10.0,
