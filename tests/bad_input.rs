@@ -101,8 +101,9 @@ fn random_bytes_never_panic() {
 
 #[test]
 fn corrupted_logs_never_panic() {
-    use hindsight::ingest::ros2::map::Convention;
-    use hindsight::sim::ros2::write_standard_streams;
+    use hindsight::ingest::ros::map::Convention;
+    use hindsight::ingest::ros::msg::Dialect;
+    use hindsight::sim::ros::write_standard_streams;
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     for (chunked, compression) in [
         (true, Compression::Zstd),
@@ -117,17 +118,24 @@ fn corrupted_logs_never_panic() {
             chunk_size: 8 * 1024,
         };
         let json = common::survey_bytes(options, 3.0);
-        // The same log as a ROS 2 recording (cdr, REP-103), flipped the same way.
+        // The same log as a ROS 2 recording (cdr, REP-103) and as ROS 1 messages in MCAP,
+        // flipped the same way.
         let log = read(&json, &IngestOptions::default()).unwrap();
-        let cdr = to_bytes(options, |w| {
-            let settings = Default::default();
-            write_standard_streams(&log, Convention::Rep103, &settings, w).map(|_| ())
-        })
-        .unwrap();
-        let as_ros2 = read(&cdr, &IngestOptions::default()).unwrap();
-        assert_eq!(as_ros2.streams[0].message_encoding, "cdr");
-        assert_eq!(Streams::of(&as_ros2).imu, Streams::of(&log).imu);
-        for (_, good) in (0..300).zip([&json, &cdr].into_iter().cycle()) {
+        let as_ros = |dialect| {
+            to_bytes(options, |w| {
+                let settings = Default::default();
+                write_standard_streams(&log, dialect, Convention::Rep103, &settings, w).map(|_| ())
+            })
+            .unwrap()
+        };
+        let (cdr, ros1) = (as_ros(Dialect::Ros2), as_ros(Dialect::Ros1));
+        for (bytes, encoding) in [(&cdr, "cdr"), (&ros1, "ros1")] {
+            let back = read(bytes, &IngestOptions::default()).unwrap();
+            assert_eq!(back.streams[0].message_encoding, encoding);
+            assert_eq!(Streams::of(&back).imu, Streams::of(&log).imu);
+            assert_eq!(Streams::of(&back).dvl, Streams::of(&log).dvl);
+        }
+        for (_, good) in (0..300).zip([&json, &cdr, &ros1].into_iter().cycle()) {
             let mut bytes = good.clone();
             for _ in 0..rng.random_range(1..4) {
                 let i = rng.random_range(8..bytes.len());

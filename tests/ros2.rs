@@ -37,7 +37,7 @@ fn imu_schema() -> String {
     )
 }
 
-use hindsight::sim::ros2::CdrWriter as Cdr;
+use hindsight::sim::ros::CdrWriter as Cdr;
 
 fn imu_cdr(stamp_ns: i64, frame: &str, w: [f64; 3], a: [f64; 3]) -> Vec<u8> {
     let mut c = Cdr::new();
@@ -256,7 +256,7 @@ fn short_and_flipped_cdr_messages_are_counted_never_a_panic() {
 /// (service events too).
 #[test]
 fn rosbag2_recordings_fit_their_schemas_and_read_in_info() {
-    use hindsight::ingest::ros2::{cdr::Plan, msg::parse};
+    use hindsight::ingest::ros::{cdr::Plan, msg::parse};
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/rosbag2");
     let mut files = 0;
     let mut checked = std::collections::BTreeMap::<String, usize>::new();

@@ -9,7 +9,7 @@ use hindsight::contract::{
     Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, Message, Propeller, SpeedLog, Streams,
     Truth,
 };
-use hindsight::ingest::ros2::map::Convention;
+use hindsight::ingest::ros::map::Convention;
 use hindsight::ingest::{read_log, read_log_from, IngestOptions, Log, MissionDefaults};
 use hindsight::recon::config::Config;
 use hindsight::recon::{run_configured as reconstruct, Reconstruction};
@@ -331,7 +331,7 @@ fn info_export_and_reconstruct_read_a_ros2_recording() {
 /// identifies as its json original.
 #[test]
 fn a_ros2_zigzag_identifies_as_its_json_original() {
-    use hindsight::sim::ros2::{write_as_ros2, Others};
+    use hindsight::sim::ros::{write_as_ros2, Others};
     use hindsight::sim::zigzag::{self, ZigzagSpec};
     let dir = common::scratch_dir("ros2-identify");
     let spec = ZigzagSpec::built_in("zigzag-10-5").unwrap();

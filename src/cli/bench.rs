@@ -24,6 +24,7 @@ use std::time::{Duration, Instant};
 /// TwistWithCovarianceStamped, depth as FluidPressure, altimeter as Range, attitude as
 /// QuaternionStamped) written as a ROS 2 recording in CDR, REP-103 frames, and its ingest
 /// timed the same way (schema-driven CDR decoding, frame conversion, validation).
+/// With --ros1: the same as ROS 1 messages in MCAP (`ros1`, as `mcap convert` writes a bag).
 ///
 /// With --reconstruct: the scenario (default long-dive, 5.5 h; seed 0) is simulated, then
 /// ingest, forward filter and smoother are timed (medians, and their ratio to ingest), and
@@ -64,6 +65,10 @@ pub struct BenchArgs {
     /// Benchmark the ingest of the log written as a ROS 2 recording (CDR) instead of JSON.
     #[arg(long)]
     pub cdr: bool,
+
+    /// Benchmark the ingest of the log written as ROS 1 messages in MCAP instead of JSON.
+    #[arg(long, conflicts_with = "cdr")]
+    pub ros1: bool,
 
     /// Benchmark the reconstruction on a simulated scenario instead of ingest alone.
     #[arg(long)]
@@ -134,7 +139,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
         seed: args.seed,
         ..Default::default()
     };
-    if args.cdr {
+    if args.cdr || args.ros1 {
+        use hindsight::ingest::ros::msg::Dialect;
+        let dialect = if args.ros1 {
+            Dialect::Ros1
+        } else {
+            Dialect::Ros2
+        };
         return with_log_file(
             None,
             |w| Ok(synthetic::write_survey(w, &spec).map(|_| ())?),
@@ -144,9 +155,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
                     args.keep.as_deref(),
                     |w| {
                         let settings = Default::default();
-                        let convention = hindsight::ingest::ros2::map::Convention::Rep103;
-                        hindsight::sim::ros2::write_standard_streams(
-                            &log, convention, &settings, w,
+                        let convention = hindsight::ingest::ros::map::Convention::Rep103;
+                        hindsight::sim::ros::write_standard_streams(
+                            &log, dialect, convention, &settings, w,
                         )?;
                         Ok(())
                     },

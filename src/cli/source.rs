@@ -1,7 +1,7 @@
 //! How a log's topics are read: which topic plays each role, and how ROS 2 messages are
 //! converted. Shared by every command that reads a log.
 
-use hindsight::ingest::ros2::map::Convention;
+use hindsight::ingest::ros::map::Convention;
 use hindsight::ingest::{roles, IngestOptions, MissionDefaults};
 
 /// Topic roles, frame conventions and ROS 2 conversions.

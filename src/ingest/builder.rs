@@ -129,23 +129,27 @@ impl Slot {
 enum Layout {
     NoLayout(String),
     Plan {
-        plan: crate::ingest::ros2::cdr::Plan,
+        plan: crate::ingest::ros::cdr::Plan,
         misfits: u64,
         first: Option<MessageIssue>,
     },
 }
 
 impl Layout {
-    /// The layout `schema_text` gives a message of `schema_name`.
-    fn of(schema_name: &str, schema_text: &[u8]) -> Layout {
-        use crate::ingest::ros2::{cdr::Plan, msg};
+    /// The layout `schema_text` gives a message of `schema_name` in the given ROS.
+    fn of(
+        dialect: crate::ingest::ros::msg::Dialect,
+        schema_name: &str,
+        schema_text: &[u8],
+    ) -> Layout {
+        use crate::ingest::ros::{cdr::Plan, msg};
         if msg::full_name(schema_name).is_none() {
             return Layout::NoLayout(format!(
                 "`{schema_name}` is not a message type (a service's schema is its .srv text)"
             ));
         }
         let text = String::from_utf8_lossy(schema_text);
-        match msg::parse(schema_name, &text).map(|defs| Plan::new(&defs, &[], &[])) {
+        match msg::parse_as(dialect, schema_name, &text).map(|defs| Plan::new(&defs, &[], &[])) {
             Ok(Ok(plan)) => Layout::Plan {
                 plan,
                 misfits: 0,
@@ -273,11 +277,11 @@ impl<'o, 's> Builder<'o, 's> {
                     Ok(None) => (None, None),
                     Err(e) => (None, Some(Refusal::Schema(e.to_string()))),
                 };
-                let layout = (decoder.is_none()
-                    && refusal.is_none()
-                    && self.options.check_layouts
-                    && c.message_encoding == "cdr")
-                    .then(|| Layout::of(&schema_name, schema_text));
+                let layout = decode::ros_dialect(&c.message_encoding)
+                    .filter(|_| {
+                        decoder.is_none() && refusal.is_none() && self.options.check_layouts
+                    })
+                    .map(|dialect| Layout::of(dialect, &schema_name, schema_text));
                 let samples = decoder.as_ref().map(|d| d.get().new_samples());
                 self.refusing.push(refusal.is_some());
                 self.pending.push(Batch::default());
@@ -306,8 +310,8 @@ impl<'o, 's> Builder<'o, 's> {
 
     /// Whether a topic without a decoder fails the read: unless unknown topics are skipped,
     /// a topic a role needs (named for one, at a contract default topic, or of a contract
-    /// schema), and any topic of another encoding than `cdr`. A ROS 2 recording's other
-    /// topics (tf, diagnostics, cameras) are skipped with a warning.
+    /// schema), and any topic of another encoding than ROS's (`cdr`, `ros1`). A ROS
+    /// recording's other topics (tf, diagnostics, cameras) are skipped with a warning.
     fn refuses_unknown(&self, topic: &str, schema_name: &str, encoding: &str) -> bool {
         if self.options.skip_unknown {
             return false;
@@ -317,7 +321,7 @@ impl<'o, 's> Builder<'o, 's> {
             || crate::contract::all_kinds()
                 .iter()
                 .any(|k| k.default_topic() == topic);
-        needed || encoding != "cdr"
+        needed || decode::ros_dialect(encoding).is_none()
     }
 
     fn refused(&self, slot: usize, log_time_ns: u64) -> Option<IngestError> {

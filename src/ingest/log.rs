@@ -28,9 +28,9 @@ pub struct IngestOptions {
     /// cores; `1` decodes on the reading thread).
     pub decode_threads: usize,
     /// How ROS 2 messages are converted (pressure to depth, fixes without a covariance).
-    pub ros2: crate::ingest::ros2::map::Ros2Settings,
+    pub ros2: crate::ingest::ros::map::RosSettings,
     /// A topic's frame convention, where its `frame_id` should not decide it.
-    pub frame_conventions: std::collections::BTreeMap<String, crate::ingest::ros2::map::Convention>,
+    pub frame_conventions: std::collections::BTreeMap<String, crate::ingest::ros::map::Convention>,
     /// Walk the messages of cdr topics hindsight does not map through the layout of their
     /// schema text, counting those that do not fit (what `info` does).
     pub check_layouts: bool,

@@ -15,7 +15,7 @@ mod log;
 mod mission;
 mod reader;
 pub mod roles;
-pub mod ros2;
+pub mod ros;
 mod samples;
 pub mod stats;
 

@@ -7,7 +7,7 @@
 
 use crate::filters::ins::record::Solution;
 use crate::geodesy;
-use crate::ingest::ros2::map::ned_from_frd;
+use crate::ingest::ros::map::ned_from_frd;
 use nalgebra::Matrix3;
 use serde::Serialize;
 

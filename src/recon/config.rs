@@ -879,8 +879,8 @@ pub struct Config {
     /// Topics named for roles (role -> topic).
     pub topics: std::collections::BTreeMap<String, String>,
     /// ROS 2 topics' frame conventions where the frame_id misleads.
-    pub frames: std::collections::BTreeMap<String, crate::ingest::ros2::map::Convention>,
-    pub ros2: crate::ingest::ros2::map::Ros2Settings,
+    pub frames: std::collections::BTreeMap<String, crate::ingest::ros::map::Convention>,
+    pub ros2: crate::ingest::ros::map::RosSettings,
     pub mission: crate::ingest::MissionDefaults,
     /// The tunable keys ([`TUNABLE_KEYS`]) the configuration gave: kept as given.
     #[serde(skip)]
@@ -1242,7 +1242,7 @@ mod tests {
         assert_eq!(c.topics["imu"], "/vehicle/imu/data");
         assert_eq!(
             c.frames["/dvl/twist"],
-            crate::ingest::ros2::map::Convention::Native
+            crate::ingest::ros::map::Convention::Native
         );
         assert_eq!(c.mission.origin_longitude_deg, Some(129.05));
     }

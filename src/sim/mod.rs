@@ -7,7 +7,7 @@
 pub mod dynamic;
 pub mod inertial;
 pub mod profile;
-pub mod ros2;
+pub mod ros;
 pub mod run;
 pub mod scenario;
 pub mod sensors;

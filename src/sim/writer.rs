@@ -162,9 +162,10 @@ impl<W: Write + Seek> LogWriter<W> {
         let schema_id = match self.schemas.get(schema_name) {
             Some(&id) => id,
             None => {
-                // cdr messages are described by ROS 2 message definitions.
+                // cdr and ros1 messages are described by ROS message definitions.
                 let encoding = match message_encoding {
                     "cdr" => "ros2msg",
+                    "ros1" => "ros1msg",
                     _ => "jsonschema",
                 };
                 let id = self

@@ -2,7 +2,7 @@
 //!
 //! One decoder per (schema, message encoding): every contract schema has a JSON decoder
 //! ([`json::JsonDecoder`]); a ROS 2 topic in `cdr` gets one built from the schema text the
-//! file carries ([`crate::ingest::ros2`]), one mapping per standard type.
+//! file carries ([`crate::ingest::ros`]), one mapping per standard type.
 
 mod flat_json;
 pub mod json;
@@ -63,19 +63,21 @@ impl TopicDecoder {
     }
 }
 
-/// The decoder of a topic (`None`: no decoder reads it): a ROS 2 standard type in `cdr`
-/// from its schema text, else the registered decoder of its schema name and encoding.
+/// The decoder of a topic (`None`: no decoder reads it): a standard ROS type in `cdr`
+/// (ROS 2) or `ros1` from its schema text, else the registered decoder of its schema name
+/// and encoding.
 pub fn for_topic(
     topic: &str,
     schema_name: &str,
     schema_text: &[u8],
     message_encoding: &str,
     options: &crate::ingest::IngestOptions,
-) -> Result<Option<TopicDecoder>, crate::ingest::ros2::decoder::Ros2SchemaError> {
-    if message_encoding == "cdr" {
+) -> Result<Option<TopicDecoder>, crate::ingest::ros::decoder::RosSchemaError> {
+    if let Some(dialect) = ros_dialect(message_encoding) {
         let text = String::from_utf8_lossy(schema_text);
         let convention = options.frame_conventions.get(topic).copied();
-        let built = crate::ingest::ros2::decoder::Ros2Decoder::for_schema(
+        let built = crate::ingest::ros::decoder::RosDecoder::for_schema_in(
+            dialect,
             schema_name,
             &text,
             convention,
@@ -84,6 +86,16 @@ pub fn for_topic(
         return Ok(built.map(|d| TopicDecoder::Built(Box::new(d))));
     }
     Ok(find(schema_name, message_encoding).map(TopicDecoder::Registered))
+}
+
+/// The ROS whose messages a message encoding holds: `cdr` (ROS 2) or `ros1`.
+pub fn ros_dialect(message_encoding: &str) -> Option<crate::ingest::ros::msg::Dialect> {
+    use crate::ingest::ros::msg::Dialect;
+    match message_encoding {
+        "cdr" => Some(Dialect::Ros2),
+        "ros1" => Some(Dialect::Ros1),
+        _ => None,
+    }
 }
 
 /// The decoder for a schema name and message encoding.

@@ -1,16 +1,17 @@
-//! The decoder of one ROS 2 topic: its schema text parsed, a CDR plan compiled for the
-//! fields its type's mapping reads, each message converted to the contract's and checked.
+//! The decoder of one ROS topic: its schema text parsed, a plan compiled for the fields its
+//! type's mapping reads (CDR for ROS 2, ROS 1's serialisation for ROS 1), each message
+//! converted to the contract's and checked.
 
 use super::cdr::{Picked, Plan, PlanError};
-use super::map::{convert, Convention, Converted, Ros2Settings, RosType, FRAME};
-use super::msg::{full_name, parse, SchemaError};
+use super::map::{convert, Convention, Converted, RosSettings, RosType, FRAME};
+use super::msg::{full_name, parse_as, Dialect, SchemaError};
 use crate::contract::FieldIssue;
 use crate::ingest::decode::{push_validated as push, Decoder};
 use crate::ingest::samples::Samples;
 
-/// Why a ROS 2 topic cannot be read.
+/// Why a ROS topic cannot be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum Ros2SchemaError {
+pub enum RosSchemaError {
     #[error("schema text: {0}")]
     Schema(#[from] SchemaError),
     #[error("{0}")]
@@ -19,40 +20,59 @@ pub enum Ros2SchemaError {
     MissingField { ty: &'static str, field: String },
 }
 
-/// Reads one topic of a standard ROS 2 type.
+/// Reads one topic of a standard ROS type.
 #[derive(Debug, Clone)]
-pub struct Ros2Decoder {
+pub struct RosDecoder {
     ty: RosType,
+    dialect: Dialect,
     plan: Plan,
     /// How many numbers the plan keeps (the stamp and the type's fields).
     numbers: usize,
     convention: Option<Convention>,
-    settings: Ros2Settings,
+    settings: RosSettings,
 }
 
-impl Ros2Decoder {
-    /// The decoder of a topic whose schema is `schema_name` with `schema_text`, if its type
-    /// is one hindsight reads (`Ok(None)` otherwise).
+impl RosDecoder {
+    /// The decoder of a ROS 2 topic whose schema is `schema_name` with `schema_text`, if its
+    /// type is one hindsight reads (`Ok(None)` otherwise).
     pub fn for_schema(
         schema_name: &str,
         schema_text: &str,
         convention: Option<Convention>,
-        settings: Ros2Settings,
-    ) -> Result<Option<Ros2Decoder>, Ros2SchemaError> {
+        settings: RosSettings,
+    ) -> Result<Option<RosDecoder>, RosSchemaError> {
+        Self::for_schema_in(
+            Dialect::Ros2,
+            schema_name,
+            schema_text,
+            convention,
+            settings,
+        )
+    }
+
+    /// The decoder of a topic of the given ROS (see [`RosDecoder::for_schema`]).
+    pub fn for_schema_in(
+        dialect: Dialect,
+        schema_name: &str,
+        schema_text: &str,
+        convention: Option<Convention>,
+        settings: RosSettings,
+    ) -> Result<Option<RosDecoder>, RosSchemaError> {
         let Some(ty) = full_name(schema_name).and_then(|n| RosType::of(&n)) else {
             return Ok(None);
         };
-        let defs = parse(schema_name, schema_text)?;
+        let defs = parse_as(dialect, schema_name, schema_text)?;
         let numbers = ty.numbers();
         let plan = Plan::new(&defs, &numbers, &FRAME)?;
         if let Some(i) = (0..numbers.len()).find(|&i| !plan.has_number(i)) {
-            return Err(Ros2SchemaError::MissingField {
+            return Err(RosSchemaError::MissingField {
                 ty: ty.name(),
                 field: numbers[i].to_string(),
             });
         }
-        Ok(Some(Ros2Decoder {
+        Ok(Some(RosDecoder {
             ty,
+            dialect,
             plan,
             numbers: numbers.len(),
             convention,
@@ -60,7 +80,7 @@ impl Ros2Decoder {
         }))
     }
 
-    /// The contract message of one CDR message.
+    /// The contract message of one serialised message.
     pub fn convert(&self, data: &[u8]) -> Result<Converted, FieldIssue> {
         let mut picked = Picked::new();
         self.plan
@@ -82,12 +102,15 @@ impl Ros2Decoder {
     }
 }
 
-impl Decoder for Ros2Decoder {
+impl Decoder for RosDecoder {
     fn schema_name(&self) -> &str {
         self.ty.name()
     }
     fn message_encoding(&self) -> &str {
-        "cdr"
+        match self.dialect {
+            Dialect::Ros1 => "ros1",
+            Dialect::Ros2 => "cdr",
+        }
     }
     fn new_samples(&self) -> Box<dyn Samples> {
         use crate::contract::*;

@@ -7,8 +7,11 @@
 //! Encapsulations read: plain CDR (XCDR1, what ROS 2 writes) and plain XCDR2, big- or
 //! little-endian. In XCDR1 a primitive is aligned to its size (at most 8) from the first
 //! byte after the 4-byte encapsulation header; in XCDR2 to at most 4.
+//!
+//! ROS 1's serialisation is read by the same plan ([`Dialect::Ros1`] definitions): no
+//! header, little-endian, no alignment, and a string's length without a terminating NUL.
 
-use super::msg::{Definitions, Element, Primitive, Shape};
+use super::msg::{Definitions, Dialect, Element, Primitive, Shape};
 
 /// Most values a plan can keep, and most strings.
 pub const MAX_VALUES: usize = 16;
@@ -62,6 +65,7 @@ enum Step {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
     steps: Vec<Step>,
+    dialect: Dialect,
     /// Whether the message has each asked number and string.
     has_number: Vec<bool>,
     has_string: Vec<bool>,
@@ -108,6 +112,7 @@ impl Plan {
         let steps = into_runs(merge_runs(steps));
         Ok(Plan {
             steps,
+            dialect: defs.dialect,
             has_number: found.0.iter().map(Option::is_some).collect(),
             has_string: found.1.iter().map(Option::is_some).collect(),
         })
@@ -126,12 +131,12 @@ impl Plan {
     /// Walks one message through the whole layout, keeping nothing: the bytes it takes
     /// (at most the message's length; the rest is padding a writer may add).
     pub fn check(&self, data: &[u8]) -> Result<usize, CdrError> {
-        let mut c = Cursor::new(data)?;
+        let mut c = Cursor::new(data, self.dialect)?;
         c.steps(&self.steps, &mut None)?;
         Ok(c.at)
     }
 
-    /// Reads one message (with its encapsulation header).
+    /// Reads one message (with its encapsulation header, in CDR).
     pub fn read<'a>(&self, data: &'a [u8]) -> Result<Picked<'a>, CdrError> {
         let mut out = Picked::new();
         self.read_into(data, &mut out)?;
@@ -140,7 +145,7 @@ impl Plan {
 
     /// Reads one message into `out` (filled in place: the hot path of a recording).
     pub fn read_into<'a>(&self, data: &'a [u8], out: &mut Picked<'a>) -> Result<(), CdrError> {
-        let mut c = Cursor::new(data)?;
+        let mut c = Cursor::new(data, self.dialect)?;
         c.steps(&self.steps, &mut Some(out))
     }
 }
@@ -337,14 +342,28 @@ fn decode(p: Primitive, b: &[u8], little: bool) -> (f64, i64) {
 struct Cursor<'a> {
     data: &'a [u8],
     at: usize,
+    /// Where alignment counts from: the first byte after the header.
+    origin: usize,
     little: bool,
     max_align: usize,
+    /// Whether a string's length counts a terminating NUL (CDR) or not (ROS 1).
+    nul_terminated: bool,
 }
 
 const HEADER: usize = 4;
 
 impl<'a> Cursor<'a> {
-    fn new(data: &'a [u8]) -> Result<Self, CdrError> {
+    fn new(data: &'a [u8], dialect: Dialect) -> Result<Self, CdrError> {
+        if dialect == Dialect::Ros1 {
+            return Ok(Cursor {
+                data,
+                at: 0,
+                origin: 0,
+                little: true,
+                max_align: 1,
+                nul_terminated: false,
+            });
+        }
         let head = data.get(..HEADER).ok_or(CdrError::Short {
             at: 0,
             need: HEADER,
@@ -361,8 +380,10 @@ impl<'a> Cursor<'a> {
         Ok(Cursor {
             data,
             at: HEADER,
+            origin: HEADER,
             little,
             max_align,
+            nul_terminated: true,
         })
     }
 
@@ -371,7 +392,7 @@ impl<'a> Cursor<'a> {
             return Ok(&[]); // nothing to align: an empty sequence ends at its count
         }
         let a = align.min(self.max_align);
-        let offset = self.at - HEADER;
+        let offset = self.at - self.origin;
         let start = self.at + (a - offset % a) % a;
         let end = start.checked_add(n).filter(|&e| e <= self.data.len());
         let end = end.ok_or(CdrError::Short {
@@ -403,8 +424,10 @@ impl<'a> Cursor<'a> {
         let n = self.count()?;
         let at = self.at;
         let bytes = self.take(n, 1)?;
-        // The length counts the terminating NUL (an empty string may be sent as length 0).
+        // In CDR the length counts the terminating NUL (an empty string may be sent as
+        // length 0).
         let body = match bytes.split_last() {
+            _ if !self.nul_terminated => bytes,
             None => bytes,
             Some((0, body)) => body,
             Some(_) => return Err(CdrError::BadString { at }),
@@ -490,7 +513,7 @@ mod tests {
     use super::super::msg::parse;
     use super::*;
 
-    use crate::sim::ros2::CdrWriter as Writer;
+    use crate::sim::ros::CdrWriter as Writer;
 
     const RANGE_HUMBLE: &str = "\
 std_msgs/Header header
@@ -595,6 +618,67 @@ uint8 ONLY=1
         let got = plan.read(w.bytes()).unwrap();
         assert_eq!((got.integer[0], got.integer[1]), (77, 9));
         assert_eq!(plan.check(w.bytes()).unwrap(), w.bytes().len());
+    }
+
+    /// ROS 1's `sensor_msgs/Range` as a ROS 1 bag stores its definition: a header with a
+    /// sequence number and the built-in `time`.
+    const RANGE_ROS1: &str = "\
+uint8 ULTRASOUND=0
+Header header
+uint8 radiation_type
+float32 field_of_view
+float32 min_range
+float32 max_range
+float32 range
+================================================================================
+MSG: std_msgs/Header
+uint32 seq
+time stamp
+string frame_id
+";
+
+    #[test]
+    fn reads_ros1_without_header_alignment_or_nul() {
+        let defs =
+            super::super::msg::parse_as(Dialect::Ros1, "sensor_msgs/Range", RANGE_ROS1).unwrap();
+        let plan = Plan::new(
+            &defs,
+            &[
+                "header.stamp.sec",
+                "header.stamp.nanosec",
+                "range",
+                "header.seq",
+            ],
+            &["header.frame_id"],
+        )
+        .unwrap();
+        // Written by hand, as roscpp serialises: seq, secs, nsecs, "sonar" (5 bytes, no NUL),
+        // then an odd byte and floats with no padding.
+        let mut data = Vec::new();
+        data.extend(7u32.to_le_bytes());
+        data.extend(1_700_000_000u32.to_le_bytes());
+        data.extend(500_000_000u32.to_le_bytes());
+        data.extend(5u32.to_le_bytes());
+        data.extend(b"sonar");
+        data.push(1);
+        for v in [0.1f32, 0.5, 80.0, 42.25] {
+            data.extend(v.to_le_bytes());
+        }
+        let got = plan.read(&data).unwrap();
+        assert_eq!(
+            (got.integer[0], got.integer[1], got.integer[3]),
+            (1_700_000_000, 500_000_000, 7)
+        );
+        assert_eq!(got.number[2], 42.25);
+        assert_eq!(got.text[0], "sonar");
+        assert_eq!(
+            plan.check(&data).unwrap(),
+            data.len(),
+            "every byte, no padding"
+        );
+        for cut in 0..data.len() {
+            assert!(plan.read(&data[..cut]).is_err(), "cut at {cut}");
+        }
     }
 
     #[test]

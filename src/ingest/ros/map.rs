@@ -41,7 +41,7 @@ impl std::str::FromStr for Convention {
 /// What the conversions need that a ROS 2 message does not say.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct Ros2Settings {
+pub struct RosSettings {
     /// Sea water density for FluidPressure to depth, kg/m^3.
     pub water_density_kg_m3: f64,
     /// Pressure at the surface, Pa (FluidPressure is absolute).
@@ -54,9 +54,9 @@ pub struct Ros2Settings {
     pub point_fix_sigma_m: f64,
 }
 
-impl Default for Ros2Settings {
+impl Default for RosSettings {
     fn default() -> Self {
-        Ros2Settings {
+        RosSettings {
             water_density_kg_m3: 1025.0,
             atmospheric_pressure_pa: 101_325.0,
             gravity_m_s2: 9.80665,
@@ -235,7 +235,7 @@ pub fn convert(
     stamp: (i64, i64),
     frame_id: &str,
     given: Option<Convention>,
-    s: &Ros2Settings,
+    s: &RosSettings,
 ) -> Result<Converted, FieldIssue> {
     let stamp_ns = stamp
         .0
@@ -355,7 +355,7 @@ mod tests {
 
     #[test]
     fn flu_vectors_become_frd() {
-        let s = Ros2Settings::default();
+        let s = RosSettings::default();
         let n = numbers(&[0.1, 0.2, 0.3, 1.0, 2.0, 9.8]);
         let Converted::Imu(m) = convert(RosType::Imu, &n, (5, 7), "base_link", None, &s).unwrap()
         else {
@@ -392,7 +392,7 @@ mod tests {
         let (roll, pitch, yaw_enu) = (0.1f64, 0.2f64, 1.2f64);
         let q = UnitQuaternion::from_euler_angles(roll, pitch, yaw_enu);
         let n = numbers(&[q.i, q.j, q.k, q.w]);
-        let s = Ros2Settings::default();
+        let s = RosSettings::default();
         let Converted::Attitude(a) =
             convert(RosType::QuaternionStamped, &n, (0, 0), "map", None, &s).unwrap()
         else {
@@ -417,7 +417,7 @@ mod tests {
 
     #[test]
     fn pressure_fixes_and_dvl_lock() {
-        let s = Ros2Settings::default();
+        let s = RosSettings::default();
         let p = s.atmospheric_pressure_pa + 100.0 * s.water_density_kg_m3 * s.gravity_m_s2;
         let Converted::Depth(d) =
             convert(RosType::FluidPressure, &numbers(&[p]), (0, 0), "", None, &s).unwrap()
@@ -479,7 +479,7 @@ mod tests {
 
     #[test]
     fn acoustic_dvl_lock_comes_from_mode_and_beams_and_its_frame_is_native() {
-        let s = Ros2Settings::default();
+        let s = RosSettings::default();
         let dvl = |mode: f64, beams: f64, altitude: f64| {
             let n = numbers(&[1.0, 0.1, 0.02, mode, beams, altitude]);
             match convert(RosType::AcousticDvl, &n, (0, 0), "dvl_link", None, &s) {

@@ -1,12 +1,14 @@
-//! Contract messages written as the standard ROS 2 types in CDR, as a rosbag2 recording holds
-//! them: for `hindsight bench --cdr` and for tests of the ROS 2 reader. The inverse of
-//! [`crate::ingest::ros2::map`]: REP-103 (body FLU, world ENU) or native (FRD/NED) frames.
+//! Contract messages written as the standard ROS types, in CDR as a rosbag2 recording holds
+//! them or in ROS 1's serialisation as a ROS 1 bag does: for `hindsight bench --cdr` and
+//! `--ros1`, and for tests of the ROS readers. The inverse of [`crate::ingest::ros::map`]:
+//! REP-103 (body FLU, world ENU) or native (FRD/NED) frames.
 
 use super::writer::{LogWriter, WriteError};
 use crate::contract::{
     Altimeter, Attitude, Depth, Dvl, GnssFix, Imu, MagneticField, Message, PositionFix,
 };
-use crate::ingest::ros2::map::{ned_from_frd, Convention, Ros2Settings};
+use crate::ingest::ros::map::{ned_from_frd, Convention, RosSettings};
+use crate::ingest::ros::msg::Dialect;
 use crate::ingest::{Log, Stream};
 use nalgebra::UnitQuaternion;
 use std::io::{Seek, Write};
@@ -14,46 +16,78 @@ use std::io::{Seek, Write};
 const SEPARATOR: &str =
     "================================================================================\n";
 const HEADER: &str = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n";
+/// ROS 1's `std_msgs/Header`: a sequence number, and the built-in `time`.
+const HEADER_ROS1: &str = "MSG: std_msgs/Header\nuint32 seq\ntime stamp\nstring frame_id\n";
 const TIME: &str = "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n";
 const VECTOR3: &str = "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n";
 const QUATERNION: &str =
     "MSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n";
 const POINT: &str = "MSG: geometry_msgs/Point\nfloat64 x\nfloat64 y\nfloat64 z\n";
 
-/// A ROS 2 message definition with its dependencies, as rosbag2 stores it.
-fn definition(main: &str, dependencies: &[&str]) -> String {
+/// A message definition with its dependencies, as rosbag2 (ROS 2) or a ROS 1 bag stores it.
+/// The dependencies are written as ROS 2's: ROS 1's has its own header and no `Time`.
+fn definition(dialect: Dialect, main: &str, dependencies: &[&str]) -> String {
     let mut text = main.to_string();
-    for d in dependencies {
+    for &d in dependencies {
+        let d = match (dialect, d) {
+            (Dialect::Ros1, HEADER) => HEADER_ROS1,
+            (Dialect::Ros1, TIME) => continue,
+            _ => d,
+        };
         text.push_str(SEPARATOR);
         text.push_str(d);
     }
     text
 }
 
-/// Little-endian plain CDR (XCDR1), the encapsulation ROS 2 writes.
-#[derive(Debug, Clone, Default)]
-pub struct CdrWriter(Vec<u8>);
+/// A ROS message's bytes: little-endian plain CDR (XCDR1), the encapsulation ROS 2 writes,
+/// or ROS 1's serialisation (no header, no alignment, strings without a NUL).
+#[derive(Debug, Clone)]
+pub struct WireWriter {
+    bytes: Vec<u8>,
+    dialect: Dialect,
+}
 
-impl CdrWriter {
-    /// A message with its encapsulation header.
+/// The CDR writer of tests written before ROS 1 was read.
+pub type CdrWriter = WireWriter;
+
+impl Default for WireWriter {
+    fn default() -> Self {
+        WireWriter::new()
+    }
+}
+
+impl WireWriter {
+    /// A CDR message with its encapsulation header.
     pub fn new() -> Self {
-        CdrWriter(vec![0, 1, 0, 0])
+        WireWriter::of(Dialect::Ros2)
+    }
+    /// A message of the given ROS.
+    pub fn of(dialect: Dialect) -> Self {
+        let bytes = match dialect {
+            Dialect::Ros1 => Vec::new(),
+            Dialect::Ros2 => vec![0, 1, 0, 0],
+        };
+        WireWriter { bytes, dialect }
     }
     /// The message's bytes so far.
     pub fn bytes(&self) -> &[u8] {
-        &self.0
+        &self.bytes
     }
     /// The message's bytes.
     pub fn into_bytes(self) -> Vec<u8> {
-        self.0
+        self.bytes
     }
     fn align(&mut self, n: usize) {
-        while !(self.0.len() - 4).is_multiple_of(n) {
-            self.0.push(0);
+        if self.dialect == Dialect::Ros1 {
+            return;
+        }
+        while !(self.bytes.len() - 4).is_multiple_of(n) {
+            self.bytes.push(0);
         }
     }
     pub fn u8(&mut self, v: u8) -> &mut Self {
-        self.0.push(v);
+        self.bytes.push(v);
         self
     }
     pub fn i8(&mut self, v: i8) -> &mut Self {
@@ -61,27 +95,27 @@ impl CdrWriter {
     }
     pub fn u16(&mut self, v: u16) -> &mut Self {
         self.align(2);
-        self.0.extend(v.to_le_bytes());
+        self.bytes.extend(v.to_le_bytes());
         self
     }
     pub fn i32(&mut self, v: i32) -> &mut Self {
         self.align(4);
-        self.0.extend(v.to_le_bytes());
+        self.bytes.extend(v.to_le_bytes());
         self
     }
     pub fn u32(&mut self, v: u32) -> &mut Self {
         self.align(4);
-        self.0.extend(v.to_le_bytes());
+        self.bytes.extend(v.to_le_bytes());
         self
     }
     pub fn f32(&mut self, v: f32) -> &mut Self {
         self.align(4);
-        self.0.extend(v.to_le_bytes());
+        self.bytes.extend(v.to_le_bytes());
         self
     }
     pub fn f64(&mut self, v: f64) -> &mut Self {
         self.align(8);
-        self.0.extend(v.to_le_bytes());
+        self.bytes.extend(v.to_le_bytes());
         self
     }
     pub fn f64s(&mut self, v: &[f64]) -> &mut Self {
@@ -90,29 +124,54 @@ impl CdrWriter {
         }
         self
     }
-    /// A string: length with the terminating NUL, the bytes, NUL.
+    /// A string: in CDR its length with the terminating NUL, the bytes, NUL; in ROS 1 its
+    /// length and its bytes.
     pub fn string(&mut self, s: &str) -> &mut Self {
-        self.u32(s.len() as u32 + 1);
-        self.0.extend(s.as_bytes());
-        self.0.push(0);
+        let nul = self.dialect == Dialect::Ros2;
+        self.u32(s.len() as u32 + u32::from(nul));
+        self.bytes.extend(s.as_bytes());
+        if nul {
+            self.bytes.push(0);
+        }
         self
     }
-    /// `std_msgs/Header`: the stamp as (int32 sec, uint32 nanosec), the frame.
+    /// `std_msgs/Header`: the stamp as (int32 sec, uint32 nanosec), the frame; in ROS 1 a
+    /// sequence number (0) first and the seconds unsigned.
     pub fn header(&mut self, stamp_ns: i64, frame_id: &str) -> &mut Self {
-        self.i32(stamp_ns.div_euclid(1_000_000_000) as i32)
-            .u32(stamp_ns.rem_euclid(1_000_000_000) as u32)
-            .string(frame_id)
+        let sec = stamp_ns.div_euclid(1_000_000_000);
+        let nanosec = stamp_ns.rem_euclid(1_000_000_000) as u32;
+        match self.dialect {
+            Dialect::Ros1 => self.u32(0).u32(sec as u32),
+            Dialect::Ros2 => self.i32(sec as i32),
+        }
+        .u32(nanosec)
+        .string(frame_id)
     }
 }
 
-/// A contract message's standard ROS 2 type: name, definition and CDR.
-pub trait ToRos2 {
-    /// Full type name, `pkg/msg/Type`.
+/// A contract message's standard ROS type: name, definition and bytes.
+pub trait ToRos {
+    /// Full ROS 2 type name, `pkg/msg/Type`.
     const TYPE_NAME: &'static str;
-    /// The definition with its dependencies.
-    fn definition() -> String;
-    /// The message in `convention`'s frames.
-    fn to_cdr(&self, convention: Convention, settings: &Ros2Settings) -> Vec<u8>;
+    /// The definition with its dependencies, in the given ROS.
+    fn definition_in(dialect: Dialect) -> String;
+    /// The message in `convention`'s frames, serialised for the given ROS.
+    fn encode(&self, dialect: Dialect, convention: Convention, settings: &RosSettings) -> Vec<u8>;
+    /// The type's name in the given ROS: `pkg/msg/Type` (ROS 2) or `pkg/Type` (ROS 1).
+    fn type_name(dialect: Dialect) -> String {
+        match dialect {
+            Dialect::Ros1 => Self::TYPE_NAME.replacen("/msg/", "/", 1),
+            Dialect::Ros2 => Self::TYPE_NAME.to_string(),
+        }
+    }
+    /// The ROS 2 definition.
+    fn definition() -> String {
+        Self::definition_in(Dialect::Ros2)
+    }
+    /// The message as ROS 2 CDR.
+    fn to_cdr(&self, convention: Convention, settings: &RosSettings) -> Vec<u8> {
+        self.encode(Dialect::Ros2, convention, settings)
+    }
 }
 
 /// Body FRD to the convention's body frame.
@@ -131,10 +190,11 @@ fn frame(name: &str, c: Convention, native_suffix: &str) -> String {
     }
 }
 
-impl ToRos2 for Imu {
+impl ToRos for Imu {
     const TYPE_NAME: &'static str = "sensor_msgs/msg/Imu";
-    fn definition() -> String {
+    fn definition_in(d: Dialect) -> String {
         definition(
+            d,
             "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\n\
              float64[9] orientation_covariance\ngeometry_msgs/Vector3 angular_velocity\n\
              float64[9] angular_velocity_covariance\ngeometry_msgs/Vector3 linear_acceleration\n\
@@ -142,8 +202,8 @@ impl ToRos2 for Imu {
             &[HEADER, TIME, QUATERNION, VECTOR3],
         )
     }
-    fn to_cdr(&self, c: Convention, _: &Ros2Settings) -> Vec<u8> {
-        let mut w = CdrWriter::new();
+    fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
+        let mut w = WireWriter::of(d);
         let mut unknown = [0.0; 9];
         unknown[0] = -1.0; // no orientation
         w.header(self.stamp_ns, &frame("base_link", c, "_frd"))
@@ -157,17 +217,18 @@ impl ToRos2 for Imu {
     }
 }
 
-impl ToRos2 for MagneticField {
+impl ToRos for MagneticField {
     const TYPE_NAME: &'static str = "sensor_msgs/msg/MagneticField";
-    fn definition() -> String {
+    fn definition_in(d: Dialect) -> String {
         definition(
+            d,
             "std_msgs/Header header\ngeometry_msgs/Vector3 magnetic_field\n\
              float64[9] magnetic_field_covariance\n",
             &[HEADER, TIME, VECTOR3],
         )
     }
-    fn to_cdr(&self, c: Convention, _: &Ros2Settings) -> Vec<u8> {
-        let mut w = CdrWriter::new();
+    fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
+        let mut w = WireWriter::of(d);
         w.header(self.stamp_ns, &frame("base_link", c, "_frd"))
             .f64s(&body(self.magnetic_field, c))
             .f64s(&[0.0; 9]);
@@ -175,10 +236,11 @@ impl ToRos2 for MagneticField {
     }
 }
 
-impl ToRos2 for Dvl {
+impl ToRos for Dvl {
     const TYPE_NAME: &'static str = "geometry_msgs/msg/TwistWithCovarianceStamped";
-    fn definition() -> String {
+    fn definition_in(d: Dialect) -> String {
         definition(
+            d,
             "std_msgs/Header header\nTwistWithCovariance twist\n",
             &[
                 HEADER,
@@ -190,8 +252,8 @@ impl ToRos2 for Dvl {
         )
     }
     /// No bottom lock: covariance[0] = -1. The altitude has no place (the altimeter's).
-    fn to_cdr(&self, c: Convention, _: &Ros2Settings) -> Vec<u8> {
-        let mut w = CdrWriter::new();
+    fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
+        let mut w = WireWriter::of(d);
         let mut cov = [0.0; 36];
         let variance = if self.valid { 1e-4 } else { -1.0 };
         cov[0] = variance;
@@ -205,18 +267,19 @@ impl ToRos2 for Dvl {
     }
 }
 
-impl ToRos2 for Depth {
+impl ToRos for Depth {
     const TYPE_NAME: &'static str = "sensor_msgs/msg/FluidPressure";
-    fn definition() -> String {
+    fn definition_in(d: Dialect) -> String {
         definition(
+            d,
             "std_msgs/Header header\nfloat64 fluid_pressure\nfloat64 variance\n",
             &[HEADER, TIME],
         )
     }
-    fn to_cdr(&self, _: Convention, s: &Ros2Settings) -> Vec<u8> {
+    fn encode(&self, d: Dialect, _: Convention, s: &RosSettings) -> Vec<u8> {
         let pressure =
             s.atmospheric_pressure_pa + self.depth * s.water_density_kg_m3 * s.gravity_m_s2;
-        let mut w = CdrWriter::new();
+        let mut w = WireWriter::of(d);
         w.header(self.stamp_ns, "pressure_link")
             .f64(pressure)
             .f64(0.0);
@@ -224,17 +287,18 @@ impl ToRos2 for Depth {
     }
 }
 
-impl ToRos2 for Altimeter {
+impl ToRos for Altimeter {
     const TYPE_NAME: &'static str = "sensor_msgs/msg/Range";
-    fn definition() -> String {
+    fn definition_in(d: Dialect) -> String {
         definition(
+            d,
             "uint8 ULTRASOUND=0\nuint8 INFRARED=1\nstd_msgs/Header header\nuint8 radiation_type\n\
              float32 field_of_view\nfloat32 min_range\nfloat32 max_range\nfloat32 range\n",
             &[HEADER, TIME],
         )
     }
-    fn to_cdr(&self, _: Convention, _: &Ros2Settings) -> Vec<u8> {
-        let mut w = CdrWriter::new();
+    fn encode(&self, d: Dialect, _: Convention, _: &RosSettings) -> Vec<u8> {
+        let mut w = WireWriter::of(d);
         w.header(self.stamp_ns, "altimeter_link")
             .u8(0)
             .f32(0.05)
@@ -245,10 +309,11 @@ impl ToRos2 for Altimeter {
     }
 }
 
-impl ToRos2 for GnssFix {
+impl ToRos for GnssFix {
     const TYPE_NAME: &'static str = "sensor_msgs/msg/NavSatFix";
-    fn definition() -> String {
+    fn definition_in(d: Dialect) -> String {
         definition(
+            d,
             "std_msgs/Header header\nNavSatStatus status\nfloat64 latitude\nfloat64 longitude\n\
              float64 altitude\nfloat64[9] position_covariance\n\
              uint8 COVARIANCE_TYPE_UNKNOWN = 0\nuint8 COVARIANCE_TYPE_DIAGONAL_KNOWN = 2\n\
@@ -261,9 +326,9 @@ impl ToRos2 for GnssFix {
             ],
         )
     }
-    fn to_cdr(&self, _: Convention, _: &Ros2Settings) -> Vec<u8> {
+    fn encode(&self, d: Dialect, _: Convention, _: &RosSettings) -> Vec<u8> {
         let var = self.horizontal_sigma_m * self.horizontal_sigma_m;
-        let mut w = CdrWriter::new();
+        let mut w = WireWriter::of(d);
         w.header(self.stamp_ns, "gps")
             .i8(0)
             .u16(1)
@@ -274,101 +339,115 @@ impl ToRos2 for GnssFix {
     }
 }
 
-impl ToRos2 for Attitude {
+impl ToRos for Attitude {
     const TYPE_NAME: &'static str = "geometry_msgs/msg/QuaternionStamped";
-    fn definition() -> String {
+    fn definition_in(d: Dialect) -> String {
         definition(
+            d,
             "std_msgs/Header header\ngeometry_msgs/Quaternion quaternion\n",
             &[HEADER, TIME, QUATERNION],
         )
     }
-    fn to_cdr(&self, c: Convention, _: &Ros2Settings) -> Vec<u8> {
+    fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
         let ned_from_body = UnitQuaternion::from_euler_angles(self.roll, self.pitch, self.yaw);
         // The change of axes (NED-ENU, FRD-FLU) is its own inverse: the same map both ways.
         let q = match c {
             Convention::Native => ned_from_body,
             Convention::Rep103 => ned_from_frd(&ned_from_body),
         };
-        let mut w = CdrWriter::new();
+        let mut w = WireWriter::of(d);
         w.header(self.stamp_ns, &frame("map", c, "_ned"))
             .f64s(&[q.i, q.j, q.k, q.w]);
         w.into_bytes()
     }
 }
 
-impl ToRos2 for PositionFix {
+impl ToRos for PositionFix {
     const TYPE_NAME: &'static str = "geometry_msgs/msg/PointStamped";
-    fn definition() -> String {
+    fn definition_in(d: Dialect) -> String {
         definition(
+            d,
             "std_msgs/Header header\ngeometry_msgs/Point point\n",
             &[HEADER, TIME, POINT],
         )
     }
     /// A horizontal-only fix has a NaN z (ROS's "unknown").
-    fn to_cdr(&self, c: Convention, _: &Ros2Settings) -> Vec<u8> {
+    fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
         let down = self.down_m.unwrap_or(f64::NAN);
         let p = match c {
             Convention::Native => [self.north_m, self.east_m, down],
             Convention::Rep103 => [self.east_m, self.north_m, -down],
         };
-        let mut w = CdrWriter::new();
+        let mut w = WireWriter::of(d);
         w.header(self.stamp_ns, &frame("map", c, "_ned")).f64s(&p);
         w.into_bytes()
     }
 }
 
-/// The encoder of one stream: its messages as CDR of their standard type.
+/// The encoder of one stream: its messages in their standard type.
 struct StreamEncoder<'a> {
-    type_name: &'static str,
+    type_name: String,
     definition: String,
     encode: Box<dyn Fn(usize) -> Vec<u8> + 'a>,
 }
 
 fn encoder_of<'a>(
     stream: &'a Stream,
+    d: Dialect,
     c: Convention,
-    s: &'a Ros2Settings,
+    s: &'a RosSettings,
 ) -> Option<StreamEncoder<'a>> {
-    fn typed<'a, T: ToRos2 + Message>(
+    fn typed<'a, T: ToRos + Message>(
         stream: &'a Stream,
+        d: Dialect,
         c: Convention,
-        s: &'a Ros2Settings,
+        s: &'a RosSettings,
     ) -> Option<StreamEncoder<'a>> {
         let messages = stream.messages::<T>()?;
         Some(StreamEncoder {
-            type_name: T::TYPE_NAME,
-            definition: T::definition(),
-            encode: Box::new(move |i| messages[i].to_cdr(c, s)),
+            type_name: T::type_name(d),
+            definition: T::definition_in(d),
+            encode: Box::new(move |i| messages[i].encode(d, c, s)),
         })
     }
-    typed::<Imu>(stream, c, s)
-        .or_else(|| typed::<MagneticField>(stream, c, s))
-        .or_else(|| typed::<Dvl>(stream, c, s))
-        .or_else(|| typed::<Depth>(stream, c, s))
-        .or_else(|| typed::<Altimeter>(stream, c, s))
-        .or_else(|| typed::<GnssFix>(stream, c, s))
-        .or_else(|| typed::<Attitude>(stream, c, s))
-        .or_else(|| typed::<PositionFix>(stream, c, s))
+    typed::<Imu>(stream, d, c, s)
+        .or_else(|| typed::<MagneticField>(stream, d, c, s))
+        .or_else(|| typed::<Dvl>(stream, d, c, s))
+        .or_else(|| typed::<Depth>(stream, d, c, s))
+        .or_else(|| typed::<Altimeter>(stream, d, c, s))
+        .or_else(|| typed::<GnssFix>(stream, d, c, s))
+        .or_else(|| typed::<Attitude>(stream, d, c, s))
+        .or_else(|| typed::<PositionFix>(stream, d, c, s))
 }
 
-/// What [`write_as_ros2`] does with a stream of no standard ROS 2 type (`/eml`, `/rpm`,
+/// What [`write_as_ros`] does with a stream of no standard ROS type (`/eml`, `/rpm`,
 /// `/fins`, `/truth`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Others {
     /// Left out.
     Leave,
-    /// Written as the contract's json beside the cdr topics (a mixed file).
+    /// Written as the contract's json beside the ROS topics (a mixed file).
     Json,
 }
 
-/// Writes `log` as a ROS 2 recording: the streams with a standard ROS 2 type as CDR, on
-/// their topics (`topic_of` renames them, e.g. `/imu` to `/vehicle/imu/data`), the others
-/// as `others` says; in stamp order, logged at their stamps, without a `mission` record (as
-/// rosbag2 writes). Returns the messages written.
-pub fn write_as_ros2<W: Write + Seek>(
+/// The MCAP message encoding of a ROS's messages.
+pub fn message_encoding(dialect: Dialect) -> &'static str {
+    match dialect {
+        Dialect::Ros1 => "ros1",
+        Dialect::Ros2 => "cdr",
+    }
+}
+
+/// Writes `log` as a ROS 2 recording (CDR, as rosbag2 writes MCAP) or a ROS 1 one (as
+/// `mcap convert` writes a bag): the streams with a standard ROS type on their topics
+/// (`topic_of` renames them, e.g. `/imu` to `/vehicle/imu/data`), the others as `others`
+/// says; in stamp order, logged at their stamps, without a `mission` record. Returns the
+/// messages written.
+pub fn write_as_ros<W: Write + Seek>(
     log: &Log,
+    dialect: Dialect,
     convention: Convention,
-    settings: &Ros2Settings,
+    settings: &RosSettings,
     others: Others,
     topic_of: &dyn Fn(&str) -> String,
     w: &mut LogWriter<W>,
@@ -376,7 +455,7 @@ pub fn write_as_ros2<W: Write + Seek>(
     let encoders: Vec<Option<StreamEncoder>> = log
         .streams
         .iter()
-        .map(|s| encoder_of(s, convention, settings))
+        .map(|s| encoder_of(s, dialect, convention, settings))
         .collect();
     let topics: Vec<String> = log.streams.iter().map(|s| topic_of(&s.topic)).collect();
     let mut written = 0;
@@ -387,7 +466,15 @@ pub fn write_as_ros2<W: Write + Seek>(
         match (&encoders[event.stream], others) {
             (Some(e), _) => {
                 let data = (e.encode)(event.index);
-                w.write_raw(topic, e.type_name, &e.definition, "cdr", &data, log_time)?;
+                let encoding = message_encoding(dialect);
+                w.write_raw(
+                    topic,
+                    &e.type_name,
+                    &e.definition,
+                    encoding,
+                    &data,
+                    log_time,
+                )?;
             }
             (None, Others::Json) => {
                 let kind = crate::contract::kind_by_schema(stream.samples.schema_name())
@@ -409,16 +496,38 @@ pub fn write_as_ros2<W: Write + Seek>(
     Ok(written)
 }
 
-/// The streams of `log` with a standard ROS 2 type as CDR on their own topics, the others
-/// left out (see [`write_as_ros2`]).
-pub fn write_standard_streams<W: Write + Seek>(
+/// [`write_as_ros`] for ROS 2.
+pub fn write_as_ros2<W: Write + Seek>(
     log: &Log,
     convention: Convention,
-    settings: &Ros2Settings,
+    settings: &RosSettings,
+    others: Others,
+    topic_of: &dyn Fn(&str) -> String,
     w: &mut LogWriter<W>,
 ) -> Result<u64, WriteError> {
-    write_as_ros2(
+    write_as_ros(
         log,
+        Dialect::Ros2,
+        convention,
+        settings,
+        others,
+        topic_of,
+        w,
+    )
+}
+
+/// The streams of `log` with a standard ROS type on their own topics, the others left out
+/// (see [`write_as_ros`]).
+pub fn write_standard_streams<W: Write + Seek>(
+    log: &Log,
+    dialect: Dialect,
+    convention: Convention,
+    settings: &RosSettings,
+    w: &mut LogWriter<W>,
+) -> Result<u64, WriteError> {
+    write_as_ros(
+        log,
+        dialect,
         convention,
         settings,
         Others::Leave,
@@ -431,17 +540,24 @@ pub fn write_standard_streams<W: Write + Seek>(
 mod tests {
     use super::*;
     use crate::ingest::decode::Decoder;
-    use crate::ingest::ros2::decoder::Ros2Decoder;
+    use crate::ingest::ros::decoder::RosDecoder;
 
-    /// Writes `m` as its ROS 2 type and reads it back through the schema text.
-    fn round_trip<T: ToRos2 + Message>(m: &T, c: Convention) -> T {
-        let s = Ros2Settings::default();
-        let d = Ros2Decoder::for_schema(T::TYPE_NAME, &T::definition(), None, s)
-            .unwrap()
-            .unwrap();
-        let mut out = d.new_samples();
-        d.decode_into(&m.to_cdr(c, &s), out.as_mut()).unwrap();
-        out.as_slice::<T>().unwrap()[0].clone()
+    /// Writes `m` as its ROS type and reads it back through the schema text, in ROS 2 and
+    /// in ROS 1; both must read the same.
+    fn round_trip<T: ToRos + Message>(m: &T, c: Convention) -> T {
+        let s = RosSettings::default();
+        let [ros1, ros2] = [Dialect::Ros1, Dialect::Ros2].map(|dialect| {
+            let name = T::type_name(dialect);
+            let d = RosDecoder::for_schema_in(dialect, &name, &T::definition_in(dialect), None, s)
+                .unwrap()
+                .unwrap();
+            let mut out = d.new_samples();
+            d.decode_into(&m.encode(dialect, c, &s), out.as_mut())
+                .unwrap();
+            out.as_slice::<T>().unwrap()[0].clone()
+        });
+        assert_eq!(ros1, ros2, "{}", T::TYPE_NAME);
+        ros2
     }
 
     #[test]

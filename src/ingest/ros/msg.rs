@@ -1,5 +1,6 @@
-//! ROS 2 message definitions as MCAP stores them (schema encoding `ros2msg`): the main type's
-//! `.msg` text, then each dependency after a line of `=` signs and a `MSG: pkg/Type` line.
+//! ROS message definitions as MCAP stores them (schema encodings `ros2msg` and `ros1msg`,
+//! and a ROS 1 bag's `message_definition`): the main type's `.msg` text, then each
+//! dependency after a line of `=` signs and a `MSG: pkg/Type` line.
 //!
 //! Read here: fields (`type name [default]`), constants (`TYPE NAME=value`, skipped: they take
 //! no room in a message), comments, primitive types, bounded and unbounded strings, fixed,
@@ -7,6 +8,10 @@
 //! is `std_msgs/Header`). `builtin_interfaces/Time` and `Duration` are known without their
 //! text, since some writers leave them out. A message with no fields (constants only) takes
 //! one byte, as rosidl gives it (`uint8 structure_needs_at_least_one_member`).
+//!
+//! ROS 1 ([`Dialect::Ros1`]) differs only in its built-in `time` and `duration` (two 32-bit
+//! fields, read here under ROS 2's names `sec` and `nanosec`, so one path serves both) and in
+//! giving an empty message no room at all.
 
 use std::collections::HashMap;
 
@@ -91,11 +96,22 @@ pub struct Field {
     pub shape: Shape,
 }
 
+/// Which ROS the definitions come from: it decides the built-in types and the wire format
+/// ([`super::cdr`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dialect {
+    /// ROS 1: messages serialised little-endian with no alignment and no header.
+    Ros1,
+    /// ROS 2: messages in CDR.
+    Ros2,
+}
+
 /// A schema's message types by full name, and which is the main one.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Definitions {
     pub root: String,
     pub types: HashMap<String, Vec<Field>>,
+    pub dialect: Dialect,
 }
 
 /// Why a schema text could not be read.
@@ -131,8 +147,23 @@ const BUILTIN: [(&str, &str); 2] = [
     ("builtin_interfaces/Duration", "int32 sec\nuint32 nanosec\n"),
 ];
 
-/// Parses the schema text of the type `schema_name` (the MCAP schema record's name).
+/// ROS 1's built-in `time` and `duration` (`secs`, `nsecs` on the wire), named as ROS 2's.
+const BUILTIN_ROS1: [(&str, &str); 2] = [
+    ("ros1/time", "uint32 sec\nuint32 nanosec\n"),
+    ("ros1/duration", "int32 sec\nint32 nanosec\n"),
+];
+
+/// Parses the ROS 2 schema text of the type `schema_name` (the MCAP schema record's name).
 pub fn parse(schema_name: &str, text: &str) -> Result<Definitions, SchemaError> {
+    parse_as(Dialect::Ros2, schema_name, text)
+}
+
+/// Parses the schema text of the type `schema_name` in the given ROS's dialect.
+pub fn parse_as(
+    dialect: Dialect,
+    schema_name: &str,
+    text: &str,
+) -> Result<Definitions, SchemaError> {
     let root = full_name(schema_name).ok_or_else(|| SchemaError::BadName(schema_name.into()))?;
     let mut types = HashMap::new();
     let mut current = root.clone();
@@ -156,30 +187,40 @@ pub fn parse(schema_name: &str, text: &str) -> Result<Definitions, SchemaError> 
         if content.is_empty() {
             continue;
         }
-        if let Some(field) = parse_line(content, package(&current)).map_err(bad)? {
+        if let Some(field) = parse_line(content, package(&current), dialect).map_err(bad)? {
             fields.push(field);
         }
     }
     types.insert(current, fields);
     types.remove("");
     // ROS 2 gives a message without fields (constants only) one byte on the wire.
-    for fields in types.values_mut().filter(|f| f.is_empty()) {
-        fields.push(Field {
-            name: "structure_needs_at_least_one_member".into(),
-            element: Element::Primitive(Primitive::U8),
-            shape: Shape::One,
-        });
+    if dialect == Dialect::Ros2 {
+        for fields in types.values_mut().filter(|f| f.is_empty()) {
+            fields.push(Field {
+                name: "structure_needs_at_least_one_member".into(),
+                element: Element::Primitive(Primitive::U8),
+                shape: Shape::One,
+            });
+        }
     }
-    for (name, body) in BUILTIN {
-        if !types.contains_key(name) {
+    let builtin: &[(&str, &str)] = match dialect {
+        Dialect::Ros1 => &BUILTIN_ROS1,
+        Dialect::Ros2 => &BUILTIN,
+    };
+    for (name, body) in builtin {
+        if !types.contains_key(*name) {
             let fields = body
                 .lines()
-                .filter_map(|l| parse_line(l, "builtin_interfaces").ok().flatten())
+                .filter_map(|l| parse_line(l, package(name), dialect).ok().flatten())
                 .collect();
             types.insert(name.to_string(), fields);
         }
     }
-    let defs = Definitions { root, types };
+    let defs = Definitions {
+        root,
+        types,
+        dialect,
+    };
     check(&defs, &defs.root, &mut Vec::new())?;
     Ok(defs)
 }
@@ -189,7 +230,7 @@ fn package(full: &str) -> &str {
 }
 
 /// A field, or `None` for a constant.
-fn parse_line(content: &str, package: &str) -> Result<Option<Field>, String> {
+fn parse_line(content: &str, package: &str, dialect: Dialect) -> Result<Option<Field>, String> {
     let (type_text, rest) = content
         .split_once(char::is_whitespace)
         .ok_or("a field needs a type and a name")?;
@@ -224,6 +265,8 @@ fn parse_line(content: &str, package: &str) -> Result<Option<Field>, String> {
         Element::WString
     } else if base == "Header" {
         Element::Message("std_msgs/Header".into())
+    } else if dialect == Dialect::Ros1 && (base == "time" || base == "duration") {
+        Element::Message(format!("ros1/{base}"))
     } else if base.contains('/') {
         Element::Message(full_name(base).ok_or_else(|| format!("`{base}` is not a type name"))?)
     } else if base.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
