@@ -322,14 +322,24 @@ fn print_roles(log: &Log) {
 fn load(path: &Path, options: &IngestOptions, offsets: &[ClockOffset]) -> Result<Log> {
     use anyhow::Context;
     let reading = || format!("reading {}", path.display());
-    let file = std::fs::File::open(path)
-        .map_err(IngestError::from)
-        .with_context(reading)?;
-    let size = file.metadata().map(|m| m.len()).unwrap_or(0);
-    let bar = console::bytes_bar(size, "reading the log");
-    let input = std::io::BufReader::with_capacity(1 << 20, bar.wrap_read(file));
-    let mut log = hindsight::ingest::read_log_from(input, options).with_context(reading)?;
-    bar.finish_and_clear();
+    let sqlite = hindsight::ingest::sqlite::bag_at(path).with_context(reading)?;
+    let mut log = if sqlite.is_some() {
+        // A database is read by SQLite, not streamed: a spinner, not a byte bar.
+        let spinner = console::spinner("reading the bag");
+        let log = hindsight::ingest::read_log(path, options).with_context(reading)?;
+        spinner.finish_and_clear();
+        log
+    } else {
+        let file = std::fs::File::open(path)
+            .map_err(IngestError::from)
+            .with_context(reading)?;
+        let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+        let bar = console::bytes_bar(size, "reading the log");
+        let input = std::io::BufReader::with_capacity(1 << 20, bar.wrap_read(file));
+        let log = hindsight::ingest::read_log_from(input, options).with_context(reading)?;
+        bar.finish_and_clear();
+        log
+    };
     hindsight::align::apply_offsets(&mut log, offsets)
         .with_context(|| format!("aligning {}", path.display()))?;
     for w in log.warnings() {

@@ -9,6 +9,7 @@ use super::reader::Ending;
 use super::roles;
 use super::samples::Samples;
 use super::stats;
+use super::Container;
 use mcap::records::Record;
 use std::collections::{BTreeMap, HashMap};
 use std::sync::{Arc, Mutex};
@@ -386,7 +387,12 @@ impl<'o, 's> Builder<'o, 's> {
         }
     }
 
-    pub(super) fn finish(mut self, ending: Ending, bytes_read: u64) -> Result<Log, IngestError> {
+    pub(super) fn finish(
+        mut self,
+        container: Container,
+        ending: Ending,
+        bytes_read: u64,
+    ) -> Result<Log, IngestError> {
         self.flush();
         if let Some(pool) = self.pool.take() {
             pool.finish();
@@ -481,6 +487,7 @@ impl<'o, 's> Builder<'o, 's> {
             skipped,
             metadata: self.metadata,
             file: FileReport {
+                container,
                 bytes_read,
                 ending,
                 library: self.library,

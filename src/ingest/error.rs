@@ -46,6 +46,17 @@ pub enum IngestError {
     #[error("not an MCAP file: it starts with {found} where the MCAP magic 89 4D 43 41 50 30 0D 0A belongs")]
     NotMcap { found: String },
 
+    #[error("ROS 1 bag corrupt at byte {offset}: {reason}")]
+    CorruptBag { offset: u64, reason: String },
+
+    #[error(
+        "a ROS 2 bag in sqlite3 storage is read from its folder or its .db3 file, not a stream"
+    )]
+    SqliteFromStream,
+
+    #[error("ROS 2 bag {path}: {reason}")]
+    Sqlite { path: String, reason: String },
+
     #[error("the log holds no decodable message")]
     NoMessages,
 

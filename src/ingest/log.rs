@@ -140,9 +140,47 @@ pub enum LayoutCheck {
     },
 }
 
+/// The container a log came in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Container {
+    Mcap,
+    /// A ROS 1 bag, format 2.0.
+    Ros1Bag,
+    /// A ROS 2 bag in sqlite3 storage (`.db3` files and `metadata.yaml`).
+    Ros2Sqlite,
+}
+
+impl Container {
+    /// The container whose magic bytes `head` (a file's first 16 bytes, or all of a shorter
+    /// one) begins with; MCAP unless another's magic is there.
+    pub fn of(head: &[u8]) -> Container {
+        if head.starts_with(super::bag::MAGIC) {
+            Container::Ros1Bag
+        } else if head.starts_with(SQLITE_MAGIC) {
+            Container::Ros2Sqlite
+        } else {
+            Container::Mcap
+        }
+    }
+
+    /// How a user calls it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Container::Mcap => "MCAP",
+            Container::Ros1Bag => "ROS 1 bag",
+            Container::Ros2Sqlite => "ROS 2 bag (sqlite3)",
+        }
+    }
+}
+
+/// The first bytes of every SQLite database.
+pub const SQLITE_MAGIC: &[u8] = b"SQLite format 3\0";
+
 /// How the file itself read.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FileReport {
+    pub container: Container,
     /// Bytes read from the input.
     pub bytes_read: u64,
     pub ending: Ending,

@@ -8,6 +8,7 @@
 //!
 //! May import: `contract`, `time`, `mcap`, `serde_json`.
 
+pub mod bag;
 mod builder;
 pub mod decode;
 mod error;
@@ -17,6 +18,7 @@ mod reader;
 pub mod roles;
 pub mod ros;
 mod samples;
+pub mod sqlite;
 pub mod stats;
 
 pub use error::{IngestError, MessageIssue};
@@ -26,7 +28,8 @@ pub use roles::{RoleChoice, RoleError, RoleSource};
 pub use samples::Samples;
 
 pub use log::{
-    FileReport, Held, IngestOptions, LayoutCheck, Log, SkippedTopic, Stream, StreamCounts,
+    Container, FileReport, Held, IngestOptions, LayoutCheck, Log, SkippedTopic, Stream,
+    StreamCounts,
 };
 
 use builder::Builder;
@@ -34,8 +37,15 @@ use mcap::records::Record;
 use std::io::Read;
 use std::path::Path;
 
-/// Reads the log at `path`.
+/// Reads the log at `path`: an MCAP file, a ROS 1 bag, or a ROS 2 sqlite3 bag (its folder or
+/// its `.db3` file).
 pub fn read_log(path: &Path, options: &IngestOptions) -> Result<Log, IngestError> {
+    if let Some(bag) = sqlite::bag_at(path)? {
+        return read_records(options, |on_record| {
+            let read = sqlite::for_each_record(&bag, on_record)?;
+            Ok((Container::Ros2Sqlite, read))
+        });
+    }
     let file = std::fs::File::open(path)?;
     read_log_from(std::io::BufReader::with_capacity(1 << 20, file), options)
 }
@@ -46,31 +56,62 @@ pub fn read_log(path: &Path, options: &IngestOptions) -> Result<Log, IngestError
 /// [`IngestOptions::decode_threads`]) while this one reads and decompresses the next chunks;
 /// the log read is the same.
 pub fn read_log_from<R: Read>(input: R, options: &IngestOptions) -> Result<Log, IngestError> {
+    read_records(options, |on_record| for_each_record(input, on_record))
+}
+
+/// The records a container walk hands on, built into a log.
+type Walked = Result<(Container, (Ending, u64)), IngestError>;
+
+/// Builds a log from the records `walk` hands on, decoding on other threads with more than
+/// one core.
+fn read_records(
+    options: &IngestOptions,
+    walk: impl FnOnce(&mut dyn FnMut(Record<'_>) -> Result<(), IngestError>) -> Walked,
+) -> Result<Log, IngestError> {
     let threads = options.decode_threads.min(
         std::thread::available_parallelism()
             .map(usize::from)
             .unwrap_or(1),
     );
     if threads <= 1 {
-        return read_with(input, options, None);
+        return read_with(walk, options, None);
     }
     std::thread::scope(|scope| {
         read_with(
-            input,
+            walk,
             options,
             Some(builder::DecodePool::start(scope, options, threads)),
         )
     })
 }
 
-fn read_with<R: Read>(
-    input: R,
+fn read_with(
+    walk: impl FnOnce(&mut dyn FnMut(Record<'_>) -> Result<(), IngestError>) -> Walked,
     options: &IngestOptions,
     pool: Option<builder::DecodePool<'_>>,
 ) -> Result<Log, IngestError> {
     let mut b = Builder::new(options, pool);
-    let (ending, bytes_read) = reader::for_each_record(input, |record| b.on_record(record))?;
-    b.finish(ending, bytes_read)
+    let (container, (ending, bytes_read)) = walk(&mut |record| b.on_record(record))?;
+    b.finish(container, ending, bytes_read)
+}
+
+/// Walks the records of a log in a streamed container (MCAP, or a ROS 1 bag as the MCAP
+/// records it would convert to), told apart by their first bytes.
+fn for_each_record<R: Read>(
+    mut input: R,
+    on_record: impl FnMut(Record<'_>) -> Result<(), IngestError>,
+) -> Result<(Container, (Ending, u64)), IngestError> {
+    let mut head = [0u8; 16];
+    let got = reader::read_up_to(&mut input, &mut head)?;
+    let head = &head[..got];
+    let container = Container::of(head);
+    let input = std::io::Cursor::new(head).chain(input);
+    let read = match container {
+        Container::Mcap => reader::for_each_record(input, on_record)?,
+        Container::Ros1Bag => bag::for_each_record(input, on_record)?,
+        Container::Ros2Sqlite => return Err(IngestError::SqliteFromStream),
+    };
+    Ok((container, read))
 }
 
 /// Container-level totals of a log, without decoding messages.
@@ -86,7 +127,7 @@ pub struct ScanTotals {
 /// the floor under any full read, used by `hindsight bench` to show where the time goes.
 pub fn scan<R: Read>(input: R) -> Result<ScanTotals, IngestError> {
     let (mut messages, mut payload_bytes, mut in_summary) = (0u64, 0u64, false);
-    let (ending, _) = reader::for_each_record(input, |record| {
+    let (_, (ending, _)) = for_each_record(input, |record| {
         match record {
             Record::Message { data, .. } if !in_summary => {
                 messages += 1;

@@ -95,7 +95,11 @@ pub fn for_each_record<R: Read>(
 
 /// Reads up to `len` bytes into `body` (replacing its contents), in blocks, so memory follows
 /// the bytes that exist. Returns whether all `len` bytes were there.
-fn read_body<R: Read>(input: &mut R, len: u64, body: &mut Vec<u8>) -> std::io::Result<bool> {
+pub(super) fn read_body<R: Read>(
+    input: &mut R,
+    len: u64,
+    body: &mut Vec<u8>,
+) -> std::io::Result<bool> {
     body.clear();
     let mut left = len;
     while left > 0 {
@@ -300,7 +304,7 @@ fn corrupt(offset: u64, e: McapError) -> IngestError {
 }
 
 /// Fills `buf` as far as the input allows; returns the count (short only at end of input).
-fn read_up_to<R: Read>(input: &mut R, buf: &mut [u8]) -> std::io::Result<usize> {
+pub(super) fn read_up_to<R: Read>(input: &mut R, buf: &mut [u8]) -> std::io::Result<usize> {
     let mut filled = 0;
     while filled < buf.len() {
         match input.read(&mut buf[filled..]) {

@@ -7,38 +7,18 @@ use super::writer::{LogWriter, WriteError};
 use crate::contract::{
     Altimeter, Attitude, Depth, Dvl, GnssFix, Imu, MagneticField, Message, PositionFix,
 };
+use crate::ingest::ros::map::RosType;
 use crate::ingest::ros::map::{ned_from_frd, Convention, RosSettings};
 use crate::ingest::ros::msg::Dialect;
+use crate::ingest::ros::standard::definition as standard_definition;
+
+/// The definition of a type the simulator writes (every one is known).
+fn standard(ty: RosType, dialect: Dialect) -> String {
+    standard_definition(ty, dialect).expect("a standard type the simulator writes")
+}
 use crate::ingest::{Log, Stream};
 use nalgebra::UnitQuaternion;
 use std::io::{Seek, Write};
-
-const SEPARATOR: &str =
-    "================================================================================\n";
-const HEADER: &str = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n";
-/// ROS 1's `std_msgs/Header`: a sequence number, and the built-in `time`.
-const HEADER_ROS1: &str = "MSG: std_msgs/Header\nuint32 seq\ntime stamp\nstring frame_id\n";
-const TIME: &str = "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n";
-const VECTOR3: &str = "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n";
-const QUATERNION: &str =
-    "MSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n";
-const POINT: &str = "MSG: geometry_msgs/Point\nfloat64 x\nfloat64 y\nfloat64 z\n";
-
-/// A message definition with its dependencies, as rosbag2 (ROS 2) or a ROS 1 bag stores it.
-/// The dependencies are written as ROS 2's: ROS 1's has its own header and no `Time`.
-fn definition(dialect: Dialect, main: &str, dependencies: &[&str]) -> String {
-    let mut text = main.to_string();
-    for &d in dependencies {
-        let d = match (dialect, d) {
-            (Dialect::Ros1, HEADER) => HEADER_ROS1,
-            (Dialect::Ros1, TIME) => continue,
-            _ => d,
-        };
-        text.push_str(SEPARATOR);
-        text.push_str(d);
-    }
-    text
-}
 
 /// A ROS message's bytes: little-endian plain CDR (XCDR1), the encapsulation ROS 2 writes,
 /// or ROS 1's serialisation (no header, no alignment, strings without a NUL).
@@ -193,14 +173,7 @@ fn frame(name: &str, c: Convention, native_suffix: &str) -> String {
 impl ToRos for Imu {
     const TYPE_NAME: &'static str = "sensor_msgs/msg/Imu";
     fn definition_in(d: Dialect) -> String {
-        definition(
-            d,
-            "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\n\
-             float64[9] orientation_covariance\ngeometry_msgs/Vector3 angular_velocity\n\
-             float64[9] angular_velocity_covariance\ngeometry_msgs/Vector3 linear_acceleration\n\
-             float64[9] linear_acceleration_covariance\n",
-            &[HEADER, TIME, QUATERNION, VECTOR3],
-        )
+        standard(RosType::Imu, d)
     }
     fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
         let mut w = WireWriter::of(d);
@@ -220,12 +193,7 @@ impl ToRos for Imu {
 impl ToRos for MagneticField {
     const TYPE_NAME: &'static str = "sensor_msgs/msg/MagneticField";
     fn definition_in(d: Dialect) -> String {
-        definition(
-            d,
-            "std_msgs/Header header\ngeometry_msgs/Vector3 magnetic_field\n\
-             float64[9] magnetic_field_covariance\n",
-            &[HEADER, TIME, VECTOR3],
-        )
+        standard(RosType::MagneticField, d)
     }
     fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
         let mut w = WireWriter::of(d);
@@ -239,17 +207,7 @@ impl ToRos for MagneticField {
 impl ToRos for Dvl {
     const TYPE_NAME: &'static str = "geometry_msgs/msg/TwistWithCovarianceStamped";
     fn definition_in(d: Dialect) -> String {
-        definition(
-            d,
-            "std_msgs/Header header\nTwistWithCovariance twist\n",
-            &[
-                HEADER,
-                TIME,
-                "MSG: geometry_msgs/TwistWithCovariance\nTwist twist\nfloat64[36] covariance\n",
-                "MSG: geometry_msgs/Twist\nVector3 linear\nVector3 angular\n",
-                VECTOR3,
-            ],
-        )
+        standard(RosType::TwistWithCovarianceStamped, d)
     }
     /// No bottom lock: covariance[0] = -1. The altitude has no place (the altimeter's).
     fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
@@ -270,11 +228,7 @@ impl ToRos for Dvl {
 impl ToRos for Depth {
     const TYPE_NAME: &'static str = "sensor_msgs/msg/FluidPressure";
     fn definition_in(d: Dialect) -> String {
-        definition(
-            d,
-            "std_msgs/Header header\nfloat64 fluid_pressure\nfloat64 variance\n",
-            &[HEADER, TIME],
-        )
+        standard(RosType::FluidPressure, d)
     }
     fn encode(&self, d: Dialect, _: Convention, s: &RosSettings) -> Vec<u8> {
         let pressure =
@@ -290,12 +244,7 @@ impl ToRos for Depth {
 impl ToRos for Altimeter {
     const TYPE_NAME: &'static str = "sensor_msgs/msg/Range";
     fn definition_in(d: Dialect) -> String {
-        definition(
-            d,
-            "uint8 ULTRASOUND=0\nuint8 INFRARED=1\nstd_msgs/Header header\nuint8 radiation_type\n\
-             float32 field_of_view\nfloat32 min_range\nfloat32 max_range\nfloat32 range\n",
-            &[HEADER, TIME],
-        )
+        standard(RosType::Range, d)
     }
     fn encode(&self, d: Dialect, _: Convention, _: &RosSettings) -> Vec<u8> {
         let mut w = WireWriter::of(d);
@@ -312,19 +261,7 @@ impl ToRos for Altimeter {
 impl ToRos for GnssFix {
     const TYPE_NAME: &'static str = "sensor_msgs/msg/NavSatFix";
     fn definition_in(d: Dialect) -> String {
-        definition(
-            d,
-            "std_msgs/Header header\nNavSatStatus status\nfloat64 latitude\nfloat64 longitude\n\
-             float64 altitude\nfloat64[9] position_covariance\n\
-             uint8 COVARIANCE_TYPE_UNKNOWN = 0\nuint8 COVARIANCE_TYPE_DIAGONAL_KNOWN = 2\n\
-             uint8 position_covariance_type\n",
-            &[
-                HEADER,
-                TIME,
-                "MSG: sensor_msgs/NavSatStatus\nint8 STATUS_NO_FIX =  -1\nint8 STATUS_FIX = 0\n\
-                 int8 status\nuint16 SERVICE_GPS = 1\nuint16 service\n",
-            ],
-        )
+        standard(RosType::NavSatFix, d)
     }
     fn encode(&self, d: Dialect, _: Convention, _: &RosSettings) -> Vec<u8> {
         let var = self.horizontal_sigma_m * self.horizontal_sigma_m;
@@ -342,11 +279,7 @@ impl ToRos for GnssFix {
 impl ToRos for Attitude {
     const TYPE_NAME: &'static str = "geometry_msgs/msg/QuaternionStamped";
     fn definition_in(d: Dialect) -> String {
-        definition(
-            d,
-            "std_msgs/Header header\ngeometry_msgs/Quaternion quaternion\n",
-            &[HEADER, TIME, QUATERNION],
-        )
+        standard(RosType::QuaternionStamped, d)
     }
     fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
         let ned_from_body = UnitQuaternion::from_euler_angles(self.roll, self.pitch, self.yaw);
@@ -365,11 +298,7 @@ impl ToRos for Attitude {
 impl ToRos for PositionFix {
     const TYPE_NAME: &'static str = "geometry_msgs/msg/PointStamped";
     fn definition_in(d: Dialect) -> String {
-        definition(
-            d,
-            "std_msgs/Header header\ngeometry_msgs/Point point\n",
-            &[HEADER, TIME, POINT],
-        )
+        standard(RosType::PointStamped, d)
     }
     /// A horizontal-only fix has a NaN z (ROS's "unknown").
     fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {

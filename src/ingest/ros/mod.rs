@@ -7,3 +7,4 @@ pub mod cdr;
 pub mod decoder;
 pub mod map;
 pub mod msg;
+pub mod standard;
