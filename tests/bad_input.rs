@@ -133,7 +133,15 @@ fn corrupted_logs_never_panic() {
             let back = read(bytes, &IngestOptions::default()).unwrap();
             assert_eq!(back.streams[0].message_encoding, encoding);
             assert_eq!(Streams::of(&back).imu, Streams::of(&log).imu);
-            assert_eq!(Streams::of(&back).dvl, Streams::of(&log).dvl);
+            // TwistWithCovarianceStamped carries no altitude.
+            let velocities = |l: &hindsight::ingest::Log| -> Vec<_> {
+                Streams::of(l)
+                    .dvl
+                    .iter()
+                    .map(|d| (d.stamp_ns, d.velocity, d.valid))
+                    .collect()
+            };
+            assert_eq!(velocities(&back), velocities(&log));
         }
         for (_, good) in (0..300).zip([&json, &cdr, &ros1].into_iter().cycle()) {
             let mut bytes = good.clone();
@@ -300,4 +308,85 @@ fn each_bad_message_is_counted_with_topic_time_and_field() {
         assert!(text.contains(&format!("field `{field}`")), "{text}");
         assert!(!text.contains('\n'), "{text}");
     }
+}
+
+/// The fixture a bag test flips and cuts (written by `rosbags`; see tests/foreign_bags.rs).
+fn bag_fixture(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/bags")
+        .join(name)
+}
+
+#[test]
+fn corrupted_and_cut_ros1_bags_never_panic() {
+    let good = std::fs::read(bag_fixture("pool_noetic_native.bag")).unwrap();
+    let whole = read(&good, &IngestOptions::default()).unwrap();
+    assert_eq!(whole.file.ending, Ending::Complete);
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let lenient = IngestOptions {
+        max_invalid_fraction: 1.0,
+        skip_unknown: true,
+        ..IngestOptions::default()
+    };
+    for _ in 0..60 {
+        let mut bytes = good.clone();
+        for _ in 0..rng.random_range(1..4) {
+            let i = rng.random_range(13..bytes.len());
+            bytes[i] ^= 1 << rng.random_range(0..8);
+        }
+        if let Err(e) = read(&bytes, &lenient) {
+            assert!(!e.to_string().contains('\n'), "{e}");
+        }
+    }
+    // Cut anywhere: the whole chunks before the cut are read, and the bag is reported cut
+    // short (its header's index position is set only when it is closed, and the index is
+    // at the end).
+    let counts: Vec<u64> = (1..=20)
+        .map(|k| {
+            let cut = good.len() * k / 21;
+            let log = read(&good[..cut], &IngestOptions::default()).unwrap();
+            let cut_short = matches!(log.file.ending, Ending::Truncated { .. });
+            assert!(cut_short || k == 20, "cut at {cut}");
+            log.message_count()
+        })
+        .collect();
+    assert!(counts.windows(2).all(|w| w[0] <= w[1]), "{counts:?}");
+    assert_eq!(counts[0], 0, "inside the first chunk");
+    assert!(
+        counts.iter().any(|&c| c > 0 && c < whole.message_count()),
+        "{counts:?}"
+    );
+}
+
+#[test]
+fn corrupted_sqlite_bags_never_panic() {
+    let dir = common::scratch_dir("bad-sqlite");
+    let good = std::fs::read(bag_fixture("pool_jazzy_native/pool_jazzy_native.db3")).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    for round in 0..30 {
+        let mut bytes = good.clone();
+        for _ in 0..rng.random_range(1..8) {
+            let i = rng.random_range(0..bytes.len());
+            bytes[i] ^= 1 << rng.random_range(0..8);
+        }
+        // Some rounds also cut the file.
+        if round % 3 == 0 {
+            bytes.truncate(rng.random_range(0..bytes.len()));
+        }
+        let path = dir.join(format!("flipped-{round}.db3"));
+        std::fs::write(&path, &bytes).unwrap();
+        let options = IngestOptions {
+            max_invalid_fraction: 1.0,
+            skip_unknown: true,
+            ..IngestOptions::default()
+        };
+        if let Err(e) = hindsight::ingest::read_log(&path, &options) {
+            assert!(!e.to_string().contains('\n'), "{e}");
+        }
+    }
+    // A folder without a database says so.
+    let empty = dir.join("empty-bag");
+    std::fs::create_dir_all(&empty).unwrap();
+    let e = hindsight::ingest::read_log(&empty, &IngestOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("no .db3 file"), "{e}");
 }

@@ -12,7 +12,7 @@ use hindsight::contract::{
 use hindsight::ingest::ros::map::Convention;
 use hindsight::ingest::{read_log, read_log_from, IngestOptions, Log, MissionDefaults};
 use hindsight::recon::config::Config;
-use hindsight::recon::{run_configured as reconstruct, Reconstruction};
+use hindsight::recon::run_configured as reconstruct;
 use hindsight::sim::writer::{to_bytes, LogWriter, WriterOptions};
 use std::path::{Path, PathBuf};
 
@@ -160,27 +160,6 @@ fn humble_rep103_and_jazzy_native_recordings_hold_the_json_values() {
     assert_eq!(b.magnetic_field[1], -a.magnetic_field[1]);
 }
 
-/// Largest distance between the positions of two solution lists, m.
-fn largest_difference(a: &Reconstruction, b: &Reconstruction) -> f64 {
-    const R: f64 = 6_378_137.0;
-    let pairs = |x: &[hindsight::filters::ins::record::Solution],
-                 y: &[hindsight::filters::ins::record::Solution]| {
-        assert_eq!(x.len(), y.len());
-        x.iter()
-            .zip(y)
-            .map(|(p, q)| {
-                assert_eq!(p.stamp_ns, q.stamp_ns);
-                let (p, q) = (&p.point.nav, &q.point.nav);
-                let north = (p.lat_rad - q.lat_rad) * R;
-                let east = (p.lon_rad - q.lon_rad) * R * p.lat_rad.cos();
-                (north * north + east * east + (p.height_m - q.height_m).powi(2)).sqrt()
-            })
-            .fold(0.0, f64::max)
-    };
-    let all = |s: &hindsight::filters::ins::solutions::Solutions| s.to_vec().unwrap();
-    pairs(&all(&a.forward), &all(&b.forward)).max(pairs(&all(&a.smoothed), &all(&b.smoothed)))
-}
-
 #[test]
 fn the_same_mission_in_json_and_in_ros2_reconstructs_within_a_millimetre() {
     let json = json_survey_window();
@@ -202,31 +181,10 @@ fn the_same_mission_in_json_and_in_ros2_reconstructs_within_a_millimetre() {
             &config,
         )
         .unwrap();
-        let d = largest_difference(&reference, &r);
+        let d = common::largest_difference(&reference, &r);
         println!("{name}: largest position difference {d:.2e} m");
         assert!(d < 1e-3, "{name}: {d} m");
     }
-}
-
-/// The float columns of a Parquet file, concatenated over its batches.
-fn float_columns(path: &Path) -> Vec<(String, Vec<f64>)> {
-    use arrow_array::{Array, Float64Array};
-    let batches = common::read_parquet(path);
-    let schema = batches[0].schema();
-    let mut out = Vec::new();
-    for (i, field) in schema.fields().iter().enumerate() {
-        let mut values = Vec::new();
-        for b in &batches {
-            let Some(c) = b.column(i).as_any().downcast_ref::<Float64Array>() else {
-                break;
-            };
-            values.extend((0..c.len()).map(|k| if c.is_null(k) { f64::NAN } else { c.value(k) }));
-        }
-        if !values.is_empty() {
-            out.push((field.name().clone(), values));
-        }
-    }
-    out
 }
 
 #[test]
@@ -270,8 +228,8 @@ fn the_same_pool_run_in_json_and_in_ros2_gives_attitude_within_a_millimetre() {
     );
     for file in ["attitude.parquet", "attitude_summary.parquet"] {
         let (a, b) = (
-            float_columns(&json_out.join(file)),
-            float_columns(&ros_out.join(file)),
+            common::float_columns(&json_out.join(file)),
+            common::float_columns(&ros_out.join(file)),
         );
         assert_eq!(a.len(), b.len(), "{file}");
         for ((name, x), (_, y)) in a.iter().zip(&b) {
@@ -290,7 +248,9 @@ fn the_same_pool_run_in_json_and_in_ros2_gives_attitude_within_a_millimetre() {
             assert!(worst < 1e-3, "{file} {name}: differs by {worst}");
         }
     }
-    let rows = float_columns(&json_out.join("attitude.parquet"))[0].1.len();
+    let rows = common::float_columns(&json_out.join("attitude.parquet"))[0]
+        .1
+        .len();
     assert!(rows > 6 * 20_000, "{rows}");
 }
 
@@ -370,8 +330,8 @@ fn a_ros2_zigzag_identifies_as_its_json_original() {
         outs.push(out);
     }
     let (a, b) = (
-        float_columns(&outs[0].join("coefficients.parquet")),
-        float_columns(&outs[1].join("coefficients.parquet")),
+        common::float_columns(&outs[0].join("coefficients.parquet")),
+        common::float_columns(&outs[1].join("coefficients.parquet")),
     );
     assert!(!a.is_empty() && a.len() == b.len());
     // The inputs differ by rounding (the attitude through a quaternion, the depth through a

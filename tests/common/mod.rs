@@ -154,3 +154,48 @@ pub fn output_errors(
     let pick = |sol| hindsight::recon::score::errors(truth, sol, &r.output).unwrap();
     (pick(&r.forward), pick(&r.smoothed))
 }
+
+/// Largest distance between the positions of two solution lists, m.
+pub fn largest_difference(
+    a: &hindsight::recon::Reconstruction,
+    b: &hindsight::recon::Reconstruction,
+) -> f64 {
+    const R: f64 = 6_378_137.0;
+    let pairs = |x: &[hindsight::filters::ins::record::Solution],
+                 y: &[hindsight::filters::ins::record::Solution]| {
+        assert_eq!(x.len(), y.len());
+        x.iter()
+            .zip(y)
+            .map(|(p, q)| {
+                assert_eq!(p.stamp_ns, q.stamp_ns);
+                let (p, q) = (&p.point.nav, &q.point.nav);
+                let north = (p.lat_rad - q.lat_rad) * R;
+                let east = (p.lon_rad - q.lon_rad) * R * p.lat_rad.cos();
+                (north * north + east * east + (p.height_m - q.height_m).powi(2)).sqrt()
+            })
+            .fold(0.0, f64::max)
+    };
+    let all = |s: &hindsight::filters::ins::solutions::Solutions| s.to_vec().unwrap();
+    pairs(&all(&a.forward), &all(&b.forward)).max(pairs(&all(&a.smoothed), &all(&b.smoothed)))
+}
+
+/// The float columns of a Parquet file, concatenated over its batches.
+pub fn float_columns(path: &std::path::Path) -> Vec<(String, Vec<f64>)> {
+    use arrow_array::{Array, Float64Array};
+    let batches = read_parquet(path);
+    let schema = batches[0].schema();
+    let mut out = Vec::new();
+    for (i, field) in schema.fields().iter().enumerate() {
+        let mut values = Vec::new();
+        for b in &batches {
+            let Some(c) = b.column(i).as_any().downcast_ref::<Float64Array>() else {
+                break;
+            };
+            values.extend((0..c.len()).map(|k| if c.is_null(k) { f64::NAN } else { c.value(k) }));
+        }
+        if !values.is_empty() {
+            out.push((field.name().clone(), values));
+        }
+    }
+    out
+}

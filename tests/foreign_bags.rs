@@ -1,0 +1,270 @@
+//! Logs as people keep them, written by other people's tools from the json sample logs
+//! (`tests/fixtures/bags/make_bag_fixtures.py`): ROS 1 bags by `rosbags` (lz4 and bz2
+//! chunks), ROS 1 in MCAP by the official `mcap-ros1-support` writer, ROS 2 sqlite3 bags by
+//! `rosbags` (as Humble writes them, without definitions, and with the file's definitions).
+//! Both frame conventions. Each holds the json original's values, reconstructs within 1 mm of
+//! it, and the pool runs give the same attitude comparison within 1 mm.
+
+mod common;
+
+use hindsight::contract::{Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, Message, Streams};
+use hindsight::ingest::{
+    read_log, read_log_from, Container, IngestOptions, Log, Mission, MissionDefaults,
+};
+use hindsight::recon::config::Config;
+use hindsight::recon::run_configured as reconstruct;
+use hindsight::sim::writer::{to_bytes, LogWriter, WriterOptions};
+use std::path::{Path, PathBuf};
+
+/// The window of the sample logs the fixtures hold (the script's WINDOW_S).
+const WINDOW_NS: u64 = 60_000_000_000;
+
+/// The fixtures: (file, sample log, container).
+const SURVEYS: [(&str, Container); 3] = [
+    ("survey_noetic_rep103.bag", Container::Ros1Bag),
+    ("survey_ros1_native.mcap", Container::Mcap),
+    ("survey_humble_rep103", Container::Ros2Sqlite),
+];
+const POOLS: [(&str, Container); 3] = [
+    ("pool_noetic_native.bag", Container::Ros1Bag),
+    ("pool_ros1_rep103.mcap", Container::Mcap),
+    ("pool_jazzy_native", Container::Ros2Sqlite),
+];
+const SURVEY: &str = "survey-short-seed1.mcap";
+const POOL: &str = "pool-rectangle-seed1.mcap";
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/bags")
+        .join(name)
+}
+
+fn sample(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("sample-logs")
+        .join(name)
+}
+
+/// Copies the messages of `T`'s role logged within the window, as `keep` leaves them.
+fn copy<T: Message + Clone>(
+    w: &mut LogWriter<std::io::Cursor<Vec<u8>>>,
+    log: &Log,
+    t0: u64,
+    keep: impl Fn(T) -> T,
+) {
+    let Some(s) = log.role_topic::<T>().and_then(|t| log.stream(t)) else {
+        return;
+    };
+    for (m, &t) in s.messages::<T>().unwrap().iter().zip(&s.log_time_ns) {
+        if t - t0 <= WINDOW_NS {
+            w.write(T::DEFAULT_TOPIC, &keep(m.clone()), t).unwrap();
+        }
+    }
+}
+
+/// The json sample log cut to the window, with the streams a bag can hold (those of a
+/// standard ROS type), as the script cut it; and its mission.
+fn json_window(sample_name: &str) -> (Vec<u8>, Mission) {
+    let full = read_log(&sample(sample_name), &IngestOptions::default()).unwrap();
+    let mission = full.mission().unwrap();
+    let t0 = full
+        .streams
+        .iter()
+        .filter_map(|s| s.log_time_ns.first())
+        .min()
+        .copied()
+        .unwrap();
+    let bytes = to_bytes(WriterOptions::default(), |w| {
+        w.write_mission(&mission)?;
+        copy::<Imu>(w, &full, t0, |m| m);
+        copy::<MagneticField>(w, &full, t0, |m| m);
+        // TwistWithCovarianceStamped has no altitude (the altimeter's is used).
+        copy::<Dvl>(w, &full, t0, |m| Dvl {
+            altitude: None,
+            ..m
+        });
+        copy::<Depth>(w, &full, t0, |m| m);
+        copy::<Altimeter>(w, &full, t0, |m| m);
+        copy::<GnssFix>(w, &full, t0, |m| m);
+        Ok(())
+    })
+    .unwrap();
+    (bytes, mission)
+}
+
+fn json_log(sample_name: &str) -> (Log, Mission) {
+    let (bytes, mission) = json_window(sample_name);
+    let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
+    (log, mission)
+}
+
+fn assert_close(a: f64, b: f64, tol: f64, what: &str) {
+    assert!((a - b).abs() <= tol, "{what}: {a} against {b}");
+}
+
+/// Every role's messages equal the json original's, to the precision the ROS type carries.
+fn assert_same_values(name: &str, json: &Log, ros: &Log) {
+    let (j, r) = (Streams::of(json), Streams::of(ros));
+    assert!(!j.imu.is_empty() && !j.dvl.is_empty(), "{name}");
+    // Sign changes are exact; the DVL's lock goes through covariance[0].
+    assert!(j.imu == r.imu, "{name}: IMU differs");
+    assert!(j.mag == r.mag, "{name}: magnetometer differs");
+    assert!(j.dvl == r.dvl, "{name}: DVL differs");
+    assert_eq!(j.depth.len(), r.depth.len(), "{name}");
+    for (a, b) in j.depth.iter().zip(r.depth) {
+        assert_eq!(a.stamp_ns, b.stamp_ns);
+        assert_close(a.depth, b.depth, 1e-9, "depth through FluidPressure");
+    }
+    assert_eq!(j.altimeter.len(), r.altimeter.len(), "{name}");
+    for (a, b) in j.altimeter.iter().zip(r.altimeter) {
+        assert_eq!(a.stamp_ns, b.stamp_ns);
+        assert_eq!(b.altitude, a.altitude as f32 as f64, "Range is float32");
+    }
+    assert_eq!(j.gnss.len(), r.gnss.len(), "{name}");
+    for (a, b) in j.gnss.iter().zip(r.gnss) {
+        assert_eq!(
+            (a.stamp_ns, a.latitude_deg, a.longitude_deg),
+            (b.stamp_ns, b.latitude_deg, b.longitude_deg)
+        );
+        assert_close(a.horizontal_sigma_m, b.horizontal_sigma_m, 1e-12, "sigma");
+    }
+}
+
+#[test]
+fn every_container_holds_the_json_values() {
+    for (sample_name, fixtures) in [(SURVEY, SURVEYS), (POOL, POOLS)] {
+        let (json, _) = json_log(sample_name);
+        for (name, container) in fixtures {
+            let log = read_log(&fixture(name), &IngestOptions::default()).unwrap();
+            assert_eq!(log.file.container, container, "{name}");
+            assert_eq!(log.role_topic::<Imu>(), Some("/vehicle/imu/data"), "{name}");
+            assert_eq!(
+                log.role_topic::<Dvl>(),
+                Some("/vehicle/dvl/twist"),
+                "{name}"
+            );
+            assert!(log.warnings().is_empty(), "{name}: {:?}", log.warnings());
+            assert_same_values(name, &json, &log);
+        }
+    }
+    // The ROS 1 MCAP files are the official writer's.
+    let log = read_log(&fixture(SURVEYS[1].0), &IngestOptions::default()).unwrap();
+    assert!(log.file.library.contains("mcap-ros1-support/0.9.0"));
+    assert_eq!(log.streams[0].message_encoding, "ros1");
+}
+
+#[test]
+fn the_same_missions_in_every_container_reconstruct_within_a_millimetre() {
+    let config = Config::default();
+    for (sample_name, fixtures) in [(SURVEY, SURVEYS), (POOL, POOLS)] {
+        let (json, mission) = json_log(sample_name);
+        // A bag has no mission record: the sample's origin and vehicle are given.
+        let defaults = MissionDefaults {
+            origin_latitude_deg: Some(mission.origin_latitude_deg),
+            origin_longitude_deg: Some(mission.origin_longitude_deg),
+            vehicle: Some(mission.vehicle.clone()),
+            magnetic_declination_deg: mission.magnetic_declination_deg,
+        };
+        let reference = reconstruct(&Streams::of(&json), &mission, &config).unwrap();
+        assert!(reference.smoothed.len() > 500, "{sample_name}");
+        for (name, _) in fixtures {
+            let log = read_log(&fixture(name), &IngestOptions::default()).unwrap();
+            let mission = log.mission_or(&defaults).unwrap();
+            let r = reconstruct(&Streams::of(&log), &mission, &config).unwrap();
+            let d = common::largest_difference(&reference, &r);
+            println!("{name}: largest position difference {d:.2e} m");
+            assert!(d < 1e-3, "{name}: {d} m");
+        }
+    }
+}
+
+#[test]
+fn the_same_pool_run_in_every_container_gives_attitude_within_a_millimetre() {
+    let dir = common::scratch_dir("bags-attitude");
+    let (bytes, mission) = json_window(POOL);
+    let json_path = dir.join("pool-window.mcap");
+    std::fs::write(&json_path, bytes).unwrap();
+    let attitude = |log: &Path, out: &Path, extra: &[&str]| {
+        let mut args = vec!["attitude", log.to_str().unwrap()];
+        args.extend(extra);
+        args.extend(["--out", out.to_str().unwrap()]);
+        let o = common::hindsight(&args);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+    };
+    let json_out = dir.join("json");
+    attitude(&json_path, &json_out, &[]);
+    let origin = format!(
+        "{},{}",
+        mission.origin_latitude_deg, mission.origin_longitude_deg
+    );
+    let declination = mission.magnetic_declination_deg.unwrap().to_string();
+    for (name, _) in POOLS {
+        let out = dir.join(name.replace('.', "-"));
+        attitude(
+            &fixture(name),
+            &out,
+            &["--origin", &origin, "--declination", &declination],
+        );
+        for file in ["attitude.parquet", "attitude_summary.parquet"] {
+            let (a, b) = (
+                common::float_columns(&json_out.join(file)),
+                common::float_columns(&out.join(file)),
+            );
+            assert!(!a.is_empty() && a.len() == b.len(), "{name} {file}");
+            for ((column, x), (_, y)) in a.iter().zip(&b) {
+                assert_eq!(x.len(), y.len(), "{name} {file} {column}");
+                let worst = x
+                    .iter()
+                    .zip(y)
+                    .filter(|(p, q)| !(p.is_nan() && q.is_nan()))
+                    .map(|(p, q)| match column.ends_with("_rad") {
+                        true => hindsight::angle::wrap_pi(p - q).abs(),
+                        false => (p - q).abs(),
+                    })
+                    .fold(0.0, f64::max);
+                assert!(worst < 1e-3, "{name} {file} {column}: differs by {worst}");
+            }
+        }
+    }
+}
+
+#[test]
+fn info_names_the_container_and_reconstruct_reads_a_bag_folder() {
+    for (name, words) in [
+        ("survey_noetic_rep103.bag", "ROS 1 bag (format 2.0)"),
+        ("survey_humble_rep103", "ROS 2 bag (sqlite3)"),
+        ("survey_ros1_native.mcap", "mcap-ros1-support"),
+    ] {
+        let o = common::hindsight(&["info", fixture(name).to_str().unwrap()]);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(text.contains(words), "{name}: {text}");
+        assert!(
+            text.contains("roles not at their default topic: imu /vehicle/imu/data"),
+            "{text}"
+        );
+    }
+    let out = common::scratch_dir("bags-reconstruct");
+    let bag = fixture("survey_humble_rep103");
+    let before: Vec<_> = std::fs::read_dir(&bag)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    let o = common::hindsight(&[
+        "reconstruct",
+        bag.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    assert!(out.join("trajectory.parquet").exists());
+    let after: Vec<_> = std::fs::read_dir(&bag)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(
+        before.len(),
+        after.len(),
+        "nothing written beside the database"
+    );
+}
