@@ -24,7 +24,9 @@ use std::time::{Duration, Instant};
 /// TwistWithCovarianceStamped, depth as FluidPressure, altimeter as Range, attitude as
 /// QuaternionStamped) written as a ROS 2 recording in CDR, REP-103 frames, and its ingest
 /// timed the same way (schema-driven CDR decoding, frame conversion, validation).
-/// With --ros1: the same as ROS 1 messages in MCAP (`ros1`, as `mcap convert` writes a bag).
+/// With --as: the same streams in another container or encoding: `cdr` (as --cdr), `ros1`
+/// (ROS 1 messages in MCAP, as `mcap convert` writes a bag), `bag` (a ROS 1 bag, lz4 chunks),
+/// `db3` (a ROS 2 sqlite3 bag as Humble writes it).
 ///
 /// With --reconstruct: the scenario (default long-dive, 5.5 h; seed 0) is simulated, then
 /// ingest, forward filter and smoother are timed (medians, and their ratio to ingest), and
@@ -43,6 +45,19 @@ use std::time::{Duration, Instant};
 /// With --simulate: a scenario (default long-dive-dynamic: seed 000's 5.5 h mission flown
 /// by the 6-DOF model, RK4 at 100 Hz) simulated and written to a file on one thread, its
 /// dynamics alone, and the kinematic long-dive for the ratio (medians).
+/// The forms a log can be benchmarked in besides json in MCAP.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LogForm {
+    /// ROS 2 messages (CDR) in MCAP.
+    Cdr,
+    /// ROS 1 messages in MCAP.
+    Ros1,
+    /// A ROS 1 bag (format 2.0), lz4 chunks.
+    Bag,
+    /// A ROS 2 bag in sqlite3 storage.
+    Db3,
+}
+
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct BenchArgs {
@@ -62,13 +77,14 @@ pub struct BenchArgs {
     #[arg(long, value_name = "FILE")]
     pub keep: Option<PathBuf>,
 
-    /// Benchmark the ingest of the log written as a ROS 2 recording (CDR) instead of JSON.
-    #[arg(long)]
+    /// Benchmark the ingest of the log written as a ROS 2 recording (CDR) instead of JSON
+    /// (the same as --as cdr).
+    #[arg(long, conflicts_with = "format")]
     pub cdr: bool,
 
-    /// Benchmark the ingest of the log written as ROS 1 messages in MCAP instead of JSON.
-    #[arg(long, conflicts_with = "cdr")]
-    pub ros1: bool,
+    /// Benchmark the ingest of the log written in another form than JSON in MCAP.
+    #[arg(long = "as", value_name = "FORM", value_enum)]
+    pub format: Option<LogForm>,
 
     /// Benchmark the reconstruction on a simulated scenario instead of ingest alone.
     #[arg(long)]
@@ -139,42 +155,74 @@ pub fn run(args: BenchArgs) -> Result<()> {
         seed: args.seed,
         ..Default::default()
     };
-    if args.cdr || args.ros1 {
-        use hindsight::ingest::ros::msg::Dialect;
-        let dialect = if args.ros1 {
-            Dialect::Ros1
-        } else {
-            Dialect::Ros2
-        };
+    let form = if args.cdr {
+        Some(LogForm::Cdr)
+    } else {
+        args.format
+    };
+    if let Some(form) = form {
         return with_log_file(
             None,
             |w| Ok(synthetic::write_survey(w, &spec).map(|_| ())?),
             |json| {
                 let log = ingest::read_log(json, &IngestOptions::default())?;
-                with_log_file(
-                    args.keep.as_deref(),
-                    |w| {
-                        let settings = Default::default();
-                        let convention = hindsight::ingest::ros::map::Convention::Rep103;
-                        hindsight::sim::ros::write_standard_streams(
-                            &log, dialect, convention, &settings, w,
-                        )?;
-                        Ok(())
-                    },
-                    |path| measure(&path.to_path_buf(), args.repeat),
-                )
+                bench_as(&log, form, args.keep.as_deref(), args.repeat)
             },
         );
     }
     with_log_file(
         args.keep.as_deref(),
         |w| Ok(synthetic::write_survey(w, &spec).map(|_| ())?),
-        |path| measure(&path.to_path_buf(), args.repeat),
+        |path| measure(path, args.repeat),
     )
 }
 
 /// Writes a log with `write` to `keep` (or a temporary file, removed afterwards) and runs
 /// `measure` on it.
+/// Writes `log` in `form` (at `keep`, or a temporary path removed after) and times its ingest.
+fn bench_as(
+    log: &ingest::Log,
+    form: LogForm,
+    keep: Option<&std::path::Path>,
+    repeat: usize,
+) -> Result<()> {
+    use hindsight::ingest::ros::{map::Convention, msg::Dialect};
+    use hindsight::sim::{bag, ros};
+    let settings = Default::default();
+    let convention = Convention::Rep103;
+    let dialect = match form {
+        LogForm::Cdr => Dialect::Ros2,
+        LogForm::Ros1 => Dialect::Ros1,
+        LogForm::Bag | LogForm::Db3 => {
+            let path = keep.map(|p| p.to_path_buf()).unwrap_or_else(|| {
+                let ext = if form == LogForm::Bag {
+                    "bag"
+                } else {
+                    "db3-bag"
+                };
+                std::env::temp_dir().join(format!("hindsight-bench-{}.{ext}", std::process::id()))
+            });
+            match form {
+                LogForm::Bag => bag::write_ros1_bag(log, convention, &settings, &path)?,
+                _ => bag::write_sqlite_bag(log, convention, &settings, &path)?,
+            };
+            let result = measure(&path, repeat);
+            if keep.is_none() {
+                let _ = std::fs::remove_file(&path).or_else(|_| std::fs::remove_dir_all(&path));
+            }
+            return result;
+        }
+    };
+    with_log_file(
+        keep,
+        |w| {
+            ros::write_standard_streams(log, dialect, convention, &settings, w)?;
+            Ok(())
+        },
+        |path| measure(path, repeat),
+    )
+}
+
 pub(super) fn with_log_file(
     keep: Option<&std::path::Path>,
     write: impl FnOnce(&mut writer::LogWriter<std::io::BufWriter<std::fs::File>>) -> Result<()>,
@@ -200,15 +248,20 @@ pub(super) fn with_log_file(
     result
 }
 
-fn measure(path: &PathBuf, repeat: usize) -> Result<()> {
-    let file_bytes = std::fs::metadata(path)?.len() as f64;
-    let open = || -> Result<_> {
-        Ok(std::io::BufReader::with_capacity(
-            1 << 20,
-            std::fs::File::open(path)?,
-        ))
-    };
-    let totals = ingest::scan(open()?)?;
+/// Bytes of a file, or of the files in a folder (a sqlite3 bag).
+fn disk_bytes(path: &std::path::Path) -> u64 {
+    match std::fs::read_dir(path) {
+        Ok(entries) => entries
+            .filter_map(|e| e.ok()?.metadata().ok())
+            .map(|m| m.len())
+            .sum(),
+        Err(_) => std::fs::metadata(path).map_or(0, |m| m.len()),
+    }
+}
+
+fn measure(path: &std::path::Path, repeat: usize) -> Result<()> {
+    let file_bytes = disk_bytes(path) as f64;
+    let totals = ingest::scan_log(path)?;
     println!(
         "log: {}  {:.1} MB on disk, {} messages, {:.1} MB of payload",
         path.display(),
@@ -220,7 +273,7 @@ fn measure(path: &PathBuf, repeat: usize) -> Result<()> {
         decode_threads: 1,
         ..IngestOptions::default()
     };
-    let scan = time(repeat, || Ok(ingest::scan(open()?)?.messages))?;
+    let scan = time(repeat, || Ok(ingest::scan_log(path)?.messages))?;
     let ingest_only = time(
         repeat,
         || Ok(ingest::read_log(path, &opts)?.message_count()),

@@ -126,8 +126,28 @@ pub struct ScanTotals {
 /// Walks the container (decompressing chunks) and counts messages without decoding them:
 /// the floor under any full read, used by `hindsight bench` to show where the time goes.
 pub fn scan<R: Read>(input: R) -> Result<ScanTotals, IngestError> {
+    scan_with(|on_record| for_each_record(input, on_record))
+}
+
+/// [`scan`] of the log at `path`, in any container [`read_log`] reads.
+pub fn scan_log(path: &Path) -> Result<ScanTotals, IngestError> {
+    if let Some(bag) = sqlite::bag_at(path)? {
+        return scan_with(|on_record| {
+            Ok((
+                Container::Ros2Sqlite,
+                sqlite::for_each_record(&bag, on_record)?,
+            ))
+        });
+    }
+    let file = std::fs::File::open(path)?;
+    scan(std::io::BufReader::with_capacity(1 << 20, file))
+}
+
+fn scan_with(
+    walk: impl FnOnce(&mut dyn FnMut(Record<'_>) -> Result<(), IngestError>) -> Walked,
+) -> Result<ScanTotals, IngestError> {
     let (mut messages, mut payload_bytes, mut in_summary) = (0u64, 0u64, false);
-    let (_, (ending, _)) = for_each_record(input, |record| {
+    let (_, (ending, _)) = walk(&mut |record| {
         match record {
             Record::Message { data, .. } if !in_summary => {
                 messages += 1;

@@ -4,6 +4,7 @@
 //! May import: `contract`, `ingest` (for [`Mission`](crate::ingest::Mission), and the logs
 //! [`ros2`] rewrites), `align` (its merge), `time`, `mcap`.
 
+pub mod bag;
 pub mod dynamic;
 pub mod inertial;
 pub mod profile;

@@ -367,6 +367,46 @@ pub fn message_encoding(dialect: Dialect) -> &'static str {
     }
 }
 
+/// One message of a standard type, serialised: what a ROS container writes.
+pub struct RosMessage<'a> {
+    /// Index of the log's stream it comes from.
+    pub stream: usize,
+    pub type_name: &'a str,
+    pub definition: &'a str,
+    pub data: Vec<u8>,
+    pub log_time_ns: u64,
+}
+
+/// Every message of `log`'s streams with a standard ROS type, serialised for `dialect`, in
+/// stamp order (logged at their stamps), to `each`.
+pub fn for_each_ros_message<E>(
+    log: &Log,
+    dialect: Dialect,
+    convention: Convention,
+    settings: &RosSettings,
+    mut each: impl FnMut(RosMessage<'_>) -> Result<(), E>,
+) -> Result<u64, E> {
+    let encoders: Vec<Option<StreamEncoder>> = log
+        .streams
+        .iter()
+        .map(|s| encoder_of(s, dialect, convention, settings))
+        .collect();
+    let mut written = 0;
+    for event in crate::align::merged(&log.streams) {
+        if let Some(e) = &encoders[event.stream] {
+            each(RosMessage {
+                stream: event.stream,
+                type_name: &e.type_name,
+                definition: &e.definition,
+                data: (e.encode)(event.index),
+                log_time_ns: u64::try_from(event.stamp_ns).unwrap_or(0),
+            })?;
+            written += 1;
+        }
+    }
+    Ok(written)
+}
+
 /// Writes `log` as a ROS 2 recording (CDR, as rosbag2 writes MCAP) or a ROS 1 one (as
 /// `mcap convert` writes a bag): the streams with a standard ROS type on their topics
 /// (`topic_of` renames them, e.g. `/imu` to `/vehicle/imu/data`), the others as `others`
