@@ -19,16 +19,22 @@ use std::path::{Path, PathBuf};
 /// The window of the sample logs the fixtures hold (the script's WINDOW_S).
 const WINDOW_NS: u64 = 60_000_000_000;
 
-/// The fixtures: (file, sample log, container).
-const SURVEYS: [(&str, Container); 3] = [
-    ("survey_noetic_rep103.bag", Container::Ros1Bag),
-    ("survey_ros1_native.mcap", Container::Mcap),
-    ("survey_humble_rep103", Container::Ros2Sqlite),
+/// A fixture: its file, container, and the DVL's topic (TwistWithCovarianceStamped on
+/// `/vehicle/dvl/twist`, without altitude; a driver's DVL message on `/vehicle/dvl`, with it).
+type Fixture = (&'static str, Container, &'static str);
+const TWIST: &str = "/vehicle/dvl/twist";
+const DRIVER: &str = "/vehicle/dvl";
+const SURVEYS: [Fixture; 3] = [
+    ("survey_noetic_rep103.bag", Container::Ros1Bag, TWIST),
+    ("survey_ros1_native.mcap", Container::Mcap, TWIST),
+    ("survey_humble_rep103", Container::Ros2Sqlite, TWIST),
 ];
-const POOLS: [(&str, Container); 3] = [
-    ("pool_noetic_native.bag", Container::Ros1Bag),
-    ("pool_ros1_rep103.mcap", Container::Mcap),
-    ("pool_jazzy_native", Container::Ros2Sqlite),
+const POOLS: [Fixture; 3] = [
+    // Water Linked's waterlinked_a50_ros_driver/DVL.
+    ("pool_noetic_native.bag", Container::Ros1Bag, DRIVER),
+    ("pool_ros1_rep103.mcap", Container::Mcap, TWIST),
+    // The UUV Simulator's uuv_sensor_ros_plugins_msgs/DVL.
+    ("pool_jazzy_native", Container::Ros2Sqlite, DRIVER),
 ];
 const SURVEY: &str = "survey-short-seed1.mcap";
 const POOL: &str = "pool-rectangle-seed1.mcap";
@@ -63,8 +69,9 @@ fn copy<T: Message + Clone>(
 }
 
 /// The json sample log cut to the window, with the streams a bag can hold (those of a
-/// standard ROS type), as the script cut it; and its mission.
-fn json_window(sample_name: &str) -> (Vec<u8>, Mission) {
+/// standard ROS type), as the script cut it; and its mission. Without `dvl_altitude` the
+/// DVL's altitude is left out, as TwistWithCovarianceStamped has no place for it.
+fn json_window(sample_name: &str, dvl_altitude: bool) -> (Vec<u8>, Mission) {
     let full = read_log(&sample(sample_name), &IngestOptions::default()).unwrap();
     let mission = full.mission().unwrap();
     let t0 = full
@@ -78,9 +85,8 @@ fn json_window(sample_name: &str) -> (Vec<u8>, Mission) {
         w.write_mission(&mission)?;
         copy::<Imu>(w, &full, t0, |m| m);
         copy::<MagneticField>(w, &full, t0, |m| m);
-        // TwistWithCovarianceStamped has no altitude (the altimeter's is used).
         copy::<Dvl>(w, &full, t0, |m| Dvl {
-            altitude: None,
+            altitude: m.altitude.filter(|_| dvl_altitude),
             ..m
         });
         copy::<Depth>(w, &full, t0, |m| m);
@@ -92,8 +98,8 @@ fn json_window(sample_name: &str) -> (Vec<u8>, Mission) {
     (bytes, mission)
 }
 
-fn json_log(sample_name: &str) -> (Log, Mission) {
-    let (bytes, mission) = json_window(sample_name);
+fn json_log(sample_name: &str, dvl_altitude: bool) -> (Log, Mission) {
+    let (bytes, mission) = json_window(sample_name, dvl_altitude);
     let log = read_log_from(&bytes[..], &IngestOptions::default()).unwrap();
     (log, mission)
 }
@@ -133,16 +139,12 @@ fn assert_same_values(name: &str, json: &Log, ros: &Log) {
 #[test]
 fn every_container_holds_the_json_values() {
     for (sample_name, fixtures) in [(SURVEY, SURVEYS), (POOL, POOLS)] {
-        let (json, _) = json_log(sample_name);
-        for (name, container) in fixtures {
+        for (name, container, dvl_topic) in fixtures {
+            let (json, _) = json_log(sample_name, dvl_topic == DRIVER);
             let log = read_log(&fixture(name), &IngestOptions::default()).unwrap();
             assert_eq!(log.file.container, container, "{name}");
             assert_eq!(log.role_topic::<Imu>(), Some("/vehicle/imu/data"), "{name}");
-            assert_eq!(
-                log.role_topic::<Dvl>(),
-                Some("/vehicle/dvl/twist"),
-                "{name}"
-            );
+            assert_eq!(log.role_topic::<Dvl>(), Some(dvl_topic), "{name}");
             assert!(log.warnings().is_empty(), "{name}: {:?}", log.warnings());
             assert_same_values(name, &json, &log);
         }
@@ -157,7 +159,7 @@ fn every_container_holds_the_json_values() {
 fn the_same_missions_in_every_container_reconstruct_within_a_millimetre() {
     let config = Config::default();
     for (sample_name, fixtures) in [(SURVEY, SURVEYS), (POOL, POOLS)] {
-        let (json, mission) = json_log(sample_name);
+        let (json, mission) = json_log(sample_name, false);
         // A bag has no mission record: the sample's origin and vehicle are given.
         let defaults = MissionDefaults {
             origin_latitude_deg: Some(mission.origin_latitude_deg),
@@ -167,7 +169,7 @@ fn the_same_missions_in_every_container_reconstruct_within_a_millimetre() {
         };
         let reference = reconstruct(&Streams::of(&json), &mission, &config).unwrap();
         assert!(reference.smoothed.len() > 500, "{sample_name}");
-        for (name, _) in fixtures {
+        for (name, _, _) in fixtures {
             let log = read_log(&fixture(name), &IngestOptions::default()).unwrap();
             let mission = log.mission_or(&defaults).unwrap();
             let r = reconstruct(&Streams::of(&log), &mission, &config).unwrap();
@@ -181,7 +183,7 @@ fn the_same_missions_in_every_container_reconstruct_within_a_millimetre() {
 #[test]
 fn the_same_pool_run_in_every_container_gives_attitude_within_a_millimetre() {
     let dir = common::scratch_dir("bags-attitude");
-    let (bytes, mission) = json_window(POOL);
+    let (bytes, mission) = json_window(POOL, false);
     let json_path = dir.join("pool-window.mcap");
     std::fs::write(&json_path, bytes).unwrap();
     let attitude = |log: &Path, out: &Path, extra: &[&str]| {
@@ -198,7 +200,7 @@ fn the_same_pool_run_in_every_container_gives_attitude_within_a_millimetre() {
         mission.origin_latitude_deg, mission.origin_longitude_deg
     );
     let declination = mission.magnetic_declination_deg.unwrap().to_string();
-    for (name, _) in POOLS {
+    for (name, _, _) in POOLS {
         let out = dir.join(name.replace('.', "-"));
         attitude(
             &fixture(name),

@@ -123,7 +123,9 @@ impl Decoder for RosDecoder {
             RosType::TwistWithCovarianceStamped => Box::new(Vec::<Dvl>::new()),
             RosType::QuaternionStamped => Box::new(Vec::<Attitude>::new()),
             RosType::PointStamped => Box::new(Vec::<PositionFix>::new()),
-            RosType::AcousticDvl => Box::new(Vec::<Dvl>::new()),
+            RosType::AcousticDvl | RosType::WaterLinkedDvl | RosType::UuvDvl => {
+                Box::new(Vec::<Dvl>::new())
+            }
         }
     }
     fn decode_into(&self, data: &[u8], out: &mut dyn Samples) -> Result<(), FieldIssue> {

@@ -80,6 +80,13 @@ pub enum RosType {
     /// `marine_acoustic_msgs/Dvl`, the DVL message of common drivers (UW-APL's
     /// marine_msgs): velocity, mode, good beams and altitude.
     AcousticDvl,
+    /// Water Linked's A50/A125 driver message: `waterlinked_a50_ros_driver/DVL` (ROS 1) and
+    /// `dvl_msgs/DVL` (ROS 2): velocity in the DVL's frame (x forward, y right, z down),
+    /// `velocity_valid`, `altitude`.
+    WaterLinkedDvl,
+    /// The UUV Simulator's `uuv_sensor_ros_plugins_msgs/DVL`: velocity in the DVL link's
+    /// frame, `velocity_covariance[0]` -1 when invalid, `altitude`.
+    UuvDvl,
 }
 
 /// The stamp's paths, first in every type's list.
@@ -88,7 +95,7 @@ const STAMP: [&str; 2] = ["header.stamp.sec", "header.stamp.nanosec"];
 pub const FRAME: [&str; 1] = ["header.frame_id"];
 
 impl RosType {
-    pub const ALL: [RosType; 9] = [
+    pub const ALL: [RosType; 11] = [
         RosType::Imu,
         RosType::MagneticField,
         RosType::NavSatFix,
@@ -98,6 +105,8 @@ impl RosType {
         RosType::QuaternionStamped,
         RosType::PointStamped,
         RosType::AcousticDvl,
+        RosType::WaterLinkedDvl,
+        RosType::UuvDvl,
     ];
 
     /// The type's full name, `pkg/Type`.
@@ -112,12 +121,25 @@ impl RosType {
             RosType::QuaternionStamped => "geometry_msgs/QuaternionStamped",
             RosType::PointStamped => "geometry_msgs/PointStamped",
             RosType::AcousticDvl => "marine_acoustic_msgs/Dvl",
+            RosType::WaterLinkedDvl => "waterlinked_a50_ros_driver/DVL",
+            RosType::UuvDvl => "uuv_sensor_ros_plugins_msgs/DVL",
+        }
+    }
+
+    /// Other full names the same message goes by (another ROS, another package name).
+    fn aliases(self) -> &'static [&'static str] {
+        match self {
+            RosType::WaterLinkedDvl => &["dvl_msgs/DVL"],
+            RosType::UuvDvl => &["uuv_sensor_plugins_ros_msgs/DVL"],
+            _ => &[],
         }
     }
 
     /// The type of a full name (`pkg/Type`).
     pub fn of(full_name: &str) -> Option<RosType> {
-        RosType::ALL.into_iter().find(|t| t.name() == full_name)
+        RosType::ALL
+            .into_iter()
+            .find(|t| t.name() == full_name || t.aliases().contains(&full_name))
     }
 
     /// Whether the type's vectors are in the body frame (else the world frame).
@@ -166,6 +188,20 @@ impl RosType {
                 "velocity.z",
                 "velocity_mode",
                 "num_good_beams",
+                "altitude",
+            ],
+            RosType::WaterLinkedDvl => &[
+                "velocity.x",
+                "velocity.y",
+                "velocity.z",
+                "velocity_valid",
+                "altitude",
+            ],
+            RosType::UuvDvl => &[
+                "velocity.x",
+                "velocity.y",
+                "velocity.z",
+                "velocity_covariance[0]",
                 "altitude",
             ],
         }
@@ -219,6 +255,11 @@ fn world(v: Vector3<f64>, c: Convention) -> Vector3<f64> {
     }
 }
 
+/// An altitude when the driver gives one (a positive finite number).
+fn positive(altitude: f64) -> Option<f64> {
+    (altitude.is_finite() && altitude > 0.0).then_some(altitude)
+}
+
 /// `ned_from_frd` of a REP-103 `enu_from_flu`: `C = R_ned_enu C_enu_flu R_flu_frd`.
 pub fn ned_from_frd(q_enu_from_flu: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
     let ned_from_enu = Matrix3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0);
@@ -244,7 +285,7 @@ pub fn convert(
         .ok_or_else(|| FieldIssue::new("header.stamp", "out of range"))?;
     let c = given.unwrap_or_else(|| match ty {
         // The message defines its frame: z toward the seabed, x forward (so y starboard).
-        RosType::AcousticDvl => Convention::Native,
+        RosType::AcousticDvl | RosType::WaterLinkedDvl => Convention::Native,
         _ => convention_of(frame_id, ty.in_body()),
     });
     let f = &n[STAMP.len()..];
@@ -317,7 +358,20 @@ pub fn convert(
             velocity: body(v3(0), c),
             // Bottom lock: not water-track mode (2), and three beams or more.
             valid: f[3] != ACOUSTIC_DVL_MODE_WATER && f[4] >= 3.0,
-            altitude: (f[5].is_finite() && f[5] > 0.0).then_some(f[5]),
+            altitude: positive(f[5]),
+        }),
+        RosType::WaterLinkedDvl => Converted::Dvl(Dvl {
+            stamp_ns,
+            velocity: body(v3(0), c),
+            valid: f[3] != 0.0,
+            altitude: positive(f[4]),
+        }),
+        RosType::UuvDvl => Converted::Dvl(Dvl {
+            stamp_ns,
+            velocity: body(v3(0), c),
+            // An invalid measurement has its covariance set to -1.
+            valid: f[3] >= 0.0,
+            altitude: positive(f[4]),
         }),
         RosType::PointStamped => {
             let p = world(v3(0), c);
@@ -475,6 +529,36 @@ mod tests {
         assert_eq!((p.north_m, p.east_m, p.down_m), (20.0, 10.0, Some(5.0)));
         let p = point(f64::NAN);
         assert_eq!(p.down_m, None, "NaN is unknown: a horizontal fix");
+    }
+
+    #[test]
+    fn driver_dvls_give_their_lock_altitude_and_frame() {
+        let s = RosSettings::default();
+        let dvl = |ty: RosType, lock: f64, altitude: f64, frame: &str| {
+            let n = numbers(&[1.0, 0.1, 0.02, lock, altitude]);
+            match convert(ty, &n, (0, 0), frame, None, &s) {
+                Ok(Converted::Dvl(d)) => d,
+                other => panic!("{other:?}"),
+            }
+        };
+        // Water Linked: the DVL's own frame is x forward, y right, z down.
+        let d = dvl(RosType::WaterLinkedDvl, 1.0, 3.5, "dvl_link");
+        assert!(d.valid);
+        assert_eq!(d.velocity, [1.0, 0.1, 0.02]);
+        assert_eq!(d.altitude, Some(3.5));
+        assert!(!dvl(RosType::WaterLinkedDvl, 0.0, 3.5, "dvl_link").valid);
+        assert_eq!(RosType::of("dvl_msgs/DVL"), Some(RosType::WaterLinkedDvl));
+        // UUV Simulator: a Gazebo link is REP-103; -1 covariance is invalid.
+        let d = dvl(RosType::UuvDvl, 0.0, 7.0, "rexrov/dvl_link");
+        assert!(d.valid);
+        assert_eq!(d.velocity, [1.0, -0.1, -0.02]);
+        assert_eq!(d.altitude, Some(7.0));
+        assert!(!dvl(RosType::UuvDvl, -1.0, 7.0, "rexrov/dvl_link").valid);
+        assert_eq!(dvl(RosType::UuvDvl, 0.0, 0.0, "dvl_frd").altitude, None);
+        assert_eq!(
+            dvl(RosType::UuvDvl, 0.0, 7.0, "dvl_frd").velocity,
+            [1.0, 0.1, 0.02]
+        );
     }
 
     #[test]

@@ -96,6 +96,6 @@ pub fn definition(ty: RosType, dialect: Dialect) -> Option<String> {
             "std_msgs/Header header\ngeometry_msgs/Point point\n",
             &[HEADER, TIME, POINT],
         ),
-        RosType::AcousticDvl => return None,
+        RosType::AcousticDvl | RosType::WaterLinkedDvl | RosType::UuvDvl => return None,
     })
 }
