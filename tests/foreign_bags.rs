@@ -145,7 +145,15 @@ fn every_container_holds_the_json_values() {
             assert_eq!(log.file.container, container, "{name}");
             assert_eq!(log.role_topic::<Imu>(), Some("/vehicle/imu/data"), "{name}");
             assert_eq!(log.role_topic::<Dvl>(), Some(dvl_topic), "{name}");
-            assert!(log.warnings().is_empty(), "{name}: {:?}", log.warnings());
+            // The survey bag holds /tf and /rosout besides: one line says they are skipped.
+            let expected: &[&str] = match name {
+                "survey_noetic_rep103.bag" => &[
+                    "skipped 2 topics of types hindsight does not read (112 messages): /tf \
+                     (`tf2_msgs/TFMessage` in ros1, 56), /rosout (`rosgraph_msgs/Log` in ros1, 56)",
+                ],
+                _ => &[],
+            };
+            assert_eq!(log.warnings(), expected, "{name}");
             assert_same_values(name, &json, &log);
         }
     }

@@ -297,6 +297,41 @@ impl Log {
         self.streams.iter().map(|s| s.samples.len() as u64).sum()
     }
 
+    /// One line for every topic skipped for want of a decoder (a recording's tf, cameras,
+    /// diagnostics): how many, and the first few by name, type and count.
+    fn skipped_summary(&self) -> Option<String> {
+        const NAMED: usize = 4;
+        let skipped: Vec<&SkippedTopic> = self.skipped.iter().filter(|s| s.messages > 0).collect();
+        if skipped.is_empty() {
+            return None;
+        }
+        let messages: u64 = skipped.iter().map(|s| s.messages).sum();
+        let named: Vec<String> = skipped
+            .iter()
+            .take(NAMED)
+            .map(|s| {
+                format!(
+                    "{} (`{}` in {}, {})",
+                    s.topic, s.schema_name, s.message_encoding, s.messages
+                )
+            })
+            .collect();
+        let more = match skipped.len().saturating_sub(NAMED) {
+            0 => String::new(),
+            n => format!(" and {n} more"),
+        };
+        let topics = if skipped.len() == 1 {
+            "topic"
+        } else {
+            "topics"
+        };
+        Some(format!(
+            "skipped {} {topics} of types hindsight does not read ({messages} messages): {}{more}",
+            skipped.len(),
+            named.join(", ")
+        ))
+    }
+
     /// One-line warnings a person should see (truncation, dropped messages, skipped topics).
     pub fn warnings(&self) -> Vec<String> {
         let mut out = Vec::new();
@@ -323,12 +358,7 @@ impl Log {
                 ));
             }
         }
-        for s in self.skipped.iter().filter(|s| s.messages > 0) {
-            out.push(format!(
-                "{}: skipped {} messages of schema `{}` (encoding `{}`): no decoder",
-                s.topic, s.messages, s.schema_name, s.message_encoding
-            ));
-        }
+        out.extend(self.skipped_summary());
         out.extend(self.role_problems.iter().map(|p| p.to_string()));
         if self.file.orphan_messages > 0 {
             out.push(format!(
