@@ -15,6 +15,7 @@ pub mod filters;
 pub mod geodesy;
 pub mod geomag;
 pub mod identify;
+pub mod import;
 pub mod ingest;
 pub mod output;
 pub mod progress;

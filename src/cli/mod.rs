@@ -14,6 +14,7 @@ mod console;
 mod export;
 mod identify;
 mod identify_six_dof;
+mod import;
 mod info;
 mod reconstruct;
 mod simulate;
@@ -74,6 +75,7 @@ pub enum Command {
     Config(reconstruct::ConfigArgs),
     Info(info::InfoArgs),
     Export(export::ExportArgs),
+    Import(import::ImportArgs),
     Simulate(simulate::SimulateArgs),
     Study(study::StudyArgs),
     Bench(bench::BenchArgs),
@@ -183,6 +185,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Info(a) => info::run(a),
         Command::Export(a) => export::run(a),
         Command::Simulate(a) => simulate::run(a),
+        Command::Import(a) => import::run(a),
         Command::Study(a) => study::run(a),
         Command::Bench(a) => bench::run(a),
     }

@@ -267,7 +267,7 @@ fn dynamic_options(
 }
 
 /// Closes the log (summary, index), flushes it to disk and renames it into place.
-fn finish_log(
+pub(super) fn finish_log(
     w: writer::LogWriter<std::io::BufWriter<std::fs::File>>,
     staging: Staging,
     out: &std::path::Path,
