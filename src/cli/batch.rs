@@ -15,7 +15,8 @@ use std::time::Instant;
 
 /// Reconstruct every log of an archive: in parallel across logs, resumable, shardable.
 ///
-/// Each LOG (an .mcap file) or DIR (every .mcap file under it, recursively) is reconstructed
+/// Each LOG (an .mcap or .bag file, or a ROS 2 sqlite3 bag folder) or DIR (every such log
+/// under it, recursively) is reconstructed
 /// as `hindsight reconstruct` would, with --config, into DIR/mission=<log file stem>/ (a
 /// hive-style partition: DuckDB, polars and pyarrow read DIR/mission=*/trajectory.parquet
 /// with the mission as a column). Then:
@@ -35,7 +36,7 @@ use std::time::Instant;
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct BatchArgs {
-    /// Logs (.mcap) and folders holding them.
+    /// Logs (.mcap, .bag, ROS 2 bag folders) and folders holding them.
     #[arg(required = true, value_name = "LOG_OR_DIR")]
     pub logs: Vec<PathBuf>,
 
@@ -82,15 +83,22 @@ fn parse_shard(text: &str) -> Result<(usize, usize), String> {
 #[error("{0}")]
 pub struct ArchiveError(String);
 
-/// The logs of the arguments, sorted: files as given, folders searched for `.mcap` files.
+/// The logs of the arguments, sorted: files as given, folders searched for logs (see
+/// [`walk`]); a folder that is a ROS 2 sqlite3 bag is one log.
 pub fn collect_logs(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut logs = Vec::new();
     for p in paths {
-        if p.is_dir() {
+        if p.is_dir() && p.join("metadata.yaml").is_file() {
+            logs.push(p.clone());
+        } else if p.is_dir() {
             let before = logs.len();
             walk(p, &mut logs).with_context(|| format!("listing {}", p.display()))?;
             if logs.len() == before {
-                return Err(ArchiveError(format!("no .mcap file under {}", p.display())).into());
+                return Err(ArchiveError(format!(
+                    "no log (.mcap, .bag, or a ROS 2 bag folder) under {}",
+                    p.display()
+                ))
+                .into());
             }
         } else if p.is_file() {
             logs.push(p.clone());
@@ -103,14 +111,18 @@ pub fn collect_logs(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(logs)
 }
 
+/// The logs under `dir`: MCAP files, ROS 1 bags, and ROS 2 sqlite3 bag folders (a folder
+/// with a `metadata.yaml` beside `.db3` files is one log).
 fn walk(dir: &Path, logs: &mut Vec<PathBuf>) -> std::io::Result<()> {
     for entry in std::fs::read_dir(dir)? {
         let path = entry?.path();
-        if path.is_dir() {
+        if path.is_dir() && path.join("metadata.yaml").is_file() {
+            logs.push(path);
+        } else if path.is_dir() {
             walk(&path, logs)?;
         } else if path
             .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
+            .is_some_and(|e| e.eq_ignore_ascii_case("mcap") || e.eq_ignore_ascii_case("bag"))
         {
             logs.push(path);
         }

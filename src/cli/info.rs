@@ -57,19 +57,21 @@ fn render(log: &Log, name: &str, list_gaps: bool) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let f = &log.file;
+    let written = match (f.container, f.library.is_empty()) {
+        (hindsight::ingest::Container::Mcap, true) => ", written by (unnamed library)".into(),
+        (hindsight::ingest::Container::Mcap, false) => format!(", written by {}", f.library),
+        (_, true) => String::new(),
+        (_, false) => format!(" ({})", f.library),
+    };
     let _ = writeln!(
         out,
-        "{name}: {} bytes, written by {}, {}{}",
+        "{name}: {}{written}, {} bytes{}{}",
+        f.container.name(),
         f.bytes_read,
-        if f.library.is_empty() {
-            "(unnamed library)"
-        } else {
-            &f.library
-        },
-        if f.has_summary {
-            "with summary"
-        } else {
-            "no summary"
+        match (f.container, f.has_summary) {
+            (hindsight::ingest::Container::Mcap, true) => ", with summary",
+            (hindsight::ingest::Container::Mcap, false) => ", no summary",
+            _ => "",
         },
         match f.ending {
             Ending::Complete => String::new(),

@@ -180,7 +180,7 @@ pub fn for_each_record<R: Read>(
     }
     on_record(Record::Header(mcap::records::Header {
         profile: "ros1".into(),
-        library: "ROS 1 bag (format 2.0)".into(),
+        library: "format 2.0".into(),
     }))?;
     let mut reader = BagReader {
         connections: Connections::default(),

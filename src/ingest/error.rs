@@ -43,7 +43,7 @@ pub enum IngestError {
     #[error("the file is empty (0 bytes), not an MCAP log")]
     Empty,
 
-    #[error("not an MCAP file: it starts with {found} where the MCAP magic 89 4D 43 41 50 30 0D 0A belongs")]
+    #[error("not an MCAP file: it starts with {found} where the MCAP magic 89 4D 43 41 50 30 0D 0A belongs (hindsight also reads ROS 1 bags, ROS 2 sqlite3 bags, and CSV files through `hindsight import csv`)")]
     NotMcap { found: String },
 
     #[error("ROS 1 bag corrupt at byte {offset}: {reason}")]

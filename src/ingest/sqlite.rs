@@ -124,7 +124,7 @@ pub fn for_each_record(
 ) -> Result<(Ending, u64), IngestError> {
     on_record(Record::Header(mcap::records::Header {
         profile: "ros2".into(),
-        library: "ROS 2 bag (sqlite3)".into(),
+        library: String::new(),
     }))?;
     let mut channels = Channels::default();
     let mut messages = Messages {
