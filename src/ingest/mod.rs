@@ -1,12 +1,13 @@
-//! Reads a recorded log (MCAP, JSON messages) into typed, time-sorted streams with a report of
-//! everything that was wrong with it.
+//! Reads a recorded log (MCAP with json, ROS 2 or ROS 1 messages; a ROS 1 bag; a ROS 2
+//! sqlite3 bag) into typed, time-sorted streams with a report of everything that was wrong
+//! with it.
 //!
-//! The file is streamed ([`reader`]); each message is decoded by the decoder registered for its
-//! schema name ([`decode`]), validated, and appended to its topic's typed store. Nothing of the
-//! raw file is kept. At the end each stream is sorted by `stamp_ns` (stably), duplicates are
+//! The file is streamed ([`reader`], [`bag`]; a sqlite3 bag is read by SQLite, [`sqlite`]);
+//! each message is decoded by the decoder registered for its schema name ([`decode`]),
+//! validated, and appended to its topic's typed store. Nothing of the raw file is kept. At the end each stream is sorted by `stamp_ns` (stably), duplicates are
 //! dropped, and its timing statistics are computed ([`stats`]).
 //!
-//! May import: `contract`, `time`, `mcap`, `serde_json`.
+//! May import: `contract`, `time`, `mcap`, `serde_json`, `bzip2`, `lz4`, `zstd`, `rusqlite`.
 
 pub mod bag;
 mod builder;
