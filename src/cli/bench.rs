@@ -20,6 +20,8 @@ use std::time::{Duration, Instant};
 ///   merge         the time-ordered k-way merge over all topics of the ingested log
 ///   ingest+merge  the sum of the two medians: a log from file to one event stream
 ///
+/// With --log FILE: that log (any form hindsight reads) instead of a generated one.
+///
 /// With --cdr: the same log's streams of standard ROS 2 types (IMU, magnetometer, DVL as
 /// TwistWithCovarianceStamped, depth as FluidPressure, altimeter as Range, attitude as
 /// QuaternionStamped) written as a ROS 2 recording in CDR, REP-103 frames, and its ingest
@@ -86,6 +88,10 @@ pub struct BenchArgs {
     #[arg(long = "as", value_name = "FORM", value_enum)]
     pub format: Option<LogForm>,
 
+    /// Benchmark the ingest of this log (any form hindsight reads) instead of a generated one.
+    #[arg(long, value_name = "LOG", conflicts_with_all = ["format", "cdr"])]
+    pub log: Option<PathBuf>,
+
     /// Benchmark the reconstruction on a simulated scenario instead of ingest alone.
     #[arg(long)]
     pub reconstruct: bool,
@@ -149,6 +155,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         args.scenario.is_none(),
         "--scenario goes with --reconstruct or --simulate"
     );
+    if let Some(log) = &args.log {
+        return measure(log, args.repeat);
+    }
     eprintln!("generating a {} min log ...", args.minutes);
     let spec = synthetic::SurveySpec {
         duration_s: args.minutes * 60.0,
