@@ -8,9 +8,7 @@
 mod common;
 
 use hindsight::contract::{Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, Message, Streams};
-use hindsight::ingest::{
-    read_log, read_log_from, Container, IngestOptions, Log, Mission, MissionDefaults,
-};
+use hindsight::ingest::{read_log, read_log_from, Container, IngestOptions, Log, Mission};
 use hindsight::recon::config::Config;
 use hindsight::recon::run_configured as reconstruct;
 use hindsight::sim::writer::{to_bytes, LogWriter, WriterOptions};
@@ -169,12 +167,7 @@ fn the_same_missions_in_every_container_reconstruct_within_a_millimetre() {
     for (sample_name, fixtures) in [(SURVEY, SURVEYS), (POOL, POOLS)] {
         let (json, mission) = json_log(sample_name, false);
         // A bag has no mission record: the sample's origin and vehicle are given.
-        let defaults = MissionDefaults {
-            origin_latitude_deg: Some(mission.origin_latitude_deg),
-            origin_longitude_deg: Some(mission.origin_longitude_deg),
-            vehicle: Some(mission.vehicle.clone()),
-            magnetic_declination_deg: mission.magnetic_declination_deg,
-        };
+        let defaults = common::defaults_of(&mission);
         let reference = reconstruct(&Streams::of(&json), &mission, &config).unwrap();
         assert!(reference.smoothed.len() > 500, "{sample_name}");
         for (name, _, _) in fixtures {
@@ -216,24 +209,8 @@ fn the_same_pool_run_in_every_container_gives_attitude_within_a_millimetre() {
             &["--origin", &origin, "--declination", &declination],
         );
         for file in ["attitude.parquet", "attitude_summary.parquet"] {
-            let (a, b) = (
-                common::float_columns(&json_out.join(file)),
-                common::float_columns(&out.join(file)),
-            );
-            assert!(!a.is_empty() && a.len() == b.len(), "{name} {file}");
-            for ((column, x), (_, y)) in a.iter().zip(&b) {
-                assert_eq!(x.len(), y.len(), "{name} {file} {column}");
-                let worst = x
-                    .iter()
-                    .zip(y)
-                    .filter(|(p, q)| !(p.is_nan() && q.is_nan()))
-                    .map(|(p, q)| match column.ends_with("_rad") {
-                        true => hindsight::angle::wrap_pi(p - q).abs(),
-                        false => (p - q).abs(),
-                    })
-                    .fold(0.0, f64::max);
-                assert!(worst < 1e-3, "{name} {file} {column}: differs by {worst}");
-            }
+            let what = format!("{name} {file}");
+            common::assert_same_float_columns(&json_out.join(file), &out.join(file), &what);
         }
     }
 }

@@ -7,7 +7,7 @@
 mod common;
 
 use hindsight::contract::{Message, Streams};
-use hindsight::ingest::{read_log, IngestOptions, Log, MissionDefaults};
+use hindsight::ingest::{read_log, IngestOptions, Log};
 use hindsight::recon::config::Config;
 use hindsight::recon::run_configured as reconstruct;
 use std::collections::BTreeMap;
@@ -201,12 +201,7 @@ fn the_survey_as_csv_files_imports_and_reconstructs_within_a_millimetre() {
     // The same mission reconstructs within 1 mm (the CSV files carry no mission record:
     // the sample's is given, as a user would with --origin).
     let mission = original.mission().unwrap();
-    let defaults = MissionDefaults {
-        origin_latitude_deg: Some(mission.origin_latitude_deg),
-        origin_longitude_deg: Some(mission.origin_longitude_deg),
-        vehicle: Some(mission.vehicle.clone()),
-        magnetic_declination_deg: mission.magnetic_declination_deg,
-    };
+    let defaults = common::defaults_of(&mission);
     let config = Config::default();
     let reference = reconstruct(&Streams::of(&original), &mission, &config).unwrap();
     let from_csv = reconstruct(

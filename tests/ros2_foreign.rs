@@ -10,7 +10,7 @@ use hindsight::contract::{
     Truth,
 };
 use hindsight::ingest::ros::map::Convention;
-use hindsight::ingest::{read_log, read_log_from, IngestOptions, Log, MissionDefaults};
+use hindsight::ingest::{read_log, read_log_from, IngestOptions, Log};
 use hindsight::recon::config::Config;
 use hindsight::recon::run_configured as reconstruct;
 use hindsight::sim::writer::{to_bytes, LogWriter, WriterOptions};
@@ -164,12 +164,7 @@ fn humble_rep103_and_jazzy_native_recordings_hold_the_json_values() {
 fn the_same_mission_in_json_and_in_ros2_reconstructs_within_a_millimetre() {
     let json = json_survey_window();
     let mission = json.mission().unwrap();
-    let defaults = MissionDefaults {
-        origin_latitude_deg: Some(mission.origin_latitude_deg),
-        origin_longitude_deg: Some(mission.origin_longitude_deg),
-        vehicle: Some(mission.vehicle.clone()),
-        magnetic_declination_deg: mission.magnetic_declination_deg,
-    };
+    let defaults = common::defaults_of(&mission);
     let config = Config::default();
     let reference = reconstruct(&Streams::of(&json), &mission, &config).unwrap();
     assert!(reference.forward.len() > 1000 && reference.smoothed.len() > 1000);
@@ -227,26 +222,7 @@ fn the_same_pool_run_in_json_and_in_ros2_gives_attitude_within_a_millimetre() {
         "{err}"
     );
     for file in ["attitude.parquet", "attitude_summary.parquet"] {
-        let (a, b) = (
-            common::float_columns(&json_out.join(file)),
-            common::float_columns(&ros_out.join(file)),
-        );
-        assert_eq!(a.len(), b.len(), "{file}");
-        for ((name, x), (_, y)) in a.iter().zip(&b) {
-            assert_eq!(x.len(), y.len(), "{file} {name}");
-            // Positions within 1 mm; angles (rad) and scores within the same 1e-3.
-            let worst = x
-                .iter()
-                .zip(y)
-                .filter(|(p, q)| !(p.is_nan() && q.is_nan()))
-                .map(|(p, q)| match name.ends_with("_rad") {
-                    true => hindsight::angle::wrap_pi(p - q).abs(),
-                    false => (p - q).abs(),
-                })
-                .fold(0.0, f64::max);
-            println!("{file} {name}: largest difference {worst:.1e}");
-            assert!(worst < 1e-3, "{file} {name}: differs by {worst}");
-        }
+        common::assert_same_float_columns(&json_out.join(file), &ros_out.join(file), file);
     }
     let rows = common::float_columns(&json_out.join("attitude.parquet"))[0]
         .1

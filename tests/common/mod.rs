@@ -199,3 +199,35 @@ pub fn float_columns(path: &std::path::Path) -> Vec<(String, Vec<f64>)> {
     }
     out
 }
+
+/// What stands in for a log's absent mission record: the given mission's origin, vehicle and
+/// declination (as a user gives them with --origin and --declination).
+pub fn defaults_of(mission: &hindsight::ingest::Mission) -> hindsight::ingest::MissionDefaults {
+    hindsight::ingest::MissionDefaults {
+        origin_latitude_deg: Some(mission.origin_latitude_deg),
+        origin_longitude_deg: Some(mission.origin_longitude_deg),
+        vehicle: Some(mission.vehicle.clone()),
+        magnetic_declination_deg: mission.magnetic_declination_deg,
+    }
+}
+
+/// Asserts that two Parquet files have the same float columns, each within 1e-3 (positions
+/// within 1 mm; angles, `_rad`, on the circle; scores), and prints the largest differences.
+pub fn assert_same_float_columns(a: &std::path::Path, b: &std::path::Path, what: &str) {
+    let (a, b) = (float_columns(a), float_columns(b));
+    assert!(!a.is_empty() && a.len() == b.len(), "{what}");
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        assert_eq!(x.len(), y.len(), "{what} {name}");
+        let worst = x
+            .iter()
+            .zip(y)
+            .filter(|(p, q)| !(p.is_nan() && q.is_nan()))
+            .map(|(p, q)| match name.ends_with("_rad") {
+                true => hindsight::angle::wrap_pi(p - q).abs(),
+                false => (p - q).abs(),
+            })
+            .fold(0.0, f64::max);
+        println!("{what} {name}: largest difference {worst:.1e}");
+        assert!(worst < 1e-3, "{what} {name}: differs by {worst}");
+    }
+}
