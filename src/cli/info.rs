@@ -75,7 +75,10 @@ fn render(log: &Log, name: &str, list_gaps: bool) -> String {
         },
         match f.ending {
             Ending::Complete => String::new(),
-            Ending::Truncated { .. } => ", CUT SHORT (no footer; see the warning)".to_string(),
+            Ending::Truncated { .. } => format!(
+                ", CUT SHORT ({}; see the warning)",
+                f.container.missing_end()
+            ),
         }
     );
     match log.mission() {

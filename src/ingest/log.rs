@@ -164,6 +164,15 @@ impl Container {
         }
     }
 
+    /// What a log of this container cut short lacks.
+    pub fn missing_end(self) -> &'static str {
+        match self {
+            Container::Mcap => "no footer",
+            Container::Ros1Bag => "not closed: no index",
+            Container::Ros2Sqlite => "incomplete database",
+        }
+    }
+
     /// How a user calls it.
     pub fn name(self) -> &'static str {
         match self {
@@ -184,7 +193,7 @@ pub struct FileReport {
     /// Bytes read from the input.
     pub bytes_read: u64,
     pub ending: Ending,
-    /// MCAP header: the writing library.
+    /// The writing library (MCAP header), or what a bag says of its format.
     pub library: String,
     pub profile: String,
     /// Whether a summary section was present.
@@ -202,8 +211,9 @@ impl FileReport {
                 whole_records_end,
                 partial_chunk_messages,
             } => Some(format!(
-                "the log is cut short (no footer): recovered {messages} messages, up to the last \
+                "the log is cut short ({}): recovered {messages} messages, up to the last \
                  whole record: {whole_records_end} of {} bytes ({:.1} %) in whole records{}",
+                self.container.missing_end(),
                 self.bytes_read,
                 100.0 * whole_records_end as f64 / self.bytes_read.max(1) as f64,
                 if partial_chunk_messages > 0 {
