@@ -38,15 +38,11 @@ const SURVEY: &str = "survey-short-seed1.mcap";
 const POOL: &str = "pool-rectangle-seed1.mcap";
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/bags")
-        .join(name)
+    common::repo_path("tests/fixtures/bags").join(name)
 }
 
 fn sample(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("sample-logs")
-        .join(name)
+    common::repo_path("sample-logs").join(name)
 }
 
 /// Copies the messages of `T`'s role logged within the window, as `keep` leaves them.

@@ -14,21 +14,17 @@ use hindsight::ingest::{read_log, read_log_from, IngestOptions, Log};
 use hindsight::recon::config::Config;
 use hindsight::recon::run_configured as reconstruct;
 use hindsight::sim::writer::{to_bytes, LogWriter, WriterOptions};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// The window of the survey sample log the fixtures hold (the script's WINDOW_S).
 const WINDOW_NS: u64 = 120_000_000_000;
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/ros2")
-        .join(name)
+    common::repo_path("tests/fixtures/ros2").join(name)
 }
 
 fn sample(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("sample-logs")
-        .join(name)
+    common::repo_path("sample-logs").join(name)
 }
 
 /// Copies the messages of `T`'s role logged within the window.

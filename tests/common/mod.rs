@@ -231,3 +231,8 @@ pub fn assert_same_float_columns(a: &std::path::Path, b: &std::path::Path, what:
         assert!(worst < 1e-3, "{what} {name}: differs by {worst}");
     }
 }
+
+/// A path inside the repository (`sample-logs/...`, `tests/fixtures/...`).
+pub fn repo_path(relative: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)
+}
