@@ -219,9 +219,36 @@ pub fn local_north_east_m(
     )
 }
 
+/// The position (latitude, longitude, rad) at north and east offsets (m) from an origin:
+/// the inverse of [`local_north_east_m`].
+pub fn position_of_local_m(
+    origin_lat_rad: f64,
+    origin_lon_rad: f64,
+    north_m: f64,
+    east_m: f64,
+) -> (f64, f64) {
+    let rn = meridian_radius_m(origin_lat_rad);
+    let re = prime_vertical_radius_m(origin_lat_rad);
+    (
+        origin_lat_rad + north_m / rn,
+        origin_lon_rad + east_m / (re * origin_lat_rad.cos()),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn local_offsets_and_positions_are_inverses() {
+        let (lat0, lon0) = (35.1f64.to_radians(), 129.0f64.to_radians());
+        let (lat, lon) = position_of_local_m(lat0, lon0, 1234.5, -678.9);
+        let (n, e) = local_north_east_m(lat0, lon0, lat, lon);
+        assert!(
+            (n - 1234.5).abs() < 1e-9 && (e + 678.9).abs() < 1e-9,
+            "{n} {e}"
+        );
+    }
 
     #[test]
     fn gravity_matches_published_values() {

@@ -3,11 +3,15 @@
 //! chunks), ROS 1 in MCAP by the official `mcap-ros1-support` writer, ROS 2 sqlite3 bags by
 //! `rosbags` (as Humble writes them, without definitions, and with the file's definitions).
 //! Both frame conventions. Each holds the json original's values, reconstructs within 1 mm of
-//! it, and the pool runs give the same attitude comparison within 1 mm.
+//! it, and the pool runs give the same attitude comparison within 1 mm. Each also carries the
+//! simulator's truth as a vehicle INS's `nav_msgs/Odometry`, the reference track when it is
+//! named for the truth role.
 
 mod common;
 
-use hindsight::contract::{Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, Message, Streams};
+use hindsight::contract::{
+    Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, Message, Streams, Truth,
+};
 use hindsight::ingest::{read_log, read_log_from, Container, IngestOptions, Log, Mission};
 use hindsight::recon::config::Config;
 use hindsight::recon::run_configured as reconstruct;
@@ -34,6 +38,8 @@ const POOLS: [Fixture; 3] = [
     // The UUV Simulator's uuv_sensor_ros_plugins_msgs/DVL.
     ("pool_jazzy_native", Container::Ros2Sqlite, DRIVER),
 ];
+/// The fixtures' odometry: the simulator's truth, as a vehicle INS would publish it.
+const ODOMETRY: &str = "/ins/odometry";
 const SURVEY: &str = "survey-short-seed1.mcap";
 const POOL: &str = "pool-rectangle-seed1.mcap";
 
@@ -86,6 +92,7 @@ fn json_window(sample_name: &str, dvl_altitude: bool) -> (Vec<u8>, Mission) {
         copy::<Depth>(w, &full, t0, |m| m);
         copy::<Altimeter>(w, &full, t0, |m| m);
         copy::<GnssFix>(w, &full, t0, |m| m);
+        copy::<Truth>(w, &full, t0, |m| m);
         Ok(())
     })
     .unwrap();
@@ -140,14 +147,24 @@ fn every_container_holds_the_json_values() {
             assert_eq!(log.role_topic::<Imu>(), Some("/vehicle/imu/data"), "{name}");
             assert_eq!(log.role_topic::<Dvl>(), Some(dvl_topic), "{name}");
             // The survey bag holds /tf and /rosout besides: one line says they are skipped.
-            let expected: &[&str] = match name {
-                "survey_noetic_rep103.bag" => &[
+            // The odometry is not read unless it is named.
+            let mut expected = match name {
+                "survey_noetic_rep103.bag" => vec![
                     "skipped 2 topics of types hindsight does not read (112 messages): /tf \
-                     (`tf2_msgs/TFMessage` in ros1, 56), /rosout (`rosgraph_msgs/Log` in ros1, 56)",
+                     (`tf2_msgs/TFMessage` in ros1, 56), /rosout (`rosgraph_msgs/Log` in ros1, 56)"
+                        .to_string(),
                 ],
-                _ => &[],
+                _ => vec![],
             };
+            let odometry = log.skipped.iter().find(|s| s.topic == ODOMETRY).unwrap();
+            expected.push(format!(
+                "{ODOMETRY} (`{}`, {} messages) was not read: a topic of this type is read only \
+                 when it is named for the truth role",
+                odometry.schema_name,
+                json.role::<Truth>().len()
+            ));
             assert_eq!(log.warnings(), expected, "{name}");
+            assert!(log.role::<Truth>().is_empty(), "{name}");
             assert_same_values(name, &json, &log);
         }
     }
@@ -155,6 +172,103 @@ fn every_container_holds_the_json_values() {
     let log = read_log(&fixture(SURVEYS[1].0), &IngestOptions::default()).unwrap();
     assert!(log.file.library.contains("mcap-ros1-support/0.9.0"));
     assert_eq!(log.streams[0].message_encoding, "ros1");
+}
+
+/// Reads a fixture with its odometry named for the truth role.
+fn with_reference(name: &str) -> Log {
+    let options = IngestOptions {
+        topics: [("truth".to_string(), ODOMETRY.to_string())].into(),
+        ..IngestOptions::default()
+    };
+    read_log(&fixture(name), &options).unwrap()
+}
+
+#[test]
+fn an_odometry_named_for_truth_is_the_reference_track() {
+    for (sample_name, fixtures) in [(SURVEY, SURVEYS), (POOL, POOLS)] {
+        let (json, mission) = json_log(sample_name, false);
+        let defaults = common::defaults_of(&mission);
+        let truth = json.role::<Truth>();
+        assert!(truth.len() > 500, "{sample_name}");
+        for (name, _, _) in fixtures {
+            let mut log = with_reference(name);
+            assert_eq!(log.role_topic::<Truth>(), Some(ODOMETRY), "{name}");
+            log.settle_mission(&defaults).unwrap();
+            let track = log.role::<Truth>();
+            assert_eq!(track.len(), truth.len(), "{name}");
+            for (a, b) in truth.iter().zip(track) {
+                assert_eq!(a.stamp_ns, b.stamp_ns, "{name}");
+                let degrees = [
+                    a.latitude_deg - b.latitude_deg,
+                    a.longitude_deg - b.longitude_deg,
+                ];
+                // 1e-11 deg is about a micrometre.
+                assert!(
+                    degrees.iter().all(|d| d.abs() < 1e-11),
+                    "{name}: {a:?} {b:?}"
+                );
+                let ned = [
+                    a.north_m - b.north_m,
+                    a.east_m - b.east_m,
+                    a.down_m - b.down_m,
+                ];
+                assert!(ned.iter().all(|d| d.abs() < 1e-9), "{name}: {ned:?}");
+                for i in 0..3 {
+                    assert_eq!(a.velocity_body[i], b.velocity_body[i], "{name}");
+                    assert_eq!(a.angular_velocity[i], b.angular_velocity[i], "{name}");
+                    assert_close(a.velocity_ned[i], b.velocity_ned[i], 1e-9, "velocity_ned");
+                    let angle = hindsight::angle::wrap_pi(a.attitude[i] - b.attitude[i]);
+                    assert!(angle.abs() < 1e-9, "{name}: attitude {a:?} {b:?}");
+                }
+            }
+        }
+    }
+}
+
+/// The default run of a bag, its odometry named for truth, is scored as the json original
+/// against its /truth: the same errors, within a millimetre.
+#[test]
+fn a_bag_is_scored_against_its_odometry_as_the_original_against_its_truth() {
+    let dir = common::scratch_dir("bags-odometry");
+    let (bytes, mission) = json_window(SURVEY, false);
+    let json_path = dir.join("survey-window.mcap");
+    std::fs::write(&json_path, bytes).unwrap();
+    let run = |log: &Path, out: &Path, extra: &[&str]| {
+        let mut args = vec!["reconstruct", log.to_str().unwrap()];
+        args.extend(extra);
+        args.extend(["--out", out.to_str().unwrap()]);
+        let o = common::hindsight(&args);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        common::stderr(&o)
+    };
+    let (json_out, bag_out) = (dir.join("json"), dir.join("bag"));
+    run(&json_path, &json_out, &[]);
+    let origin = format!(
+        "{},{}",
+        mission.origin_latitude_deg, mission.origin_longitude_deg
+    );
+    let named = format!("truth={ODOMETRY}");
+    let bag = fixture(SURVEYS[0].0);
+    // A bag has no mission record: what the original's says is given.
+    let mut given = vec!["--topic", &named, "--origin", &origin];
+    let declination = mission.magnetic_declination_deg.map(|d| d.to_string());
+    if let Some(d) = &declination {
+        given.extend(["--declination", d]);
+    }
+    let said = run(&bag, &bag_out, &given);
+    assert!(!said.contains("reference track"), "{said}");
+    common::assert_same_float_columns(
+        &json_out.join("errors.parquet"),
+        &bag_out.join("errors.parquet"),
+        "errors against the odometry",
+    );
+    // Without the origin, it comes from the first GNSS fix, and the run says the scores
+    // may carry the difference.
+    let said = run(&bag, &dir.join("bag-fix-origin"), &["--topic", &named]);
+    assert!(
+        said.contains("/ins/odometry: the reference track's world frame is placed on the origin"),
+        "{said}"
+    );
 }
 
 #[test]
@@ -202,7 +316,14 @@ fn the_same_pool_run_in_every_container_gives_attitude_within_a_millimetre() {
         attitude(
             &fixture(name),
             &out,
-            &["--origin", &origin, "--declination", &declination],
+            &[
+                "--origin",
+                &origin,
+                "--declination",
+                &declination,
+                "--topic",
+                &format!("truth={ODOMETRY}"),
+            ],
         );
         for file in ["attitude.parquet", "attitude_summary.parquet"] {
             let what = format!("{name} {file}");

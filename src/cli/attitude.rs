@@ -138,14 +138,13 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         said.note(a.to_string());
     }
     let started = Instant::now();
-    let log = super::load(
+    let mut log = super::load(
         &log_path,
         &args.policy.ingest_options(&args.source),
         &args.offsets,
     )?;
-    let mission = log
-        .mission_or(&args.source.mission_defaults(Default::default()))
-        .with_context(|| format!("reading {}", log_path.display()))?;
+    let defaults = args.source.mission_defaults(Default::default());
+    let mission = super::settle_mission(&mut log, &defaults, &log_path)?;
     super::print_roles(&log);
     let imu: &[Imu] = log.role();
     if imu.len() < 2 {

@@ -350,3 +350,20 @@ fn load(path: &Path, options: &IngestOptions, offsets: &[ClockOffset]) -> Result
     }
     Ok(log)
 }
+
+/// The log's mission (its record, else `defaults` and the first GNSS fix), its reference
+/// tracks placed on the origin; warns where that origin may not be the tracks'.
+fn settle_mission(
+    log: &mut hindsight::ingest::Log,
+    defaults: &hindsight::ingest::MissionDefaults,
+    path: &Path,
+) -> Result<hindsight::ingest::Mission> {
+    use anyhow::Context;
+    let (mission, notes) = log
+        .settle_mission(defaults)
+        .with_context(|| format!("reading {}", path.display()))?;
+    for w in notes {
+        say!("warning: {w} (--origin LAT,LON)");
+    }
+    Ok(mission)
+}

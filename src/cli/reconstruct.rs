@@ -545,9 +545,7 @@ impl StageConsole {
 pub fn reconstruct(job: &Job) -> Result<()> {
     let started = Instant::now();
     let mut log = super::load(&job.log, &job.ingest, &job.offsets)?;
-    let mission = log
-        .mission_or(&job.mission_defaults)
-        .with_context(|| format!("reading {}", job.log.display()))?;
+    let mission = super::settle_mission(&mut log, &job.mission_defaults, &job.log)?;
     super::print_roles(&log);
     let ingest_s = started.elapsed().as_secs_f64();
     say_read(&log, ingest_s);

@@ -6,7 +6,7 @@ use super::reader::Ending;
 use super::roles::{RoleChoice, RoleError};
 use super::samples::Samples;
 use super::stats;
-use crate::contract::{GnssFix, Message, Streams};
+use crate::contract::{GnssFix, Message, Streams, Truth};
 use std::collections::BTreeMap;
 
 /// What ingest tolerates.
@@ -126,6 +126,16 @@ pub struct SkippedTopic {
     pub messages: u64,
     /// For a cdr topic walked through its schema's layout ([`IngestOptions::check_layouts`]).
     pub layout: Option<LayoutCheck>,
+}
+
+impl SkippedTopic {
+    /// The role this topic's type is read for when the topic is named for it (an odometry:
+    /// the truth role), if its messages are ROS ones.
+    pub fn role_to_name(&self) -> Option<&'static str> {
+        crate::ingest::decode::ros_dialect(&self.message_encoding)?;
+        let name = crate::ingest::ros::msg::full_name(&self.schema_name)?;
+        crate::ingest::ros::map::RosType::of(&name)?.only_when_named_for()
+    }
 }
 
 /// What walking a skipped cdr topic's messages through its schema's layout found.
@@ -261,6 +271,40 @@ impl Log {
         }
     }
 
+    /// The mission (as [`Log::mission_or`] gives it), with every reference track read from
+    /// a ROS odometry placed on its origin: their latitude and longitude follow from their
+    /// north and east only once the origin is known.
+    /// Also returns a warning for each track placed on an origin the log took from its
+    /// first GNSS fix, which the track's own frame need not share.
+    pub fn settle_mission(
+        &mut self,
+        defaults: &MissionDefaults,
+    ) -> Result<(Mission, Vec<String>), MissionError> {
+        let mut notes = Vec::new();
+        let mission = self.mission_or(defaults)?;
+        let origin_deg = (mission.origin_latitude_deg, mission.origin_longitude_deg);
+        let origin_given = self.metadata.contains_key("mission")
+            || defaults.origin_latitude_deg.is_some() && defaults.origin_longitude_deg.is_some();
+        for s in &mut self.streams {
+            let ty = crate::ingest::ros::msg::full_name(&s.schema_name)
+                .and_then(|n| crate::ingest::ros::map::RosType::of(&n));
+            let track = s.samples.as_any_mut().downcast_mut::<Vec<Truth>>();
+            if let (Some(crate::ingest::ros::map::RosType::Odometry), Some(track)) = (ty, track) {
+                crate::ingest::ros::map::place_on_origin(track, origin_deg);
+                if !origin_given {
+                    notes.push(format!(
+                        "{}: the reference track's world frame is placed on the origin taken \
+                         from the first GNSS fix; if its frame has another origin (the fix's \
+                         error, a surveyed datum), give the origin, or the scores carry the \
+                         difference",
+                        s.topic
+                    ));
+                }
+            }
+        }
+        Ok((mission, notes))
+    }
+
     /// The stream on `topic`.
     pub fn stream(&self, topic: &str) -> Option<&Stream> {
         self.streams.iter().find(|s| s.topic == topic)
@@ -311,7 +355,11 @@ impl Log {
     /// diagnostics): how many, and the first few by name, type and count.
     fn skipped_summary(&self) -> Option<String> {
         const NAMED: usize = 4;
-        let skipped: Vec<&SkippedTopic> = self.skipped.iter().filter(|s| s.messages > 0).collect();
+        let skipped: Vec<&SkippedTopic> = self
+            .skipped
+            .iter()
+            .filter(|s| s.messages > 0 && s.role_to_name().is_none())
+            .collect();
         if skipped.is_empty() {
             return None;
         }
@@ -369,6 +417,14 @@ impl Log {
             }
         }
         out.extend(self.skipped_summary());
+        out.extend(self.skipped.iter().filter_map(|s| {
+            let role = s.role_to_name()?;
+            Some(format!(
+                "{} (`{}`, {} messages) was not read: a topic of this type is read only when \
+                 it is named for the {role} role",
+                s.topic, s.schema_name, s.messages
+            ))
+        }));
         out.extend(self.role_problems.iter().map(|p| p.to_string()));
         if self.file.orphan_messages > 0 {
             out.push(format!(

@@ -83,7 +83,15 @@ pub fn for_topic(
             convention,
             options.ros2,
         )?;
-        return Ok(built.map(|d| TopicDecoder::Built(Box::new(d))));
+        // A type read only for a role the user names (an odometry as the reference) is
+        // skipped on any other topic.
+        let named = |role| options.topics.get(role).is_some_and(|t| t == topic);
+        let wanted = |d: &crate::ingest::ros::decoder::RosDecoder| {
+            d.ros_type().only_when_named_for().is_none_or(named)
+        };
+        return Ok(built
+            .filter(wanted)
+            .map(|d| TopicDecoder::Built(Box::new(d))));
     }
     Ok(find(schema_name, message_encoding).map(TopicDecoder::Registered))
 }

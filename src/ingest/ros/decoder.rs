@@ -80,6 +80,11 @@ impl RosDecoder {
         }))
     }
 
+    /// The ROS type read.
+    pub fn ros_type(&self) -> RosType {
+        self.ty
+    }
+
     /// The contract message of one serialised message.
     pub fn convert(&self, data: &[u8]) -> Result<Converted, FieldIssue> {
         let mut picked = Picked::new();
@@ -126,6 +131,7 @@ impl Decoder for RosDecoder {
             RosType::AcousticDvl | RosType::WaterLinkedDvl | RosType::UuvDvl => {
                 Box::new(Vec::<Dvl>::new())
             }
+            RosType::Odometry => Box::new(Vec::<Truth>::new()),
         }
     }
     fn decode_into(&self, data: &[u8], out: &mut dyn Samples) -> Result<(), FieldIssue> {
@@ -138,6 +144,7 @@ impl Decoder for RosDecoder {
             Converted::Dvl(m) => push(out, m),
             Converted::Attitude(m) => push(out, m),
             Converted::PositionFix(m) => push(out, m),
+            Converted::Truth(m) => push(out, m),
         }
     }
 }

@@ -8,7 +8,7 @@
 //! anything else, e.g. `base_link`, `odom`, `map`: REP-103), or from a per-topic override.
 
 use crate::contract::{
-    Altimeter, Attitude, Depth, Dvl, FieldIssue, GnssFix, Imu, MagneticField, PositionFix,
+    Altimeter, Attitude, Depth, Dvl, FieldIssue, GnssFix, Imu, MagneticField, PositionFix, Truth,
 };
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 
@@ -87,6 +87,9 @@ pub enum RosType {
     /// The UUV Simulator's `uuv_sensor_ros_plugins_msgs/DVL`: velocity in the DVL link's
     /// frame, `velocity_covariance[0]` -1 when invalid, `altitude`.
     UuvDvl,
+    /// `nav_msgs/Odometry`, a vehicle INS's or a localiser's track: read only for the topic
+    /// named for the truth role, as the reference the solution is scored against.
+    Odometry,
 }
 
 /// The stamp's paths, first in every type's list.
@@ -95,7 +98,7 @@ const STAMP: [&str; 2] = ["header.stamp.sec", "header.stamp.nanosec"];
 pub const FRAME: [&str; 1] = ["header.frame_id"];
 
 impl RosType {
-    pub const ALL: [RosType; 11] = [
+    pub const ALL: [RosType; 12] = [
         RosType::Imu,
         RosType::MagneticField,
         RosType::NavSatFix,
@@ -107,6 +110,7 @@ impl RosType {
         RosType::AcousticDvl,
         RosType::WaterLinkedDvl,
         RosType::UuvDvl,
+        RosType::Odometry,
     ];
 
     /// The type's full name, `pkg/Type`.
@@ -123,6 +127,7 @@ impl RosType {
             RosType::AcousticDvl => "marine_acoustic_msgs/Dvl",
             RosType::WaterLinkedDvl => "waterlinked_a50_ros_driver/DVL",
             RosType::UuvDvl => "uuv_sensor_ros_plugins_msgs/DVL",
+            RosType::Odometry => "nav_msgs/Odometry",
         }
     }
 
@@ -142,9 +147,20 @@ impl RosType {
             .find(|t| t.name() == full_name || t.aliases().contains(&full_name))
     }
 
-    /// Whether the type's vectors are in the body frame (else the world frame).
+    /// Whether the type's frame is a body frame (else a world frame, whose convention pairs
+    /// with the body's: ENU with FLU, NED with FRD).
     fn in_body(self) -> bool {
-        !matches!(self, RosType::QuaternionStamped | RosType::PointStamped)
+        !matches!(
+            self,
+            RosType::QuaternionStamped | RosType::PointStamped | RosType::Odometry
+        )
+    }
+
+    /// The role a topic of this type must be named for to be read (`None`: read wherever
+    /// it is). An odometry topic is a reference only when the user says so: a log may hold
+    /// several (wheel, visual, the filter's own), and none of them is a truth by itself.
+    pub fn only_when_named_for(self) -> Option<&'static str> {
+        (self == RosType::Odometry).then_some("truth")
     }
 
     /// The numbers read, after the stamp.
@@ -204,6 +220,21 @@ impl RosType {
                 "velocity_covariance[0]",
                 "altitude",
             ],
+            RosType::Odometry => &[
+                "pose.pose.position.x",
+                "pose.pose.position.y",
+                "pose.pose.position.z",
+                "pose.pose.orientation.x",
+                "pose.pose.orientation.y",
+                "pose.pose.orientation.z",
+                "pose.pose.orientation.w",
+                "twist.twist.linear.x",
+                "twist.twist.linear.y",
+                "twist.twist.linear.z",
+                "twist.twist.angular.x",
+                "twist.twist.angular.y",
+                "twist.twist.angular.z",
+            ],
         }
     }
 
@@ -227,6 +258,9 @@ pub enum Converted {
     Dvl(Dvl),
     Attitude(Attitude),
     PositionFix(PositionFix),
+    /// A reference track; its latitude and longitude are placed once the mission's origin
+    /// is known ([`place_on_origin`]), until then they are the origin's (0, 0).
+    Truth(Truth),
 }
 
 /// The convention a message's frame name says.
@@ -258,6 +292,60 @@ fn world(v: Vector3<f64>, c: Convention) -> Vector3<f64> {
 /// An altitude when the driver gives one (a positive finite number).
 fn positive(altitude: f64) -> Option<f64> {
     (altitude.is_finite() && altitude > 0.0).then_some(altitude)
+}
+
+/// The body's attitude from a quaternion's `[x, y, z, w]` (`field` names it in an issue).
+fn ned_from_body(
+    xyzw: &[f64],
+    c: Convention,
+    field: &'static str,
+) -> Result<UnitQuaternion<f64>, FieldIssue> {
+    let q = Quaternion::new(xyzw[3], xyzw[0], xyzw[1], xyzw[2]);
+    let norm = q.norm();
+    if norm.is_nan() || norm <= 0.5 {
+        return Err(FieldIssue::new(field, "not a rotation (norm far from 1)"));
+    }
+    let q = UnitQuaternion::from_quaternion(q);
+    Ok(match c {
+        Convention::Native => q,
+        Convention::Rep103 => ned_from_frd(&q),
+    })
+}
+
+/// A `nav_msgs/Odometry` as a reference track (`f`: its fields after the stamp). Per
+/// REP-105 the pose is the body's in the world frame of `header.frame_id` and the twist is
+/// in the body frame (`child_frame_id`); the world frame's origin is taken to be the
+/// mission's.
+fn reference(stamp_ns: i64, f: &[f64], c: Convention) -> Result<Truth, FieldIssue> {
+    let v3 = |i: usize| Vector3::new(f[i], f[i + 1], f[i + 2]);
+    let position_ned = world(v3(0), c);
+    let ned_from_body = ned_from_body(&f[3..7], c, "pose.pose.orientation")?;
+    let velocity_body = body(v3(7), c);
+    let velocity_ned = ned_from_body * Vector3::from(velocity_body);
+    let (roll, pitch, yaw) = ned_from_body.euler_angles();
+    Ok(Truth {
+        stamp_ns,
+        latitude_deg: 0.0,
+        longitude_deg: 0.0,
+        north_m: position_ned.x,
+        east_m: position_ned.y,
+        down_m: position_ned.z,
+        velocity_body,
+        velocity_ned: velocity_ned.into(),
+        attitude: [roll, pitch, yaw],
+        angular_velocity: body(v3(10), c),
+    })
+}
+
+/// Places a reference track's points on the mission's origin (degrees): their latitude and
+/// longitude from their north and east, on the origin's local tangent (the inverse of
+/// [`crate::geodesy::local_north_east_m`]).
+pub fn place_on_origin(track: &mut [Truth], origin_deg: (f64, f64)) {
+    let (lat0, lon0) = (origin_deg.0.to_radians(), origin_deg.1.to_radians());
+    for t in track {
+        let (lat, lon) = crate::geodesy::position_of_local_m(lat0, lon0, t.north_m, t.east_m);
+        (t.latitude_deg, t.longitude_deg) = (lat.to_degrees(), lon.to_degrees());
+    }
 }
 
 /// `ned_from_frd` of a REP-103 `enu_from_flu`: `C = R_ned_enu C_enu_flu R_flu_frd`.
@@ -332,20 +420,7 @@ pub fn convert(
             altitude: None,
         }),
         RosType::QuaternionStamped => {
-            let q = Quaternion::new(f[3], f[0], f[1], f[2]);
-            let norm = q.norm();
-            if norm.is_nan() || norm <= 0.5 {
-                return Err(FieldIssue::new(
-                    "quaternion",
-                    "not a rotation (norm far from 1)",
-                ));
-            }
-            let q = UnitQuaternion::from_quaternion(q);
-            let ned_from_body = match c {
-                Convention::Native => q,
-                Convention::Rep103 => ned_from_frd(&q),
-            };
-            let (roll, pitch, yaw) = ned_from_body.euler_angles();
+            let (roll, pitch, yaw) = ned_from_body(&f[0..4], c, "quaternion")?.euler_angles();
             Converted::Attitude(Attitude {
                 stamp_ns,
                 roll,
@@ -353,6 +428,7 @@ pub fn convert(
                 yaw,
             })
         }
+        RosType::Odometry => Converted::Truth(reference(stamp_ns, f, c)?),
         RosType::AcousticDvl => Converted::Dvl(Dvl {
             stamp_ns,
             velocity: body(v3(0), c),
@@ -529,6 +605,61 @@ mod tests {
         assert_eq!((p.north_m, p.east_m, p.down_m), (20.0, 10.0, Some(5.0)));
         let p = point(f64::NAN);
         assert_eq!(p.down_m, None, "NaN is unknown: a horizontal fix");
+    }
+
+    /// A REP-103 odometry (ENU pose, FLU twist) and its native twin give one reference
+    /// point: heading 30 deg east of north, 1 m/s ahead, 2 m deep, 10 m north and 20 m east.
+    #[test]
+    fn odometry_becomes_a_reference_point_in_either_convention() {
+        let s = RosSettings::default();
+        let heading = 30f64.to_radians();
+        let enu =
+            UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2 - heading);
+        let ned = UnitQuaternion::from_euler_angles(0.0, 0.0, heading);
+        let rep103 = numbers(&[
+            20.0, 10.0, -2.0, enu.i, enu.j, enu.k, enu.w, 1.0, 0.0, 0.0, 0.0, 0.0, -0.1,
+        ]);
+        let native = numbers(&[
+            10.0, 20.0, 2.0, ned.i, ned.j, ned.k, ned.w, 1.0, 0.0, 0.0, 0.0, 0.0, 0.1,
+        ]);
+        for (n, frame) in [(rep103, "odom"), (native, "odom_ned")] {
+            let Ok(Converted::Truth(t)) = convert(RosType::Odometry, &n, (3, 0), frame, None, &s)
+            else {
+                panic!("{frame}")
+            };
+            assert_eq!(
+                (t.north_m, t.east_m, t.down_m),
+                (10.0, 20.0, 2.0),
+                "{frame}"
+            );
+            assert!((t.attitude[2] - heading).abs() < 1e-12, "{frame}: {t:?}");
+            assert!(t.attitude[0].abs() < 1e-12 && t.attitude[1].abs() < 1e-12);
+            let v = t.velocity_ned;
+            assert!((v[0] - heading.cos()).abs() < 1e-12 && (v[1] - heading.sin()).abs() < 1e-12);
+            assert_eq!(t.velocity_body, [1.0, 0.0, 0.0]);
+            // Turning to starboard: FLU's z rate is negative, FRD's positive.
+            assert_eq!(t.angular_velocity, [0.0, 0.0, 0.1]);
+        }
+        let mut track = [Truth {
+            stamp_ns: 0,
+            latitude_deg: 0.0,
+            longitude_deg: 0.0,
+            north_m: 1000.0,
+            east_m: 0.0,
+            down_m: 0.0,
+            velocity_body: [0.0; 3],
+            velocity_ned: [0.0; 3],
+            attitude: [0.0; 3],
+            angular_velocity: [0.0; 3],
+        }];
+        place_on_origin(&mut track, (35.0, 129.0));
+        // A kilometre north is about 0.009 deg of latitude.
+        assert!(
+            (track[0].latitude_deg - 35.009_013).abs() < 1e-5,
+            "{track:?}"
+        );
+        assert_eq!(track[0].longitude_deg, 129.0);
+        assert!(RosType::Odometry.only_when_named_for() == Some("truth"));
     }
 
     #[test]

@@ -16,6 +16,9 @@ const VECTOR3: &str = "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64
 const QUATERNION: &str =
     "MSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n";
 const POINT: &str = "MSG: geometry_msgs/Point\nfloat64 x\nfloat64 y\nfloat64 z\n";
+const TWIST_WITH_COVARIANCE: &str =
+    "MSG: geometry_msgs/TwistWithCovariance\nTwist twist\nfloat64[36] covariance\n";
+const TWIST: &str = "MSG: geometry_msgs/Twist\nVector3 linear\nVector3 angular\n";
 
 /// A message definition with its dependencies, written as ROS 2's: ROS 1's has its own
 /// header and no `Time`.
@@ -54,11 +57,21 @@ pub fn definition(ty: RosType, dialect: Dialect) -> Option<String> {
         RosType::TwistWithCovarianceStamped => joined(
             d,
             "std_msgs/Header header\nTwistWithCovariance twist\n",
+            &[HEADER, TIME, TWIST_WITH_COVARIANCE, TWIST, VECTOR3],
+        ),
+        RosType::Odometry => joined(
+            d,
+            "std_msgs/Header header\nstring child_frame_id\n\
+             geometry_msgs/PoseWithCovariance pose\ngeometry_msgs/TwistWithCovariance twist\n",
             &[
                 HEADER,
                 TIME,
-                "MSG: geometry_msgs/TwistWithCovariance\nTwist twist\nfloat64[36] covariance\n",
-                "MSG: geometry_msgs/Twist\nVector3 linear\nVector3 angular\n",
+                "MSG: geometry_msgs/PoseWithCovariance\nPose pose\nfloat64[36] covariance\n",
+                "MSG: geometry_msgs/Pose\nPoint position\nQuaternion orientation\n",
+                POINT,
+                QUATERNION,
+                TWIST_WITH_COVARIANCE,
+                TWIST,
                 VECTOR3,
             ],
         ),
