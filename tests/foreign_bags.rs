@@ -372,3 +372,38 @@ fn info_names_the_container_and_reconstruct_reads_a_bag_folder() {
         "nothing written beside the database"
     );
 }
+
+/// A real Water Linked A50, recorded by `rosbag record` (waterlinked/dvl-a50-ros-driver's
+/// `dvl_circle.bag`, MIT): every reading of the driver's message, as hindsight reads it,
+/// equals the DVL's own JSON output published beside it (`tests/fixtures/real`).
+#[test]
+fn a_real_water_linked_bag_reads_as_the_dvl_reported() {
+    let dir = common::repo_path("tests/fixtures/real");
+    let log = read_log(
+        &dir.join("waterlinked_a50_circle.bag"),
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(log.file.container, Container::Ros1Bag);
+    assert_eq!(log.role_topic::<Dvl>(), Some("/dvl/data"));
+    let dvl = log.role::<Dvl>();
+    let expected =
+        std::fs::read_to_string(dir.join("waterlinked_a50_circle_expected.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = expected
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(dvl.len(), rows.len());
+    let number = |s: &str| s.parse::<f64>().unwrap();
+    for (d, row) in dvl.iter().zip(&rows) {
+        assert_eq!(d.stamp_ns, row[0].parse::<i64>().unwrap());
+        // The DVL's own frame is the contract's body frame (x forward, z down).
+        assert_eq!(d.velocity, [number(row[1]), number(row[2]), number(row[3])]);
+        assert_eq!(d.valid, row[4] == "1");
+        let altitude = number(row[5]);
+        assert_eq!(d.altitude, (altitude > 0.0).then_some(altitude));
+    }
+    let unlocked = dvl.iter().filter(|d| !d.valid).count();
+    assert_eq!(unlocked, 75, "readings without bottom lock");
+}

@@ -256,6 +256,39 @@ mod tests {
         assert_eq!(j.mag, b.mag);
         assert_eq!(b.depth.len(), j.depth.len());
         assert_eq!(b.dvl, d.dvl);
+        split_in_two(&db3_path);
+        let split = read_log(&db3_path, &IngestOptions::default()).unwrap();
+        assert_eq!(split.message_count(), n, "both files read");
+        let s = Streams::of(&split);
+        assert_eq!((s.imu, s.dvl, s.depth), (d.imu, d.dvl, d.depth));
+        assert!(split.streams.iter().all(|s| s.counts.out_of_order == 0));
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Splits a one-file sqlite3 bag in two at its middle time, as rosbag2 splits a long
+    /// recording (`--max-bag-duration`): `_0.db3` holds the first half, `_1.db3` the rest,
+    /// and `metadata.yaml` lists both.
+    fn split_in_two(dir: &Path) {
+        let name = dir.file_name().unwrap().to_string_lossy().into_owned();
+        let (first, second) = (format!("{name}_0.db3"), format!("{name}_1.db3"));
+        std::fs::copy(dir.join(&first), dir.join(&second)).unwrap();
+        let db = rusqlite::Connection::open(dir.join(&first)).unwrap();
+        let middle: i64 = db
+            .query_row(
+                "SELECT (MIN(timestamp) + MAX(timestamp)) / 2 FROM messages",
+                [],
+                |r| r.get(0),
+            )
+            .unwrap();
+        db.execute("DELETE FROM messages WHERE timestamp > ?1", [middle])
+            .unwrap();
+        let db = rusqlite::Connection::open(dir.join(&second)).unwrap();
+        db.execute("DELETE FROM messages WHERE timestamp <= ?1", [middle])
+            .unwrap();
+        let metadata = std::fs::read_to_string(dir.join("metadata.yaml")).unwrap();
+        let listed = format!("    - {first}\n");
+        assert!(metadata.contains(&listed));
+        let both = format!("{listed}    - {second}\n");
+        std::fs::write(dir.join("metadata.yaml"), metadata.replace(&listed, &both)).unwrap();
     }
 }
