@@ -305,3 +305,86 @@ fn position_fixes_bound_the_error_without_dvl() {
     assert!(with_fixes < 2.0 * 2.0, "{with_fixes} m");
     assert!(with_fixes < 0.5 * without, "{with_fixes} m vs {without} m");
 }
+
+/// Readings whose measurement covariance is not positive definite (as a writer's bad
+/// sigma, or a covariance that lost its definiteness, would give).
+struct NotPositiveDefinite {
+    stamps_ns: Vec<i64>,
+}
+
+impl hindsight::filters::ins::aiding::Aid for NotPositiveDefinite {
+    fn sensor(&self) -> Sensor {
+        Sensor::Depth
+    }
+    fn len(&self) -> usize {
+        self.stamps_ns.len()
+    }
+    fn stamp_ns(&self, i: usize) -> i64 {
+        self.stamps_ns[i]
+    }
+    fn measure(
+        &self,
+        _: usize,
+        _: &hindsight::filters::ins::aiding::Epoch<'_>,
+    ) -> Option<hindsight::filters::ins::aiding::Update> {
+        let mut h = nalgebra::SMatrix::<f64, 1, N>::zeros();
+        h[(0, 2)] = 1.0;
+        Some(hindsight::filters::ins::aiding::Update::One(
+            hindsight::filters::ins::aiding::Measurement {
+                y: nalgebra::SVector::<f64, 1>::new(0.1),
+                h,
+                r: nalgebra::SMatrix::<f64, 1, 1>::new(-1e6),
+            },
+        ))
+    }
+}
+
+/// An update whose innovation covariance is not positive definite is skipped and counted,
+/// and the run goes on to its end, as it would without those readings.
+#[test]
+fn an_update_that_is_not_positive_definite_is_skipped_and_the_run_goes_on() {
+    let scenario = Scenario::built_in("survey-short").unwrap();
+    let log = common::simulated_log(&scenario, 2);
+    let truth = log.messages::<Truth>("/truth").unwrap();
+    let streams = Streams {
+        altimeter: &[],
+        mag: &[],
+        fixes: &[],
+        ..Streams::of(&log)
+    };
+    let settings = settings_for(&scenario, aiding(None));
+    let run = |bad: bool| {
+        let mut aids = settings.aiding.table(&streams, origin_rad(&scenario));
+        let t0 = streams.imu[0].stamp_ns;
+        let stamps_ns: Vec<i64> = (1..100).map(|k| t0 + k * 1_000_000_000 + 3).collect();
+        let count = stamps_ns.len();
+        if bad {
+            aids.push(Box::new(NotPositiveDefinite { stamps_ns }));
+        }
+        let inputs = Inputs {
+            imu: streams.imu,
+            aids: &aids,
+            output_stamps_ns: &[],
+            progress: None,
+            keep: hindsight::filters::ins::driver::Keep::Navigation,
+        };
+        let initial = initial_from_truth(&truth[0], &scenario, 0.0, 0.0, 0.0, 1.0);
+        (run_forward(&settings, &inputs, initial).unwrap(), count)
+    };
+    let ((clean, _), (with_bad, count)) = (run(false), run(true));
+    assert_eq!(with_bad.not_positive_definite[Sensor::Depth], count);
+    assert_eq!(clean.not_positive_definite[Sensor::Depth], 0);
+    // Their stamps add epochs of their own (the propagation steps split there); the end is
+    // the same to the rounding.
+    let (a, b) = (
+        clean.navigation.last().unwrap(),
+        with_bad.navigation.last().unwrap(),
+    );
+    assert_eq!(a.stamp_ns, b.stamp_ns);
+    let metres = (a.nav.lat_rad - b.nav.lat_rad).abs() * 6.4e6
+        + (a.nav.lon_rad - b.nav.lon_rad).abs() * 6.4e6
+        + (a.nav.height_m - b.nav.height_m).abs();
+    assert!(metres < 1e-3, "{a:?} {b:?}");
+    assert!((a.nav.vel_ned_m_s - b.nav.vel_ned_m_s).norm() < 1e-6);
+    assert_eq!(with_bad.residuals.len(), clean.residuals.len());
+}

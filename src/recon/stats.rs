@@ -121,6 +121,16 @@ pub enum RunWarning {
     },
     /// The gate was reopened after runs of rejections.
     GateReopened { times: usize },
+    /// A long run of one sensor's readings was rejected, none let back in.
+    LongRejectedRun {
+        sensor: &'static str,
+        readings: usize,
+    },
+    /// Readings skipped: their innovation covariance was not positive definite.
+    NotPositiveDefinite {
+        sensor: &'static str,
+        readings: usize,
+    },
     /// An IMU gap, bridged.
     ImuGap { from_ns: i64, seconds: f64 },
     /// No declination for the log's date: 0 with a 20 deg sigma.
@@ -168,6 +178,18 @@ impl std::fmt::Display for RunWarning {
                  rejected many times in a row: the filter had drifted from it (see \
                  residuals.parquet)"
             ),
+            RunWarning::LongRejectedRun { sensor, readings } => write!(
+                f,
+                "{sensor}: {readings} readings in a row were rejected by the gate (the longest \
+                 run): a stuck or faulty sensor, or a filter that drifted from it (see \
+                 residuals.parquet)"
+            ),
+            RunWarning::NotPositiveDefinite { sensor, readings } => write!(
+                f,
+                "{sensor}: {readings} readings skipped, their innovation covariance not positive \
+                 definite (a measurement covariance of zero or less, or a covariance that lost \
+                 its definiteness)"
+            ),
             RunWarning::ImuGap { from_ns, seconds } => write!(
                 f,
                 "IMU gap of {seconds:.2} s at {}: bridged with grown covariance",
@@ -187,6 +209,10 @@ impl std::fmt::Display for RunWarning {
         }
     }
 }
+
+/// Rejections in a row worth a warning: a sensor locked out that long is stuck or faulty, or
+/// the filter has drifted from it without its readings agreeing enough to let it back in.
+const LONG_REJECTED_RUN: usize = 50;
 
 /// Warnings a navigation engineer should read: sensors whose innovations disagree with
 /// their noise settings, IMU gaps, an unknown declination.
@@ -225,6 +251,22 @@ pub fn warnings(
         out.push(RunWarning::GateReopened {
             times: run.gate_resets,
         });
+    }
+    for sensor in Sensor::ALL {
+        let readings = run.longest_rejected_run[sensor];
+        if readings >= LONG_REJECTED_RUN {
+            out.push(RunWarning::LongRejectedRun {
+                sensor: sensor.name(),
+                readings,
+            });
+        }
+        let readings = run.not_positive_definite[sensor];
+        if readings > 0 {
+            out.push(RunWarning::NotPositiveDefinite {
+                sensor: sensor.name(),
+                readings,
+            });
+        }
     }
     out.extend(run.imu_gaps.iter().map(|g| RunWarning::ImuGap {
         from_ns: g.from_ns,

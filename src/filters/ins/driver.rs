@@ -151,6 +151,10 @@ pub struct ForwardRun {
     pub disturbed: PerSensor,
     /// Times the gate was reopened for a sensor after `gate_reset_after` rejections in a row.
     pub gate_resets: usize,
+    /// The longest run of rejections in a row, per sensor.
+    pub longest_rejected_run: PerSensor,
+    /// Readings skipped because their innovation covariance was not positive definite.
+    pub not_positive_definite: PerSensor,
     pub imu_gaps: Vec<ImuGap>,
     /// Log-likelihood of the innovations, `-1/2 sum (NIS + ln det S + m ln 2 pi)`, with each
     /// NIS capped at the gate's bound (so that an outlier counts as a rejection, not as a
@@ -461,20 +465,26 @@ impl Pass<'_> {
         if reopen {
             self.run.gate_resets += 1;
         }
-        let rec = self
+        let rec = match self
             .settings
             .filter
             .update_in_place(&mut self.est, &m.y, &m.h, &m.r, gate)
-            .map_err(|source| ForwardError {
-                stamp_ns,
-                sensor,
-                source,
-            })?;
+        {
+            Ok(rec) => rec,
+            // Nothing was changed: the reading is skipped, counted and warned, and the run
+            // (a day's, perhaps) goes on.
+            Err(KalmanError::InnovationNotPositiveDefinite) => {
+                self.run.not_positive_definite[sensor] += 1;
+                return Ok(());
+            }
+        };
         self.consecutive_rejections[sensor] = if rec.accepted {
             0
         } else {
             self.consecutive_rejections[sensor] + 1
         };
+        let longest = &mut self.run.longest_rejected_run[sensor];
+        *longest = (*longest).max(self.consecutive_rejections[sensor]);
         let log_likelihood = -0.5
             * (rec.nis.min(self.nis_cap[M])
                 + rec.log_det_innovation_cov
