@@ -2,8 +2,7 @@
 //! (the in-motion alignment), after a dropped entry (the start carried by the gyro, the
 //! magnetometer as an aid), and without any heading source. Scored against `/truth`.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::Truth;
 use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, HeadingChoice};

@@ -2,8 +2,7 @@
 //! magnetometer, no `end` mark, no marks and no truth, a long DVL gap, a saturating
 //! magnetometer, a bad config); the defaults on pool runs with a 5 uT hard iron.
 
-mod common;
-
+use crate::common;
 use arrow_array::{Array, Float64Array, RecordBatch, StringArray, UInt64Array};
 use common::{hindsight, read_parquet, stderr};
 use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};

@@ -1,7 +1,6 @@
 //! Bad input gets a typed error naming what and where, or a counted warning; never a panic.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::Streams;
 
 use hindsight::contract::{Imu, Message};

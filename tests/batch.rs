@@ -1,8 +1,7 @@
 //! Issue 18: `hindsight batch` over an archive: partitions, shards, resume, a corrupt log
 //! among good ones, and the batch summary.
 
-mod common;
-
+use crate::common;
 use arrow_array::{Array, BooleanArray, Float64Array, RecordBatch, StringArray};
 use common::{hindsight, read_parquet, scratch_dir, stderr, SAMPLE};
 use std::path::{Path, PathBuf};

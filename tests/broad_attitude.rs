@@ -2,10 +2,9 @@
 //! scored as BROAD scores (`../shared/benchmarks/broad/README.md`), next to the published
 //! errors of Madgwick's and Mahony's filters at BROAD's TAGP parameters.
 //!
-//! `cargo test --release --test broad_attitude -- --nocapture`
+//! `cargo test --release --test all broad_attitude:: -- --nocapture`
 
-mod common;
-
+use crate::common;
 use hindsight::attitude::compare::{self, Method};
 use hindsight::attitude::config::AttitudeConfig;
 use hindsight::attitude::score::{reference_from_truth, rms, AttitudeRms};

@@ -1,7 +1,6 @@
 //! The `hindsight` binary: exit codes, one-line errors, atomic output, untouched input.
 
-mod common;
-
+use crate::common;
 use arrow_array::{Array, Float64Array, RecordBatch, TimestampNanosecondArray};
 use common::{hindsight, stderr, SAMPLE};
 use hindsight::contract::{Imu, Message};

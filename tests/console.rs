@@ -1,7 +1,6 @@
 //! Issue 17: progress bars only on a terminal, and `--quiet` leaves only errors.
 
-mod common;
-
+use crate::common;
 use common::{hindsight, scratch_dir, stderr, SAMPLE};
 use std::process::Command;
 

@@ -1,8 +1,7 @@
 //! The JSON Schemas in schemas/ and the Rust message types agree, and the schemas validate
 //! what the project writes and reject what the decoders reject.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::*;
 use hindsight::ingest::decode::json::decode;
 use serde_json::{json, Value};

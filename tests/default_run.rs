@@ -2,8 +2,7 @@
 //! what the log supports, in the order that does not hurt. Scored against the simulator's
 //! `/truth`.
 
-mod common;
-
+use crate::common;
 use hindsight::filters::ins::aiding::Sensor;
 use hindsight::filters::ins::error_state::idx;
 use hindsight::recon::config::{Config, HeadingChoice};

@@ -3,8 +3,7 @@
 //! supports (Delph INS calls a calibration good under 0.1 % and 0.1 deg). Without fixes they
 //! are carried at their priors, and the position's uncertainty stays honest.
 
-mod common;
-
+use crate::common;
 use hindsight::filters::ins::error_state::idx;
 use hindsight::recon::config::Config;
 use hindsight::recon::score::scores;

@@ -1,10 +1,9 @@
 //! The simulator's hydrodynamic scenarios: the 6-DOF NPS AUV II flown by its autopilot
 //! through seed 000's Table 1 mission and the manoeuvres, with the contract's streams.
 //!
-//! `cargo test --release --test dynamic_scenarios -- --nocapture`
+//! `cargo test --release --test all dynamic_scenarios:: -- --nocapture`
 
-mod common;
-
+use crate::common;
 use hindsight::angle::wrap_pi;
 use hindsight::filters::ins::mechanization::{propagate, HeightDamping, ImuSample, NavState};
 use hindsight::geodesy;

@@ -3,8 +3,7 @@
 //! the scenario's own noise figures (self-tuning off) and a start heading 1 deg off, scored
 //! against `/truth`.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::Truth;
 use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, HeadingChoice};

@@ -7,8 +7,7 @@
 //! simulator's truth as a vehicle INS's `nav_msgs/Odometry`, the reference track when it is
 //! named for the truth role.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::{
     Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, Message, Streams, Truth,
 };

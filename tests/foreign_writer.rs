@@ -72,7 +72,7 @@ fn reads_python_unchunked_log() {
 /// The BROAD benchmark logs in `../shared/benchmarks/broad/` (written by the Python `mcap`
 /// package with zstd chunks): every trial reads completely, without an invalid, duplicated or
 /// out-of-order message. Needs the shared folder, so it is ignored by default:
-/// `cargo test --release --test foreign_writer -- --ignored`.
+/// `cargo test --release --test all foreign_writer:: -- --ignored`.
 #[test]
 #[ignore = "needs ../shared/benchmarks/broad"]
 fn broad_trials_read_clean() {

@@ -2,14 +2,13 @@
 //! issue's levels), started 20 % off on every coefficient; scored against the true
 //! coefficients the simulator used.
 //!
-//! `cargo test --release --test identify -- --nocapture`
-//! Monte Carlo (100 seeds): `cargo test --release --test identify -- --ignored --nocapture`
+//! `cargo test --release --test all identify:: -- --nocapture`
+//! Monte Carlo (100 seeds): `cargo test --release --test all identify:: -- --ignored --nocapture`
 
 // Coefficients are indexed in parallel arrays (names, true values, estimates, covariance).
 #![allow(clippy::needless_range_loop)]
 
-mod common;
-
+use crate::common;
 use hindsight::identify::identifiability::assess;
 use hindsight::identify::output_error::{refine, Refined};
 use hindsight::identify::record::Record;

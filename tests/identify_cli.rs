@@ -1,8 +1,7 @@
 //! `hindsight identify` as a user runs it: outputs, the console table, and bad input (no
 //! /fins, no manoeuvre, too short, a bad option).
 
-mod common;
-
+use crate::common;
 use arrow_array::{Array, Float64Array, RecordBatch, StringArray};
 use common::{hindsight, read_parquet, stderr};
 use hindsight::contract::{Attitude, ControlSurfaces, Depth, Dvl, Imu};

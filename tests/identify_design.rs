@@ -5,10 +5,9 @@
 //! identified again, and the reported sigma of every coefficient the suggestion names must
 //! fall as predicted.
 //!
-//! `cargo test --release --test identify_design -- --nocapture`
+//! `cargo test --release --test all identify_design:: -- --nocapture`
 
-mod common;
-
+use crate::common;
 use hindsight::identify::design::{
     predicted_covariance, suggest, Addition, DesignSettings, Manoeuvre, Suggestion,
 };

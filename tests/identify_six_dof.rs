@@ -5,10 +5,9 @@
 //! else held at the file's values; scored against the file's values, which the simulator
 //! flew.
 //!
-//! `cargo test --release --test identify_six_dof -- --nocapture`
+//! `cargo test --release --test all identify_six_dof:: -- --nocapture`
 
-mod common;
-
+use crate::common;
 use hindsight::contract::{ControlSurfaces, Dvl, Imu};
 use hindsight::identify::record::RecordError;
 use hindsight::identify::six_dof::{identify_six_dof, SixDofRecord, SixDofSettings};
@@ -195,7 +194,7 @@ fn the_command_line_identifies_and_refuses() {
 /// sigma (1 for an efficient estimator with an honest sigma). Over 20 seeds a sample spread
 /// scatters by `1 / sqrt(2 * 19)`, about 16 %, so the band is 0.6-1.4 (2.5 times that); the
 /// heave-pitch study runs 100 seeds for its 0.8-1.2. About 2-4 minutes on 2 cores:
-/// `cargo test --release --test identify_six_dof -- --ignored --nocapture`
+/// `cargo test --release --test all identify_six_dof:: -- --ignored --nocapture`
 #[test]
 #[ignore]
 fn monte_carlo_spread_against_reported_sigma() {

@@ -4,8 +4,7 @@
 //! original's values and reconstructs within 1 mm of it. A cell that does not parse fails
 //! the import naming its file, line and column, and writes nothing.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::{Message, Streams};
 use hindsight::ingest::{read_log, IngestOptions, Log};
 use hindsight::recon::config::Config;

@@ -1,7 +1,6 @@
 //! Ingest on logs built in memory with the project's own writer.
 
-mod common;
-
+use crate::common;
 use hindsight::align::merged;
 use hindsight::contract::*;
 use hindsight::ingest::{read_log_from, Ending, IngestOptions, Log};

@@ -5,8 +5,7 @@
 //! pitch, 2 deg heading): initialisation from the log itself is a later step of issue #4;
 //! this test exercises propagation, updates and smoothing.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::{Depth, Imu, Streams, Truth};
 use hindsight::filters::ins::aiding::{Aiding, Sensor};
 use hindsight::filters::ins::driver::{run_forward, Inputs, Propagation, Settings};

@@ -8,10 +8,9 @@
 //! hours) and with the DVL for the first hour (as the scenario has it).
 //!
 //! Too long for CI (about 4 minutes on 2 cores):
-//! `cargo test --release --test long_dive -- --ignored --nocapture`
+//! `cargo test --release --test all long_dive:: -- --ignored --nocapture`
 
-mod common;
-
+use crate::common;
 use hindsight::align::latest_at;
 use hindsight::contract::Truth;
 use hindsight::filters::ins::driver::{run_forward, Inputs};

@@ -1,8 +1,7 @@
 //! Seed 000's model-aided velocity filter on the 6-DOF simulator's logs, against `/truth`,
 //! and what it does with a wrong vehicle, no fins, or an unknown vehicle.
 
-mod common;
-
+use crate::common;
 use hindsight::align::latest_at;
 use hindsight::contract::Truth;
 use hindsight::filters::velocity::model_aided::{self, AttitudeAt, Mode, ModelAidedFilter};
@@ -17,7 +16,7 @@ use hindsight::vehicle::six_dof::description::Vehicle;
 use hindsight::vehicle::six_dof::model::SixDof;
 use nalgebra::{UnitQuaternion, Vector3};
 
-/// Diagnostic: `HINDSIGHT_LOG=file cargo test --release --test model_aided -- --ignored --nocapture`.
+/// Diagnostic: `HINDSIGHT_LOG=file cargo test --release --test all model_aided:: -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn velocity_errors_of_a_log() {

@@ -4,10 +4,9 @@
 //! mark and the yaw RMS against `/truth`, with the magnetometer as recorded and calibrated
 //! on the log itself.
 //!
-//! `cargo test --release --test pool_attitude -- --nocapture`
+//! `cargo test --release --test all pool_attitude:: -- --nocapture`
 
-mod common;
-
+use crate::common;
 use hindsight::attitude::compare::{self, Method, MethodScore, Reference};
 use hindsight::attitude::config::AttitudeConfig;
 use hindsight::attitude::dead_reckoning::dead_reckon;

@@ -2,8 +2,7 @@
 //! the `reconstruct` command uses: initialisation from the log, forward filter, smoother,
 //! scored against `/truth`.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::{Dvl, GnssFix, Imu, Truth};
 use hindsight::filters::ins::aiding::Sensor;
 use hindsight::ingest::Log;

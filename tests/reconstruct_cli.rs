@@ -1,8 +1,7 @@
 //! `hindsight reconstruct` and `hindsight config` as a user runs them: files, summary,
 //! errors and exit codes.
 
-mod common;
-
+use crate::common;
 use arrow_array::{Array, RecordBatch, StringArray};
 use common::{hindsight, read_parquet, stderr, SAMPLE};
 use hindsight::contract::Dvl;

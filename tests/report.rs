@@ -3,8 +3,7 @@
 //! (headless Chromium; skipped with a message when none is installed, required in CI by
 //! `HINDSIGHT_REQUIRE_BROWSER=1`).
 
-mod common;
-
+use crate::common;
 use common::{hindsight, scratch_dir, survey_bytes};
 use hindsight::sim::writer::WriterOptions;
 use std::path::{Path, PathBuf};

@@ -1,8 +1,7 @@
 //! ROS 2 recordings (issue 16): topics in `cdr` with the standard types, read through the
 //! schema text the file carries, converted to the contract's frames and units.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::{Depth, Dvl, Imu};
 use hindsight::ingest::{read_log_from, IngestError, IngestOptions};
 use hindsight::sim::writer::{to_bytes, WriterOptions};

@@ -3,8 +3,7 @@
 //! Both frame conventions and both distros' definitions; the values after conversion are the
 //! json original's, and the same mission reconstructs and gives attitude within 1 mm.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::{
     Altimeter, Depth, Dvl, GnssFix, Imu, MagneticField, Message, Propeller, SpeedLog, Streams,
     Truth,

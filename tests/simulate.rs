@@ -1,7 +1,6 @@
 //! Simulated logs: deterministic, valid against schemas/, read back identically by ingest.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::{kind_by_schema, GnssFix, Message, Truth};
 use hindsight::geodesy;
 use hindsight::ingest::{read_log_from, Ending, IngestOptions, Log};
@@ -93,7 +92,7 @@ fn every_scenario_log_is_valid_and_reads_back_identically() {
 }
 
 /// The 5.5-hour long dive, too slow for CI's budget with schema validation of 4 M messages:
-/// `cargo test --release --test simulate -- --ignored`.
+/// `cargo test --release --test all simulate:: -- --ignored`.
 #[test]
 #[ignore = "5.5 h of simulated data; run by name"]
 fn long_dive_log_is_valid_and_reads_back_identically() {

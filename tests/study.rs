@@ -3,8 +3,7 @@
 //! pitch, scored against `/truth`. The 100-run study is the README's command; this is the
 //! 10-run version, with the same criteria.
 
-mod common;
-
+use crate::common;
 use arrow_array::{Array, Float64Array, StringArray, UInt64Array};
 
 fn column<'a, T: 'static>(b: &'a arrow_array::RecordBatch, name: &str) -> &'a T {
@@ -232,7 +231,7 @@ fn seed_000_model_aided_study_of_five_runs() {
 }
 
 /// The 100 runs per case (about 26 minutes on 2 cores, so not in CI):
-/// `cargo test --release --test study seed_000_model_aided_study_of_100_runs -- --ignored
+/// `cargo test --release --test all study::seed_000_model_aided_study_of_100_runs -- --ignored
 /// --nocapture`. With 100 runs the pure SDINS's RMS is close enough to its expectation to
 /// be held to seed 000's figure: within 40 % of 1.4 km.
 #[test]

@@ -8,10 +8,9 @@
 //! (self-tuning, forward, smoother, every output) at most 1 GB.
 //!
 //! Too long for CI (a 1.4 GB log; about 4 minutes on 2 cores):
-//! `cargo test --release --test survey_27h -- --ignored --nocapture`
+//! `cargo test --release --test all survey_27h:: -- --ignored --nocapture`
 
-mod common;
-
+use crate::common;
 use serde_json::Value;
 
 #[test]

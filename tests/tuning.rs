@@ -2,8 +2,7 @@
 //! well as one configured with the simulator's own figures, whatever the IMU; figures a
 //! configuration gives are kept. Scored against `/truth`.
 
-mod common;
-
+use crate::common;
 use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, ImuGrade};
 use hindsight::recon::pipeline;

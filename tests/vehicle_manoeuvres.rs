@@ -1,10 +1,9 @@
 //! The 6-DOF model flown by the autopilot (NPS AUV II, the default vehicle): heading and
 //! depth steps, a turning circle at full rudder with depth held, a horizontal 20-20 zig-zag.
 //!
-//! `cargo test --release --test vehicle_manoeuvres -- --nocapture`
+//! `cargo test --release --test all vehicle_manoeuvres:: -- --nocapture`
 
-mod common;
-
+use crate::common;
 use hindsight::angle::wrap_pi;
 use hindsight::vehicle::six_dof::autopilot::{Autopilot, AutopilotState, Command, Gains};
 use hindsight::vehicle::six_dof::description::Vehicle;

@@ -1,10 +1,9 @@
 //! Seed 000's 6-DOF model on the shared vehicle files: loading (and refusing bad files),
 //! Jacobians against finite differences, and energy conservation without hydrodynamics.
 //!
-//! `cargo test --release --test vehicle_model -- --nocapture`
+//! `cargo test --release --test all vehicle_model:: -- --nocapture`
 
-mod common;
-
+use crate::common;
 use hindsight::vehicle::six_dof::description::{Propulsion, Vehicle, VehicleError};
 use hindsight::vehicle::six_dof::model::{Attitude, SixDof};
 use hindsight::vehicle::six_dof::terms::{Inputs, Nu};

@@ -2,8 +2,7 @@
 //! `/rpm` and `/eml` present): seed 003's propeller velocity filter against switching alone,
 //! both from the default configuration otherwise, scored against `/truth`.
 
-mod common;
-
+use crate::common;
 use hindsight::contract::Propeller;
 use hindsight::filters::ins::aiding::Sensor;
 use hindsight::ingest::Log;
