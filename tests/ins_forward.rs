@@ -176,7 +176,7 @@ fn forward_filter_and_smoother_follow_the_survey() {
     };
 
     let initial = initial_from_truth(&truth[0], &scenario, 3.0, 0.2, 2.0, 25.0);
-    let run = run_forward(&settings, &inputs, initial).unwrap();
+    let run = run_forward(&settings, &inputs, initial);
     let smoothed = smooth(&run.records).unwrap();
     let records = run.records.to_vec().unwrap();
     assert_eq!(smoothed.len(), records.len());
@@ -278,7 +278,7 @@ fn position_fixes_bound_the_error_without_dvl() {
             progress: None,
             keep: hindsight::filters::ins::driver::Keep::Records,
         };
-        let run = run_forward(&settings, &inputs, initial).unwrap();
+        let run = run_forward(&settings, &inputs, initial);
         let records = run.records.to_vec().unwrap();
         let mut k = 0;
         let mut sq = 0.0;
@@ -368,7 +368,7 @@ fn an_update_that_is_not_positive_definite_is_skipped_and_the_run_goes_on() {
             keep: hindsight::filters::ins::driver::Keep::Navigation,
         };
         let initial = initial_from_truth(&truth[0], &scenario, 0.0, 0.0, 0.0, 1.0);
-        (run_forward(&settings, &inputs, initial).unwrap(), count)
+        (run_forward(&settings, &inputs, initial), count)
     };
     let ((clean, _), (with_bad, count)) = (run(false), run(true));
     assert_eq!(with_bad.not_positive_definite[Sensor::Depth], count);

@@ -172,7 +172,7 @@ fn run_seed(scenario: &Scenario, config: &Config, seed: u64) -> Outcome {
             progress: None,
             keep: hindsight::filters::ins::driver::Keep::Records,
         };
-        let run = run_forward(&settings, &inputs, start).unwrap();
+        let run = run_forward(&settings, &inputs, start);
         let errors: Vec<_> = run
             .records
             .iter()

@@ -24,7 +24,7 @@ use super::config::AlignmentConfig;
 use super::heading::HeadingSource;
 use super::init::Initialisation;
 use crate::angle::wrap_pi;
-use crate::filters::ins::driver::{run_forward, ForwardError, Inputs, Residual, Settings};
+use crate::filters::ins::driver::{run_forward, Inputs, Residual, Settings};
 use crate::filters::ins::error_state::idx;
 use crate::filters::kalman::chi_square_quantile;
 use crate::smooth::rts::smooth;
@@ -102,9 +102,9 @@ pub fn align(
     inputs: &Inputs<'_>,
     init: &Initialisation,
     cfg: &AlignmentConfig,
-) -> Result<Option<InMotion>, ForwardError> {
+) -> Option<InMotion> {
     let (Some(first), Some(last)) = (inputs.imu.first(), inputs.imu.last()) else {
-        return Ok(None);
+        return None;
     };
     let k = cfg.hypotheses.max(2);
     let spacing_deg = 360.0 / k as f64;
@@ -130,14 +130,13 @@ pub fn align(
     loop {
         let end_ns = first.stamp_ns + (span_s * 1e9) as i64;
         let cut = inputs_until(inputs, end_ns);
-        let scores: Vec<Result<f64, ForwardError>> = hypotheses
+        let scores: Vec<f64> = hypotheses
             .par_iter()
             .map(|&(yaw, sigma, _)| {
-                let run = run_forward(settings, &cut, init.estimate_with_heading(yaw, sigma))?;
-                Ok(log_likelihood(&run.residuals, gate_p))
+                let run = run_forward(settings, &cut, init.estimate_with_heading(yaw, sigma));
+                log_likelihood(&run.residuals, gate_p)
             })
             .collect();
-        let scores = scores.into_iter().collect::<Result<Vec<f64>, _>>()?;
         let ln_post: Vec<f64> = scores
             .iter()
             .zip(&hypotheses)
@@ -161,7 +160,7 @@ pub fn align(
                 } else {
                     cfg.found_sigma_floor_deg
                 };
-                let (yaw, sigma) = for_another_pass(refine(settings, &cut, init, yaw, sigma)?);
+                let (yaw, sigma) = for_another_pass(refine(settings, &cut, init, yaw, sigma));
                 Some((yaw, sigma.max(floor)))
             } else {
                 None
@@ -175,14 +174,14 @@ pub fn align(
             let refined = if decisive && best == 0 && init.heading == HeadingSource::Gyrocompass {
                 let (yaw, sigma, _) = hypotheses[0];
                 let (refined_yaw, refined_sigma) =
-                    for_another_pass(refine(settings, &cut, init, yaw, sigma)?);
+                    for_another_pass(refine(settings, &cut, init, yaw, sigma));
                 let apart_deg = wrap_pi(refined_yaw - yaw).to_degrees().abs();
                 (apart_deg <= 3.0 * sigma.hypot(refined_sigma))
                     .then_some((refined_yaw, refined_sigma))
             } else {
                 None
             };
-            return Ok(Some(InMotion {
+            return Some(InMotion {
                 span_s,
                 hypotheses: hypotheses
                     .iter()
@@ -202,7 +201,7 @@ pub fn align(
                 refined_heading_deg: refined.map(|f| f.0.to_degrees().rem_euclid(360.0)),
                 refined_sigma_deg: refined.map(|f| f.1),
                 refined,
-            }));
+            });
         }
         span_s = (span_s * 3.0).min(whole_s);
     }
@@ -240,7 +239,7 @@ fn refine(
     init: &Initialisation,
     mut yaw: f64,
     prior_sigma_deg: f64,
-) -> Result<(f64, f64), ForwardError> {
+) -> (f64, f64) {
     let mut sigma_deg = prior_sigma_deg;
     for _ in 0..2 {
         let start_sigma_deg = if prior_sigma_deg <= LINEAR_SIGMA_DEG {
@@ -252,7 +251,7 @@ fn refine(
             settings,
             inputs,
             init.estimate_with_heading(yaw, start_sigma_deg),
-        )?;
+        );
         let Ok(smoothed) = smooth(&run.records) else {
             break;
         };
@@ -262,7 +261,7 @@ fn refine(
         yaw = start.euler_rad()[2];
         sigma_deg = start.sigma[idx::ATT + 2].to_degrees();
     }
-    Ok((yaw, sigma_deg))
+    (yaw, sigma_deg)
 }
 
 /// The sigma a forward pass over the span's data again starts a heading found from them

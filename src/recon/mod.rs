@@ -27,7 +27,7 @@ pub mod tune;
 
 use crate::contract::Imu;
 use crate::filters::ins::aiding::{MagAiding, Sensor};
-use crate::filters::ins::driver::{run_forward, ForwardError, ForwardRun, Inputs, Keep};
+use crate::filters::ins::driver::{run_forward, ForwardRun, Inputs, Keep};
 use crate::filters::ins::record::Solution;
 use crate::filters::ins::solutions::Solutions;
 use crate::filters::velocity::model_aided::{AttitudeAt, ModelAidedFilter};
@@ -45,8 +45,6 @@ use std::time::{Duration, Instant};
 pub enum ReconError {
     #[error("initialisation: {0}")]
     Init(InitError),
-    #[error("forward filter: {0}")]
-    Forward(ForwardError),
     #[error("smoother: {0}")]
     Smooth(SmoothError),
     #[error("model-aided velocity: {0}")]
@@ -56,12 +54,6 @@ pub enum ReconError {
 impl From<InitError> for ReconError {
     fn from(e: InitError) -> Self {
         ReconError::Init(e)
-    }
-}
-
-impl From<ForwardError> for ReconError {
-    fn from(e: ForwardError) -> Self {
-        ReconError::Forward(e)
     }
 }
 
@@ -355,7 +347,7 @@ pub fn forward_with(
             Keep::Records
         },
     };
-    let run = run_forward(&settings, &inputs, init.estimate)?;
+    let run = run_forward(&settings, &inputs, init.estimate);
     aid_notes.extend(aids.iter().flat_map(|aid| {
         let sensor = aid.sensor();
         aid.notes()
@@ -512,7 +504,7 @@ fn attitude_of_pass(
             ..*inputs
         },
         init.estimate,
-    )?;
+    );
     Ok(Arc::new(model_velocity::attitude_track(&run.navigation)))
 }
 
@@ -550,7 +542,7 @@ fn align_in_motion(
     init: &mut Initialisation,
     config: &Config,
 ) -> Result<(), ReconError> {
-    let found = in_motion::align(settings, inputs, init, &config.alignment)?;
+    let found = in_motion::align(settings, inputs, init, &config.alignment);
     let known = init.heading != heading::HeadingSource::Unknown;
     if let Some((yaw, sigma_deg)) = found.as_ref().and_then(|f| f.found) {
         if known {

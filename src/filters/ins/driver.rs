@@ -180,15 +180,6 @@ impl ForwardRun {
     }
 }
 
-/// Why the forward pass stopped.
-#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
-#[error("{} update at {stamp_ns} ns: {source}", sensor.name())]
-pub struct ForwardError {
-    pub stamp_ns: i64,
-    pub sensor: Sensor,
-    pub source: KalmanError,
-}
-
 fn imu_sample(m: &Imu) -> ImuSample {
     ImuSample {
         omega_ib_body: m.angular_velocity.into(),
@@ -243,13 +234,9 @@ struct Pass<'a> {
 }
 
 /// Runs the forward filter from `initial` (the estimate at the first IMU sample).
-pub fn run_forward(
-    settings: &Settings,
-    inputs: &Inputs<'_>,
-    initial: Estimate,
-) -> Result<ForwardRun, ForwardError> {
+pub fn run_forward(settings: &Settings, inputs: &Inputs<'_>, initial: Estimate) -> ForwardRun {
     let Some(first) = inputs.imu.first() else {
-        return Ok(ForwardRun::default());
+        return ForwardRun::default();
     };
     let t0 = first.stamp_ns;
     let aiding = &settings.aiding;
@@ -302,7 +289,7 @@ pub fn run_forward(
         }
         let (sa, sb) = (imu_sample(a), imu_sample(b));
         if dt <= gap_s {
-            pass.advance(&sa, &sb, dt, b.stamp_ns, false)?;
+            pass.advance(&sa, &sb, dt, b.stamp_ns, false);
             continue;
         }
         pass.run.imu_gaps.push(ImuGap {
@@ -316,11 +303,11 @@ pub fn run_forward(
             let s = k as f64 / steps as f64;
             let t = a.stamp_ns + span_ns * k / steps;
             let next = ImuSample::lerp(&sa, &sb, s);
-            pass.advance(&prev, &next, dt / steps as f64, t, true)?;
+            pass.advance(&prev, &next, dt / steps as f64, t, true);
             prev = next;
         }
     }
-    Ok(pass.run)
+    pass.run
 }
 
 impl Pass<'_> {
@@ -345,14 +332,7 @@ impl Pass<'_> {
 
     /// One step of the nominal state to tick `t` (IMU `a` to `b` over `dt`), then the
     /// measurements and outputs due at `t`.
-    fn advance(
-        &mut self,
-        a: &ImuSample,
-        b: &ImuSample,
-        dt: f64,
-        t: i64,
-        in_gap: bool,
-    ) -> Result<(), ForwardError> {
+    fn advance(&mut self, a: &ImuSample, b: &ImuSample, dt: f64, t: i64, in_gap: bool) {
         let filter = &self.settings.filter;
         self.est.nav = filter.propagate_nominal(&self.est, a, b, dt, None);
         let corrected = self.est.corrected(&ImuSample::mean(a, b));
@@ -374,11 +354,10 @@ impl Pass<'_> {
                 .output_stamps_ns
                 .get(self.at.out)
                 .is_some_and(|&s| s <= t);
-            self.apply_measurements(t)?;
+            self.apply_measurements(t);
             self.keep(t, output, &prior);
             self.cov_nav = self.est.nav;
         }
-        Ok(())
     }
 
     /// The corrected body rate relative to NED, `omega_ib (corrected) - C^T (omega_ie +
@@ -442,7 +421,7 @@ impl Pass<'_> {
     }
 
     /// Applies an update of any size.
-    fn apply_any(&mut self, stamp_ns: i64, sensor: Sensor, u: &Update) -> Result<(), ForwardError> {
+    fn apply_any(&mut self, stamp_ns: i64, sensor: Sensor, u: &Update) {
         match u {
             Update::One(m) => self.apply(stamp_ns, sensor, m),
             Update::Two(m) => self.apply(stamp_ns, sensor, m),
@@ -451,12 +430,7 @@ impl Pass<'_> {
     }
 
     /// Applies an update and records its residual.
-    fn apply<const M: usize>(
-        &mut self,
-        stamp_ns: i64,
-        sensor: Sensor,
-        m: &Measurement<M>,
-    ) -> Result<(), ForwardError> {
+    fn apply<const M: usize>(&mut self, stamp_ns: i64, sensor: Sensor, m: &Measurement<M>) {
         // A sensor rejected this many times in a row is more likely right than the filter
         // (which has drifted away from it): reopen its gate for one measurement.
         let reset_after = self.settings.aiding.gate_reset_after;
@@ -475,7 +449,7 @@ impl Pass<'_> {
             // (a day's, perhaps) goes on.
             Err(KalmanError::InnovationNotPositiveDefinite) => {
                 self.run.not_positive_definite[sensor] += 1;
-                return Ok(());
+                return;
             }
         };
         self.consecutive_rejections[sensor] = if rec.accepted {
@@ -496,11 +470,10 @@ impl Pass<'_> {
             &rec,
             log_likelihood,
         ));
-        Ok(())
     }
 
     /// Every reading due at `t`, row by row of the aiding table.
-    fn apply_measurements(&mut self, t: i64) -> Result<(), ForwardError> {
+    fn apply_measurements(&mut self, t: i64) {
         let inputs = self.inputs;
         for (row, aid) in inputs.aids.iter().enumerate() {
             while self.at.aids[row] < aid.len() && aid.stamp_ns(self.at.aids[row]) <= t {
@@ -511,7 +484,7 @@ impl Pass<'_> {
                     omega_nb_body: self.omega_nb_body,
                 };
                 match aid.measure(i, &at) {
-                    Some(u) => self.apply_any(aid.stamp_ns(i), aid.sensor(), &u)?,
+                    Some(u) => self.apply_any(aid.stamp_ns(i), aid.sensor(), &u),
                     None => self.run.unused[aid.sensor()] += 1,
                 }
             }
@@ -524,7 +497,6 @@ impl Pass<'_> {
         {
             self.at.out += 1;
         }
-        Ok(())
     }
 }
 
