@@ -173,6 +173,16 @@ fn every_container_holds_the_json_values() {
     assert_eq!(log.streams[0].message_encoding, "ros1");
 }
 
+/// `hindsight COMMAND LOG EXTRA... --out OUT`, which must succeed; what it said on stderr.
+fn run_cli(command: &str, log: &Path, out: &Path, extra: &[&str]) -> String {
+    let mut args = vec![command, log.to_str().unwrap()];
+    args.extend(extra);
+    args.extend(["--out", out.to_str().unwrap()]);
+    let o = common::hindsight(&args);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    common::stderr(&o)
+}
+
 /// Reads a fixture with its odometry named for the truth role.
 fn with_reference(name: &str) -> Log {
     let options = IngestOptions {
@@ -232,14 +242,7 @@ fn a_bag_is_scored_against_its_odometry_as_the_original_against_its_truth() {
     let (bytes, mission) = json_window(SURVEY, false);
     let json_path = dir.join("survey-window.mcap");
     std::fs::write(&json_path, bytes).unwrap();
-    let run = |log: &Path, out: &Path, extra: &[&str]| {
-        let mut args = vec!["reconstruct", log.to_str().unwrap()];
-        args.extend(extra);
-        args.extend(["--out", out.to_str().unwrap()]);
-        let o = common::hindsight(&args);
-        assert!(o.status.success(), "{}", common::stderr(&o));
-        common::stderr(&o)
-    };
+    let run = |log: &Path, out: &Path, extra: &[&str]| run_cli("reconstruct", log, out, extra);
     let (json_out, bag_out) = (dir.join("json"), dir.join("bag"));
     run(&json_path, &json_out, &[]);
     let origin = format!(
@@ -297,11 +300,7 @@ fn the_same_pool_run_in_every_container_gives_attitude_within_a_millimetre() {
     let json_path = dir.join("pool-window.mcap");
     std::fs::write(&json_path, bytes).unwrap();
     let attitude = |log: &Path, out: &Path, extra: &[&str]| {
-        let mut args = vec!["attitude", log.to_str().unwrap()];
-        args.extend(extra);
-        args.extend(["--out", out.to_str().unwrap()]);
-        let o = common::hindsight(&args);
-        assert!(o.status.success(), "{}", common::stderr(&o));
+        run_cli("attitude", log, out, extra);
     };
     let json_out = dir.join("json");
     attitude(&json_path, &json_out, &[]);

@@ -286,10 +286,11 @@ impl Log {
         let origin_given = self.metadata.contains_key("mission")
             || defaults.origin_latitude_deg.is_some() && defaults.origin_longitude_deg.is_some();
         for s in &mut self.streams {
-            let ty = crate::ingest::ros::msg::full_name(&s.schema_name)
-                .and_then(|n| crate::ingest::ros::map::RosType::of(&n));
+            // A truth converted from another type (a ROS odometry) has its position only in
+            // its own frame; the contract's `/truth` carries its latitude and longitude.
+            let converted = s.schema_name != Truth::SCHEMA_NAME;
             let track = s.samples.as_any_mut().downcast_mut::<Vec<Truth>>();
-            if let (Some(crate::ingest::ros::map::RosType::Odometry), Some(track)) = (ty, track) {
+            if let (true, Some(track)) = (converted, track) {
                 crate::ingest::ros::map::place_on_origin(track, origin_deg);
                 if !origin_given {
                     notes.push(format!(
