@@ -18,6 +18,7 @@ mod dynamic_scenarios;
 mod em_log;
 mod foreign_bags;
 mod foreign_writer;
+mod house;
 mod identify;
 mod identify_cli;
 mod identify_design;

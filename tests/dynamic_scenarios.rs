@@ -408,7 +408,7 @@ fn gyrocompass_is_refused_while_the_vehicle_settles() {
     assert!(text.contains("from the in-motion alignment"), "{text}");
     let (code, text) = reconstruct(&dynamic, "dynamic-given", &["--initial-yaw", "90"]);
     assert_eq!(code, Some(0), "{text}");
-    assert!(text.contains("   --initial-yaw (1-sigma"), "{text}");
+    assert!(text.contains("   given by hand (1-sigma"), "{text}");
 
     let mut steady = table_2;
     steady.segments.truncate(1);

@@ -27,7 +27,7 @@ pub enum InputError {
 }
 
 /// An attitude method.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// Seed 001 eq. 1-4: accelerometer and magnetometer, sample by sample.

@@ -25,7 +25,7 @@ pub const DEFAULT_TOML: &str = r#"# hindsight attitude: configuration (every key
 # the paper's R and measurement_noise the paper's Q.
 #
 # The paper's printed measurement covariances are not positive definite; these defaults
-# keep their diagonals. `--preset seed001` takes the paper's matrices as printed (raised to
+# keep their diagonals. The preset `seed001` takes the paper's matrices as printed (raised to
 # checks.covariance_floor_rad2 where they must be, with a note), for reproducing it.
 
 [ekf]                  # seed 001 Table 1, parameters of its Table 6
@@ -126,7 +126,7 @@ impl DvlSettings {
 }
 
 /// The base a configuration file is laid over.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Preset {
     /// hindsight's defaults (every covariance positive definite).
     #[default]

@@ -1,10 +1,11 @@
 //! `hindsight attitude LOG --out DIR`: seed 001's attitude-method comparison on any log.
 
+use super::choices::{self, Preset};
 use super::console::{self, out, say};
 use super::{OutputFailed, PolicyArgs};
 use anyhow::{Context, Result};
 use hindsight::attitude::compare::{self, Method, MethodRun, MethodScore, Reference};
-use hindsight::attitude::config::{AttitudeConfig, Preset, DEFAULT_TOML};
+use hindsight::attitude::config::{AttitudeConfig, DEFAULT_TOML};
 use hindsight::attitude::dead_reckoning::gaps_longer_than;
 use hindsight::attitude::mag_calibration;
 use hindsight::attitude::mag_checks::without_saturation;
@@ -78,7 +79,7 @@ pub struct AttitudeArgs {
 
     /// Methods to run, comma-separated [default: all].
     #[arg(long, value_enum, value_delimiter = ',', value_name = "METHOD,...")]
-    pub methods: Vec<Method>,
+    pub methods: Vec<choices::Method>,
 
     /// Settings file (TOML); --print-config shows every key and its default.
     #[arg(long, value_name = "FILE")]
@@ -127,10 +128,10 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("reading {}", path.display()))?;
-            AttitudeConfig::from_toml_over(args.preset, &text)
+            AttitudeConfig::from_toml_over(args.preset.into(), &text)
                 .with_context(|| format!("in {}", path.display()))?
         }
-        None => AttitudeConfig::preset(args.preset),
+        None => AttitudeConfig::preset(args.preset.into()),
     };
     let filters = config.filters()?;
     let mut said = console::Said::default();
@@ -208,7 +209,7 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     let mut methods: Vec<Method> = if args.methods.is_empty() {
         Method::ALL.to_vec()
     } else {
-        args.methods.clone()
+        args.methods.iter().map(|&m| m.into()).collect()
     };
     methods.dedup();
     if mag.is_empty() {

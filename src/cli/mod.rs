@@ -10,6 +10,7 @@ mod bench_attitude;
 mod bench_identify;
 mod bench_reconstruct;
 mod bench_simulate;
+mod choices;
 mod console;
 mod export;
 mod identify;
@@ -192,6 +193,35 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 /// Maps an error to the exit status (see [`AFTER_HELP`]).
+/// What the user can give on the command line to get past `err`: the library says what is
+/// wrong, this says which flag helps.
+pub fn hint(err: &anyhow::Error) -> Option<&'static str> {
+    use hindsight::identify::record::RecordError;
+    use hindsight::recon::init::InitError;
+    use hindsight::sim::scenario::ScenarioError;
+    err.chain().find_map(|cause| {
+        if let Some(e) = cause.downcast_ref::<IngestError>() {
+            match e {
+                IngestError::UnknownSchema { .. } => {
+                    Some("pass --skip-unknown to ignore the topic")
+                }
+                IngestError::TooManyInvalid { .. } => Some("--max-invalid raises the limit"),
+                _ => None,
+            }
+        } else if let Some(ReconError::Init(InitError::NoHeading(_))) = cause.downcast_ref() {
+            Some("give the initial heading with --initial-yaw DEG (or [initial] yaw_deg)")
+        } else if let Some(InitError::NoHeading(_)) = cause.downcast_ref() {
+            Some("give the initial heading with --initial-yaw DEG (or [initial] yaw_deg)")
+        } else if let Some(ScenarioError::Unknown { .. }) = cause.downcast_ref() {
+            Some("give your own with --scenario-file FILE")
+        } else if let Some(RecordError::NoDvl { .. }) = cause.downcast_ref() {
+            Some("give the speed with --speed M_S")
+        } else {
+            None
+        }
+    })
+}
+
 pub fn exit_code(err: &anyhow::Error) -> u8 {
     // downcast_ref sees context values and the root error through every context layer.
     if err.downcast_ref::<OutputFailed>().is_some() {

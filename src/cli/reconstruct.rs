@@ -3,6 +3,7 @@
 use super::console::{out, say};
 mod report;
 
+use super::choices::{HeadingChoice, ImuGrade};
 use super::console;
 use super::{LogArgs, OutputFailed, PolicyArgs};
 use anyhow::{Context, Result};
@@ -13,7 +14,7 @@ use hindsight::output::atomic::Staging;
 use hindsight::output::parquet::{write_batches, ROWS_PER_BATCH};
 use hindsight::output::recon_tables;
 use hindsight::recon::calibration::{self, DvlCalibrationReport, WaterReport};
-use hindsight::recon::config::{Config, HeadingChoice, ImuGrade};
+use hindsight::recon::config::Config;
 use hindsight::recon::consistency::{self, Consistency};
 use hindsight::recon::pipeline::{self, Stage, Warning};
 use hindsight::recon::plan::{Part, Plan};
@@ -157,14 +158,14 @@ impl ReconstructArgs {
             None => Config::default(),
         };
         if let Some(g) = self.imu_grade {
-            config.imu.grade = g;
+            config.imu.grade = g.into();
             config.fixed.insert("imu.grade".into());
         }
         if let Some(t) = self.tune {
             config.tune.enabled = t == Toggle::On;
         }
         if let Some(h) = self.heading {
-            config.initial.heading = h;
+            config.initial.heading = h.into();
         }
         if let Some(y) = self.initial_yaw {
             config.initial.yaw_deg = Some(y);

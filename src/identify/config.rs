@@ -41,8 +41,8 @@ max_noise_ratio = 3.0        # learnt noise more than this times the given figur
 max_normalised_rms = 2.0     # with learn = false: residuals more than this times the noise: POOR FIT
 
 [design]
-# identify --suggest: the candidate manoeuvres whose Fisher information is predicted (a
-# zig-zag flown as `hindsight simulate --scenario zigzag-PLANE-TRIGGER` flies it).
+# identify's suggestions: the candidate manoeuvres whose Fisher information is predicted (a
+# zig-zag flown as the simulator's scenario `zigzag-PLANE-TRIGGER` flies it).
 plane_deg = 10.0             # plane deflection of the candidate zig-zags
 trigger_deg = 5.0            # pitch that reverses the plane
 duration_s = 200.0

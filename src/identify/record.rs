@@ -37,7 +37,7 @@ pub enum RecordError {
     NoImu { log: String },
     #[error("{log}: no stern-plane input on /fins: identification needs the input that drove the motion")]
     NoFins { log: String },
-    #[error("{log}: no DVL readings on /dvl with bottom lock: w is measured by the DVL (and U, unless --speed is given)")]
+    #[error("{log}: no DVL readings on /dvl with bottom lock: w is measured by the DVL (and U, unless the speed is given)")]
     NoDvl { log: String },
     #[error("{log}: no depth readings on /depth")]
     NoDepth { log: String },

@@ -66,7 +66,7 @@ pub enum IngestError {
     #[error(
         "topic {topic} at log time {}: no decoder for schema `{schema}` with message encoding \
          `{encoding}` (hindsight reads the `json` encoding of: {known}; and in `cdr` the ROS 2 \
-         types of the README); pass --skip-unknown to ignore the topic",
+         types of the README)",
         at(*log_time_ns)
     )]
     UnknownSchema {
@@ -92,7 +92,7 @@ pub enum IngestError {
 
     #[error(
         "{first}; {invalid} of {received} messages on {topic} are invalid, over the allowed \
-         fraction {allowed} (see `hindsight info` for all topics; --max-invalid raises the limit)"
+         fraction {allowed} (see `hindsight info` for all topics)"
     )]
     TooManyInvalid {
         topic: String,

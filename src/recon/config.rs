@@ -53,7 +53,7 @@ rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z
 # stamp_delay_s = 0.3       # how late the DVL stamps a reading after it measured it, s
                             # (negative: early). Not given: estimated from the IMU and the
                             # DVL before any filter runs, and used when it is clear (the plan
-                            # says which, summary.json `plan`); 0 when --offset moves the
+                            # says which, summary.json `plan`); 0 when a clock offset moves the
                             # DVL's topic
 # The DVL's calibration estimated with the trajectory (summary.json `dvl_calibration`):
 # scale factor, misalignment in pitch and heading beyond rotation_deg, and a bias along each
@@ -179,16 +179,16 @@ gap_gyro_deg_s_rt_hz = 0.3
 # of "gyrocompass", "magnetometer", "mission", "given" (that one alone). Either way, the
 # in-motion alignment then checks it against the log (see [alignment]).
 heading = "auto"
-# yaw_deg = 45.0             # a heading given by hand (also --initial-yaw)
+# yaw_deg = 45.0             # a heading given by hand (also on the command line)
 # declination_deg = -7.8     # magnetic declination, east positive, -180..180 (also
-                             # --declination; else the mission's magnetic_declination_deg,
+                             # on the command line; else the mission's magnetic_declination_deg,
                              # else the World Magnetic Model, or IGRF-14 before 2020, at
                              # the start's place and date)
 window_s = 30.0              # IMU data averaged for levelling and gyrocompassing
 gyrocompass_max_sigma_deg = 1.0   # gyrocompass only when its predicted error is smaller
 magnetometer_sigma_deg = 3.0      # heading error of a magnetometer (deviation, field)
 mission_yaw_sigma_deg = 10.0      # of the mission's initial_yaw_rad
-given_yaw_sigma_deg = 5.0         # of yaw_deg / --initial-yaw
+given_yaw_sigma_deg = 5.0         # of yaw_deg
 in_run = true                # without DVL readings at the start but with /rpm: seed 002's
                              # in-run alignment of roll and pitch once the vehicle is stable
 # set_depth_m = 30.0         # the depth the vehicle is sent to (its stability test);
@@ -280,7 +280,7 @@ point_fix_sigma_m = 1.0           # 1-sigma of a PointStamped position fix (it h
 "#;
 
 /// Grade of an IMU.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ImuGrade {
     /// Ring-laser or fibre-optic navigation grade: 0.01 deg/h gyro, 25 ug accelerometer.
@@ -705,7 +705,7 @@ impl Default for PropagationConfig {
 }
 
 /// Where the initial heading comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum HeadingChoice {
     Auto,

@@ -129,8 +129,8 @@ pub enum InitError {
     #[error("/imu has {0} sample(s): too few to initialise")]
     TooFewImu(usize),
     #[error(
-        "no heading source ({0}), and the log does not determine the heading in motion; \
-         give one with --initial-yaw DEG (or [initial] yaw_deg)"
+        "no heading source ({0}), and the log does not determine the heading in motion: \
+         the initial heading must be given ([initial] yaw_deg)"
     )]
     NoHeading(String),
     #[error("a start from /truth was asked for, but the log has no /truth (a simulated log's)")]
@@ -695,7 +695,7 @@ fn headings(
             HeadingSource::Given,
             cfg.yaw_deg
                 .map(|y| (y.to_radians(), cfg.given_yaw_sigma_deg))
-                .ok_or_else(|| "given: no --initial-yaw".to_string()),
+                .ok_or_else(|| "given: no heading given by hand (initial yaw_deg)".to_string()),
         ),
     ];
     let forced = match cfg.heading {
@@ -896,7 +896,7 @@ impl fmt::Display for Initialisation {
                     DeclinationSource::Mission => "mission metadata",
                     DeclinationSource::Wmm => "World Magnetic Model",
                     DeclinationSource::Igrf => "IGRF-14",
-                    DeclinationSource::Unknown => "unknown, taken as 0: pass --declination",
+                    DeclinationSource::Unknown => "unknown, taken as 0: give the declination",
                 },
                 d.sigma_deg
             )
@@ -914,7 +914,7 @@ impl fmt::Display for Initialisation {
                         .unwrap_or_default()
                 ),
                 HeadingSource::Mission => "mission metadata initial_yaw_rad".to_string(),
-                HeadingSource::Given => "--initial-yaw".to_string(),
+                HeadingSource::Given => "given by hand".to_string(),
                 _ => c.source.name().to_string(),
             };
             writeln!(

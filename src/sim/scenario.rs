@@ -89,7 +89,7 @@ pub const BUILT_IN: &[(&str, &str)] = &[
 /// Why a scenario cannot be used.
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {
-    #[error("unknown scenario `{name}` (built in: {known}); or give --scenario-file")]
+    #[error("unknown scenario `{name}` (built in: {known}); or a scenario file")]
     Unknown { name: String, known: String },
     #[error("scenario file: {0}")]
     Parse(#[from] toml::de::Error),

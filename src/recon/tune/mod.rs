@@ -366,7 +366,7 @@ impl Tuning {
     pub fn as_toml(&self) -> String {
         let f = &self.imu.figures;
         let mut out = format!(
-            "# Noise figures estimated by hindsight reconstruct (self-tuning); reuse with --config.\n\
+            "# Noise figures estimated by hindsight reconstruct (self-tuning); reuse as a configuration file.\n\
              [imu]\n\
              # model: {}{}\n\
              gyro_bias_deg_h = {}\n\
