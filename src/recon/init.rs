@@ -153,168 +153,247 @@ fn mean3(values: impl Iterator<Item = [f64; 3]>) -> Option<Vector3<f64>> {
     (n > 0).then(|| sum / n as f64)
 }
 
-/// The initial estimate at the first IMU sample.
-/// The initial estimate at the first IMU sample, from the streams in use (a sensor the
-/// configuration leaves out comes as an empty slice).
-pub fn initialise(
+/// The IMU's first `window_s`: what the start is levelled (and gyrocompassed) from.
+struct ImuWindow<'a> {
+    window: &'a [crate::contract::Imu],
+    /// Stamps of its first sample and of its end, ns.
+    t0: i64,
+    end_ns: i64,
+    /// Seconds it spans.
+    seconds: f64,
+    f_mean: Vector3<f64>,
+    w_mean: Vector3<f64>,
+    /// Each sample's attitude relative to the start, by the gyro.
+    carry: Carry,
+}
+
+impl<'a> ImuWindow<'a> {
+    fn of(imu: &'a [crate::contract::Imu], window_s: f64) -> Result<Self, InitError> {
+        let first = imu.first().ok_or(InitError::NoImu)?;
+        if imu.len() < 2 {
+            return Err(InitError::TooFewImu(imu.len()));
+        }
+        let t0 = first.stamp_ns;
+        let end_ns = t0 + (window_s * 1e9) as i64;
+        let window = &imu[..imu.partition_point(|m| m.stamp_ns <= end_ns)];
+        Ok(ImuWindow {
+            window,
+            t0,
+            end_ns,
+            seconds: (window.last().map_or(t0, |m| m.stamp_ns) - t0) as f64 * 1e-9,
+            f_mean: mean3(window.iter().map(|m| m.specific_force)).unwrap_or_default(),
+            w_mean: mean3(window.iter().map(|m| m.angular_velocity)).unwrap_or_default(),
+            carry: Carry::new(window),
+        })
+    }
+
+    fn contains(&self, stamp_ns: i64) -> bool {
+        stamp_ns >= self.t0 && stamp_ns <= self.end_ns
+    }
+}
+
+/// The DVL's readings in range within the window, as body-axis velocities.
+fn dvl_in_window(
+    src: &Streams<'_>,
+    set: &InitSettings<'_>,
+    w: &ImuWindow<'_>,
+) -> Vec<(i64, Vector3<f64>)> {
+    let body_from_dvl = set.dvl_mounting.dvl_from_body.inverse();
+    src.dvl
+        .iter()
+        .filter(|d| w.contains(d.stamp_ns))
+        .filter(|d| d.valid && d.altitude.is_none_or(|h| h <= set.dvl_max_altitude_m))
+        .map(|d| (d.stamp_ns, body_from_dvl * Vector3::from(d.velocity)))
+        .collect()
+}
+
+/// The DVL's mean acceleration between its first and last readings from `from` to `to`,
+/// when those are more than a second apart (else zero).
+fn dvl_accel(dvl: &[(i64, Vector3<f64>)], from: i64, to: i64) -> Vector3<f64> {
+    let mut inside = dvl.iter().filter(|d| d.0 >= from && d.0 <= to);
+    let first = inside.next();
+    match (first, inside.next_back().or(first)) {
+        (Some(a), Some(b)) if b.0 - a.0 > 1_000_000_000 => {
+            (b.1 - a.1) / ((b.0 - a.0) as f64 * 1e-9)
+        }
+        _ => Vector3::zeros(),
+    }
+}
+
+/// Roll and pitch at the start: `f = a - g` in the body, so `-g = f - a`. Each sample is
+/// carried to the start's body axes by the gyro, so that a vehicle rolling or turning in the
+/// window is levelled as it was at the start: `q f = d(q v)/dt - g_b0` (q: start body from
+/// body), so the mean of `q f` less the DVL's change of `q v` over its span is `-g` in the
+/// start's axes.
+fn carried_level(w: &ImuWindow<'_>, dvl: &[(i64, Vector3<f64>)]) -> (f64, f64) {
+    let f_carried = mean3(
+        w.window
+            .iter()
+            .zip(&w.carry.q)
+            .map(|(m, q)| (q * Vector3::from(m.specific_force)).into()),
+    )
+    .unwrap_or(w.f_mean);
+    let carried_accel = match (dvl.first(), dvl.last()) {
+        (Some(a), Some(b)) if b.0 - a.0 > 1_000_000_000 => {
+            (w.carry.at(b.0) * b.1 - w.carry.at(a.0) * a.1) / ((b.0 - a.0) as f64 * 1e-9)
+        }
+        _ => Vector3::zeros(),
+    };
+    alignment::level(&(f_carried - carried_accel))
+}
+
+/// How fast the level axes turned during the window, rad/s, and the noise of that figure: the
+/// tilt of its first third against its last (a rate there enters the gyrocompass's mean like
+/// the Earth rate does). A change of acceleration between the thirds also tilts the levelled
+/// vector: the DVL's is removed when it stands out of the DVL's noise.
+fn level_rate(
+    w: &ImuWindow<'_>,
+    dvl: &[(i64, Vector3<f64>)],
+    set: &InitSettings<'_>,
+) -> (f64, f64) {
+    let window = w.window;
+    let third = window.len() / 3;
+    let span_s = w.seconds * 2.0 / 3.0;
+    let (a, b) = (&window[..third], &window[window.len() - third..]);
+    let stamps = |p: &[crate::contract::Imu]| {
+        p.first()
+            .map_or((0, 0), |f| (f.stamp_ns, p.last().map_or(0, |l| l.stamp_ns)))
+    };
+    let ((a0, a1), (b0, b1)) = (stamps(a), stamps(b));
+    let third_s = ((a1 - a0) as f64 * 1e-9).max(1e-3);
+    let accel_change = dvl_accel(dvl, b0, b1) - dvl_accel(dvl, a0, a1);
+    // Two DVL differences over a third each, differenced: the white noise of their four
+    // readings, and the correlated error's drift over each third.
+    let drift_m_s = set.dvl_bias_walk_m_s_rt_s * (2.0 * third_s).sqrt();
+    let accel_noise = (2.0 * set.dvl_sigma_m_s).hypot(drift_m_s) / third_s;
+    let (accel_change, accel_noise) = if accel_change.norm() > 3.0 * accel_noise {
+        (accel_change, accel_noise)
+    } else {
+        (Vector3::zeros(), 0.0)
+    };
+    let tilt = |p: &[crate::contract::Imu], less: Vector3<f64>| {
+        mean3(p.iter().map(|m| m.specific_force)).map(|f| alignment::level(&(f - less)))
+    };
+    let rate = match (tilt(a, Vector3::zeros()), tilt(b, accel_change)) {
+        (Some(x), Some(y)) if third > 0 && span_s > 0.0 => (y.0 - x.0).hypot(y.1 - x.1) / span_s,
+        _ => 0.0,
+    };
+    // The accelerometer's noise on two means of a third each, differenced, and the DVL's
+    // when its acceleration was removed.
+    let accel_white = set.imu.noise().accel_noise_density / third_s.sqrt() * 2f64.sqrt();
+    (
+        rate,
+        accel_white.hypot(accel_noise) / GRAVITY_M_S2 / span_s.max(1e-3),
+    )
+}
+
+/// Gravity as the levelling's sigmas take it, m/s^2.
+const GRAVITY_M_S2: f64 = 9.81;
+
+/// Roll and pitch at the start with their 1-sigma (deg), and seed 002's in-run alignment
+/// when it set them.
+struct Levelling {
+    roll: f64,
+    pitch: f64,
+    tilt_sigma_deg: f64,
+    in_run: Option<super::in_run::InRun>,
+}
+
+/// Levels the start from the window, or, without the DVL but with a propeller, by the
+/// in-run alignment (seed 002) once the vehicle is stable: the window's accelerations
+/// cannot be removed from the levelling without the DVL.
+fn levelling(
+    src: &Streams<'_>,
+    set: &InitSettings<'_>,
+    w: &ImuWindow<'_>,
+    dvl: &[(i64, Vector3<f64>)],
+) -> Levelling {
+    let (roll, pitch) = carried_level(w, dvl);
+    let accel_tilt_deg = (set.imu.accel_bias_m_s2() / GRAVITY_M_S2).to_degrees();
+    let motion_tilt_deg = if dvl.len() >= 2 { 0.1 } else { 0.5 };
+    // The gyro's bias over the window turns the carried samples: half of it on average.
+    let carry_deg = (set.imu.gyro_bias_rad_s() * w.seconds * 0.5).to_degrees();
+    let levelled = Levelling {
+        roll,
+        pitch,
+        tilt_sigma_deg: accel_tilt_deg.hypot(motion_tilt_deg).hypot(carry_deg),
+        in_run: None,
+    };
+    let cfg = set.initial;
+    let Some(speed) = set
+        .speed_of_rpm
+        .filter(|_| cfg.in_run && dvl.is_empty() && !src.rpm.is_empty())
+    else {
+        return levelled;
+    };
+    let set_depth_m = cfg.set_depth_m.unwrap_or_else(|| median_depth(src, w.t0));
+    let aligned = super::in_run::align(
+        src.imu,
+        src.depth,
+        src.rpm,
+        set_depth_m,
+        speed,
+        1.0,
+        GRAVITY_M_S2,
+    );
+    match aligned {
+        Some(a) => Levelling {
+            roll: a.start_roll_rad,
+            pitch: a.start_pitch_rad,
+            tilt_sigma_deg: accel_tilt_deg.hypot(cfg.in_run_sigma_deg),
+            in_run: Some(a),
+        },
+        None => levelled,
+    }
+}
+
+/// The start's position, its source and 1-sigma, and its depth with its 1-sigma.
+struct StartPosition {
+    lat: f64,
+    lon: f64,
+    source: PositionSource,
+    sigma_m: f64,
+    down_m: f64,
+    down_sigma_m: f64,
+}
+
+/// Of the GNSS fixes near the start, the one closest to their median: one outlier among them
+/// cannot place the start.
+fn start_gnss<'a>(fixes: &'a [GnssFix], near_start: impl Fn(i64) -> bool) -> Option<&'a GnssFix> {
+    let near: Vec<&GnssFix> = fixes.iter().filter(|g| near_start(g.stamp_ns)).collect();
+    let median = |f: fn(&GnssFix) -> f64| {
+        let mut v: Vec<f64> = near.iter().map(|g| f(g)).collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or_default()
+    };
+    let (lat_m, lon_m) = (median(|g| g.latitude_deg), median(|g| g.longitude_deg));
+    near.into_iter().min_by(|a, b| {
+        let d = |g: &GnssFix| (g.latitude_deg - lat_m).hypot(g.longitude_deg - lon_m);
+        d(a).total_cmp(&d(b))
+    })
+}
+
+/// The start's position: a GNSS fix near the start, else a `start` position fix, else the
+/// mission origin; its depth from the first depth reading (else the fix's, else 0).
+fn start_position(
     src: &Streams<'_>,
     mission: &Mission,
     set: &InitSettings<'_>,
-) -> Result<Initialisation, InitError> {
+    w: &ImuWindow<'_>,
+    speed_guess_m_s: f64,
+) -> StartPosition {
     let cfg = set.initial;
-    let imu = src.imu;
-    let first = imu.first().ok_or(InitError::NoImu)?;
-    if imu.len() < 2 {
-        return Err(InitError::TooFewImu(imu.len()));
-    }
-    let t0 = first.stamp_ns;
-    let window_end = t0 + (cfg.window_s * 1e9) as i64;
-    let in_window = |s: i64| s >= t0 && s <= window_end;
-    let window = &imu[..imu.partition_point(|m| m.stamp_ns <= window_end)];
-    let window_s = (window.last().map_or(t0, |m| m.stamp_ns) - t0) as f64 * 1e-9;
-    let f_mean = mean3(window.iter().map(|m| m.specific_force)).unwrap_or_default();
-    let w_mean = mean3(window.iter().map(|m| m.angular_velocity)).unwrap_or_default();
-
-    // DVL readings in range within the window, in body axes.
-    let body_from_dvl = set.dvl_mounting.dvl_from_body.inverse();
-    let dvl: Vec<(i64, Vector3<f64>)> = if !src.dvl.is_empty() {
-        src.dvl
-            .iter()
-            .filter(|d| in_window(d.stamp_ns))
-            .filter(|d| d.valid && d.altitude.is_none_or(|h| h <= set.dvl_max_altitude_m))
-            .map(|d| (d.stamp_ns, body_from_dvl * Vector3::from(d.velocity)))
-            .collect()
-    } else {
-        Vec::new()
-    };
-
-    // Levelling: f = a - g in the body, so -g = f - a; the DVL gives the mean a (between
-    // its first and last readings from `from` to `to`, when more than a second apart).
-    let dvl_accel = |from: i64, to: i64| {
-        let mut inside = dvl.iter().filter(|d| d.0 >= from && d.0 <= to);
-        let first = inside.next();
-        match (first, inside.next_back().or(first)) {
-            (Some(a), Some(b)) if b.0 - a.0 > 1_000_000_000 => {
-                (b.1 - a.1) / ((b.0 - a.0) as f64 * 1e-9)
-            }
-            _ => Vector3::zeros(),
-        }
-    };
-    // Levelling at the start: each sample carried to the start's body axes by the gyro, so
-    // that a vehicle rolling or turning in the window is levelled as it was at the start.
-    // `q f = d(q v)/dt - g_b0` (q: start body from body), so the mean of `q f` less the DVL's
-    // change of `q v` over its span is `-g` in the start's axes.
-    let carry = Carry::new(window);
-    let f_carried = mean3(
-        window
-            .iter()
-            .zip(&carry.q)
-            .map(|(m, q)| (q * Vector3::from(m.specific_force)).into()),
-    )
-    .unwrap_or(f_mean);
-    let carried_accel = {
-        let (a, b) = (dvl.first(), dvl.last());
-        match (a, b) {
-            (Some(a), Some(b)) if b.0 - a.0 > 1_000_000_000 => {
-                (carry.at(b.0) * b.1 - carry.at(a.0) * a.1) / ((b.0 - a.0) as f64 * 1e-9)
-            }
-            _ => Vector3::zeros(),
-        }
-    };
-    let (mut roll, mut pitch) = alignment::level(&(f_carried - carried_accel));
-    // How fast the level axes turned during the window: the tilt of its first third against
-    // its last (a rate there enters the gyrocompass's mean like the Earth rate does). A
-    // change of acceleration between the thirds also tilts the levelled vector: the DVL's is
-    // removed when it stands out of the DVL's noise.
-    let (level_rate_rad_s, level_rate_noise_rad_s) = {
-        let third = window.len() / 3;
-        let span_s = window_s * 2.0 / 3.0;
-        let (a, b) = (&window[..third], &window[window.len() - third..]);
-        let stamps = |p: &[crate::contract::Imu]| {
-            p.first()
-                .map_or((0, 0), |f| (f.stamp_ns, p.last().map_or(0, |l| l.stamp_ns)))
-        };
-        let ((a0, a1), (b0, b1)) = (stamps(a), stamps(b));
-        let third_s = ((a1 - a0) as f64 * 1e-9).max(1e-3);
-        let accel_change = dvl_accel(b0, b1) - dvl_accel(a0, a1);
-        // Two DVL differences over a third each, differenced: the white noise of their four
-        // readings, and the correlated error's drift over each third.
-        let drift_m_s = set.dvl_bias_walk_m_s_rt_s * (2.0 * third_s).sqrt();
-        let accel_noise = (2.0 * set.dvl_sigma_m_s).hypot(drift_m_s) / third_s;
-        let (accel_change, accel_noise) = if accel_change.norm() > 3.0 * accel_noise {
-            (accel_change, accel_noise)
-        } else {
-            (Vector3::zeros(), 0.0)
-        };
-        let tilt = |p: &[crate::contract::Imu], less: Vector3<f64>| {
-            mean3(p.iter().map(|m| m.specific_force)).map(|f| alignment::level(&(f - less)))
-        };
-        let rate = match (tilt(a, Vector3::zeros()), tilt(b, accel_change)) {
-            (Some(x), Some(y)) if third > 0 && span_s > 0.0 => {
-                (y.0 - x.0).hypot(y.1 - x.1) / span_s
-            }
-            _ => 0.0,
-        };
-        // The accelerometer's noise on two means of a third each, differenced, and the
-        // DVL's when its acceleration was removed.
-        let accel_white = set.imu.noise().accel_noise_density / third_s.sqrt() * 2f64.sqrt();
-        (
-            rate,
-            accel_white.hypot(accel_noise) / 9.81 / span_s.max(1e-3),
-        )
-    };
-    let g = 9.81;
-    let motion_tilt_deg = if dvl.len() >= 2 { 0.1 } else { 0.5 };
-    // The gyro's bias over the window turns the carried samples: half of it on average.
-    let carry_deg = (set.imu.gyro_bias_rad_s() * window_s * 0.5).to_degrees();
-    let mut tilt_sigma_deg = (set.imu.accel_bias_m_s2() / g)
-        .to_degrees()
-        .hypot(motion_tilt_deg)
-        .hypot(carry_deg);
-    // Without the DVL, the window's accelerations cannot be removed from the levelling: a
-    // moving vehicle with a propeller is aligned in run (seed 002) once it is stable.
-    let in_run = match (set.speed_of_rpm, dvl.is_empty() && !src.rpm.is_empty()) {
-        (Some(speed), true) if cfg.in_run => {
-            let set_depth_m = cfg.set_depth_m.unwrap_or_else(|| median_depth(src, t0));
-            super::in_run::align(imu, src.depth, src.rpm, set_depth_m, speed, 1.0, g)
-        }
-        _ => None,
-    };
-    if let Some(a) = in_run {
-        roll = a.start_roll_rad;
-        pitch = a.start_pitch_rad;
-        tilt_sigma_deg = (set.imu.accel_bias_m_s2() / g)
-            .to_degrees()
-            .hypot(cfg.in_run_sigma_deg);
-    }
-
-    // Position.
     let origin = (
         mission.origin_latitude_deg.to_radians(),
         mission.origin_longitude_deg.to_radians(),
     );
+    let t0 = w.t0;
     let near_start = |s: i64| ((s - t0) as f64 * 1e-9).abs() <= cfg.gnss_window_s;
-    // Of the fixes near the start, the one closest to their median: one outlier among
-    // them cannot place the start.
-    let gnss = {
-        let near: Vec<&GnssFix> = src.gnss.iter().filter(|g| near_start(g.stamp_ns)).collect();
-        let median = |f: fn(&GnssFix) -> f64| {
-            let mut v: Vec<f64> = near.iter().map(|g| f(g)).collect();
-            v.sort_by(f64::total_cmp);
-            v.get(v.len() / 2).copied().unwrap_or_default()
-        };
-        let (lat_m, lon_m) = (median(|g| g.latitude_deg), median(|g| g.longitude_deg));
-        near.into_iter().min_by(|a, b| {
-            let d = |g: &GnssFix| (g.latitude_deg - lat_m).hypot(g.longitude_deg - lon_m);
-            d(a).total_cmp(&d(b))
-        })
-    };
     let start_fix = src
         .fixes
         .iter()
         .find(|f| f.label == "start" && near_start(f.stamp_ns));
-    let speed_guess = dvl.first().map_or(2.0, |d| d.1.norm());
-    let (lat, lon, position, position_sigma_m) = if let Some(g) = gnss {
+    let (lat, lon, source, sigma_m) = if let Some(g) = start_gnss(src.gnss, near_start) {
         let late_s = ((g.stamp_ns - t0) as f64 * 1e-9).abs();
         (
             g.latitude_deg.to_radians(),
@@ -322,7 +401,7 @@ pub fn initialise(
             PositionSource::Gnss {
                 stamp_ns: g.stamp_ns,
             },
-            g.horizontal_sigma_m.hypot(speed_guess * late_s),
+            g.horizontal_sigma_m.hypot(speed_guess_m_s * late_s),
         )
     } else if let Some(f) = start_fix {
         let rn = geodesy::meridian_radius_m(origin.0);
@@ -343,109 +422,156 @@ pub fn initialise(
             cfg.origin_sigma_m,
         )
     };
-    let (down_m, down_sigma_m) = match src.depth.iter().find(|d| in_window(d.stamp_ns)) {
+    let (down_m, down_sigma_m) = match src.depth.iter().find(|d| w.contains(d.stamp_ns)) {
         Some(d) => (d.depth, set.depth_sigma_m),
         None => start_fix
             .and_then(|f| f.down_m.map(|d| (d, f.sigma_m)))
             .unwrap_or((0.0, 10.0)),
     };
+    StartPosition {
+        lat,
+        lon,
+        source,
+        sigma_m,
+        down_m,
+        down_sigma_m,
+    }
+}
 
-    // Velocity along the body axes (heading not needed yet).
-    let eml = src.eml.iter().find(|e| in_window(e.stamp_ns));
-    let (v_body, velocity, velocity_sigma_m_s) = if let Some(d) = dvl.first() {
-        (
+/// The start's velocity along the body axes (the heading is not needed for it), its source
+/// and 1-sigma: the first DVL reading in range, else the EM log's speed along x, else the
+/// propeller's speed, else at rest.
+fn start_body_velocity(
+    src: &Streams<'_>,
+    set: &InitSettings<'_>,
+    w: &ImuWindow<'_>,
+    dvl: &[(i64, Vector3<f64>)],
+) -> (Vector3<f64>, VelocitySource, f64) {
+    if let Some(d) = dvl.first() {
+        return (
             d.1,
             VelocitySource::Dvl { stamp_ns: d.0 },
             set.dvl_sigma_m_s.hypot(0.05),
-        )
-    } else if let Some(e) = eml {
-        (
+        );
+    }
+    if let Some(e) = src.eml.iter().find(|e| w.contains(e.stamp_ns)) {
+        return (
             Vector3::new(e.speed, 0.0, 0.0),
             VelocitySource::SpeedLog {
                 stamp_ns: e.stamp_ns,
             },
             0.1 + 0.05 * e.speed,
-        )
-    } else if let Some((p, speed)) = set.speed_of_rpm.and_then(|f| {
-        let p = src.rpm.iter().find(|p| in_window(p.stamp_ns))?;
+        );
+    }
+    let propeller = set.speed_of_rpm.and_then(|f| {
+        let p = src.rpm.iter().find(|p| w.contains(p.stamp_ns))?;
         Some((p, f(p.rpm)))
-    }) {
-        (
+    });
+    match propeller {
+        Some((p, speed)) => (
             Vector3::new(speed, 0.0, 0.0),
             VelocitySource::Propeller {
                 stamp_ns: p.stamp_ns,
             },
             0.1 + 0.1 * speed.abs(),
-        )
-    } else {
-        (Vector3::zeros(), VelocitySource::AtRest, 1.0)
-    };
+        ),
+        None => (Vector3::zeros(), VelocitySource::AtRest, 1.0),
+    }
+}
 
-    let declination =
-        (!src.mag.is_empty()).then(|| declination(mission, cfg, lat, lon, -down_m, t0));
+/// The 1-sigma of the start's parts that the log decides.
+struct StartSigmas {
+    position_m: f64,
+    down_m: f64,
+    velocity_m_s: f64,
+    tilt_deg: f64,
+    heading_deg: f64,
+}
+
+/// The independent variances of the start's error state, placed by [`idx`]: the log's
+/// sigmas, the IMU's turn-on biases and the calibration states' priors.
+fn start_variances(set: &InitSettings<'_>, sigma: &StartSigmas) -> ErrorState {
+    let mut v = ErrorState::zeros();
+    let mut put = |at: usize, values: &[f64]| {
+        for (k, x) in values.iter().enumerate() {
+            v[at + k] = x.powi(2);
+        }
+    };
+    let tilt = sigma.tilt_deg.to_radians();
+    let (gyro, accel) = (set.imu.gyro_bias_rad_s(), set.imu.accel_bias_m_s2());
+    put(
+        idx::POS,
+        &[sigma.position_m, sigma.position_m, sigma.down_m],
+    );
+    put(idx::VEL, &[sigma.velocity_m_s; 3]);
+    put(idx::ATT, &[tilt, tilt, sigma.heading_deg.to_radians()]);
+    put(idx::GYRO_BIAS, &[gyro; 3]);
+    put(idx::ACCEL_BIAS, &[accel; 3]);
+    put(idx::DVL, &set.dvl_calibration_sigma);
+    put(idx::WATER, &set.water_sigma);
+    put(idx::GYRO_SCALE_Z, &[set.imu.gyro_scale()]);
+    v
+}
+
+/// The initial estimate at the first IMU sample, from the streams in use (a sensor the
+/// configuration leaves out comes as an empty slice): levelling, position, velocity, the
+/// heading's sources, then the covariance.
+pub fn initialise(
+    src: &Streams<'_>,
+    mission: &Mission,
+    set: &InitSettings<'_>,
+) -> Result<Initialisation, InitError> {
+    let w = ImuWindow::of(src.imu, set.initial.window_s)?;
+    let dvl = dvl_in_window(src, set, &w);
+    let level = levelling(src, set, &w, &dvl);
+    let speed_guess_m_s = dvl.first().map_or(2.0, |d| d.1.norm());
+    let at = start_position(src, mission, set, &w, speed_guess_m_s);
+    let (v_body, velocity, velocity_sigma_m_s) = start_body_velocity(src, set, &w, &dvl);
+    let declination = (!src.mag.is_empty())
+        .then(|| declination(mission, set.initial, at.lat, at.lon, -at.down_m, w.t0));
+    let (level_rate_rad_s, level_rate_noise_rad_s) = level_rate(&w, &dvl, set);
     let found = headings(
         src,
         mission,
         set,
         &HeadingInputs {
-            lat,
-            height_m: -down_m,
-            roll,
-            pitch,
-            w_mean,
+            lat: at.lat,
+            height_m: -at.down_m,
+            roll: level.roll,
+            pitch: level.pitch,
+            w_mean: w.w_mean,
             level_rate_rad_s,
             level_rate_noise_rad_s,
-            tilt_sigma_deg,
+            tilt_sigma_deg: level.tilt_sigma_deg,
             v_body,
             v_sigma_m_s: velocity_sigma_m_s,
-            window_s,
-            t0,
-            window_end,
+            window_s: w.seconds,
+            t0: w.t0,
+            window_end: w.end_ns,
             declination,
-            carry: &carry,
+            carry: &w.carry,
         },
     )?;
-    let (heading, yaw, heading_sigma_deg) = (found.source, found.yaw_rad, found.sigma_deg);
+    let yaw = found.yaw_rad;
     // The in-run alignment's carry back to the start, with the Earth's rotation removed now
     // that the heading is known.
-    if let (Some(a), true) = (in_run, heading != HeadingSource::Unknown) {
-        (roll, pitch) = super::in_run::start_tilt(imu, &a, yaw, lat);
-    }
-
-    let ned_from_body = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
-    let deg2 = |d: f64| d.to_radians().powi(2);
-    let (gb, ab) = (
-        set.imu.gyro_bias_rad_s().powi(2),
-        set.imu.accel_bias_m_s2().powi(2),
+    let (roll, pitch) = match level.in_run {
+        Some(a) if found.source != HeadingSource::Unknown => {
+            super::in_run::start_tilt(src.imu, &a, yaw, at.lat)
+        }
+        _ => (level.roll, level.pitch),
+    };
+    let variances = start_variances(
+        set,
+        &StartSigmas {
+            position_m: at.sigma_m,
+            down_m: at.down_sigma_m,
+            velocity_m_s: velocity_sigma_m_s,
+            tilt_deg: level.tilt_sigma_deg,
+            heading_deg: found.sigma_deg,
+        },
     );
-    let (p2, v2) = (position_sigma_m.powi(2), velocity_sigma_m_s.powi(2));
-    let variances = ErrorState::from_column_slice(&[
-        p2,
-        p2,
-        down_sigma_m.powi(2),
-        v2,
-        v2,
-        v2,
-        deg2(tilt_sigma_deg),
-        deg2(tilt_sigma_deg),
-        deg2(heading_sigma_deg),
-        gb,
-        gb,
-        gb,
-        ab,
-        ab,
-        ab,
-        set.dvl_calibration_sigma[0].powi(2),
-        set.dvl_calibration_sigma[1].powi(2),
-        set.dvl_calibration_sigma[2].powi(2),
-        set.dvl_calibration_sigma[3].powi(2),
-        set.dvl_calibration_sigma[4].powi(2),
-        set.dvl_calibration_sigma[5].powi(2),
-        set.water_sigma[0].powi(2),
-        set.water_sigma[1].powi(2),
-        set.water_sigma[2].powi(2),
-        set.imu.gyro_scale().powi(2),
-    ]);
+    let ned_from_body = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
     let body_velocity = !matches!(velocity, VelocitySource::AtRest);
     let vel_ned = ned_from_body * v_body;
     let cov = initial_covariance(&variances, &vel_ned, body_velocity);
@@ -454,9 +580,9 @@ pub fn initialise(
         body_velocity,
         estimate: Estimate {
             nav: NavState {
-                lat_rad: lat,
-                lon_rad: lon,
-                height_m: -down_m,
+                lat_rad: at.lat,
+                lon_rad: at.lon,
+                height_m: -at.down_m,
                 vel_ned_m_s: vel_ned,
                 ned_from_body,
             },
@@ -467,21 +593,21 @@ pub fn initialise(
             gyro_scale_z: 0.0,
             cov,
         },
-        position,
-        position_sigma_m,
+        position: at.source,
+        position_sigma_m: at.sigma_m,
         velocity,
         velocity_sigma_m_s,
-        heading,
-        heading_sigma_deg,
+        heading: found.source,
+        heading_sigma_deg: found.sigma_deg,
         heading_sources: found.candidates,
         heading_unavailable: found.unavailable,
         heading_disagreements: found.disagreements,
         in_motion: None,
-        in_run,
+        in_run: level.in_run,
         declination,
-        tilt_sigma_deg,
-        estimate_stamp_ns: t0,
-        window_s,
+        tilt_sigma_deg: level.tilt_sigma_deg,
+        estimate_stamp_ns: w.t0,
+        window_s: w.seconds,
     })
 }
 
@@ -838,15 +964,24 @@ fn magnetometer(
 impl fmt::Display for Initialisation {
     /// One line per quantity: value, source, 1-sigma.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.write_position(f)?;
+        self.write_velocity(f)?;
+        self.write_tilt(f)?;
+        self.write_heading_sources(f)?;
+        self.write_heading(f)
+    }
+}
+
+impl Initialisation {
+    fn write_position(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let nav = &self.estimate.nav;
-        let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
         let position = match self.position {
-            PositionSource::Gnss { .. } => "first GNSS fix".to_string(),
-            PositionSource::StartFix { .. } => "`start` position fix".to_string(),
+            PositionSource::Gnss { .. } => "first GNSS fix",
+            PositionSource::StartFix { .. } => "`start` position fix",
             PositionSource::MissionOrigin => {
-                "mission origin (no GNSS fix or start mark near the start)".to_string()
+                "mission origin (no GNSS fix or start mark near the start)"
             }
-            PositionSource::Truth => "/truth with drawn errors (a study's start)".to_string(),
+            PositionSource::Truth => "/truth with drawn errors (a study's start)",
         };
         writeln!(
             f,
@@ -855,7 +990,10 @@ impl fmt::Display for Initialisation {
             nav.lon_rad.to_degrees(),
             -nav.height_m,
             self.position_sigma_m
-        )?;
+        )
+    }
+
+    fn write_velocity(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let velocity = match self.velocity {
             VelocitySource::Dvl { .. } => "first DVL reading in range",
             VelocitySource::SpeedLog { .. } => "EM-log speed along the body x axis",
@@ -863,12 +1001,16 @@ impl fmt::Display for Initialisation {
             VelocitySource::Truth => "/truth with a drawn error",
             VelocitySource::AtRest => "none: assumed at rest",
         };
-        let v = nav.vel_ned_m_s;
+        let v = self.estimate.nav.vel_ned_m_s;
         writeln!(
             f,
             "velocity   N {:.2} E {:.2} D {:.2} m/s   from {velocity} (1-sigma {:.2} m/s)",
             v.x, v.y, v.z, self.velocity_sigma_m_s
-        )?;
+        )
+    }
+
+    fn write_tilt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (roll, pitch, _) = self.estimate.nav.ned_from_body.euler_angles();
         let tilt_from = match self.in_run {
             Some(a) => format!(
                 "in-run alignment (seed 002) stable at {:.1} s, aligned at {:.1} s ({:.2} / {:.2} \
@@ -886,21 +1028,10 @@ impl fmt::Display for Initialisation {
             roll.to_degrees(),
             pitch.to_degrees(),
             self.tilt_sigma_deg
-        )?;
-        let declination = |d: &DeclinationUsed| {
-            format!(
-                "declination {:.2} deg ({}, 1-sigma {:.2})",
-                d.declination_deg,
-                match d.source {
-                    DeclinationSource::Given => "given",
-                    DeclinationSource::Mission => "mission metadata",
-                    DeclinationSource::Wmm => "World Magnetic Model",
-                    DeclinationSource::Igrf => "IGRF-14",
-                    DeclinationSource::Unknown => "unknown, taken as 0: give the declination",
-                },
-                d.sigma_deg
-            )
-        };
+        )
+    }
+
+    fn write_heading_sources(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         for c in &self.heading_sources {
             let detail = match c.source {
                 HeadingSource::Gyrocompass => {
@@ -910,7 +1041,7 @@ impl fmt::Display for Initialisation {
                     "magnetometer, {}",
                     self.declination
                         .as_ref()
-                        .map(declination)
+                        .map(describe_declination)
                         .unwrap_or_default()
                 ),
                 HeadingSource::Mission => "mission metadata initial_yaw_rad".to_string(),
@@ -928,6 +1059,11 @@ impl fmt::Display for Initialisation {
         for reason in &self.heading_unavailable {
             writeln!(f, "  no source {reason}")?;
         }
+        Ok(())
+    }
+
+    fn write_heading(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let yaw = self.estimate.nav.ned_from_body.euler_angles().2;
         let refined = self.in_motion.as_ref().and_then(|m| {
             m.refined_heading_deg
                 .zip(m.refined_sigma_deg)
@@ -956,6 +1092,21 @@ impl fmt::Display for Initialisation {
     }
 }
 
+fn describe_declination(d: &DeclinationUsed) -> String {
+    format!(
+        "declination {:.2} deg ({}, 1-sigma {:.2})",
+        d.declination_deg,
+        match d.source {
+            DeclinationSource::Given => "given",
+            DeclinationSource::Mission => "mission metadata",
+            DeclinationSource::Wmm => "World Magnetic Model",
+            DeclinationSource::Igrf => "IGRF-14",
+            DeclinationSource::Unknown => "unknown, taken as 0: give the declination",
+        },
+        d.sigma_deg
+    )
+}
+
 impl PositionSource {
     pub fn name(&self) -> &'static str {
         match self {
@@ -976,5 +1127,179 @@ impl VelocitySource {
             VelocitySource::Truth => "truth",
             VelocitySource::AtRest => "at_rest",
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contract::{Dvl, Imu, SpeedLog};
+    use crate::recon::config::ImuGrade;
+
+    const SECOND: i64 = 1_000_000_000;
+
+    /// A still IMU at 100 Hz for `seconds`, rolled and pitched by the angles given (rad).
+    fn still_imu(seconds: i64, roll: f64, pitch: f64) -> Vec<Imu> {
+        let ned_from_body = UnitQuaternion::from_euler_angles(roll, pitch, 0.3);
+        let f_body = ned_from_body.inverse() * Vector3::new(0.0, 0.0, -9.81);
+        (0..=seconds * 100)
+            .map(|k| Imu {
+                stamp_ns: k * SECOND / 100,
+                angular_velocity: [0.0; 3],
+                specific_force: f_body.into(),
+            })
+            .collect()
+    }
+
+    fn settings(initial: &InitialConfig) -> InitSettings<'_> {
+        InitSettings {
+            initial,
+            imu: ImuGrade::Tactical.spec(),
+            dvl_max_altitude_m: 100.0,
+            dvl_sigma_m_s: 0.01,
+            dvl_bias_walk_m_s_rt_s: 0.0,
+            dvl_mounting: DvlMounting::default(),
+            dvl_calibration_sigma: [0.005, 0.01, 0.02, 0.001, 0.002, 0.003],
+            water_sigma: [0.02, 0.2, 0.3],
+            depth_sigma_m: 0.1,
+            speed_of_rpm: None,
+        }
+    }
+
+    #[test]
+    fn a_log_without_imu_or_with_one_sample_is_refused() {
+        assert_eq!(ImuWindow::of(&[], 30.0).err(), Some(InitError::NoImu));
+        let one = still_imu(0, 0.0, 0.0);
+        assert_eq!(
+            ImuWindow::of(&one, 30.0).err(),
+            Some(InitError::TooFewImu(1))
+        );
+    }
+
+    #[test]
+    fn levelling_finds_the_roll_and_pitch_of_a_still_vehicle() {
+        let imu = still_imu(60, 0.05, -0.1);
+        let w = ImuWindow::of(&imu, 30.0).unwrap();
+        assert!((w.seconds - 30.0).abs() < 1e-9, "{}", w.seconds);
+        let (roll, pitch) = carried_level(&w, &[]);
+        assert!((roll - 0.05).abs() < 1e-9, "{roll}");
+        assert!((pitch + 0.1).abs() < 1e-9, "{pitch}");
+        // Still: the level axes do not turn.
+        let initial = InitialConfig::default();
+        let (rate, noise) = level_rate(&w, &[], &settings(&initial));
+        assert!(rate < 1e-12 && noise > 0.0, "{rate} {noise}");
+    }
+
+    #[test]
+    fn the_start_gnss_fix_is_the_one_nearest_the_median_not_an_outlier() {
+        let fix = |s: i64, lat: f64| GnssFix {
+            stamp_ns: s * SECOND,
+            latitude_deg: lat,
+            longitude_deg: 129.0,
+            horizontal_sigma_m: 3.0,
+        };
+        let fixes = [
+            fix(0, 35.5),
+            fix(1, 35.0001),
+            fix(2, 35.0),
+            fix(3, 35.0002),
+            fix(60, 35.0),
+        ];
+        // The median of the four near the start is 35.0002 deg: that fix, not the outlier
+        // 55 km away, nor the one a minute later.
+        let chosen = start_gnss(&fixes, |s| s <= 5 * SECOND).unwrap();
+        assert_eq!(chosen.stamp_ns, 3 * SECOND);
+        assert!(start_gnss(&fixes, |s| s > 100 * SECOND).is_none());
+    }
+
+    #[test]
+    fn the_start_velocity_comes_from_the_dvl_then_the_em_log_then_rest() {
+        let imu = still_imu(60, 0.0, 0.0);
+        let w = ImuWindow::of(&imu, 30.0).unwrap();
+        let initial = InitialConfig::default();
+        let set = settings(&initial);
+        let eml = [SpeedLog {
+            stamp_ns: 2 * SECOND,
+            speed: 1.5,
+        }];
+        let dvl_reading = Dvl {
+            stamp_ns: 3 * SECOND,
+            velocity: [1.2, 0.1, 0.0],
+            valid: true,
+            altitude: Some(20.0),
+        };
+        let dvl_streams = [dvl_reading.clone()];
+        let streams = Streams {
+            imu: &imu,
+            eml: &eml,
+            dvl: &dvl_streams,
+            ..Default::default()
+        };
+        let dvl = dvl_in_window(&streams, &set, &w);
+        let (v, source, _) = start_body_velocity(&streams, &set, &w, &dvl);
+        assert_eq!(
+            source,
+            VelocitySource::Dvl {
+                stamp_ns: 3 * SECOND
+            }
+        );
+        assert_eq!(v, Vector3::new(1.2, 0.1, 0.0));
+        // Out of range (above the DVL's altitude limit): not a start velocity.
+        let high = [Dvl {
+            altitude: Some(500.0),
+            ..dvl_reading
+        }];
+        let streams = Streams {
+            dvl: &high,
+            ..streams
+        };
+        let dvl = dvl_in_window(&streams, &set, &w);
+        let (v, source, sigma) = start_body_velocity(&streams, &set, &w, &dvl);
+        assert_eq!(
+            source,
+            VelocitySource::SpeedLog {
+                stamp_ns: 2 * SECOND
+            }
+        );
+        assert_eq!((v, sigma), (Vector3::new(1.5, 0.0, 0.0), 0.1 + 0.05 * 1.5));
+        let streams = Streams {
+            eml: &[],
+            ..streams
+        };
+        let (v, source, _) = start_body_velocity(&streams, &set, &w, &[]);
+        assert_eq!((v, source), (Vector3::zeros(), VelocitySource::AtRest));
+    }
+
+    #[test]
+    fn each_start_variance_sits_at_its_state() {
+        let initial = InitialConfig::default();
+        let set = settings(&initial);
+        let v = start_variances(
+            &set,
+            &StartSigmas {
+                position_m: 2.0,
+                down_m: 0.5,
+                velocity_m_s: 0.1,
+                tilt_deg: 0.2,
+                heading_deg: 3.0,
+            },
+        );
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-15 * b.abs().max(1e-30);
+        assert!(close(v[idx::POS], 4.0) && close(v[idx::POS + 1], 4.0));
+        assert!(close(v[idx::POS + 2], 0.25));
+        assert!((0..3).all(|k| close(v[idx::VEL + k], 0.01)));
+        assert!(close(v[idx::ATT], 0.2f64.to_radians().powi(2)));
+        assert!(close(v[idx::ATT + 2], 3f64.to_radians().powi(2)));
+        let gyro = set.imu.gyro_bias_rad_s().powi(2);
+        let accel = set.imu.accel_bias_m_s2().powi(2);
+        assert!((0..3).all(|k| close(v[idx::GYRO_BIAS + k], gyro)));
+        assert!((0..3).all(|k| close(v[idx::ACCEL_BIAS + k], accel)));
+        assert!(close(v[idx::DVL_SCALE], 0.005f64.powi(2)));
+        assert!(close(v[idx::DVL_MISALIGNMENT + 1], 0.02f64.powi(2)));
+        assert!(close(v[idx::DVL_BIAS + 2], 0.003f64.powi(2)));
+        assert!(close(v[idx::EML_SCALE], 0.02f64.powi(2)));
+        assert!(close(v[idx::CURRENT + 1], 0.3f64.powi(2)));
+        assert!(close(v[idx::GYRO_SCALE_Z], set.imu.gyro_scale().powi(2)));
+        assert!(v.iter().all(|x| *x > 0.0), "every state has a prior");
     }
 }
