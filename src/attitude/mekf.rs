@@ -162,49 +162,12 @@ pub fn run_smoothed(
 pub fn forward(inputs: &AhrsInputs<'_>, set: &MekfSettings) -> (Vec<MekfRecord>, MekfCounts) {
     let mut counts = MekfCounts::default();
     let mut out = Vec::with_capacity(inputs.imu.len());
-    // Without a magnetometer the filter runs on gravity alone from the first IMU sample, its
-    // yaw from the gyro, starting at `initial_yaw_rad` (or 0).
-    let start = if inputs.mag.is_empty() {
-        (!inputs.imu.is_empty()).then_some(0)
-    } else {
-        inputs
-            .imu
-            .iter()
-            .position(|m| inputs.mag_at(m.stamp_ns).is_some())
-    };
-    let Some(start) = start else {
+    let Some(start) = first_sample(inputs) else {
         return (out, counts);
     };
     let first = &inputs.imu[start];
-    let field0 = inputs.mag_at(first.stamp_ns).unwrap_or_default();
-    let q0 = if inputs.mag.is_empty() {
-        let (roll, pitch) =
-            crate::filters::ins::alignment::level(&Vector3::from(first.specific_force));
-        UnitQuaternion::from_euler_angles(roll, pitch, inputs.initial_yaw_rad.unwrap_or(0.0))
-    } else {
-        from_gravity_and_field(
-            &Vector3::from(first.specific_force),
-            &field0,
-            inputs.declination_rad,
-        )
-    };
-    // The field's reference magnitude and dip: the first reading, turned into NED.
-    let field_ned0 = q0 * field0;
-    let reference = (field_ned0.norm(), dip(&field_ned0));
-    let tilt = 5f64.to_radians().powi(2);
-    let mut est = Estimate {
-        q: q0,
-        gyro_bias: Vector3::zeros(),
-        cov: Cov::from_diagonal(&State::from_column_slice(&[
-            tilt,
-            tilt,
-            10f64.to_radians().powi(2),
-            set.gyro_bias_sigma_rad_s.powi(2),
-            set.gyro_bias_sigma_rad_s.powi(2),
-            set.gyro_bias_sigma_rad_s.powi(2),
-        ])),
-    };
-    let (gate1, gate3) = (
+    let (mut est, reference) = start_estimate(inputs, first, set);
+    let gates = (
         chi_square_quantile(1, set.gate_probability),
         chi_square_quantile(3, set.gate_probability),
     );
@@ -234,45 +197,22 @@ pub fn forward(inputs: &AhrsInputs<'_>, set: &MekfSettings) -> (Vec<MekfRecord>,
             dt,
             set,
         );
-        est = predicted;
-        let prior = est;
+        let prior = predicted;
         let f = Vector3::from(b.specific_force);
-        let (next, accepted) = gravity_update(&est, &f, dt, set, gate3);
+        let (next, accepted) = gravity_update(&predicted, &f, dt, set, gates.1);
         est = next;
         counts.accel_rejected += usize::from(!accepted);
         // Each magnetometer reading once, at the first IMU sample at or after it.
         if let Some((m, _)) = crate::align::latest_at(inputs.mag, b.stamp_ns) {
             if m.stamp_ns > last_mag_ns {
-                let previous_mag_ns = last_mag_ns;
-                last_mag_ns = m.stamp_ns;
-                let field = Vector3::from(m.magnetic_field);
-                let field_ned = est.q * field;
-                let disturbed = (field_ned.norm() / reference.0 - 1.0).abs() > set.max_field_change
-                    || (dip(&field_ned) - reference.1).abs() > set.max_dip_change_rad;
-                if disturbed {
-                    counts.mag_disturbed += 1;
-                } else {
-                    let interval_s =
-                        ((m.stamp_ns - previous_mag_ns) as f64 * 1e-9).clamp(1e-4, 1.0);
-                    let (next, accepted) = heading_update(
-                        &est,
-                        &field,
-                        inputs.declination_rad,
-                        set.heading_noise_rad_rt_s / interval_s.sqrt(),
-                        gate1,
-                    );
-                    est = next;
-                    counts.mag_rejected += usize::from(!accepted);
-                }
+                let previous_mag_ns = std::mem::replace(&mut last_mag_ns, m.stamp_ns);
+                let mag = MagReading {
+                    field: Vector3::from(m.magnetic_field),
+                    interval_s: ((m.stamp_ns - previous_mag_ns) as f64 * 1e-9).clamp(1e-4, 1.0),
+                };
+                est = mag_update(est, &mag, inputs, set, reference, gates.0, &mut counts);
             }
         }
-        let mut correction = State::zeros();
-        correction
-            .fixed_rows_mut::<3>(0)
-            .copy_from(&(est.q * prior.q.inverse()).scaled_axis());
-        correction
-            .fixed_rows_mut::<3>(3)
-            .copy_from(&(est.gyro_bias - prior.gyro_bias));
         out.push(MekfRecord {
             stamp_ns: b.stamp_ns,
             q: est.q,
@@ -280,10 +220,111 @@ pub fn forward(inputs: &AhrsInputs<'_>, set: &MekfSettings) -> (Vec<MekfRecord>,
             cov: est.cov,
             phi,
             process_noise,
-            correction,
+            correction: correction(&prior, &est),
         });
     }
     (out, counts)
+}
+
+/// The IMU sample the filter starts at: the first with a magnetometer reading. Without a
+/// magnetometer the filter runs on gravity alone from the first IMU sample, its yaw from the
+/// gyro, starting at `initial_yaw_rad` (or 0).
+fn first_sample(inputs: &AhrsInputs<'_>) -> Option<usize> {
+    if inputs.mag.is_empty() {
+        (!inputs.imu.is_empty()).then_some(0)
+    } else {
+        inputs
+            .imu
+            .iter()
+            .position(|m| inputs.mag_at(m.stamp_ns).is_some())
+    }
+}
+
+/// The field's reference magnitude and dip, from the first reading turned into NED.
+type FieldReference = (f64, f64);
+
+/// The first estimate, levelled (and headed by the field when there is one), with the
+/// field's reference.
+fn start_estimate(
+    inputs: &AhrsInputs<'_>,
+    first: &crate::contract::Imu,
+    set: &MekfSettings,
+) -> (Estimate, FieldReference) {
+    let field0 = inputs.mag_at(first.stamp_ns).unwrap_or_default();
+    let q0 = if inputs.mag.is_empty() {
+        let (roll, pitch) =
+            crate::filters::ins::alignment::level(&Vector3::from(first.specific_force));
+        UnitQuaternion::from_euler_angles(roll, pitch, inputs.initial_yaw_rad.unwrap_or(0.0))
+    } else {
+        from_gravity_and_field(
+            &Vector3::from(first.specific_force),
+            &field0,
+            inputs.declination_rad,
+        )
+    };
+    let field_ned0 = q0 * field0;
+    let tilt = 5f64.to_radians().powi(2);
+    let bias = set.gyro_bias_sigma_rad_s.powi(2);
+    let est = Estimate {
+        q: q0,
+        gyro_bias: Vector3::zeros(),
+        cov: Cov::from_diagonal(&State::from_column_slice(&[
+            tilt,
+            tilt,
+            10f64.to_radians().powi(2),
+            bias,
+            bias,
+            bias,
+        ])),
+    };
+    (est, (field_ned0.norm(), dip(&field_ned0)))
+}
+
+/// A magnetometer reading and the time since the one before it (clamped to 0.1 ms .. 1 s).
+struct MagReading {
+    field: Vector3<f64>,
+    interval_s: f64,
+}
+
+/// The heading update of one magnetometer reading, unless the field is disturbed (its
+/// magnitude or dip off the reference): counted either way.
+fn mag_update(
+    est: Estimate,
+    mag: &MagReading,
+    inputs: &AhrsInputs<'_>,
+    set: &MekfSettings,
+    reference: FieldReference,
+    gate: f64,
+    counts: &mut MekfCounts,
+) -> Estimate {
+    let field_ned = est.q * mag.field;
+    let disturbed = (field_ned.norm() / reference.0 - 1.0).abs() > set.max_field_change
+        || (dip(&field_ned) - reference.1).abs() > set.max_dip_change_rad;
+    if disturbed {
+        counts.mag_disturbed += 1;
+        return est;
+    }
+    let (next, accepted) = heading_update(
+        &est,
+        &mag.field,
+        inputs.declination_rad,
+        set.heading_noise_rad_rt_s / mag.interval_s.sqrt(),
+        gate,
+    );
+    counts.mag_rejected += usize::from(!accepted);
+    next
+}
+
+/// The correction the updates made to the prior, as an error state.
+fn correction(prior: &Estimate, est: &Estimate) -> State {
+    let mut correction = State::zeros();
+    correction
+        .fixed_rows_mut::<3>(0)
+        .copy_from(&(est.q * prior.q.inverse()).scaled_axis());
+    correction
+        .fixed_rows_mut::<3>(3)
+        .copy_from(&(est.gyro_bias - prior.gyro_bias));
+    correction
 }
 
 /// Dip of a field in NED, rad (positive down).

@@ -619,32 +619,7 @@ pub fn identify_six_dof(
     start: Option<&[f64]>,
     settings: &SixDofSettings,
 ) -> Result<SixDofIdentification, SixDofError> {
-    let known = || {
-        vehicle
-            .terms
-            .iter()
-            .map(|t| t.name.as_str())
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    let terms: Vec<Vec<usize>> = settings
-        .free
-        .iter()
-        .map(|name| {
-            let idx: Vec<usize> = (0..vehicle.terms.len())
-                .filter(|&t| vehicle.terms[t].name == *name)
-                .collect();
-            if idx.is_empty() {
-                Err(SixDofError::UnknownCoefficient {
-                    vehicle: vehicle.name.clone(),
-                    name: name.clone(),
-                    known: known(),
-                })
-            } else {
-                Ok(idx)
-            }
-        })
-        .collect::<Result<_, _>>()?;
+    let terms = free_terms(vehicle, &settings.free)?;
     SixDof::new(vehicle.clone()).ok_or_else(|| SixDofError::Singular(vehicle.name.clone()))?;
     let problem = Problem {
         vehicle,
@@ -663,38 +638,7 @@ pub fn identify_six_dof(
     for (l, r) in records.iter().enumerate() {
         p.rows_mut(nc + per_log * l, NX).copy_from(&r.first_state());
     }
-    let mut sigma = [
-        settings.gyro_rad_s,
-        settings.gyro_rad_s,
-        settings.gyro_rad_s,
-        settings.dvl_m_s,
-        settings.dvl_m_s,
-        settings.dvl_m_s,
-    ];
-    let mut rounds = 0;
-    let minimum = loop {
-        rounds += 1;
-        let m = levenberg::minimise(p.clone(), settings.max_iterations, |q| {
-            problem.normal(q, &sigma)
-        });
-        let ratios: [f64; 6] = std::array::from_fn(|ch| {
-            let (sum, count) = m.normal.extra[ch];
-            (sum / count.max(1) as f64).sqrt()
-        });
-        let done = !settings.learn_noise
-            || rounds >= settings.noise_rounds.max(1)
-            || !ratios.iter().all(|r| r.is_finite())
-            || ratios.iter().all(|r| *r == 0.0 || (r - 1.0).abs() < 0.01);
-        if done {
-            break m;
-        }
-        for ch in 0..6 {
-            if ratios[ch] > 0.0 {
-                sigma[ch] *= ratios[ch];
-            }
-        }
-        p = m.parameters;
-    };
+    let (minimum, sigma, rounds) = minimise_learning_noise(&problem, p, settings);
     let inverse = levenberg::inverse(&minimum.normal.a);
     let coefficients: Vec<f64> = minimum.parameters.rows(0, nc).iter().copied().collect();
     let logs: Vec<LogEstimate> = (0..records.len())
@@ -727,6 +671,73 @@ pub fn identify_six_dof(
         iterations: minimum.iterations,
         converged: minimum.converged,
     })
+}
+
+/// The terms of `vehicle` each free coefficient names (a name may stand for several).
+fn free_terms(vehicle: &Vehicle, free: &[String]) -> Result<Vec<Vec<usize>>, SixDofError> {
+    free.iter()
+        .map(|name| {
+            let idx: Vec<usize> = (0..vehicle.terms.len())
+                .filter(|&t| vehicle.terms[t].name == *name)
+                .collect();
+            if idx.is_empty() {
+                Err(SixDofError::UnknownCoefficient {
+                    vehicle: vehicle.name.clone(),
+                    name: name.clone(),
+                    known: vehicle
+                        .terms
+                        .iter()
+                        .map(|t| t.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })
+            } else {
+                Ok(idx)
+            }
+        })
+        .collect()
+}
+
+/// The output-error minimum from `p`, each channel's noise learnt from its residuals between
+/// rounds (when the settings learn it) until they agree; returns the minimum, the noise and
+/// the rounds made.
+fn minimise_learning_noise(
+    problem: &Problem,
+    mut p: DVector<f64>,
+    settings: &SixDofSettings,
+) -> (levenberg::Minimum<[(f64, usize); 6]>, [f64; 6], usize) {
+    let mut sigma = [
+        settings.gyro_rad_s,
+        settings.gyro_rad_s,
+        settings.gyro_rad_s,
+        settings.dvl_m_s,
+        settings.dvl_m_s,
+        settings.dvl_m_s,
+    ];
+    let mut rounds = 0;
+    loop {
+        rounds += 1;
+        let m = levenberg::minimise(p.clone(), settings.max_iterations, |q| {
+            problem.normal(q, &sigma)
+        });
+        let ratios: [f64; 6] = std::array::from_fn(|ch| {
+            let (sum, count) = m.normal.extra[ch];
+            (sum / count.max(1) as f64).sqrt()
+        });
+        let done = !settings.learn_noise
+            || rounds >= settings.noise_rounds.max(1)
+            || !ratios.iter().all(|r| r.is_finite())
+            || ratios.iter().all(|r| *r == 0.0 || (r - 1.0).abs() < 0.01);
+        if done {
+            return (m, sigma, rounds);
+        }
+        for ch in 0..6 {
+            if ratios[ch] > 0.0 {
+                sigma[ch] *= ratios[ch];
+            }
+        }
+        p = m.parameters;
+    }
 }
 
 /// Each log re-simulated with the estimates, channel by channel.

@@ -973,10 +973,35 @@ impl Config {
         Ok(config)
     }
 
-    /// Checks ranges (positive sigmas and intervals, a probability in (0, 1]).
+    /// Checks ranges (positive sigmas and intervals, a probability in (0, 1]): the first key
+    /// out of its range is the error.
     pub fn check(&self) -> Result<(), ConfigError> {
+        let rules = self
+            .positive()
+            .into_iter()
+            .map(|(key, value)| (key, value, Range::Positive))
+            .chain(
+                self.non_negative()
+                    .into_iter()
+                    .map(|(key, value)| (key, value, Range::NonNegative)),
+            )
+            .chain(self.other_ranges());
+        for (key, value, range) in rules {
+            if !range.holds(value) {
+                return Err(ConfigError::Bad {
+                    key,
+                    value,
+                    reason: range.reason(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The keys that must be positive numbers.
+    fn positive(&self) -> [(&'static str, f64); 33] {
         let spec = self.imu.spec();
-        let positive: [(&'static str, f64); 33] = [
+        [
             ("alignment.first_span_s", self.alignment.first_span_s),
             (
                 "alignment.found_sigma_floor_deg",
@@ -1049,17 +1074,13 @@ impl Config {
             ("initial.origin_sigma_m", self.initial.origin_sigma_m),
             ("output.rate_hz", self.output.rate_hz),
             ("tune.span_s", self.tune.span_s),
-        ];
-        for (key, value) in positive {
-            if !(value.is_finite() && value > 0.0) {
-                return Err(ConfigError::Bad {
-                    key,
-                    value,
-                    reason: "must be a positive number",
-                });
-            }
-        }
-        let non_negative: [(&'static str, f64); 17] = [
+        ]
+    }
+
+    /// The keys that must be zero or positive.
+    fn non_negative(&self) -> [(&'static str, f64); 17] {
+        let spec = self.imu.spec();
+        [
             ("imu.gyro_scale_ppm", spec.gyro_scale_ppm),
             ("tune.settle_s", self.tune.settle_s),
             ("eml.scale_sigma", self.eml.scale_sigma),
@@ -1092,70 +1113,55 @@ impl Config {
                 "propagation.gap_gyro_deg_s_rt_hz",
                 self.propagation.gap_gyro_deg_s_rt_hz,
             ),
-        ];
-        for (key, value) in non_negative {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(ConfigError::Bad {
-                    key,
-                    value,
-                    reason: "must be zero or positive",
-                });
-            }
-        }
-        if !(self.dvl.stamp_delay_s.is_finite() && self.dvl.stamp_delay_s.abs() <= 60.0) {
-            return Err(ConfigError::Bad {
-                key: "dvl.stamp_delay_s",
-                value: self.dvl.stamp_delay_s,
-                reason: "must be a delay in seconds, -60 to 60",
-            });
-        }
+        ]
+    }
+
+    /// The keys with a range of their own.
+    fn other_ranges(&self) -> Vec<(&'static str, f64, Range)> {
+        let mut out = vec![(
+            "dvl.stamp_delay_s",
+            self.dvl.stamp_delay_s,
+            Range::Within(-60.0, 60.0, "must be a delay in seconds, -60 to 60"),
+        )];
         if let Some(d) = self.initial.declination_deg {
-            if !(d.is_finite() && (-180.0..=180.0).contains(&d)) {
-                return Err(ConfigError::Bad {
-                    key: "initial.declination_deg",
-                    value: d,
-                    reason: "must be a declination in degrees, -180 to 180 (east positive)",
-                });
-            }
+            out.push((
+                "initial.declination_deg",
+                d,
+                Range::Within(
+                    -180.0,
+                    180.0,
+                    "must be a declination in degrees, -180 to 180 (east positive)",
+                ),
+            ));
         }
-        for (key, value) in [
+        out.extend([
             (
                 "alignment.hint_outlier_probability",
                 self.alignment.hint_outlier_probability,
+                Range::OpenProbability,
             ),
-            ("alignment.decisive_weight", self.alignment.decisive_weight),
-        ] {
-            if !(value > 0.0 && value < 1.0) {
-                return Err(ConfigError::Bad {
-                    key,
-                    value,
-                    reason: "must be a probability in (0, 1)",
-                });
-            }
-        }
-        if self.alignment.hypotheses < 4 {
-            return Err(ConfigError::Bad {
-                key: "alignment.hypotheses",
-                value: self.alignment.hypotheses as f64,
-                reason: "must be 4 or more",
-            });
-        }
-        if self.mag.saturation_repeats < 2 {
-            return Err(ConfigError::Bad {
-                key: "mag.saturation_repeats",
-                value: self.mag.saturation_repeats as f64,
-                reason: "must be 2 or more",
-            });
-        }
-        let p = self.gate.probability;
-        if !(p > 0.0 && p <= 1.0) {
-            return Err(ConfigError::Bad {
-                key: "gate.probability",
-                value: p,
-                reason: "must be a probability in (0, 1]",
-            });
-        }
-        Ok(())
+            (
+                "alignment.decisive_weight",
+                self.alignment.decisive_weight,
+                Range::OpenProbability,
+            ),
+            (
+                "alignment.hypotheses",
+                self.alignment.hypotheses as f64,
+                Range::AtLeast(4.0, "must be 4 or more"),
+            ),
+            (
+                "mag.saturation_repeats",
+                self.mag.saturation_repeats as f64,
+                Range::AtLeast(2.0, "must be 2 or more"),
+            ),
+            (
+                "gate.probability",
+                self.gate.probability,
+                Range::Probability,
+            ),
+        ]);
+        out
     }
 
     /// The error states carried as consider states: the DVL's calibration (its `calibration`
@@ -1210,6 +1216,44 @@ impl Config {
                 gate_probability: (self.gate.probability < 1.0).then_some(self.gate.probability),
                 gate_reset_after: self.gate.reset_after,
             },
+        }
+    }
+}
+
+/// The range a configuration value must lie in.
+#[derive(Debug, Clone, Copy)]
+enum Range {
+    Positive,
+    NonNegative,
+    /// In (0, 1).
+    OpenProbability,
+    /// In (0, 1].
+    Probability,
+    /// In `[low, high]`, and why.
+    Within(f64, f64, &'static str),
+    /// At least this, and why.
+    AtLeast(f64, &'static str),
+}
+
+impl Range {
+    fn holds(self, x: f64) -> bool {
+        match self {
+            Range::Positive => x.is_finite() && x > 0.0,
+            Range::NonNegative => x.is_finite() && x >= 0.0,
+            Range::OpenProbability => x > 0.0 && x < 1.0,
+            Range::Probability => x > 0.0 && x <= 1.0,
+            Range::Within(low, high, _) => x.is_finite() && (low..=high).contains(&x),
+            Range::AtLeast(low, _) => x >= low,
+        }
+    }
+
+    fn reason(self) -> &'static str {
+        match self {
+            Range::Positive => "must be a positive number",
+            Range::NonNegative => "must be zero or positive",
+            Range::OpenProbability => "must be a probability in (0, 1)",
+            Range::Probability => "must be a probability in (0, 1]",
+            Range::Within(_, _, why) | Range::AtLeast(_, why) => why,
         }
     }
 }

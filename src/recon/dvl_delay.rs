@@ -414,17 +414,37 @@ fn window(
     let slice = imu.get(from.saturating_sub(1)..to)?;
     let origin_ns = slice.first()?.stamp_ns;
     let seconds = |ns: i64| (ns - origin_ns) as f64 * 1e-9;
-    // The DVL's point moves with omega x lever arm too: taken out of each reading.
+    let (lo, referenced) = referenced_readings(slice, dvl, (first, last), lever_arm_body_m)?;
+    let samples = integrated_samples(slice, &referenced, origin_ns)?;
+    let sums = running_sums(&samples);
+    let pairs = reading_pairs(&referenced[first - lo..=last - lo], seconds);
+    let (t_first, t_last) = (seconds(dvl[first].stamp_ns), seconds(dvl[last].stamp_ns));
+    (pairs.len() >= MIN_PAIRS).then(|| Window {
+        samples,
+        sums,
+        pairs,
+        mid_s: 0.5 * (t_first + t_last),
+        half_s: (0.5 * (t_last - t_first)).max(1.0),
+        gyro_bias: true,
+    })
+}
+
+/// The readings over the IMU's slice (the window's `first..=last`, and those its margins
+/// reach), each moved to the reference point: the DVL's point moves with omega x lever arm
+/// too. Returns the index in `dvl` of the first one with them.
+fn referenced_readings(
+    slice: &[Imu],
+    dvl: &[BodyVelocityReading],
+    (first, last): (usize, usize),
+    lever_arm_body_m: &Vector3<f64>,
+) -> Option<(usize, Vec<BodyVelocityReading>)> {
     let rate_at = |ns: i64| {
         let i = slice
             .partition_point(|m| m.stamp_ns < ns)
             .min(slice.len() - 1);
         Vector3::from(slice[i].angular_velocity)
     };
-    let at_reference =
-        |d: &BodyVelocityReading| d.v_body_m_s - rate_at(d.stamp_ns).cross(lever_arm_body_m);
-    // The readings over the IMU's slice (the window's, and those its margins reach).
-    let (slice_start, slice_end) = (origin_ns, slice.last()?.stamp_ns);
+    let (slice_start, slice_end) = (slice.first()?.stamp_ns, slice.last()?.stamp_ns);
     let lo = dvl
         .partition_point(|d| d.stamp_ns < slice_start)
         .saturating_sub(1)
@@ -432,13 +452,24 @@ fn window(
     let hi = dvl
         .partition_point(|d| d.stamp_ns <= slice_end)
         .max(last + 1);
-    let referenced: Vec<BodyVelocityReading> = dvl[lo..hi]
+    let referenced = dvl[lo..hi]
         .iter()
         .map(|d| BodyVelocityReading {
             stamp_ns: d.stamp_ns,
-            v_body_m_s: at_reference(d),
+            v_body_m_s: d.v_body_m_s - rate_at(d.stamp_ns).cross(lever_arm_body_m),
         })
         .collect();
+    Some((lo, referenced))
+}
+
+/// The IMU's samples over the slice with their integrands, the attitude carried from the
+/// slice's first axes by the gyro. `None` when the slice spans no time.
+fn integrated_samples(
+    slice: &[Imu],
+    referenced: &[BodyVelocityReading],
+    origin_ns: i64,
+) -> Option<Vec<Sample>> {
+    let seconds = |ns: i64| (ns - origin_ns) as f64 * 1e-9;
     let mut attitude = UnitQuaternion::identity();
     let mut samples = Vec::with_capacity(slice.len());
     // The attitude's integral (for a gyro bias's effect) and gravity in the first axes, from
@@ -460,7 +491,7 @@ fn window(
             integrands: Integrals {
                 f: Vector3::from(w[1].specific_force),
                 c: first_from_body.transpose(),
-                w: rate.cross(&velocity_at(&referenced, w[1].stamp_ns)),
+                w: rate.cross(&velocity_at(referenced, w[1].stamp_ns)),
                 b: Matrix3::zeros(),
                 ww: rate.cross_matrix() * rate.cross_matrix(),
                 r: rate,
@@ -479,20 +510,32 @@ fn window(
         let gravity_body = body_from_first * gravity_first;
         s.integrands.b = -gravity_body.cross_matrix() * body_from_first * m;
     }
+    Some(samples)
+}
+
+/// The integrals from the slice's start to the end of each sample.
+fn running_sums(samples: &[Sample]) -> Vec<Integrals> {
     let mut running = Integrals::zero();
-    let sums: Vec<Integrals> = samples
+    samples
         .iter()
         .map(|s| {
             running = running.plus(&s.integrands, s.end_s - s.start_s);
             running
         })
-        .collect();
+        .collect()
+}
+
+/// Consecutive readings' velocity changes `(from s, to s, change)`, of readings at least
+/// [`PAIR_SPACING_S`] apart (a faster DVL's neighbours differ by its noise more than by what a
+/// delay or a lever arm changes in a fifth of a second) and at most [`MAX_PAIR_GAP_S`].
+fn reading_pairs(
+    readings: &[BodyVelocityReading],
+    seconds: impl Fn(i64) -> f64,
+) -> Vec<(f64, f64, Vector3<f64>)> {
     let max_gap_ns = (MAX_PAIR_GAP_S * 1e9) as i64;
-    // Readings at least PAIR_SPACING_S apart: a faster DVL's neighbours differ by its noise
-    // more than by what a delay or a lever arm changes in a fifth of a second.
     let spacing_ns = (PAIR_SPACING_S * 1e9) as i64;
     let mut chain: Vec<&BodyVelocityReading> = Vec::new();
-    for d in &referenced[first - lo..=last - lo] {
+    for d in readings {
         if chain
             .last()
             .is_none_or(|c| d.stamp_ns - c.stamp_ns >= spacing_ns)
@@ -500,7 +543,7 @@ fn window(
             chain.push(d);
         }
     }
-    let pairs: Vec<(f64, f64, Vector3<f64>)> = chain
+    chain
         .windows(2)
         .filter(|p| p[1].stamp_ns > p[0].stamp_ns && p[1].stamp_ns - p[0].stamp_ns <= max_gap_ns)
         .map(|p| {
@@ -510,16 +553,7 @@ fn window(
                 p[1].v_body_m_s - p[0].v_body_m_s,
             )
         })
-        .collect();
-    let (t_first, t_last) = (seconds(dvl[first].stamp_ns), seconds(dvl[last].stamp_ns));
-    (pairs.len() >= MIN_PAIRS).then(|| Window {
-        samples,
-        sums,
-        pairs,
-        mid_s: 0.5 * (t_first + t_last),
-        half_s: (0.5 * (t_last - t_first)).max(1.0),
-        gyro_bias: true,
-    })
+        .collect()
 }
 
 /// The windows: consecutive readings within [`WINDOW_S`], over the first [`MAX_SPAN_S`].

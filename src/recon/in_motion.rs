@@ -96,21 +96,17 @@ fn log_likelihood(residuals: &[Residual], gate_probability: f64) -> f64 {
         .sum()
 }
 
-/// Runs the bank over growing spans until it is decisive or covers the log.
-pub fn align(
-    settings: &Settings,
-    inputs: &Inputs<'_>,
-    init: &Initialisation,
-    cfg: &AlignmentConfig,
-) -> Option<InMotion> {
-    let (Some(first), Some(last)) = (inputs.imu.first(), inputs.imu.last()) else {
-        return None;
-    };
+/// A heading hypothesis of the bank: yaw (rad), its sigma (deg) and its prior weight.
+type HypothesisPrior = (f64, f64, f64);
+
+/// The bank's hypotheses, spread over 360 deg from the start's heading: a known start
+/// heading gets its own sigma and the prior that it is right.
+fn hypotheses(init: &Initialisation, cfg: &AlignmentConfig) -> Vec<HypothesisPrior> {
     let k = cfg.hypotheses.max(2);
     let spacing_deg = 360.0 / k as f64;
     let known = init.heading != super::heading::HeadingSource::Unknown;
     let (_, _, yaw0) = init.estimate.nav.ned_from_body.euler_angles();
-    let hypotheses: Vec<(f64, f64, f64)> = (0..k)
+    (0..k)
         .map(|i| {
             let yaw = wrap_pi(yaw0 + (i as f64 * spacing_deg).to_radians());
             let (sigma, prior) = match (known, i) {
@@ -123,28 +119,53 @@ pub fn align(
             };
             (yaw, sigma, prior)
         })
-        .collect();
+        .collect()
+}
+
+/// Each hypothesis's log-likelihood over the span and its posterior weight.
+fn score_bank(
+    settings: &Settings,
+    cut: &Inputs<'_>,
+    init: &Initialisation,
+    hypotheses: &[HypothesisPrior],
+) -> (Vec<f64>, Vec<f64>) {
     let gate_p = settings.aiding.gate_probability.unwrap_or(0.999);
+    let scores: Vec<f64> = hypotheses
+        .par_iter()
+        .map(|&(yaw, sigma, _)| {
+            let run = run_forward(settings, cut, init.estimate_with_heading(yaw, sigma));
+            log_likelihood(&run.residuals, gate_p)
+        })
+        .collect();
+    let ln_post: Vec<f64> = scores
+        .iter()
+        .zip(hypotheses)
+        .map(|(ll, h)| ll + h.2.ln())
+        .collect();
+    let top = ln_post.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let total: f64 = ln_post.iter().map(|l| (l - top).exp()).sum();
+    let weights = ln_post.iter().map(|l| (l - top).exp() / total).collect();
+    (scores, weights)
+}
+
+/// Runs the bank over growing spans until it is decisive or covers the log.
+pub fn align(
+    settings: &Settings,
+    inputs: &Inputs<'_>,
+    init: &Initialisation,
+    cfg: &AlignmentConfig,
+) -> Option<InMotion> {
+    let (Some(first), Some(last)) = (inputs.imu.first(), inputs.imu.last()) else {
+        return None;
+    };
+    let hypotheses = hypotheses(init, cfg);
+    let k = hypotheses.len();
     let whole_s = (last.stamp_ns - first.stamp_ns) as f64 * 1e-9;
     let mut span_s = cfg.first_span_s.min(whole_s);
     loop {
         let end_ns = first.stamp_ns + (span_s * 1e9) as i64;
         let cut = inputs_until(inputs, end_ns);
-        let scores: Vec<f64> = hypotheses
-            .par_iter()
-            .map(|&(yaw, sigma, _)| {
-                let run = run_forward(settings, &cut, init.estimate_with_heading(yaw, sigma));
-                log_likelihood(&run.residuals, gate_p)
-            })
-            .collect();
-        let ln_post: Vec<f64> = scores
-            .iter()
-            .zip(&hypotheses)
-            .map(|(ll, h)| ll + h.2.ln())
-            .collect();
-        let top = ln_post.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let total: f64 = ln_post.iter().map(|l| (l - top).exp()).sum();
-        let weights: Vec<f64> = ln_post.iter().map(|l| (l - top).exp() / total).collect();
+        let (scores, weights) = score_bank(settings, &cut, init, &hypotheses);
         let best = (0..k)
             .max_by(|&a, &b| weights[a].total_cmp(&weights[b]))
             .unwrap_or(0);
@@ -153,34 +174,15 @@ pub fn align(
         let cluster = [(best + k - 1) % k, best, (best + 1) % k];
         let decisive = cluster.iter().map(|&i| weights[i]).sum::<f64>() >= cfg.decisive_weight;
         if decisive || span_s >= whole_s {
-            let found = if decisive && (best != 0 || !known) {
-                let (yaw, sigma, _) = hypotheses[best];
-                let floor = if sees_earth_rate(init) {
-                    0.0
-                } else {
-                    cfg.found_sigma_floor_deg
-                };
-                let (yaw, sigma) = for_another_pass(refine(settings, &cut, init, yaw, sigma));
-                Some((yaw, sigma.max(floor)))
-            } else {
-                None
+            let decided = Decided {
+                settings,
+                cut: &cut,
+                init,
+                hypotheses: &hypotheses,
+                best,
+                decisive,
             };
-            // A gyrocompassed heading the bank confirms: the filter over the span sees the
-            // Earth's rate with the DVL's velocity (gyrocompassing in motion), far better
-            // than the still gyrocompass's window.
-            // It must agree with the gyrocompass (within 3 sigmas of their difference): a span
-            // whose aiding misleads the filter would otherwise replace a sound heading with a
-            // confident wrong one.
-            let refined = if decisive && best == 0 && init.heading == HeadingSource::Gyrocompass {
-                let (yaw, sigma, _) = hypotheses[0];
-                let (refined_yaw, refined_sigma) =
-                    for_another_pass(refine(settings, &cut, init, yaw, sigma));
-                let apart_deg = wrap_pi(refined_yaw - yaw).to_degrees().abs();
-                (apart_deg <= 3.0 * sigma.hypot(refined_sigma))
-                    .then_some((refined_yaw, refined_sigma))
-            } else {
-                None
-            };
+            let (found, refined) = (decided.found(cfg), decided.refined());
             return Some(InMotion {
                 span_s,
                 hypotheses: hypotheses
@@ -204,6 +206,51 @@ pub fn align(
             });
         }
         span_s = (span_s * 3.0).min(whole_s);
+    }
+}
+
+/// The bank's last span, decided (or covering the log).
+struct Decided<'a> {
+    settings: &'a Settings,
+    cut: &'a Inputs<'a>,
+    init: &'a Initialisation,
+    hypotheses: &'a [HypothesisPrior],
+    best: usize,
+    decisive: bool,
+}
+
+impl Decided<'_> {
+    /// The heading found (yaw rad, sigma deg): a decisive winner other than a known start
+    /// heading, refined over the span.
+    fn found(&self, cfg: &AlignmentConfig) -> Option<(f64, f64)> {
+        let known = self.init.heading != super::heading::HeadingSource::Unknown;
+        if !(self.decisive && (self.best != 0 || !known)) {
+            return None;
+        }
+        let (yaw, sigma, _) = self.hypotheses[self.best];
+        let floor = if sees_earth_rate(self.init) {
+            0.0
+        } else {
+            cfg.found_sigma_floor_deg
+        };
+        let (yaw, sigma) = for_another_pass(refine(self.settings, self.cut, self.init, yaw, sigma));
+        Some((yaw, sigma.max(floor)))
+    }
+
+    /// A gyrocompassed heading the bank confirms: the filter over the span sees the Earth's
+    /// rate with the DVL's velocity (gyrocompassing in motion), far better than the still
+    /// gyrocompass's window. It must agree with the gyrocompass (within 3 sigmas of their
+    /// difference): a span whose aiding misleads the filter would otherwise replace a sound
+    /// heading with a confident wrong one.
+    fn refined(&self) -> Option<(f64, f64)> {
+        if !(self.decisive && self.best == 0 && self.init.heading == HeadingSource::Gyrocompass) {
+            return None;
+        }
+        let (yaw, sigma, _) = self.hypotheses[0];
+        let (refined_yaw, refined_sigma) =
+            for_another_pass(refine(self.settings, self.cut, self.init, yaw, sigma));
+        let apart_deg = wrap_pi(refined_yaw - yaw).to_degrees().abs();
+        (apart_deg <= 3.0 * sigma.hypot(refined_sigma)).then_some((refined_yaw, refined_sigma))
     }
 }
 

@@ -285,67 +285,41 @@ pub fn forward_with(
     let (settings, mut init) = initialise_for(&streams, mission, config, mag)?;
     let stamps = output_stamps(streams.imu, config.output.rate_hz);
     let mut aids = settings.aiding.table(&streams, mission_origin_rad(mission));
+    let keep = if scored_only {
+        Keep::Nothing
+    } else {
+        Keep::Records
+    };
     let inputs = Inputs {
         imu: streams.imu,
         aids: &aids,
         output_stamps_ns: &stamps,
         progress: None,
-        keep: if scored_only {
-            Keep::Nothing
-        } else {
-            Keep::Records
-        },
+        keep,
     };
     let started = Instant::now();
-    match start {
-        // A start settled with other figures is taken unless this configuration's own
-        // sources give a sharper heading (a gyrocompass its IMU figures allow).
-        Some(start) if !config.initial.from_truth => {
-            let own_sharper = init.heading != heading::HeadingSource::Unknown
-                && init.heading_sigma_deg < start.heading_sigma_deg;
-            if !own_sharper {
-                init.adopt_heading(start);
-            }
-        }
-        _ => settle_heading(&settings, &inputs, &mut init, config)?,
-    }
+    take_start(start, config, &settings, &inputs, &mut init)?;
     let mut aid_notes: Vec<AidNote> = Vec::new();
-    let model = config
-        .uses(Sensor::ModelVelocity)
-        .then(|| model_velocity::model_for(&config.model_velocity, mission))
-        .transpose()
-        .map_err(ReconError::Vehicle)?;
-    // Seed 000: the model runs on the attitude of a pass without it (this one's, or one
-    // handed in), and the pass is made with its velocity.
-    let model = match model {
-        Some(Ok(model)) => Some(match shared_attitude {
-            Some(track) => (model, track),
-            None => (model, attitude_of_pass(&settings, &inputs, &init)?),
-        }),
-        Some(Err(why)) => {
-            aid_notes.push(AidNote {
-                sensor: Sensor::ModelVelocity,
-                text: format!("model_velocity: not used: {why}"),
-            });
+    let model = with_model(config, mission, shared_attitude, &settings, &inputs, &init)?;
+    let attitude = match model {
+        Ok(Some((model, attitude))) => {
+            aids.push(Box::new(model_aid(
+                &model, &streams, &attitude, config, &settings,
+            )));
+            Some(attitude)
+        }
+        Ok(None) => None,
+        Err(note) => {
+            aid_notes.push(note);
             None
         }
-        None => None,
     };
-    if let Some((model, attitude)) = &model {
-        aids.push(Box::new(model_aid(
-            model, &streams, attitude, config, &settings,
-        )));
-    }
     let inputs = Inputs {
         imu: streams.imu,
         aids: &aids,
         output_stamps_ns: &stamps,
         progress,
-        keep: if scored_only {
-            Keep::Nothing
-        } else {
-            Keep::Records
-        },
+        keep,
     };
     let run = run_forward(&settings, &inputs, init.estimate);
     aid_notes.extend(aids.iter().flat_map(|aid| {
@@ -363,7 +337,6 @@ pub fn forward_with(
         (Some(mag), None) => mag,
         (None, None) => magnetometer::PreparedMag::default(),
     };
-    let attitude = model.map(|(_, attitude)| attitude);
     Ok(ForwardPass {
         init,
         mag,
@@ -372,6 +345,61 @@ pub fn forward_with(
         time: started.elapsed(),
         model_attitude: attitude,
     })
+}
+
+/// The pass's start heading: a start settled with other figures is taken unless this
+/// configuration's own sources give a sharper heading (a gyrocompass its IMU figures allow);
+/// without one (or from `/truth`), settled here.
+fn take_start(
+    start: Option<&Initialisation>,
+    config: &Config,
+    settings: &crate::filters::ins::driver::Settings,
+    inputs: &Inputs<'_>,
+    init: &mut Initialisation,
+) -> Result<(), ReconError> {
+    match start {
+        Some(start) if !config.initial.from_truth => {
+            let own_sharper = init.heading != heading::HeadingSource::Unknown
+                && init.heading_sigma_deg < start.heading_sigma_deg;
+            if !own_sharper {
+                init.adopt_heading(start);
+            }
+            Ok(())
+        }
+        _ => settle_heading(settings, inputs, init, config),
+    }
+}
+
+/// The vehicle model and the attitude it runs on, when the configuration uses the model aid
+/// (seed 000): the attitude of a pass without it (this one's, or one handed in). `Err` is the
+/// note of a model that cannot be used.
+fn with_model(
+    config: &Config,
+    mission: &Mission,
+    shared_attitude: Option<AttitudeTrack>,
+    settings: &crate::filters::ins::driver::Settings,
+    inputs: &Inputs<'_>,
+    init: &Initialisation,
+) -> Result<
+    Result<Option<(crate::vehicle::six_dof::model::SixDof, AttitudeTrack)>, AidNote>,
+    ReconError,
+> {
+    if !config.uses(Sensor::ModelVelocity) {
+        return Ok(Ok(None));
+    }
+    match model_velocity::model_for(&config.model_velocity, mission).map_err(ReconError::Vehicle)? {
+        Ok(model) => {
+            let attitude = match shared_attitude {
+                Some(track) => track,
+                None => attitude_of_pass(settings, inputs, init)?,
+            };
+            Ok(Ok(Some((model, attitude))))
+        }
+        Err(why) => Ok(Err(AidNote {
+            sensor: Sensor::ModelVelocity,
+            text: format!("model_velocity: not used: {why}"),
+        })),
+    }
 }
 
 /// The streams a pass reads: a sensor the configuration leaves out is an empty stream, and

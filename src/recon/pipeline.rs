@@ -265,20 +265,8 @@ pub fn forward(
         start,
         ..
     } = settled;
-    // A delay the plan estimated and took out is a figure of the log like the tuned ones:
-    // tuned.toml gives it back, so that a rerun with it corrects the stamps the same way.
-    if let Some(t) = tuning.as_mut().filter(|_| plan.uses(Part::DvlStampDelay)) {
-        if !config.fixed.contains("dvl.stamp_delay_s") {
-            t.sensors.push(super::tune::SensorNoise {
-                key: "dvl.stamp_delay_s",
-                value: planned.dvl.stamp_delay_s,
-                source: super::tune::Source::Estimated,
-                differences: None,
-            });
-        }
-    }
     if let Some(t) = tuning.as_mut() {
-        t.dvl_lever_arm_m = plan.dvl_lever_arm_m();
+        add_plan_figures(t, &plan, &config, planned.dvl.stamp_delay_s);
     }
     times.align_s += stages.start(Stage::Forward);
     let pass = forward_with(
@@ -296,29 +284,9 @@ pub fn forward(
     times.forward_s = stages.lap();
     for note in &pass.aid_notes {
         plan.refuse(Part::Aid(note.sensor), note.text.clone());
-        warnings.push(Warning::AidRefused {
-            sensor: note.sensor,
-            why: note.text.clone(),
-        });
     }
     let sensors = stats::sensor_stats(&pass.run.residuals);
-    warnings.extend(
-        stats::warnings(&pass.run, &pass.init, &sensors)
-            .into_iter()
-            .map(Warning::Run),
-    );
-    warnings.extend(
-        super::magnetometer_warnings(&pass.mag, &config.mag)
-            .into_iter()
-            .map(|text| Warning::Magnetometer { text }),
-    );
-    if let Some(t) = &tuning {
-        warnings.extend(
-            t.warnings
-                .iter()
-                .map(|text| Warning::Tuning { text: text.clone() }),
-        );
-    }
+    warnings.extend(pass_warnings(&pass, &sensors, &config, tuning.as_ref()));
     if let Some(dvl) = sensors
         .iter()
         .find(|s| s.sensor == Sensor::Dvl.name() && stats::innovations_too_large(s))
@@ -383,6 +351,46 @@ impl Forward {
     pub fn forward_time(&self) -> Duration {
         self.pass.time
     }
+}
+
+/// What the plan estimated from the log, given back with the tuned figures: a DVL stamp
+/// delay the plan took out (tuned.toml then corrects the stamps the same way on a rerun), and
+/// the DVL lever arm used.
+fn add_plan_figures(tuning: &mut Tuning, plan: &Plan, config: &Config, stamp_delay_s: f64) {
+    if plan.uses(Part::DvlStampDelay) && !config.fixed.contains("dvl.stamp_delay_s") {
+        tuning.sensors.push(super::tune::SensorNoise {
+            key: "dvl.stamp_delay_s",
+            value: stamp_delay_s,
+            source: super::tune::Source::Estimated,
+            differences: None,
+        });
+    }
+    tuning.dvl_lever_arm_m = plan.dvl_lever_arm_m();
+}
+
+/// The warnings of the final pass: aids that refused themselves, its statistics and start,
+/// the magnetometer's, and the tuning's.
+fn pass_warnings(
+    pass: &ForwardPass,
+    sensors: &[SensorStats],
+    config: &Config,
+    tuning: Option<&Tuning>,
+) -> Vec<Warning> {
+    let refused = pass.aid_notes.iter().map(|note| Warning::AidRefused {
+        sensor: note.sensor,
+        why: note.text.clone(),
+    });
+    let run = stats::warnings(&pass.run, &pass.init, sensors)
+        .into_iter()
+        .map(Warning::Run);
+    let mag = super::magnetometer_warnings(&pass.mag, &config.mag)
+        .into_iter()
+        .map(|text| Warning::Magnetometer { text });
+    let tuned = tuning
+        .into_iter()
+        .flat_map(|t| t.warnings.iter())
+        .map(|text| Warning::Tuning { text: text.clone() });
+    refused.chain(run).chain(mag).chain(tuned).collect()
 }
 
 /// The DVL's readings stamped when they were measured (`None`: no delay to take out).

@@ -400,70 +400,88 @@ impl fmt::Display for Why {
                 sigma_s,
                 chi_square_vs_zero,
                 pairs,
-            } => {
-                write!(
-                    f,
-                    "{delay_s:+.3} s (1-sigma {sigma_s:.3} s, chi-square {chi_square_vs_zero:.1} \
-                     against none) from the IMU and {pairs} pairs of DVL readings"
-                )?;
-                if delay_clear(*delay_s, *sigma_s, *chi_square_vs_zero) {
-                    write!(f, ": taken out of the DVL's stamps")
-                } else {
-                    write!(
-                        f,
-                        ": not clearly other than 0 (the velocity changes too little to tell); \
-                         0 is used"
-                    )
-                }
-            }
+            } => write_estimated_delay(f, *delay_s, *sigma_s, *chi_square_vs_zero, *pairs),
             Why::CannotTell { detail } => write!(f, "cannot tell: {detail}; 0 is used"),
             Why::GivenLeverArm { lever_arm_m: [x, y, z] } => {
                 write!(f, "[{x:+.2}, {y:+.2}, {z:+.2}] m (body FRD), as given")
             }
-            Why::EstimatedLeverArm {
-                lever_arm_m: [x, y, z],
-                estimate_m: [ex, ey, ez],
-                sigma_m: [sx, sy, sz],
-                chi_square_vs_configured,
-                effect_m_s,
-                noise_m_s,
-                pairs,
-                verdict,
-            } => {
-                write!(
-                    f,
-                    "[{ex:+.2}, {ey:+.2}, {ez:+.2}] m (body FRD; 1-sigma {sx:.2}, {sy:.2}, \
-                     {sz:.2} m; chi-square {chi_square_vs_configured:.1} against the configured \
-                     one) from the IMU's rates and {pairs} pairs of DVL readings"
-                )?;
-                match verdict {
-                    LeverVerdict::Used => write!(
-                        f,
-                        ": [{x:+.2}, {y:+.2}, {z:+.2}] m used for every pass (the axes {:.0} \
-                         sigmas clear; they move the readings by {:.1} cm/s in the turns)",
-                        dvl_delay::LEVER_AXIS_SIGMAS,
-                        effect_m_s * 100.0
-                    ),
-                    LeverVerdict::RatesBiased => write!(
-                        f,
-                        ": not used, the gyro's bias (a MEMS gyro's) is in the rates it \
-                         multiplies; the configured one is used"
-                    ),
-                    LeverVerdict::NotClear => write!(
-                        f,
-                        ": not clearly other than the configured one (the body turns too \
-                         little to tell); the configured one is used"
-                    ),
-                    LeverVerdict::NoEffect => write!(
-                        f,
-                        ": not used, its clear axes move the readings by {:.1} cm/s about \
-                         each window's mean rate, under the {:.1} cm/s of their differences' \
-                         noise; the configured one is used",
-                        effect_m_s * 100.0,
-                        noise_m_s * 100.0
-                    ),
-                }
-            }
+            Why::EstimatedLeverArm { .. } => self.write_estimated_lever_arm(f),
+        }
+    }
+}
+
+/// An estimated DVL stamp delay and whether it is taken out.
+fn write_estimated_delay(
+    f: &mut fmt::Formatter<'_>,
+    delay_s: f64,
+    sigma_s: f64,
+    chi_square_vs_zero: f64,
+    pairs: usize,
+) -> fmt::Result {
+    write!(
+        f,
+        "{delay_s:+.3} s (1-sigma {sigma_s:.3} s, chi-square {chi_square_vs_zero:.1} \
+         against none) from the IMU and {pairs} pairs of DVL readings"
+    )?;
+    if delay_clear(delay_s, sigma_s, chi_square_vs_zero) {
+        write!(f, ": taken out of the DVL's stamps")
+    } else {
+        write!(
+            f,
+            ": not clearly other than 0 (the velocity changes too little to tell); \
+             0 is used"
+        )
+    }
+}
+
+impl Why {
+    /// An estimated DVL lever arm and whether it is used.
+    fn write_estimated_lever_arm(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let Why::EstimatedLeverArm {
+            lever_arm_m: [x, y, z],
+            estimate_m: [ex, ey, ez],
+            sigma_m: [sx, sy, sz],
+            chi_square_vs_configured,
+            effect_m_s,
+            noise_m_s,
+            pairs,
+            verdict,
+        } = self
+        else {
+            return Ok(());
+        };
+        write!(
+            f,
+            "[{ex:+.2}, {ey:+.2}, {ez:+.2}] m (body FRD; 1-sigma {sx:.2}, {sy:.2}, \
+             {sz:.2} m; chi-square {chi_square_vs_configured:.1} against the configured \
+             one) from the IMU's rates and {pairs} pairs of DVL readings"
+        )?;
+        match verdict {
+            LeverVerdict::Used => write!(
+                f,
+                ": [{x:+.2}, {y:+.2}, {z:+.2}] m used for every pass (the axes {:.0} \
+                 sigmas clear; they move the readings by {:.1} cm/s in the turns)",
+                dvl_delay::LEVER_AXIS_SIGMAS,
+                effect_m_s * 100.0
+            ),
+            LeverVerdict::RatesBiased => write!(
+                f,
+                ": not used, the gyro's bias (a MEMS gyro's) is in the rates it \
+                 multiplies; the configured one is used"
+            ),
+            LeverVerdict::NotClear => write!(
+                f,
+                ": not clearly other than the configured one (the body turns too \
+                 little to tell); the configured one is used"
+            ),
+            LeverVerdict::NoEffect => write!(
+                f,
+                ": not used, its clear axes move the readings by {:.1} cm/s about \
+                 each window's mean rate, under the {:.1} cm/s of their differences' \
+                 noise; the configured one is used",
+                effect_m_s * 100.0,
+                noise_m_s * 100.0
+            ),
         }
     }
 }

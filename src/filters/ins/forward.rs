@@ -551,6 +551,14 @@ mod tests {
                 h.column(i)
             );
         }
+    }
+
+    /// The mounted DVL's matrix, with the lever arm's rate term: a gyro-bias or scale
+    /// correction changes the true body rate too.
+    #[test]
+    fn mounted_dvl_jacobian_matches_finite_differences() {
+        let est = estimate();
+        let v_body = Vector3::new(1.0, -0.3, 0.2);
         let mounting = DvlMounting {
             dvl_from_body: Rotation3::from_euler_angles(0.01, -0.02, 0.785),
             lever_arm_body_m: Vector3::new(0.8, -0.1, 0.3),
@@ -578,8 +586,13 @@ mod tests {
                 h.column(i)
             );
         }
-        // The EM log's row: velocity columns as the finite differences; the attitude's, left
-        // out of the row, come back as the variance they add.
+    }
+
+    /// The EM log's row: velocity columns as the finite differences; the attitude's, left out
+    /// of the row, come back as the variance they add.
+    #[test]
+    fn em_log_jacobian_matches_finite_differences() {
+        let est = estimate();
         let (s0, hs, attitude_variance) = measure::speed(&est, 1.5).unwrap();
         let mut h_att = SMatrix::<f64, 1, 3>::zeros();
         for i in 0..N {
@@ -601,6 +614,20 @@ mod tests {
             (attitude_variance - expected).abs() <= 1e-4 * expected.max(1e-12),
             "{attitude_variance} vs {expected}"
         );
+        let slow = Estimate {
+            nav: NavState {
+                vel_ned_m_s: Vector3::new(0.05, 0.0, 0.0),
+                ..est.nav
+            },
+            ..est
+        };
+        assert!(measure::speed(&slow, 0.0).is_none());
+    }
+
+    /// The magnetic heading's, the depth's and the horizontal position's matrices.
+    #[test]
+    fn heading_depth_and_position_jacobians_match_finite_differences() {
+        let est = estimate();
         let field = Vector3::new(2.1e-5, 0.3e-5, 3.9e-5);
         let (m0, hm) = measure::magnetic_heading(&est, &field, -0.13).unwrap();
         for i in 0..N {
@@ -613,14 +640,6 @@ mod tests {
                 "magnetic heading column {i}"
             );
         }
-        let slow = Estimate {
-            nav: NavState {
-                vel_ned_m_s: Vector3::new(0.05, 0.0, 0.0),
-                ..est.nav
-            },
-            ..est
-        };
-        assert!(measure::speed(&slow, 0.0).is_none());
         let (d0, hd) = measure::depth(&est, 21.0);
         let mut dx = ErrorState::zeros();
         dx[idx::POS + 2] = 0.5;

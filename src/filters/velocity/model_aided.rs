@@ -281,8 +281,7 @@ pub fn run(
         settings.process_sigma[i].powi(2) * dt
     }));
     let proposed = settings.mode == Mode::Proposed;
-    let gates = [1, 3].map(|m| Some(chi_square_quantile(m, settings.gate_probability)));
-    let gate = |m: usize| if m == 1 { gates[0] } else { gates[1] };
+    let updates = Updates::new(settings, inputs);
     let mut out = ModelRun {
         velocities: Vec::with_capacity(((last.stamp_ns - t0) / step_ns.max(1)) as usize + 1),
         ..ModelRun::default()
@@ -304,76 +303,178 @@ pub fn run(
         let v_after = nu_bar.fixed_rows::<3>(0).into_owned();
         depth_bar += g.dot(&(v_before + v_after)) * (dt / 2.0);
         let next_ns = t_ns + step_ns;
-
-        if proposed {
-            let stamp = |x: &Depth| x.stamp_ns;
-            if let Some(d) = within(inputs.depth, t_ns, next_ns, stamp).last() {
-                let mut h = SMatrix::<f64, 1, STATES>::zeros();
-                h[0] = 1.0;
-                let y = SVector::<f64, 1>::new(depth_bar - d.depth - est.mean[0]);
-                let r = SMatrix::<f64, 1, 1>::new(settings.depth_sigma_m.powi(2));
-                est = apply(&est, &y, &h, &r, gate(1), &mut out.depth, next_ns)?;
-            }
-            for e in within(inputs.eml, t_ns, next_ns, |x| x.stamp_ns) {
-                let v_bar = nu_bar.fixed_rows::<3>(0).into_owned();
-                let v_hat = v_bar - est.mean.fixed_rows::<3>(1);
-                let norm = v_hat.norm();
-                if norm < 0.1 {
-                    continue; // an EM log near rest reads nothing useful
-                }
-                let mut h = SMatrix::<f64, 1, STATES>::zeros();
-                for j in 0..3 {
-                    h[1 + j] = v_hat[j] / norm;
-                }
-                // dy = |V_bar| - speed, c(dxi) = |V_bar| - |V_bar - dV|.
-                let y = SVector::<f64, 1>::new(norm - e.speed);
-                let r = SMatrix::<f64, 1, 1>::new(settings.eml_sigma_m_s.powi(2));
-                est = apply(&est, &y, &h, &r, gate(1), &mut out.eml, next_ns)?;
-            }
-            let gyro = within(inputs.imu, t_ns, next_ns, |x| x.stamp_ns);
-            if !gyro.is_empty() {
-                let mean = gyro.iter().fold(Vector3::zeros(), |s, m| {
-                    s + Vector3::from(m.angular_velocity)
-                }) / gyro.len() as f64;
-                let w_eb = mean - at.earth_rate_body;
-                let w_bar = nu_bar.fixed_rows::<3>(3).into_owned();
-                let mut h = SMatrix::<f64, 3, STATES>::zeros();
-                h.fixed_view_mut::<3, 3>(0, 4)
-                    .copy_from(&Matrix3::identity());
-                let y = w_bar - w_eb - est.mean.fixed_rows::<3>(4);
-                let r = Matrix3::identity() * settings.gyro_sigma_rad_s.powi(2);
-                est = apply(&est, &y, &h, &r, gate(3), &mut out.gyro, next_ns)?;
-            }
-            for d in within(inputs.dvl, t_ns, next_ns, |x| x.stamp_ns) {
-                let mut h = SMatrix::<f64, 3, STATES>::zeros();
-                h.fixed_view_mut::<3, 3>(0, 1)
-                    .copy_from(&Matrix3::identity());
-                let v_bar = nu_bar.fixed_rows::<3>(0).into_owned();
-                let y = v_bar - d.v_body_m_s - est.mean.fixed_rows::<3>(1);
-                let r = Matrix3::identity() * settings.dvl_sigma_m_s.powi(2);
-                est = apply(&est, &y, &h, &r, gate(3), &mut out.dvl, next_ns)?;
-            }
-        }
-        let v_bar = nu_bar.fixed_rows::<3>(0).into_owned();
-        let (v_body_m_s, cov) = if proposed {
-            (
-                v_bar - est.mean.fixed_rows::<3>(1),
-                est.cov.fixed_view::<3, 3>(1, 1).into_owned(),
-            )
-        } else {
-            (
-                v_bar,
-                Matrix3::identity() * settings.virtual_sigma_m_s.powi(2),
-            )
+        let step = Step {
+            from_ns: t_ns,
+            to_ns: next_ns,
+            nu_bar: &nu_bar,
+            depth_bar,
+            earth_rate_body: at.earth_rate_body,
         };
-        out.velocities.push(ModelVelocity {
-            stamp_ns: next_ns,
-            v_body_m_s,
-            cov,
-        });
+        if proposed {
+            est = updates.apply_all(&step, est, &mut out)?;
+        }
+        out.velocities.push(handed_on(settings, &step, &est));
         t_ns = next_ns;
     }
     Ok(out)
+}
+
+/// One step of the filter, `(from_ns, to_ns]`, with the simulator's state at its end.
+struct Step<'a> {
+    from_ns: i64,
+    to_ns: i64,
+    nu_bar: &'a Nu,
+    depth_bar: f64,
+    earth_rate_body: Vector3<f64>,
+}
+
+impl Step<'_> {
+    fn v_bar(&self) -> Vector3<f64> {
+        self.nu_bar.fixed_rows::<3>(0).into_owned()
+    }
+}
+
+/// The velocity the filter hands on at the end of a step: the simulator's less its
+/// estimated error, or, as a virtual sensor, the simulator's as it is.
+fn handed_on(
+    settings: &ModelAidedFilter,
+    step: &Step<'_>,
+    est: &Gaussian<STATES>,
+) -> ModelVelocity {
+    let v_bar = step.v_bar();
+    let (v_body_m_s, cov) = match settings.mode {
+        Mode::Proposed => (
+            v_bar - est.mean.fixed_rows::<3>(1),
+            est.cov.fixed_view::<3, 3>(1, 1).into_owned(),
+        ),
+        Mode::VirtualSensor => (
+            v_bar,
+            Matrix3::identity() * settings.virtual_sigma_m_s.powi(2),
+        ),
+    };
+    ModelVelocity {
+        stamp_ns: step.to_ns,
+        v_body_m_s,
+        cov,
+    }
+}
+
+/// The measurement updates of eq. 8-12: depth, EM log, gyro and DVL.
+struct Updates<'a> {
+    settings: &'a ModelAidedFilter,
+    inputs: &'a Inputs<'a>,
+    /// Gates of one- and three-dimensional updates.
+    gate_1: Option<f64>,
+    gate_3: Option<f64>,
+}
+
+impl<'a> Updates<'a> {
+    fn new(settings: &'a ModelAidedFilter, inputs: &'a Inputs<'a>) -> Self {
+        let gate = |m| Some(chi_square_quantile(m, settings.gate_probability));
+        Updates {
+            settings,
+            inputs,
+            gate_1: gate(1),
+            gate_3: gate(3),
+        }
+    }
+
+    /// Every reading of the step, in the order depth, EM log, gyro, DVL.
+    fn apply_all(
+        &self,
+        step: &Step<'_>,
+        est: Gaussian<STATES>,
+        out: &mut ModelRun,
+    ) -> Result<Gaussian<STATES>, ModelRefused> {
+        let est = self.depth(step, est, &mut out.depth)?;
+        let est = self.eml(step, est, &mut out.eml)?;
+        let est = self.gyro(step, est, &mut out.gyro)?;
+        self.dvl(step, est, &mut out.dvl)
+    }
+
+    /// `d_bar - d`: the step's last depth reading.
+    fn depth(
+        &self,
+        step: &Step<'_>,
+        est: Gaussian<STATES>,
+        tally: &mut NisTally,
+    ) -> Result<Gaussian<STATES>, ModelRefused> {
+        let stamp = |x: &Depth| x.stamp_ns;
+        let Some(d) = within(self.inputs.depth, step.from_ns, step.to_ns, stamp).last() else {
+            return Ok(est);
+        };
+        let mut h = SMatrix::<f64, 1, STATES>::zeros();
+        h[0] = 1.0;
+        let y = SVector::<f64, 1>::new(step.depth_bar - d.depth - est.mean[0]);
+        let r = SMatrix::<f64, 1, 1>::new(self.settings.depth_sigma_m.powi(2));
+        apply(&est, &y, &h, &r, self.gate_1, tally, step.to_ns)
+    }
+
+    /// `|V_bar| - speed`, `c(dxi) = |V_bar| - |V_bar - dV|`: each EM-log reading.
+    fn eml(
+        &self,
+        step: &Step<'_>,
+        mut est: Gaussian<STATES>,
+        tally: &mut NisTally,
+    ) -> Result<Gaussian<STATES>, ModelRefused> {
+        for e in within(self.inputs.eml, step.from_ns, step.to_ns, |x| x.stamp_ns) {
+            let v_hat = step.v_bar() - est.mean.fixed_rows::<3>(1);
+            let norm = v_hat.norm();
+            if norm < 0.1 {
+                continue; // an EM log near rest reads nothing useful
+            }
+            let mut h = SMatrix::<f64, 1, STATES>::zeros();
+            for j in 0..3 {
+                h[1 + j] = v_hat[j] / norm;
+            }
+            let y = SVector::<f64, 1>::new(norm - e.speed);
+            let r = SMatrix::<f64, 1, 1>::new(self.settings.eml_sigma_m_s.powi(2));
+            est = apply(&est, &y, &h, &r, self.gate_1, tally, step.to_ns)?;
+        }
+        Ok(est)
+    }
+
+    /// `w_bar - w`: the mean of the step's gyro samples, less the Earth's rate.
+    fn gyro(
+        &self,
+        step: &Step<'_>,
+        est: Gaussian<STATES>,
+        tally: &mut NisTally,
+    ) -> Result<Gaussian<STATES>, ModelRefused> {
+        let gyro = within(self.inputs.imu, step.from_ns, step.to_ns, |x| x.stamp_ns);
+        if gyro.is_empty() {
+            return Ok(est);
+        }
+        let mean = gyro.iter().fold(Vector3::zeros(), |s, m| {
+            s + Vector3::from(m.angular_velocity)
+        }) / gyro.len() as f64;
+        let w_eb = mean - step.earth_rate_body;
+        let w_bar = step.nu_bar.fixed_rows::<3>(3).into_owned();
+        let mut h = SMatrix::<f64, 3, STATES>::zeros();
+        h.fixed_view_mut::<3, 3>(0, 4)
+            .copy_from(&Matrix3::identity());
+        let y = w_bar - w_eb - est.mean.fixed_rows::<3>(4);
+        let r = Matrix3::identity() * self.settings.gyro_sigma_rad_s.powi(2);
+        apply(&est, &y, &h, &r, self.gate_3, tally, step.to_ns)
+    }
+
+    /// `V_bar - V`: each DVL reading in range.
+    fn dvl(
+        &self,
+        step: &Step<'_>,
+        mut est: Gaussian<STATES>,
+        tally: &mut NisTally,
+    ) -> Result<Gaussian<STATES>, ModelRefused> {
+        for d in within(self.inputs.dvl, step.from_ns, step.to_ns, |x| x.stamp_ns) {
+            let mut h = SMatrix::<f64, 3, STATES>::zeros();
+            h.fixed_view_mut::<3, 3>(0, 1)
+                .copy_from(&Matrix3::identity());
+            let y = step.v_bar() - d.v_body_m_s - est.mean.fixed_rows::<3>(1);
+            let r = Matrix3::identity() * self.settings.dvl_sigma_m_s.powi(2);
+            est = apply(&est, &y, &h, &r, self.gate_3, tally, step.to_ns)?;
+        }
+        Ok(est)
+    }
 }
 
 /// One gated update, tallied.

@@ -203,41 +203,8 @@ pub fn tune_from(
     }
     let mut tuned = config.clone();
     let mut warnings = Vec::new();
-    let sensors: Vec<SensorNoise> = sensor_noise(streams)
-        .into_iter()
-        .map(|(key, estimate)| {
-            if config.fixed.contains(key) {
-                return SensorNoise {
-                    key,
-                    value: *slot(&mut tuned, key),
-                    source: Source::Configured,
-                    differences: None,
-                };
-            }
-            match estimate {
-                Some(w) => {
-                    let value = w.sigma.max(floor(key));
-                    *slot(&mut tuned, key) = value;
-                    SensorNoise {
-                        key,
-                        value,
-                        source: Source::Estimated,
-                        differences: Some(w.differences),
-                    }
-                }
-                None => SensorNoise {
-                    key,
-                    value: *slot(&mut tuned, key),
-                    source: Source::Default,
-                    differences: None,
-                },
-            }
-        })
-        .collect();
-
-    let imu_fixed = config.fixed.iter().any(|k| k.starts_with("imu."));
-    let mut dvl_walk = Vec::new();
-    let imu = if imu_fixed {
+    let mut sensors = tune_sensor_noise(streams, config, &mut tuned);
+    let imu = if config.fixed.iter().any(|k| k.starts_with("imu.")) {
         ImuNoiseTuning {
             source: Source::Configured,
             model: "configured".into(),
@@ -248,72 +215,16 @@ pub fn tune_from(
             white: None,
         }
     } else {
-        let still = stationary::still_noise(streams.imu, streams.dvl);
-        let span = first_span(streams, config.tune.span_s);
-        let moving = still
-            .is_none()
-            .then(|| moving::moving_noise(span.imu))
-            .flatten();
-        let white = ImuWhite::of(still.as_ref(), moving.as_ref());
-        let search = imu::search(&span, mission, &tuned, white.as_ref(), from);
-        warnings.extend(search.warning.clone());
-        if let Some(drift) = search.dvl_bias_walk {
-            tuned.dvl.bias_walk_m_s_rt_h = drift.walk_m_s_rt_h;
-            tuned.dvl.bias_correlation_s = drift.correlation_s;
-            let noise = |key, value, gain: f64| SensorNoise {
-                key,
-                value,
-                source: if gain > 0.0 {
-                    Source::Estimated
-                } else {
-                    Source::Default
-                },
-                differences: None,
-            };
-            dvl_walk.push(noise(
-                "dvl.bias_walk_m_s_rt_h",
-                drift.walk_m_s_rt_h,
-                drift.walk_gain,
-            ));
-            if drift.correlation_s > 0.0 {
-                dvl_walk.push(noise(
-                    "dvl.bias_correlation_s",
-                    drift.correlation_s,
-                    drift.correlation_gain,
-                ));
-            }
-        }
-        match search.best {
-            Some(best) => {
-                tuned = imu::with_candidate(&tuned, &best, white.as_ref());
-                ImuNoiseTuning {
-                    source: Source::Estimated,
-                    model: best.label(),
-                    figures: best.spec_with(white.as_ref()),
-                    candidates: search.tried,
-                    still,
-                    moving,
-                    white,
-                }
-            }
-            None => ImuNoiseTuning {
-                source: Source::Default,
-                model: "configured".into(),
-                figures: config.imu.spec(),
-                candidates: search.tried,
-                still,
-                moving,
-                white,
-            },
-        }
+        let tuned_imu = tune_imu(streams, mission, config, &mut tuned, from);
+        warnings.extend(tuned_imu.warning);
+        sensors.extend(tuned_imu.dvl_walk);
+        tuned_imu.imu
     };
     warnings.extend(instability_beyond_bound(&imu));
-    let span_s = config.tune.span_s;
-    let sensors = sensors.into_iter().chain(dvl_walk).collect();
     (
         tuned,
         Some(Tuning {
-            span_s,
+            span_s: config.tune.span_s,
             log_start_ns: streams.imu.first().map_or(0, |m| m.stamp_ns),
             imu,
             sensors,
@@ -321,6 +232,133 @@ pub fn tune_from(
             warnings,
         }),
     )
+}
+
+/// The white noise of the DVL, depth sensor and EM log from the scatter of their readings,
+/// set in `tuned` unless the configuration gives it.
+fn tune_sensor_noise(
+    streams: &Streams<'_>,
+    config: &Config,
+    tuned: &mut Config,
+) -> Vec<SensorNoise> {
+    sensor_noise(streams)
+        .into_iter()
+        .map(|(key, estimate)| {
+            if config.fixed.contains(key) {
+                return SensorNoise {
+                    key,
+                    value: *slot(tuned, key),
+                    source: Source::Configured,
+                    differences: None,
+                };
+            }
+            match estimate {
+                Some(w) => {
+                    let value = w.sigma.max(floor(key));
+                    *slot(tuned, key) = value;
+                    SensorNoise {
+                        key,
+                        value,
+                        source: Source::Estimated,
+                        differences: Some(w.differences),
+                    }
+                }
+                None => SensorNoise {
+                    key,
+                    value: *slot(tuned, key),
+                    source: Source::Default,
+                    differences: None,
+                },
+            }
+        })
+        .collect()
+}
+
+/// What the IMU's tuning found, with the DVL drift it chose on the way.
+struct TunedImu {
+    imu: ImuNoiseTuning,
+    dvl_walk: Vec<SensorNoise>,
+    warning: Option<String>,
+}
+
+/// The IMU's noise by the likelihood of the filter's innovations over the first span (its
+/// white noise from a still stretch or the motion when there is one), set in `tuned`.
+fn tune_imu(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    tuned: &mut Config,
+    from: crate::recon::Prepared<'_>,
+) -> TunedImu {
+    let still = stationary::still_noise(streams.imu, streams.dvl);
+    let span = first_span(streams, config.tune.span_s);
+    let moving = still
+        .is_none()
+        .then(|| moving::moving_noise(span.imu))
+        .flatten();
+    let white = ImuWhite::of(still.as_ref(), moving.as_ref());
+    let search = imu::search(&span, mission, tuned, white.as_ref(), from);
+    let dvl_walk = search
+        .dvl_bias_walk
+        .map(|drift| chosen_dvl_drift(tuned, &drift))
+        .unwrap_or_default();
+    let imu = match search.best {
+        Some(best) => {
+            *tuned = imu::with_candidate(tuned, &best, white.as_ref());
+            ImuNoiseTuning {
+                source: Source::Estimated,
+                model: best.label(),
+                figures: best.spec_with(white.as_ref()),
+                candidates: search.tried,
+                still,
+                moving,
+                white,
+            }
+        }
+        None => ImuNoiseTuning {
+            source: Source::Default,
+            model: "configured".into(),
+            figures: config.imu.spec(),
+            candidates: search.tried,
+            still,
+            moving,
+            white,
+        },
+    };
+    TunedImu {
+        imu,
+        dvl_walk,
+        warning: search.warning,
+    }
+}
+
+/// The DVL drift the search chose, set in `tuned`, as the figures it reports.
+fn chosen_dvl_drift(tuned: &mut Config, drift: &imu::DvlDrift) -> Vec<SensorNoise> {
+    tuned.dvl.bias_walk_m_s_rt_h = drift.walk_m_s_rt_h;
+    tuned.dvl.bias_correlation_s = drift.correlation_s;
+    let noise = |key, value, gain: f64| SensorNoise {
+        key,
+        value,
+        source: if gain > 0.0 {
+            Source::Estimated
+        } else {
+            Source::Default
+        },
+        differences: None,
+    };
+    let mut out = vec![noise(
+        "dvl.bias_walk_m_s_rt_h",
+        drift.walk_m_s_rt_h,
+        drift.walk_gain,
+    )];
+    if drift.correlation_s > 0.0 {
+        out.push(noise(
+            "dvl.bias_correlation_s",
+            drift.correlation_s,
+            drift.correlation_gain,
+        ));
+    }
+    out
 }
 
 /// A warning when the tuned bias instabilities let the biases wander faster than a still
