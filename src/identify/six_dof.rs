@@ -698,6 +698,9 @@ fn free_terms(vehicle: &Vehicle, free: &[String]) -> Result<Vec<Vec<usize>>, Six
         .collect()
 }
 
+/// An output-error minimum with each channel's residual sums.
+type ChannelMinimum = levenberg::Minimum<[(f64, usize); 6]>;
+
 /// The output-error minimum from `p`, each channel's noise learnt from its residuals between
 /// rounds (when the settings learn it) until they agree; returns the minimum, the noise and
 /// the rounds made.
@@ -705,7 +708,7 @@ fn minimise_learning_noise(
     problem: &Problem,
     mut p: DVector<f64>,
     settings: &SixDofSettings,
-) -> (levenberg::Minimum<[(f64, usize); 6]>, [f64; 6], usize) {
+) -> (ChannelMinimum, [f64; 6], usize) {
     let mut sigma = [
         settings.gyro_rad_s,
         settings.gyro_rad_s,

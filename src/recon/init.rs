@@ -359,7 +359,7 @@ struct StartPosition {
 
 /// Of the GNSS fixes near the start, the one closest to their median: one outlier among them
 /// cannot place the start.
-fn start_gnss<'a>(fixes: &'a [GnssFix], near_start: impl Fn(i64) -> bool) -> Option<&'a GnssFix> {
+fn start_gnss(fixes: &[GnssFix], near_start: impl Fn(i64) -> bool) -> Option<&GnssFix> {
     let near: Vec<&GnssFix> = fixes.iter().filter(|g| near_start(g.stamp_ns)).collect();
     let median = |f: fn(&GnssFix) -> f64| {
         let mut v: Vec<f64> = near.iter().map(|g| f(g)).collect();
