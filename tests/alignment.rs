@@ -1,4 +1,4 @@
-//! Issue 13's acceptance: the reconstruction finds its own heading. From any start heading
+//! Acceptance: the reconstruction finds its own heading. From any start heading
 //! (the in-motion alignment), after a dropped entry (the start carried by the gyro, the
 //! magnetometer as an aid), and without any heading source. Scored against `/truth`.
 
@@ -86,8 +86,8 @@ fn dropped_entry_with_default_settings() {
     }
 }
 
-/// Issue 13's yaw criterion on the dropped entry: yaw RMS after 30 s <= 1 deg on every seed.
-/// It was 1.008 deg on seed 1 before issue 14 (0.968 deg since the EM log became a speed along
+/// The yaw criterion on the dropped entry: yaw RMS after 30 s <= 1 deg on every seed.
+/// It was 1.008 deg on seed 1 before the 25-state model (0.968 deg since the EM log became a speed along
 /// the body through a current); seed 1 stays the hardest, because over 300 s a tactical
 /// gyro's bias and a heading error tilt the vehicle alike through the Earth rate and the
 /// magnetometer's default (a real compass: 2 deg, 60 s correlated) holds the heading loosely.

@@ -382,7 +382,7 @@ fn a_long_dvl_gap_is_not_bridged() {
     assert!((bridged - 100.8).abs() < 1.0, "{bridged}");
 }
 
-/// The criterion: the project's pool scenarios with a 5 uT hard iron, run with the
+/// The criterion: the project's pool scenarios with a 5 uT hard iron, run with the
 /// defaults (no flags, no config): every method ends within 0.5 % of the path.
 #[test]
 fn pool_runs_with_a_5_ut_hard_iron_end_within_half_a_percent() {

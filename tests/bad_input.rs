@@ -194,11 +194,31 @@ fn unknown_schema_names_the_topic_unless_skipped() {
     let text = e.to_string();
     assert!(matches!(e, IngestError::UnknownSchema { .. }));
     assert!(
-        text.contains("/sonar")
-            && text.contains("acme.SidescanPing")
-            && text.contains("--skip-unknown"),
+        text.contains("/sonar") && text.contains("acme.SidescanPing"),
         "{text}"
     );
+    // The library says what is wrong; the command adds which flag gets past it.
+    let dir = std::env::temp_dir().join(format!("hindsight-unknown-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("sonar.mcap");
+    std::fs::write(&path, &bytes).unwrap();
+    let out = common::hindsight(&["export", path.to_str().unwrap(), "--out"])
+        .status
+        .code();
+    assert_eq!(out, Some(2), "export without --out is a usage error");
+    let run = common::hindsight(&[
+        "export",
+        path.to_str().unwrap(),
+        "--out",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    let said = common::stderr(&run);
+    assert_eq!(run.status.code(), Some(3), "{said}");
+    assert!(
+        said.contains("acme.SidescanPing") && said.contains("hint: pass --skip-unknown"),
+        "{said}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
 
     let log = read(
         &bytes,

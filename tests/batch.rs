@@ -1,4 +1,4 @@
-//! Issue 18: `hindsight batch` over an archive: partitions, shards, resume, a corrupt log
+//! `hindsight batch` over an archive: partitions, shards, resume, a corrupt log
 //! among good ones, and the batch summary.
 
 use crate::common;

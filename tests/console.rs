@@ -1,4 +1,4 @@
-//! Issue 17: progress bars only on a terminal, and `--quiet` leaves only errors.
+//! progress bars only on a terminal, and `--quiet` leaves only errors.
 
 use crate::common;
 use common::{hindsight, scratch_dir, stderr, SAMPLE};

@@ -197,7 +197,7 @@ fn what_the_log_cannot_support_is_held_or_refused_with_the_reason() {
 /// `trench-turn` (a U-turn inside a 6-minute DVL outage, a propeller and no EM log): the plan
 /// switches the propeller velocity filter on for the DVL's gap, and it holds the forward error
 /// to a small part of switching alone's, with honest sigmas. Measured: forward max 3.43 m
-/// against 27.9 m (seed 1); the 3 m bar is not met on this log (README).
+/// against 27.9 m (seed 1); the 3 m bar is not met on this log (README).
 #[test]
 fn the_propeller_bridges_an_outage_with_a_turn_in_it() {
     let log = common::simulated_log(&Scenario::built_in("trench-turn").unwrap(), 1);

@@ -1,4 +1,4 @@
-//! Issue 14's DVL calibration: the scale factor and the mounting's heading misalignment are
+//! The DVL calibration: the scale factor and the mounting's heading misalignment are
 //! estimated with the trajectory, within 3 sigma of the simulated truth, with sigmas the log
 //! supports (Delph INS calls a calibration good under 0.1 % and 0.1 deg). Without fixes they
 //! are carried at their priors, and the position's uncertainty stays honest.

@@ -396,7 +396,7 @@ fn gyrocompass_is_refused_while_the_vehicle_settles() {
     let mut dynamic = Scenario::built_in("turning-circle").unwrap();
     dynamic.imu = table_2.imu.clone();
     dynamic.mag = None;
-    // No other source: the in-motion alignment finds the heading (issue 13), and the output
+    // No other source: the in-motion alignment finds the heading, and the output
     // still says why the gyrocompass was refused.
     let (code, text) = reconstruct(&dynamic, "dynamic", &[]);
     println!("{}", text.lines().last().unwrap_or(""));
@@ -429,7 +429,7 @@ fn gyrocompass_is_refused_while_the_vehicle_settles() {
 /// Seed 002's dropped entry through `hindsight reconstruct`: the vehicle still rolls from the
 /// drop during the levelling window, so each sample is carried to the start by the gyro
 /// (levelling and magnetometer alike): the start's roll, pitch and heading within 3 sigma of
-/// the truth. (Until issue 13 the window's mean was levelled and the error only admitted in
+/// the truth. (Before the carried levelling, the window's mean was levelled and the error only admitted in
 /// the sigmas.)
 #[test]
 fn a_dropped_entry_gets_honest_initial_sigmas() {

@@ -1,4 +1,4 @@
-//! Issue 14's EM-log fault: a speed update linearised along the estimated velocity made a
+//! The EM-log fault: a speed update linearised along the estimated velocity made a
 //! filter without the DVL believe it knew the velocity across the track. Reconstructed with
 //! the scenario's own noise figures (self-tuning off) and a start heading 1 deg off, scored
 //! against `/truth`.
@@ -92,7 +92,7 @@ fn the_em_log_helps_across_dvl_outages() {
     }
 }
 
-/// The navigation-grade case the issue describes: before the fix, the EM log made the
+/// The navigation-grade case: before the fix, the EM log made the
 /// forward solution over-confident (seed 1: horizontal NEES inside its 95 % bounds 11 % of
 /// the epochs, 84 % without the EM log). Now it stays within 0.1 of the run without it.
 #[test]

@@ -1,5 +1,5 @@
 //! Coefficient identification on seed 004's zig-zags (simulated, seeded sensor noise at the
-//! issue's levels), started 20 % off on every coefficient; scored against the true
+//! realistic levels), started 20 % off on every coefficient; scored against the true
 //! coefficients the simulator used.
 //!
 //! `cargo test --release --test all identify:: -- --nocapture`
@@ -65,7 +65,7 @@ fn print(label: &str, c: &Coefficients, cov: &nalgebra::SMatrix<f64, 10, 10>) {
     }
 }
 
-/// Seed 1, both runs, the issue's sensor noise: what the data determine and how well.
+/// Seed 1, both runs, the sensor noise: what the data determine and how well.
 #[test]
 fn identification_on_seeded_zigzags() {
     let settings = Settings::default();
@@ -195,7 +195,7 @@ fn a_wrong_structure_fits_poorly() {
     }
 }
 
-/// Issue 19: logs whose sensors are 2.5-3 times noisier than the defaults. With the noise
+/// logs whose sensors are 2.5-3 times noisier than the defaults. With the noise
 /// learnt from the residuals (the default) the fit is not called poor, the learnt noise is
 /// the simulator's, and the truth is within 3 sigma for all ten coefficients; with the
 /// defaults taken as they are, the same logs are a POOR FIT. A wrong structure (Z_w forced to

@@ -1,6 +1,6 @@
-//! `identify --suggest` (issue 19, point 3): the experiment design's predictions, checked by
+//! `identify --suggest`: the experiment design's predictions, checked by
 //! following them. Seed 004's two zig-zags identify the heave and pitch groups poorly; each
-//! suggestion is flown in the simulator (the true coefficients, the issue's sensor noise, a
+//! suggestion is flown in the simulator (the true coefficients, the sensor noise, a
 //! seed of its own) or applied (a coefficient held at its true value), the logs are
 //! identified again, and the reported sigma of every coefficient the suggestion names must
 //! fall as predicted.
@@ -35,7 +35,7 @@ fn logs() -> Vec<Record> {
         .collect()
 }
 
-/// The candidate zig-zag flown by the true vehicle with the issue's sensors.
+/// The candidate zig-zag flown by the true vehicle with the sensors.
 fn flown(m: &Manoeuvre, seed: u64) -> Record {
     let mut spec =
         ZigzagSpec::built_in(&format!("zigzag-{}-{}", m.plane_deg, m.trigger_deg)).unwrap();

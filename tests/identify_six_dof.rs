@@ -1,4 +1,4 @@
-//! Identification with the 6-DOF model (issue 19, point 4): the horizontal-plane coefficients
+//! Identification with the 6-DOF model: the horizontal-plane coefficients
 //! (Y_v, Y_r, Y_delta_r, N_v, N_r, N_delta_r) of NPS AUV II from the simulator's rudder
 //! zig-zag 20-20 (the 6-DOF model flown by its autopilot on the rotating Earth; navigation-
 //! grade IMU, DVL with bias, scale error and 0.01 m/s noise), started 10 % off, everything

@@ -363,7 +363,7 @@ fn clock_offset_moves_stamps_span_and_gaps_of_one_topic() {
     assert_eq!(log.streams[first.stream].topic, "/depth");
 }
 
-/// What a person looks for in `info` (issue 17): DVL readings without bottom lock, and a
+/// What a person looks for in `info`: DVL readings without bottom lock, and a
 /// stream that samples and holds (a stuck pressure sensor), counted whether the messages
 /// are kept or not.
 #[test]

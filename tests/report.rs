@@ -1,4 +1,4 @@
-//! Issue 17: every command's `report.html` is self-contained, holds its sections with the
+//! every command's `report.html` is self-contained, holds its sections with the
 //! pictures inline, has the same pictures as PNG beside it, and renders in a real browser
 //! (headless Chromium; skipped with a message when none is installed, required in CI by
 //! `HINDSIGHT_REQUIRE_BROWSER=1`).

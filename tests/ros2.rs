@@ -1,4 +1,4 @@
-//! ROS 2 recordings (issue 16): topics in `cdr` with the standard types, read through the
+//! ROS 2 recordings: topics in `cdr` with the standard types, read through the
 //! schema text the file carries, converted to the contract's frames and units.
 
 use crate::common;

@@ -1,5 +1,5 @@
 //! ROS 2 recordings written by the official Python writer (`mcap-ros2-support` 0.6.0) from
-//! the json sample logs: `tests/fixtures/ros2/make_ros2_fixtures.py` made them (issue 16).
+//! the json sample logs: `tests/fixtures/ros2/make_ros2_fixtures.py` made them.
 //! Both frame conventions and both distros' definitions; the values after conversion are the
 //! json original's, and the same mission reconstructs and gives attitude within 1 mm.
 

@@ -1,4 +1,4 @@
-//! Issue 13's seed 002 study through `hindsight study`: the in-run alignment of a dropped
+//! The seed 002 study through `hindsight study`: the in-run alignment of a dropped
 //! vehicle (IMU, propeller, depth, compass; no DVL), four cases of +-10 deg start roll and
 //! pitch, scored against `/truth`. The 100-run study is the README's command; this is the
 //! 10-run version, with the same criteria.
@@ -140,9 +140,9 @@ struct Seed000 {
     pure2: (f64, f64, f64),
 }
 
-/// Issue 15's seed 000 study: `long-dive-dynamic` at seed 000's SDINS rate (10 Hz), exact
+/// The seed 000 study: `long-dive-dynamic` at seed 000's SDINS rate (10 Hz), exact
 /// and 10 % uncertain coefficients, each run reconstructed by pure SDINS, Koifman's virtual
-/// sensor and the proposed model-aided filter, scored against `/truth`; the issue's bars
+/// sensor and the proposed model-aided filter, scored against `/truth`; the bars
 /// that hold for any number of runs asserted.
 fn seed_000_study(runs: u64) -> Seed000 {
     let out = common::scratch_dir(&format!("study000-{runs}")).join("out");
@@ -198,7 +198,7 @@ fn seed_000_study(runs: u64) -> Seed000 {
          koifman case 2 {:.1} m (2 h: {:.1} m), mean body-x velocity error {:+.3} m/s; pure {:.1} m",
         proposed2.0, proposed2.1, proposed1.0, proposed1.1, koifman2.0, koifman2_at_2h.0, koifman2.2, pure2.0
     );
-    // Seed 000: the proposed filter holds about 400 m in case 2; the issue's bar is 300 m.
+    // Seed 000: the proposed filter holds about 400 m in case 2; the bar is 300 m.
     assert!(
         proposed2.0 <= 300.0,
         "proposed, case 2, at 5 h: {:.1} m",
@@ -230,7 +230,7 @@ fn seed_000_model_aided_study_of_five_runs() {
     seed_000_study(5);
 }
 
-/// The issue's 100 runs per case (about 26 minutes on 2 cores, so not in CI):
+/// The 100 runs per case (about 26 minutes on 2 cores, so not in CI):
 /// `cargo test --release --test all study::seed_000_model_aided_study_of_100_runs -- --ignored
 /// --nocapture`. With 100 runs the pure SDINS's RMS is close enough to its expectation to
 /// be held to seed 000's figure: within 40 % of 1.4 km.

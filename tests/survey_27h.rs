@@ -1,10 +1,10 @@
-//! Issue 14's long survey: `scenarios/survey-27h.toml` (the `survey` sensors: tactical IMU,
+//! The long survey: `scenarios/survey-27h.toml` (the `survey` sensors: tactical IMU,
 //! DVL with 0.2 % scale and 2 mm/s bias, magnetometer; 172 lanes, GNSS at both ends only),
 //! reconstructed as a user would, with no configuration. The reported uncertainty must tell
 //! the truth over the whole day: the horizontal NEES inside its 95 % bounds for at least
 //! 70 % of the epochs, forward and smoothed (scored against the log's `/truth`).
 //!
-//! Issue 18's memory bar on the same run: the `reconstruct` command's peak resident memory
+//! The memory bar on the same run: the `reconstruct` command's peak resident memory
 //! (self-tuning, forward, smoother, every output) at most 1 GB.
 //!
 //! Too long for CI (a 1.4 GB log; about 4 minutes on 2 cores):
@@ -14,7 +14,7 @@ use crate::common;
 use serde_json::Value;
 
 #[test]
-#[ignore = "27 h mission: about 4 minutes; run before resolving issues 14 and 18"]
+#[ignore = "27 h mission: about 4 minutes; run before changing the long-mission paths (docs/results/speed.md)"]
 fn a_27_hour_survey_reports_honest_uncertainty() {
     let dir = common::scratch_dir("survey-27h");
     let log = dir.join("survey-27h.mcap");

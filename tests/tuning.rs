@@ -1,4 +1,4 @@
-//! Issue 14's acceptance for self-tuning: a log reconstructed with no configuration does as
+//! Acceptance for self-tuning: a log reconstructed with no configuration does as
 //! well as one configured with the simulator's own figures, whatever the IMU; figures a
 //! configuration gives are kept. Scored against `/truth`.
 

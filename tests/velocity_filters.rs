@@ -1,4 +1,4 @@
-//! Issue 15's velocity filters on `trench-eml` (5-minute DVL outages over two trenches,
+//! The velocity filters on `trench-eml` (5-minute DVL outages over two trenches,
 //! `/rpm` and `/eml` present): seed 003's propeller velocity filter against switching alone,
 //! both from the default configuration otherwise, scored against `/truth`.
 

@@ -19,7 +19,7 @@
 //! for): at 285 Hz a magnetometer's heading error and a moving accelerometer's disturbance
 //! are correlated from sample to sample, and a per-sample sigma from a data sheet makes the
 //! filter follow them. The defaults were chosen on physical grounds and then checked on
-//! the 25 BROAD trials (`tests/broad_attitude.rs`), the same trials the README scores: the
+//! the 25 BROAD trials (`tests/broad_attitude.rs`), the same trials docs/results/attitude.md scores: the
 //! heading density was raised from 0.002 to 0.03 rad sqrt(s) there, as BROAD's own "TAGP"
 //! parameters were chosen over its trials.
 

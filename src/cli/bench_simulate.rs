@@ -51,7 +51,7 @@ pub fn run(name: &str, repeat: usize, keep: Option<&Path>) -> Result<()> {
         scenario_hours(&scenario)?,
         bytes as f64 / 1e6
     );
-    println!("  simulated and written      {whole_s:7.2} s (issue 7 target for long-dive-dynamic: < 60 s)");
+    println!("  simulated and written      {whole_s:7.2} s (target for long-dive-dynamic: < 60 s)");
     if let Some(d) = dynamics_s {
         let steps = scenario_hours(&scenario)? * 3600.0 * scenario.imu.rate_hz;
         println!(

@@ -20,7 +20,7 @@ use std::time::Instant;
 /// Identify hydrodynamic coefficients from sea-trial logs (zig-zags), with their uncertainty.
 ///
 /// Model (--model heave-pitch): seed 004's vertical-plane model as
-/// shared/spec/heave-pitch-model.md fixes it: state w, theta, q, depth; input the stern plane;
+/// docs/methods/heave-pitch-model.md fixes it: state w, theta, q, depth; input the stern plane;
 /// ten nondimensional coefficients (Z_w, Z_wdot, Z_q, Z_qdot, Z_delta, M_w, M_wdot, M_q,
 /// M_qdot, M_delta). Measurements from each log: q from the gyro (/imu y), theta from
 /// /attitude (else hindsight's own attitude from the IMU), w from the DVL's body z

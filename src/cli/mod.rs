@@ -79,6 +79,8 @@ pub enum Command {
     Import(import::ImportArgs),
     Simulate(simulate::SimulateArgs),
     Study(study::StudyArgs),
+    /// Measure speed: ingest throughput on a generated log, or the other jobs (reconstruct,
+    /// simulate, attitude, identify), as medians and ratios to the ingest.
     Bench(bench::BenchArgs),
 }
 

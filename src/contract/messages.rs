@@ -1,4 +1,4 @@
-//! The messages of `shared/spec/log-format.md`, field names, units and frames exactly as there.
+//! The messages of the log contract (`docs/log-format.md`), field names, units and frames exactly as there.
 //!
 //! Plausible ranges are hindsight's own sanity limits (not part of the contract): wide enough
 //! for any vehicle this tool serves, narrow enough to catch unit mistakes (deg for rad, uT for

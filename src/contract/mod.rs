@@ -1,4 +1,4 @@
-//! The recorded-log contract (`shared/spec/log-format.md`) as Rust types.
+//! The recorded-log contract (`docs/log-format.md`) as Rust types.
 //!
 //! Every message type implements [`Message`]: its schema name, default topic, the JSON Schema
 //! text from `schemas/` (embedded in every MCAP the project writes), and a table of

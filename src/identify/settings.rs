@@ -13,7 +13,7 @@ pub struct Sigmas {
 }
 
 impl Default for Sigmas {
-    /// The realistic sensors: gyro 0.01 deg/s and pitch 0.02 deg at 100 Hz, DVL
+    /// The realistic sensors: gyro 0.01 deg/s and pitch 0.02 deg at 100 Hz, DVL
     /// 0.003 m/s; depth 0.01 m.
     fn default() -> Self {
         Sigmas {

@@ -66,7 +66,7 @@ pub enum IngestError {
     #[error(
         "topic {topic} at log time {}: no decoder for schema `{schema}` with message encoding \
          `{encoding}` (hindsight reads the `json` encoding of: {known}; and in `cdr` the ROS 2 \
-         types of the README)",
+         types of docs/guide/logs.md)",
         at(*log_time_ns)
     )]
     UnknownSchema {

@@ -1,6 +1,6 @@
 //! Per-stream timing statistics: rate, jitter, gaps, duplicates, out-of-order arrivals.
 //!
-//! Definitions (also in the README and `hindsight info --help`):
+//! Definitions (also in docs/guide/commands.md and `hindsight info --help`):
 //! - *out-of-order*: a message whose `stamp_ns` is earlier than the latest stamp already
 //!   received on its topic, in file order;
 //! - *duplicate*: a message whose `stamp_ns` equals that of an earlier message of its topic;

@@ -244,7 +244,8 @@ dvl_bias_walk = "auto"     # choose [dvl] bias_walk_m_s_rt_h (0.03, 0.1, 0.3) by
 dvl_bias_correlation = false  # with a walk chosen, also choose a correlation time for it
                            # ([dvl] bias_correlation_s: 30, 120 or 600 s) by the likelihood.
                            # Off: on auv-at-sea seeds 1-10 the choice (often 30 s for a true
-                           # 60 s) did not beat the plain walk (README, "DVL bias drift")
+                           # 60 s) did not beat the plain walk (docs/methods/
+                           # self-tuning.md, "The DVL error as Gauss-Markov")
 
 [output]
 rate_hz = 10.0             # trajectory rows per second (per solution)

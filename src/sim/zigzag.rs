@@ -52,7 +52,7 @@ pub struct ZigzagNoise {
 }
 
 impl ZigzagNoise {
-    /// The realistic sensors: DVL w 0.003 m/s at 5 Hz, pitch 0.02 deg and gyro
+    /// The realistic sensors: DVL w 0.003 m/s at 5 Hz, pitch 0.02 deg and gyro
     /// 0.01 deg/s at 100 Hz; depth 0.01 m at 10 Hz, accelerometer 0.01 m/s^2.
     pub fn realistic() -> Self {
         ZigzagNoise {

@@ -1,4 +1,4 @@
-//! Seed 004's heave-pitch model, as `shared/spec/heave-pitch-model.md` fixes it.
+//! Seed 004's heave-pitch model, as `docs/methods/heave-pitch-model.md` fixes it.
 //!
 //! State `[w, theta, q, z]` (heave velocity m/s body z down, pitch rad nose up, pitch rate
 //! rad/s, depth m down); input the stern-plane angle `delta_s` (rad); forward speed `U`

@@ -2,7 +2,7 @@
 //! input and coefficients.
 //!
 //! - [`heave_pitch`]: seed 004's vertical-plane model, exactly as
-//!   `shared/spec/heave-pitch-model.md` pins it down.
+//!   `docs/methods/heave-pitch-model.md` pins it down.
 
 pub mod heave_pitch;
 pub mod six_dof;

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Issue 15's dive-27min table: 12 seeds of `dive-27min`, each reconstructed with
+"""The dive-27min table: 12 seeds of `dive-27min`, each reconstructed with
 configs/dive-27min.toml as pure INS, INS-DVL trusting every reading, INS-DVL with switching
 and with seed 003's velocity filter, with a gyrocompass start and with the heading given.
 Prints per seed the forward horizontal RMS and the forward error at the end of each DVL

@@ -251,7 +251,11 @@ fn merge_runs(steps: Vec<Step>) -> Vec<Step> {
                 continue;
             }
         };
-        let size = values[0].0.size();
+        // A fixed array of no elements (`float64[0]`) takes no bytes.
+        let Some(&(first, _)) = values.first() else {
+            continue;
+        };
+        let size = first.size();
         let previous = match out.last() {
             Some(Step::Value(q, first)) if q.size() == size => Some(vec![(*q, *first)]),
             Some(Step::Values(run)) if run[0].0.size() == size => Some(run.clone()),
@@ -595,6 +599,20 @@ float64 z
         w.f64(10.0).f64(11.0).f64(12.0).f64(13.0).f64(-4.5);
         let got = plan.read(w.bytes()).unwrap();
         assert_eq!(got.number[..3], [13.0, -4.5, 10.0]);
+    }
+
+    /// Found by the fuzz harness (tests/fuzz.rs): a fixed array of no elements takes no
+    /// bytes (it once emptied a run of values and panicked), and a fixed array too long to
+    /// plan is refused with the definition's line (it once asked for 64 GB).
+    #[test]
+    fn empty_and_huge_fixed_arrays() {
+        let defs = parse("a/B", "float64[0] none\nfloat64 x").unwrap();
+        let plan = Plan::new(&defs, &["x"], &[]).unwrap();
+        let mut w = Writer::new();
+        w.f64(2.5);
+        assert_eq!(plan.read(w.bytes()).unwrap().number[0], 2.5);
+        let e = parse("a/B", "float64[4294967295] big").unwrap_err();
+        assert!(e.to_string().contains("fixed array"), "{e}");
     }
 
     /// Two rules rosbag2's recordings taught: an empty sequence ends at its count (no

@@ -115,6 +115,11 @@ pub struct Definitions {
 }
 
 /// Why a schema text could not be read.
+/// The longest fixed array a definition may declare: every element of a fixed array of
+/// numbers is a step of the decoding plan (the largest standard ones are 36-element
+/// covariances), so a corrupt or hostile length must not size the plan.
+pub const MAX_FIXED_LENGTH: usize = 1 << 16;
+
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum SchemaError {
     #[error("schema name `{0}` is not a ROS 2 type name (pkg/Type or pkg/msg/Type)")]
@@ -249,10 +254,16 @@ fn parse_line(content: &str, package: &str, dialect: Dialect) -> Result<Option<F
             let shape = if dims.is_empty() || dims.starts_with("<=") {
                 Shape::Sequence
             } else {
-                Shape::Fixed(
-                    dims.parse()
-                        .map_err(|_| format!("`{dims}` is not an array length"))?,
-                )
+                let n: usize = dims
+                    .parse()
+                    .map_err(|_| format!("`{dims}` is not an array length"))?;
+                if n > MAX_FIXED_LENGTH {
+                    return Err(format!(
+                        "a fixed array of {n} elements (hindsight reads at most \
+                         {MAX_FIXED_LENGTH})"
+                    ));
+                }
+                Shape::Fixed(n)
             };
             (base, shape)
         }
