@@ -138,11 +138,7 @@ fn odd_value(rng: &mut ChaCha8Rng) -> Value {
         8 => Value::from(""),
         9 => Value::from("x".repeat(rng.random_range(0..5000))),
         10 => Value::Array(vec![]),
-        11 => Value::Array(
-            (0..rng.random_range(1..6))
-                .map(|i| Value::from(i))
-                .collect(),
-        ),
+        11 => Value::Array((0..rng.random_range(1..6)).map(Value::from).collect()),
         12 => deep,
         _ => Value::Object(Default::default()),
     }
