@@ -115,7 +115,13 @@ fn pool_log_gives_every_output() {
         .downcast_ref::<UInt64Array>()
         .unwrap();
     assert!(repairs.iter().all(|r| r == Some(0)));
-    for png in ["tracks_xy.png", "tracks_xz.png"] {
+    for png in [
+        "tracks_xy.png",
+        "tracks_xz.png",
+        "error_roll.png",
+        "error_pitch.png",
+        "error_heading.png",
+    ] {
         let bytes = std::fs::read(out.join(png)).unwrap();
         assert_eq!(&bytes[1..4], b"PNG", "{png}");
     }
@@ -130,6 +136,9 @@ fn pool_log_gives_every_output() {
         [
             "attitude.parquet",
             "attitude_summary.parquet",
+            "error_heading.png",
+            "error_pitch.png",
+            "error_roll.png",
             "report.html",
             "tracks_xy.png",
             "tracks_xz.png"

@@ -14,7 +14,7 @@ use super::{mekf, raw, AhrsInputs, AttitudeSample};
 use crate::angle::wrap_pi;
 use crate::contract::Dvl;
 use crate::filters::ins::forward::DvlMounting;
-use nalgebra::Vector3;
+use nalgebra::{UnitQuaternion, Vector3};
 use rayon::prelude::*;
 
 /// Why a log cannot be compared.
@@ -263,6 +263,33 @@ pub fn attitude_reference(runs: &[MethodRun]) -> Option<&MethodRun> {
 }
 
 /// Errors against the truth at its scored stamps (the estimate interpolated there).
+/// Roll, pitch and yaw of `q` less those of `reference`, rad (roll and yaw wrapped).
+fn euler_difference(q: &UnitQuaternion<f64>, reference: &UnitQuaternion<f64>) -> [f64; 3] {
+    let (e, r) = (from_quaternion(q), from_quaternion(reference));
+    [wrap_pi(e[0] - r[0]), e[1] - r[1], wrap_pi(e[2] - r[2])]
+}
+
+/// Roll, pitch and yaw errors over time: `(stamp ns, [roll, pitch, yaw] deg)`.
+pub type ErrorSeries = Vec<(i64, [f64; 3])>;
+
+/// A method's roll, pitch and yaw errors against the reference attitude over time, at each
+/// reference sample the method has an attitude for.
+pub fn euler_error_series(
+    attitude: &[AttitudeSample],
+    reference: &[AttitudeSample],
+) -> ErrorSeries {
+    reference
+        .iter()
+        .filter_map(|t| {
+            let q = attitude_at(attitude, t.stamp_ns)?;
+            Some((
+                t.stamp_ns,
+                euler_difference(&q, &t.ned_from_body).map(f64::to_degrees),
+            ))
+        })
+        .collect()
+}
+
 fn truth_errors(
     attitude: &[AttitudeSample],
     reference: &Reference<'_>,
@@ -277,8 +304,7 @@ fn truth_errors(
         let Some(q) = attitude_at(attitude, t.stamp_ns) else {
             continue;
         };
-        let (e, r) = (from_quaternion(&q), from_quaternion(&t.ned_from_body));
-        let d = [wrap_pi(e[0] - r[0]), e[1] - r[1], wrap_pi(e[2] - r[2])];
+        let d = euler_difference(&q, &t.ned_from_body);
         for i in 0..3 {
             sums[i] += d[i] * d[i];
             max[i] = max[i].max(d[i].abs());
@@ -341,5 +367,64 @@ mod tests {
             None
         );
         assert_eq!(closest_return_m(&[]), None);
+    }
+}
+
+#[cfg(test)]
+mod error_series {
+    use super::*;
+
+    /// The error series is what the summary's RMS is made of: a method turned off the
+    /// reference by known angles gives them back at every sample, and their RMS is the
+    /// summary's.
+    #[test]
+    fn the_error_series_gives_back_a_known_offset_and_the_summarys_rms() {
+        let reference: Vec<AttitudeSample> = (0..50)
+            .map(|k| AttitudeSample {
+                stamp_ns: k * 100_000_000,
+                ned_from_body: UnitQuaternion::from_euler_angles(0.1, -0.05, 0.02 * k as f64),
+            })
+            .collect();
+        let offset_deg = [0.5, -0.3, 2.0];
+        let method: Vec<AttitudeSample> = reference
+            .iter()
+            .map(|r| {
+                let (roll, pitch, yaw) = r.ned_from_body.euler_angles();
+                let o = offset_deg.map(f64::to_radians);
+                AttitudeSample {
+                    stamp_ns: r.stamp_ns,
+                    ned_from_body: UnitQuaternion::from_euler_angles(
+                        roll + o[0],
+                        pitch + o[1],
+                        yaw + o[2],
+                    ),
+                }
+            })
+            .collect();
+        let series = euler_error_series(&method, &reference);
+        assert_eq!(series.len(), reference.len());
+        for (_, e) in &series {
+            for k in 0..3 {
+                assert!((e[k] - offset_deg[k]).abs() < 1e-9, "{e:?}");
+            }
+        }
+        let mounting = DvlMounting::default();
+        let everywhere = |_: i64| true;
+        let summary = truth_errors(
+            &method,
+            &Reference {
+                dvl: &[],
+                mounting: &mounting,
+                max_gap_s: 5.0,
+                start_ned_m: None,
+                end_ned_m: None,
+                truth: &reference,
+                scored: &everywhere,
+            },
+        )
+        .0
+        .unwrap();
+        assert!((summary.roll_rms_deg - 0.5).abs() < 1e-9);
+        assert!((summary.yaw_rms_deg - 2.0).abs() < 1e-9);
     }
 }

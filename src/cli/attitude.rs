@@ -10,7 +10,7 @@ use hindsight::attitude::dead_reckoning::gaps_longer_than;
 use hindsight::attitude::mag_calibration;
 use hindsight::attitude::mag_checks::without_saturation;
 use hindsight::attitude::score::reference_from_truth;
-use hindsight::attitude::AhrsInputs;
+use hindsight::attitude::{AhrsInputs, AttitudeSample};
 use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};
 use hindsight::output::atomic::Staging;
 use hindsight::output::attitude_tables;
@@ -328,7 +328,11 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
             if truth.is_empty() { "no" } else { "yes" }
         ),
     };
-    write_outputs(&out, &runs, &scores, attitude_against, start, end, &page)?;
+    let against = attitude_against.map(|name| Against {
+        name,
+        attitude: &reference_attitude,
+    });
+    write_outputs(&out, &runs, &scores, against, start, end, &page)?;
     table.print();
     Ok(())
 }
@@ -379,11 +383,12 @@ fn write_outputs(
     out: &std::path::Path,
     runs: &[MethodRun],
     scores: &[MethodScore],
-    attitude_against: Option<&str>,
+    against: Option<Against<'_>>,
     start: Option<Vector3<f64>>,
     end: Option<Vector3<f64>>,
     page: &Page<'_>,
 ) -> Result<()> {
+    let attitude_against = against.as_ref().map(|a| a.name);
     std::fs::create_dir_all(out).with_context(|| OutputFailed {
         path: out.to_path_buf(),
     })?;
@@ -479,11 +484,62 @@ fn write_outputs(
         }
         report.sections.push(tracks);
     }
+    if let Some(against) = &against {
+        report.sections.push(error_section(runs, against));
+    }
     report
         .sections
         .push(Section::new("Warnings").with(Block::Warnings(page.said.warnings.clone())));
     super::write_report(&mut staging, out, &report, &mut written)?;
     super::commit_and_list(staging, &written, out)
+}
+
+/// The attitude the methods' angles are measured against: `/truth`, or the smoothed MEKF.
+struct Against<'a> {
+    name: &'a str,
+    attitude: &'a [AttitudeSample],
+}
+
+/// Each method's roll, pitch and heading error against time, one picture per angle.
+fn error_section(runs: &[MethodRun], against: &Against<'_>) -> Section {
+    let t0 = against.attitude.first().map_or(0, |a| a.stamp_ns);
+    let series: Vec<(&str, compare::ErrorSeries)> = runs
+        .iter()
+        .filter(|r| r.method.name() != against.name)
+        .map(|r| {
+            (
+                r.method.name(),
+                compare::euler_error_series(&r.attitude, against.attitude),
+            )
+        })
+        .collect();
+    let mut section = Section::new("Attitude errors against time").with(Block::text(format!(
+        "Each method's roll, pitch and heading less {}'s, at {}'s samples.",
+        against.name, against.name
+    )));
+    for (k, (stem, angle)) in [
+        ("error_roll", "roll"),
+        ("error_pitch", "pitch"),
+        ("error_heading", "heading"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let title = format!("{angle} error against {}", against.name);
+        let mut plot = Plot::new(&title, "time (s)", "error (deg)");
+        plot.series = series
+            .iter()
+            .map(|(name, errors)| {
+                let points: Vec<(f64, f64)> = errors
+                    .iter()
+                    .map(|(t, e)| ((t - t0) as f64 * 1e-9, e[k]))
+                    .collect();
+                Series::trace(*name, thin(&points, 4000))
+            })
+            .collect();
+        section.push(Block::figure(stem, &title, plot));
+    }
+    section
 }
 
 /// The comparison (seed 001's Tables 9-10, with the truth errors when there are some), and

@@ -27,6 +27,8 @@ pub enum PlotError {
 pub enum Style {
     /// Joined points; a non-finite point breaks the line.
     Line,
+    /// Joined points, one pixel wide (a noisy series).
+    Trace,
     /// Unjoined dots (fixes, innovations).
     Dots,
 }
@@ -71,6 +73,15 @@ impl Series {
             points,
             style: Style::Line,
             colour: None,
+        }
+    }
+
+    /// A thin line for a noisy series: a thick line's joins spike where it turns back on
+    /// itself.
+    pub fn trace(name: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        Series {
+            style: Style::Trace,
+            ..Series::line(name, points)
         }
     }
 
@@ -190,11 +201,113 @@ pub fn to_svg(plot: &Plot) -> Result<String, PlotError> {
     Ok(svg.replacen(&head, &responsive, 1))
 }
 
+/// Width of the strip right of the chart that holds the legend, pixels: the legend never
+/// covers the data.
+const LEGEND_PX: u32 = 190;
+
+/// What a legend entry shows beside its name.
+#[derive(Clone, Copy)]
+enum Key {
+    Line(RGBColor),
+    Dashed(RGBColor),
+    Dots(RGBColor),
+    Band(RGBColor),
+}
+
+/// The legend's entries: shaded bands, the bounds, then each series.
+fn legend_entries(plot: &Plot) -> Vec<(String, Key)> {
+    let mut out = Vec::new();
+    if !plot.bands.is_empty() {
+        out.push((
+            plot.band_label.clone(),
+            Key::Band(RGBColor(0xc8, 0xc8, 0xc8)),
+        ));
+    }
+    if !plot.hlines.is_empty() {
+        out.push((plot.hline_label.clone(), Key::Dashed(colour::GREY)));
+    }
+    for (i, s) in plot.series.iter().enumerate() {
+        let c = s.colour.unwrap_or(colour::CYCLE[i % colour::CYCLE.len()]);
+        let key = match s.style {
+            Style::Line | Style::Trace => Key::Line(c),
+            Style::Dots => Key::Dots(c),
+        };
+        out.push((s.name.clone(), key));
+    }
+    out.retain(|(name, _)| !name.is_empty());
+    out
+}
+
+/// Draws the legend down the strip, level with the chart's top.
+fn draw_legend<DB: DrawingBackend>(
+    entries: &[(String, Key)],
+    area: &DrawingArea<DB, Shift>,
+) -> Result<(), PlotError> {
+    let mut y = 70;
+    for (name, key) in entries {
+        let (x, w) = (8, 26);
+        match *key {
+            Key::Line(c) => area.draw(&PathElement::new(
+                vec![(x, y), (x + w, y)],
+                c.stroke_width(3),
+            )),
+            Key::Dashed(c) => area.draw(&PathElement::new(
+                vec![(x, y), (x + 10, y)],
+                c.stroke_width(2),
+            )),
+            Key::Dots(c) => area.draw(&Circle::new((x + w / 2, y), 4, c.filled())),
+            Key::Band(c) => area.draw(&Rectangle::new(
+                [(x, y - 6), (x + w, y + 6)],
+                c.mix(0.55).filled(),
+            )),
+        }
+        .map_err(draw_error)?;
+        for (k, line) in wrapped(name, LEGEND_CHARS).iter().enumerate() {
+            area.draw(&Text::new(
+                line.clone(),
+                (x + w + 8, y - 8 + 17 * k as i32),
+                (FAMILY, 15).into_font(),
+            ))
+            .map_err(draw_error)?;
+        }
+        y += 9 + 17 * wrapped(name, LEGEND_CHARS).len().max(1) as i32;
+    }
+    Ok(())
+}
+
+/// Characters of a legend line that fit the strip.
+const LEGEND_CHARS: usize = 17;
+
+/// `text` in lines of at most `width` characters, broken at spaces (a longer word alone).
+fn wrapped(text: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in text.split_whitespace() {
+        match lines.last_mut() {
+            Some(line) if line.chars().count() + 1 + word.chars().count() <= width => {
+                line.push(' ');
+                line.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    lines
+}
+
 fn draw<DB: DrawingBackend>(plot: &Plot, root: DrawingArea<DB, Shift>) -> Result<(), PlotError> {
     root.fill(&WHITE).map_err(draw_error)?;
-    let (x0, x1, y0, y1) = axes(plot);
+    let entries = legend_entries(plot);
+    let (chart_area, legend_area) = if entries.is_empty() {
+        (root.clone(), None)
+    } else {
+        let (a, b) = root.split_horizontally(WIDTH - LEGEND_PX);
+        (a, Some(b))
+    };
+    if let Some(area) = &legend_area {
+        draw_legend(&entries, area)?;
+    }
+    let (x0, x1, y0, y1) = axes(plot, chart_area.dim_in_pixel().0);
     let y_range = if plot.y_down { y1..y0 } else { y0..y1 };
-    let mut chart = ChartBuilder::on(&root)
+    let mut chart = ChartBuilder::on(&chart_area)
         .caption(&plot.title, (FAMILY, 22))
         .margin(15)
         .x_label_area_size(45)
@@ -216,32 +329,27 @@ fn draw<DB: DrawingBackend>(plot: &Plot, root: DrawingArea<DB, Shift>) -> Result
                     .iter()
                     .map(|&(a, b)| Rectangle::new([(a.max(x0), y0), (b.min(x1), y1)], shade)),
             )
-            .map_err(draw_error)?
-            .label(&plot.band_label)
-            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 20, y + 6)], shade));
+            .map_err(draw_error)?;
     }
     if !plot.hlines.is_empty() {
         let style = colour::GREY.stroke_width(2);
-        for (i, &h) in plot.hlines.iter().enumerate() {
-            let line = chart
+        for &h in &plot.hlines {
+            chart
                 .draw_series(DashedLineSeries::new([(x0, h), (x1, h)], 8, 6, style))
                 .map_err(draw_error)?;
-            if i == 0 {
-                line.label(&plot.hline_label)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-            }
         }
     }
-    // The data units of one pixel on each axis (an upper bound).
+    // The data units of one pixel on each axis.
+    let (w_px, h_px) = chart.plotting_area().dim_in_pixel();
     let pixel = (
-        (x1 - x0).abs() / PLOT_AREA_PX.0,
-        (y1 - y0).abs() / PLOT_AREA_PX.1,
+        (x1 - x0).abs() / f64::from(w_px.max(1)),
+        (y1 - y0).abs() / f64::from(h_px.max(1)),
     );
     for (i, s) in plot.series.iter().enumerate() {
         let c = s.colour.unwrap_or(colour::CYCLE[i % colour::CYCLE.len()]);
-        let drawn = match s.style {
-            Style::Line => {
-                let line = c.stroke_width(2);
+        match s.style {
+            Style::Line | Style::Trace => {
+                let line = c.stroke_width(if s.style == Style::Line { 2 } else { 1 });
                 chart
                     .draw_series(
                         segments(&s.points)
@@ -266,13 +374,6 @@ fn draw<DB: DrawingBackend>(plot: &Plot, root: DrawingArea<DB, Shift>) -> Result
                     .map_err(draw_error)?
             }
         };
-        let style = s.style;
-        drawn.label(&s.name).legend(move |(x, y)| match style {
-            Style::Line => {
-                PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(3)).into_dyn()
-            }
-            Style::Dots => Circle::new((x + 10, y), 4, c.filled()).into_dyn(),
-        });
     }
     for (i, (name, (x, y))) in plot.marks.iter().enumerate() {
         // Labels stacked so that marks at the same place stay readable.
@@ -287,21 +388,9 @@ fn draw<DB: DrawingBackend>(plot: &Plot, root: DrawingArea<DB, Shift>) -> Result
             .draw_series(std::iter::once(mark))
             .map_err(draw_error)?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font((FAMILY, 15))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(draw_error)?;
     root.present().map_err(draw_error)?;
     Ok(())
 }
-
-/// A lower bound of the plot area's size in pixels (the picture less margins, caption and
-/// axis labels).
-const PLOT_AREA_PX: (f64, f64) = ((WIDTH - 150) as f64, (HEIGHT - 180) as f64);
 
 /// The points of a line at least 1.5 pixels apart (`pixel`: the data units of one pixel on
 /// each axis), and its last. Plotters' bitmap backend draws a spike across the picture for a
@@ -329,12 +418,12 @@ fn segments(points: &[(f64, f64)]) -> impl Iterator<Item = &[(f64, f64)]> {
 
 /// The axes' ranges: the data's extent with a 5 % margin (a unit square around nothing),
 /// widened on one axis where both must have the same scale.
-fn axes(plot: &Plot) -> (f64, f64, f64, f64) {
+fn axes(plot: &Plot, width_px: u32) -> (f64, f64, f64, f64) {
     let (mut x0, mut x1, mut y0, mut y1) = bounds(plot);
     if plot.equal_axes {
         // Widen the narrower span so that a metre is as long on both axes (the plot area is
-        // about WIDTH - 90 by HEIGHT - 110 pixels).
-        let aspect = (WIDTH - 90) as f64 / (HEIGHT - 110) as f64;
+        // about width - 90 by HEIGHT - 110 pixels).
+        let aspect = (width_px.saturating_sub(90)) as f64 / (HEIGHT - 110) as f64;
         let (w, h) = (x1 - x0, y1 - y0);
         if w / h < aspect {
             let extra = (h * aspect - w) / 2.0;
