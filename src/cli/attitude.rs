@@ -167,70 +167,15 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
 
     // Times in messages: seconds into the log (from its first IMU sample).
     let into_log_s = |stamp_ns: i64| (stamp_ns - imu[0].stamp_ns) as f64 * 1e-9;
-    // The magnetometer: saturation, then calibration.
-    let (mut mag, spans) = without_saturation(raw_mag, config.magnetometer.saturation_repeats);
-    for s in &spans {
-        said.warn(format!(
-            "magnetometer saturated (an axis stuck at its extreme) for {:.1} s from \
-             {:.3} s into the log ({} readings): not used",
-            (s.to_ns - s.from_ns) as f64 * 1e-9,
-            into_log_s(s.from_ns),
-            s.readings
-        ));
-    }
-    if args.mag_calibration == MagCalibration::Auto && !mag.is_empty() {
-        match mag_calibration::fit(&mag) {
-            Ok(cal) => {
-                let h = cal.hard_iron * 1e9;
-                let fitted = format!(
-                    "magnetometer calibration ({:?} fit, {} readings, {} of 36 heading sectors): \
-                     hard iron [{:.0}, {:.0}, {:.0}] nT; field magnitude scatter {:.2} % -> {:.2} %",
-                    cal.kind,
-                    cal.readings,
-                    cal.sectors_covered,
-                    h.x,
-                    h.y,
-                    h.z,
-                    cal.scatter_before * 100.0,
-                    cal.scatter_after * 100.0
-                );
-                match cal.trusted() {
-                    Ok(()) => {
-                        said.info(fitted);
-                        mag = cal.applied(&mag);
-                    }
-                    Err(why) => said.note(format!("{fitted}; not applied: {why}")),
-                }
-            }
-            Err(e) => said.warn(format!("magnetometer calibration not applied: {e}")),
-        }
-    }
-
-    let mut methods: Vec<Method> = if args.methods.is_empty() {
-        Method::ALL.to_vec()
-    } else {
-        args.methods.iter().map(|&m| m.into()).collect()
-    };
-    methods.dedup();
-    if mag.is_empty() {
-        let skipped: Vec<&str> = methods
-            .iter()
-            .filter(|m| m.needs_magnetometer())
-            .map(|m| m.name())
-            .collect();
-        if !skipped.is_empty() {
-            said.warn(format!(
-                "no magnetometer readings on /mag: skipping {} (they take yaw from \
-                 it); the MEKF runs on gravity alone, its yaw from the gyro",
-                skipped.join(", ")
-            ));
-        }
-        methods.retain(|m| !m.needs_magnetometer());
-    }
-    if methods.is_empty() {
-        return Err(compare::InputError::NoMagnetometer)
-            .with_context(|| format!("attitude from {}", log_path.display()));
-    }
+    let mag = prepared_mag(
+        raw_mag,
+        &config,
+        args.mag_calibration,
+        &into_log_s,
+        &mut said,
+    );
+    let methods = chosen_methods(&args, mag.is_empty(), &mut said)
+        .with_context(|| format!("attitude from {}", log_path.display()))?;
     let declination_rad =
         declination_deg(args.declination, &mission, imu[0].stamp_ns, &mut said).to_radians();
     let inputs = AhrsInputs {
@@ -252,32 +197,13 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     };
     let start = mark("start");
     let end = mark("end");
-    if !dvl.is_empty() && start.is_none() {
-        said.note(
-            "no `start` mark on /position_fix: dead reckoning from the mission origin".into(),
-        );
-    }
-    if dvl.is_empty() {
-        said.note("no DVL readings: dead reckoning skipped, attitude scored only".into());
-    } else if end.is_none() {
-        said.note("no `end` mark on /position_fix: end-point errors not available".into());
-    }
-    let gaps = gaps_longer_than(dvl, config.dvl.max_gap_s);
-    if let Some(longest) = gaps
-        .iter()
-        .max_by(|a, b| a.duration_s().total_cmp(&b.duration_s()))
-    {
-        said.warn(format!(
-            "{} stretch(es) without a valid DVL reading longer than dvl.max_gap_s = \
-             {} s (longest {:.1} s from {:.1} s into the log, {:.1} s in all): not bridged, the \
-             dead reckoning holds its position through them",
-            gaps.len(),
-            config.dvl.max_gap_s,
-            longest.duration_s(),
-            into_log_s(longest.from_ns),
-            gaps.iter().map(|g| g.duration_s()).sum::<f64>()
-        ));
-    }
+    dvl_notes(
+        dvl,
+        (start, end),
+        config.dvl.max_gap_s,
+        &into_log_s,
+        &mut said,
+    );
     // The angles' reference: the truth, else the smoothed MEKF (every 10th sample).
     let truth_attitude = reference_from_truth(truth);
     let (reference_attitude, attitude_against) = if !truth_attitude.is_empty() {
@@ -492,6 +418,130 @@ fn write_outputs(
         .push(Section::new("Warnings").with(Block::Warnings(page.said.warnings.clone())));
     super::write_report(&mut staging, out, &report, &mut written)?;
     super::commit_and_list(staging, &written, out)
+}
+
+/// What the dead reckoning lacks: a start or end mark, the DVL, or readings across a gap.
+fn dvl_notes(
+    dvl: &[Dvl],
+    (start, end): (Option<Vector3<f64>>, Option<Vector3<f64>>),
+    max_gap_s: f64,
+    into_log_s: &dyn Fn(i64) -> f64,
+    said: &mut console::Said,
+) {
+    if !dvl.is_empty() && start.is_none() {
+        said.note(
+            "no `start` mark on /position_fix: dead reckoning from the mission origin".into(),
+        );
+    }
+    if dvl.is_empty() {
+        said.note("no DVL readings: dead reckoning skipped, attitude scored only".into());
+    } else if end.is_none() {
+        said.note("no `end` mark on /position_fix: end-point errors not available".into());
+    }
+    let gaps = gaps_longer_than(dvl, max_gap_s);
+    if let Some(longest) = gaps
+        .iter()
+        .max_by(|a, b| a.duration_s().total_cmp(&b.duration_s()))
+    {
+        said.warn(format!(
+            "{} stretch(es) without a valid DVL reading longer than dvl.max_gap_s = \
+             {} s (longest {:.1} s from {:.1} s into the log, {:.1} s in all): not bridged, the \
+             dead reckoning holds its position through them",
+            gaps.len(),
+            max_gap_s,
+            longest.duration_s(),
+            into_log_s(longest.from_ns),
+            gaps.iter().map(|g| g.duration_s()).sum::<f64>()
+        ));
+    }
+}
+
+/// The magnetometer's readings the methods take: saturated stretches left out (warned), then
+/// the hard and soft iron fitted and applied when the fit is trusted.
+fn prepared_mag(
+    raw_mag: &[MagneticField],
+    config: &AttitudeConfig,
+    calibration: MagCalibration,
+    into_log_s: &dyn Fn(i64) -> f64,
+    said: &mut console::Said,
+) -> Vec<MagneticField> {
+    let (mag, spans) = without_saturation(raw_mag, config.magnetometer.saturation_repeats);
+    for s in &spans {
+        said.warn(format!(
+            "magnetometer saturated (an axis stuck at its extreme) for {:.1} s from \
+             {:.3} s into the log ({} readings): not used",
+            (s.to_ns - s.from_ns) as f64 * 1e-9,
+            into_log_s(s.from_ns),
+            s.readings
+        ));
+    }
+    if calibration != MagCalibration::Auto || mag.is_empty() {
+        return mag;
+    }
+    let cal = match mag_calibration::fit(&mag) {
+        Ok(cal) => cal,
+        Err(e) => {
+            said.warn(format!("magnetometer calibration not applied: {e}"));
+            return mag;
+        }
+    };
+    let h = cal.hard_iron * 1e9;
+    let fitted = format!(
+        "magnetometer calibration ({:?} fit, {} readings, {} of 36 heading sectors): \
+         hard iron [{:.0}, {:.0}, {:.0}] nT; field magnitude scatter {:.2} % -> {:.2} %",
+        cal.kind,
+        cal.readings,
+        cal.sectors_covered,
+        h.x,
+        h.y,
+        h.z,
+        cal.scatter_before * 100.0,
+        cal.scatter_after * 100.0
+    );
+    match cal.trusted() {
+        Ok(()) => {
+            said.info(fitted);
+            cal.applied(&mag)
+        }
+        Err(why) => {
+            said.note(format!("{fitted}; not applied: {why}"));
+            mag
+        }
+    }
+}
+
+/// The methods asked for (every one by default); without magnetometer readings those that
+/// take yaw from it are skipped with a warning.
+fn chosen_methods(
+    args: &AttitudeArgs,
+    no_mag: bool,
+    said: &mut console::Said,
+) -> Result<Vec<Method>, compare::InputError> {
+    let mut methods: Vec<Method> = if args.methods.is_empty() {
+        Method::ALL.to_vec()
+    } else {
+        args.methods.iter().map(|&m| m.into()).collect()
+    };
+    methods.dedup();
+    if no_mag {
+        let skipped: Vec<&str> = methods
+            .iter()
+            .filter(|m| m.needs_magnetometer())
+            .map(|m| m.name())
+            .collect();
+        if !skipped.is_empty() {
+            said.warn(format!(
+                "no magnetometer readings on /mag: skipping {} (they take yaw from \
+                 it); the MEKF runs on gravity alone, its yaw from the gyro",
+                skipped.join(", ")
+            ));
+        }
+        methods.retain(|m| !m.needs_magnetometer());
+    }
+    if methods.is_empty() {
+        return Err(compare::InputError::NoMagnetometer);
+    }
+    Ok(methods)
 }
 
 /// The attitude the methods' angles are measured against: `/truth`, or the smoothed MEKF.

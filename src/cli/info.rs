@@ -54,6 +54,14 @@ pub fn run(args: InfoArgs) -> Result<()> {
 }
 
 fn render(log: &Log, name: &str, list_gaps: bool) -> String {
+    let mut out = render_file(log, name);
+    out.push_str(&render_topics(log));
+    out.push_str(&render_notes(log, list_gaps));
+    out
+}
+
+/// The file, its mission and other metadata.
+fn render_file(log: &Log, name: &str) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let f = &log.file;
@@ -109,6 +117,12 @@ fn render(log: &Log, name: &str, list_gaps: bool) -> String {
     if !others.is_empty() {
         let _ = writeln!(out, "other metadata: {}", others.join(", "));
     }
+    out
+}
+
+/// The table of topics, the skipped ones with them.
+fn render_topics(log: &Log) -> String {
+    let mut out = String::new();
     let header = [
         "topic",
         "schema",
@@ -138,6 +152,14 @@ fn render(log: &Log, name: &str, list_gaps: bool) -> String {
         rows.push(r);
     }
     out.push_str(&table(&header, &rows));
+    out
+}
+
+/// What a person looks for under the table: moved roles, layouts, unusable and held
+/// readings, role problems, gaps and the first invalid message of each topic.
+fn render_notes(log: &Log, list_gaps: bool) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
     let moved: Vec<String> = log
         .roles
         .iter()

@@ -126,78 +126,9 @@ fn parse_tilt(text: &str) -> Result<(f64, f64), String> {
 }
 
 pub fn run(args: StudyArgs) -> Result<()> {
-    let scenario = match (&args.scenario, &args.scenario_file) {
-        (_, Some(path)) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading {}", path.display()))?;
-            Scenario::from_toml(&text).with_context(|| format!("in {}", path.display()))?
-        }
-        (Some(name), None) => Scenario::built_in(name)?,
-        (None, None) => anyhow::bail!("give --scenario NAME or --scenario-file FILE"),
-    };
-    let scenario = match args.imu_rate_hz {
-        Some(hz) => scenario
-            .with_imu_rate(hz)
-            .with_context(|| format!("--imu-rate-hz {hz}"))?,
-        None => scenario,
-    };
-    let solutions: Vec<Solution> = if args.solution.is_empty() {
-        vec![Solution {
-            label: "default".into(),
-            config: match &args.config {
-                Some(path) => read_config(path)?,
-                None => Config::default(),
-            },
-        }]
-    } else {
-        args.solution
-            .iter()
-            .map(|(label, path)| {
-                Ok(Solution {
-                    label: label.clone(),
-                    config: read_config(path)?,
-                })
-            })
-            .collect::<Result<_>>()?
-    };
-    if !args.coef_uncertainty.is_empty() && scenario.dynamics.is_none() {
-        anyhow::bail!(
-            "--coef-uncertainty needs a dynamic scenario (one with [dynamics]); `{}` is kinematic",
-            scenario.name
-        );
-    }
-    if let Some(u) = args
-        .coef_uncertainty
-        .iter()
-        .find(|u| !(0.0..=0.5).contains(*u))
-    {
-        anyhow::bail!("--coef-uncertainty {u}: give a fraction in [0, 0.5] (0.1 = 10 %)");
-    }
-    let cases: Vec<Case> = if !args.tilt.is_empty() {
-        args.tilt
-            .iter()
-            .map(|&(r, p)| Case {
-                label: format!("roll {r:+} pitch {p:+}"),
-                start_roll_deg: Some(r),
-                start_pitch_deg: Some(p),
-                ..Case::default()
-            })
-            .collect()
-    } else if !args.coef_uncertainty.is_empty() {
-        args.coef_uncertainty
-            .iter()
-            .map(|&u| Case {
-                label: format!("coefficients +-{:.0} %", u * 100.0),
-                coef_uncertainty: Some(u),
-                ..Case::default()
-            })
-            .collect()
-    } else {
-        vec![Case {
-            label: scenario.name.clone(),
-            ..Case::default()
-        }]
-    };
+    let scenario = study_scenario(&args)?;
+    let solutions = study_solutions(&args)?;
+    let cases = study_cases(&args, &scenario)?;
     let scenarios: Vec<Scenario> = cases.iter().map(|c| c.scenario(&scenario)).collect();
     let jobs: Vec<(usize, u64)> = (0..cases.len())
         .flat_map(|k| (0..args.runs).map(move |i| (k, args.seed_base + i)))
@@ -265,37 +196,7 @@ pub fn run(args: StudyArgs) -> Result<()> {
         || None,
     )?;
     written.push(path);
-    let mut names = Vec::new();
-    for case in &cases {
-        for label in &labels {
-            let name = |what: &str| match (cases.len(), labels.len()) {
-                (1, 1) => what.to_string(),
-                (1, _) => format!("{label} {what}"),
-                (_, 1) => format!("{} {what}", case.label),
-                _ => format!("{}, {label} {what}", case.label),
-            };
-            names.push((name("forward"), name("smoothed")));
-        }
-    }
-    let mut series = Vec::new();
-    for (i, (forward, smoothed)) in names.iter().enumerate() {
-        let (k, j) = (i / labels.len(), i % labels.len());
-        let pick = |f: fn(&TimeRow) -> f64| -> Vec<(f64, f64)> {
-            curves
-                .iter()
-                .filter(|r| r.case == k && r.solution == j && r.runs > 0)
-                .map(|r| (r.t_s / 3600.0, f(r)))
-                .collect()
-        };
-        series.push(Series::line(forward.as_str(), pick(|r| r.forward_rms_m)));
-        series.push(Series::line(smoothed.as_str(), pick(|r| r.smoothed_rms_m)));
-    }
-    let mut plot = Plot::new(
-        "horizontal error, RMS over the runs",
-        "time from the start, h",
-        "horizontal error RMS, m",
-    );
-    plot.series = series;
+    let plot = error_plot(&cases, &labels, &curves);
     let rows = summary_rows(&summaries);
     let failed: Vec<String> = runs
         .iter()
@@ -347,6 +248,130 @@ pub fn run(args: StudyArgs) -> Result<()> {
         say!("warning: {w}");
     }
     Ok(())
+}
+
+/// The scenario flown: built in or from a file, at the IMU rate asked for.
+fn study_scenario(args: &StudyArgs) -> Result<Scenario> {
+    let scenario = match (&args.scenario, &args.scenario_file) {
+        (_, Some(path)) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            Scenario::from_toml(&text).with_context(|| format!("in {}", path.display()))?
+        }
+        (Some(name), None) => Scenario::built_in(name)?,
+        (None, None) => anyhow::bail!("give --scenario NAME or --scenario-file FILE"),
+    };
+    let scenario = match args.imu_rate_hz {
+        Some(hz) => scenario
+            .with_imu_rate(hz)
+            .with_context(|| format!("--imu-rate-hz {hz}"))?,
+        None => scenario,
+    };
+    Ok(scenario)
+}
+
+/// The solutions each run is reconstructed with: the configuration files given, else one.
+fn study_solutions(args: &StudyArgs) -> Result<Vec<Solution>> {
+    let solutions: Vec<Solution> = if args.solution.is_empty() {
+        vec![Solution {
+            label: "default".into(),
+            config: match &args.config {
+                Some(path) => read_config(path)?,
+                None => Config::default(),
+            },
+        }]
+    } else {
+        args.solution
+            .iter()
+            .map(|(label, path)| {
+                Ok(Solution {
+                    label: label.clone(),
+                    config: read_config(path)?,
+                })
+            })
+            .collect::<Result<_>>()?
+    };
+    Ok(solutions)
+}
+
+/// The cases: start tilts, or coefficient uncertainties, or the scenario as it is.
+fn study_cases(args: &StudyArgs, scenario: &Scenario) -> Result<Vec<Case>> {
+    if !args.coef_uncertainty.is_empty() && scenario.dynamics.is_none() {
+        anyhow::bail!(
+            "--coef-uncertainty needs a dynamic scenario (one with [dynamics]); `{}` is kinematic",
+            scenario.name
+        );
+    }
+    if let Some(u) = args
+        .coef_uncertainty
+        .iter()
+        .find(|u| !(0.0..=0.5).contains(*u))
+    {
+        anyhow::bail!("--coef-uncertainty {u}: give a fraction in [0, 0.5] (0.1 = 10 %)");
+    }
+    let cases: Vec<Case> = if !args.tilt.is_empty() {
+        args.tilt
+            .iter()
+            .map(|&(r, p)| Case {
+                label: format!("roll {r:+} pitch {p:+}"),
+                start_roll_deg: Some(r),
+                start_pitch_deg: Some(p),
+                ..Case::default()
+            })
+            .collect()
+    } else if !args.coef_uncertainty.is_empty() {
+        args.coef_uncertainty
+            .iter()
+            .map(|&u| Case {
+                label: format!("coefficients +-{:.0} %", u * 100.0),
+                coef_uncertainty: Some(u),
+                ..Case::default()
+            })
+            .collect()
+    } else {
+        vec![Case {
+            label: scenario.name.clone(),
+            ..Case::default()
+        }]
+    };
+    Ok(cases)
+}
+
+/// The RMS of the horizontal error against time, forward and smoothed, per case and
+/// solution.
+fn error_plot(cases: &[Case], labels: &[String], curves: &[TimeRow]) -> Plot {
+    let mut names = Vec::new();
+    for case in cases {
+        for label in labels {
+            let name = |what: &str| match (cases.len(), labels.len()) {
+                (1, 1) => what.to_string(),
+                (1, _) => format!("{label} {what}"),
+                (_, 1) => format!("{} {what}", case.label),
+                _ => format!("{}, {label} {what}", case.label),
+            };
+            names.push((name("forward"), name("smoothed")));
+        }
+    }
+    let mut series = Vec::new();
+    for (i, (forward, smoothed)) in names.iter().enumerate() {
+        let (k, j) = (i / labels.len(), i % labels.len());
+        let pick = |f: fn(&TimeRow) -> f64| -> Vec<(f64, f64)> {
+            curves
+                .iter()
+                .filter(|r| r.case == k && r.solution == j && r.runs > 0)
+                .map(|r| (r.t_s / 3600.0, f(r)))
+                .collect()
+        };
+        series.push(Series::line(forward.as_str(), pick(|r| r.forward_rms_m)));
+        series.push(Series::line(smoothed.as_str(), pick(|r| r.smoothed_rms_m)));
+    }
+    let mut plot = Plot::new(
+        "horizontal error, RMS over the runs",
+        "time from the start, h",
+        "horizontal error RMS, m",
+    );
+    plot.series = series;
+    plot
 }
 
 /// The RMS of the horizontal error at each hour and at the end, per case and solution.
