@@ -215,7 +215,11 @@ pub fn run(args: BatchArgs) -> Result<()> {
         Some(c) => {
             let text = std::fs::read_to_string(c)
                 .with_context(|| format!("reading the configuration {}", c.display()))?;
-            Config::from_toml(&text).with_context(|| format!("configuration {}", c.display()))?
+            let mut config = Config::from_toml(&text)
+                .with_context(|| format!("configuration {}", c.display()))?;
+            super::reconstruct::read_vehicle_file(&mut config)
+                .with_context(|| format!("configuration {}", c.display()))?;
+            config
         }
         None => Config::default(),
     };

@@ -130,6 +130,30 @@ pub struct ReconstructArgs {
     pub vehicle: Option<String>,
 }
 
+/// Reads the vehicle file `[model_velocity] vehicle` names (a built-in vehicle needs none)
+/// into the configuration, and checks that its model can be made: the library reads no
+/// files.
+pub fn read_vehicle_file(config: &mut Config) -> Result<()> {
+    use hindsight::recon::model_velocity::{parse_vehicle_file, vehicle_model, VehicleError};
+    use hindsight::vehicle::six_dof::description::Vehicle;
+    let name = config.model_velocity.vehicle.clone();
+    if name.is_empty() {
+        return Ok(());
+    }
+    if Vehicle::built_in(&name).is_none() {
+        let text = std::fs::read_to_string(&name).map_err(|e| VehicleError {
+            name: name.clone(),
+            reason: format!(
+                "neither a built-in vehicle ({}) nor a readable vehicle file ({e})",
+                hindsight::recon::model_velocity::built_in_names()
+            ),
+        })?;
+        config.model_velocity.vehicle_file = Some(parse_vehicle_file(&name, &text)?);
+    }
+    vehicle_model(&name, config.model_velocity.vehicle_file.as_ref())?;
+    Ok(())
+}
+
 /// On or off.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Toggle {
@@ -171,14 +195,11 @@ impl ReconstructArgs {
             config.initial.yaw_deg = Some(y);
         }
         if let Some(v) = &self.vehicle {
-            hindsight::recon::model_velocity::load_vehicle(v).context("--vehicle")?;
             config.model_velocity.vehicle = v.clone();
             config.model_velocity.enabled = hindsight::recon::switch::Switch::On;
-        } else if config.model_velocity.enabled != hindsight::recon::switch::Switch::Off
-            && !config.model_velocity.vehicle.is_empty()
-        {
-            hindsight::recon::model_velocity::load_vehicle(&config.model_velocity.vehicle)
-                .context("[model_velocity] vehicle")?;
+            read_vehicle_file(&mut config).context("--vehicle")?;
+        } else if config.model_velocity.enabled != hindsight::recon::switch::Switch::Off {
+            read_vehicle_file(&mut config).context("[model_velocity] vehicle")?;
         }
         if let Some(d) = self.declination {
             config.initial.declination_deg = Some(d);

@@ -911,6 +911,10 @@ pub struct ModelVelocityConfig {
     pub enabled: crate::recon::switch::Switch,
     pub method: ModelMethod,
     pub vehicle: String,
+    /// The vehicle file `vehicle` names, read by the caller: the library reads no files.
+    /// `None` for a built-in vehicle.
+    #[serde(skip)]
+    pub vehicle_file: Option<crate::vehicle::six_dof::description::Vehicle>,
     pub correlation_s: f64,
     pub min_interval_s: f64,
     pub dvl_timeout_s: f64,
@@ -931,6 +935,7 @@ impl Default for ModelVelocityConfig {
             enabled: crate::recon::switch::Switch::Auto,
             method: ModelMethod::Proposed,
             vehicle: String::new(),
+            vehicle_file: None,
             correlation_s: 30.0,
             min_interval_s: 1.0,
             dvl_timeout_s: 1.0,

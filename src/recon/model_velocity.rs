@@ -30,22 +30,28 @@ pub fn built_in_names() -> String {
         .join(", ")
 }
 
-/// A built-in vehicle by name, or a vehicle file by path.
-pub fn load_vehicle(name: &str) -> Result<SixDof, VehicleError> {
+/// A vehicle file's text, as the vehicle it describes (the caller read the file).
+pub fn parse_vehicle_file(name: &str, text: &str) -> Result<Vehicle, VehicleError> {
+    Vehicle::from_json(text).map_err(|e| VehicleError {
+        name: name.to_string(),
+        reason: e.to_string(),
+    })
+}
+
+/// The model of a built-in vehicle by name, else of the vehicle file read for it (`file`).
+pub fn vehicle_model(name: &str, file: Option<&Vehicle>) -> Result<SixDof, VehicleError> {
     let bad = |reason: String| VehicleError {
         name: name.to_string(),
         reason,
     };
-    let vehicle = match Vehicle::built_in(name) {
-        Some(v) => v.map_err(|e| bad(e.to_string()))?,
-        None => {
-            let text = std::fs::read_to_string(name).map_err(|e| {
-                bad(format!(
-                    "neither a built-in vehicle ({}) nor a readable vehicle file ({e})",
-                    built_in_names()
-                ))
-            })?;
-            Vehicle::from_json(&text).map_err(|e| bad(e.to_string()))?
+    let vehicle = match (Vehicle::built_in(name), file) {
+        (Some(v), _) => v.map_err(|e| bad(e.to_string()))?,
+        (None, Some(v)) => v.clone(),
+        (None, None) => {
+            return Err(bad(format!(
+                "not a built-in vehicle ({}), and no vehicle file was read for it",
+                built_in_names()
+            )))
         }
     };
     SixDof::new(vehicle).ok_or_else(|| bad("the mass matrix is singular".into()))
@@ -58,10 +64,10 @@ pub fn model_for(
     mission: &Mission,
 ) -> Result<Result<SixDof, String>, VehicleError> {
     if !config.vehicle.is_empty() {
-        return load_vehicle(&config.vehicle).map(Ok);
+        return vehicle_model(&config.vehicle, config.vehicle_file.as_ref()).map(Ok);
     }
     Ok(match Vehicle::built_in(&mission.vehicle) {
-        Some(_) => load_vehicle(&mission.vehicle).map_err(|e| e.to_string()),
+        Some(_) => vehicle_model(&mission.vehicle, None).map_err(|e| e.to_string()),
         None => Err(format!(
             "the mission's vehicle `{}` is not built in ({}): give a vehicle file as \
              model_velocity.vehicle",
@@ -144,4 +150,27 @@ fn misfit(run: &model_aided::ModelRun, max_nis: f64) -> Option<String> {
                 )
             })
         })
+}
+
+#[cfg(test)]
+mod vehicle_files {
+    use super::*;
+
+    /// The library reads no files: a vehicle that is not built in needs the file its caller
+    /// read, and says so without one.
+    #[test]
+    fn a_vehicle_file_comes_from_the_caller() {
+        assert!(vehicle_model("nps-auv-ii", None).is_ok());
+        let e = vehicle_model("my-auv.json", None).unwrap_err();
+        assert!(e.reason.contains("no vehicle file was read"), "{e}");
+        let text = BUILT_IN
+            .iter()
+            .find(|(n, _)| *n == "remus-100")
+            .map(|(_, t)| *t)
+            .unwrap();
+        let file = parse_vehicle_file("my-auv.json", text).unwrap();
+        let model = vehicle_model("my-auv.json", Some(&file)).unwrap();
+        assert_eq!(model.vehicle.name, file.name);
+        assert!(parse_vehicle_file("bad.json", "{}").is_err());
+    }
 }
