@@ -9,6 +9,7 @@
 pub mod align;
 pub mod angle;
 pub mod attitude;
+pub mod config;
 pub mod contract;
 pub mod dense;
 pub mod filters;

@@ -3,6 +3,7 @@
 //! magnetometer as an aid), and without any heading source. Scored against `/truth`.
 
 use crate::common;
+use hindsight::config::Section;
 use hindsight::contract::Truth;
 use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, HeadingChoice};

@@ -5,6 +5,7 @@
 use crate::common;
 use arrow_array::{Array, Float64Array, RecordBatch, StringArray, UInt64Array};
 use common::{hindsight, read_parquet, stderr};
+use hindsight::config::Section;
 use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};
 use hindsight::sim::writer::{to_bytes, WriterOptions};
 use std::path::{Path, PathBuf};
@@ -467,7 +468,7 @@ fn a_bad_config_names_the_key() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("ukf.kappa"), "{}", stderr(&o));
     assert!(!dir.join("out").exists());
-    // --print-config prints what parses back to the defaults.
+    // The old --print-config still prints what parses back to the defaults.
     let o = hindsight(&["attitude", "--print-config"]);
     assert!(o.status.success());
     let text = String::from_utf8(o.stdout).unwrap();

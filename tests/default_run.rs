@@ -3,6 +3,7 @@
 //! `/truth`.
 
 use crate::common;
+use hindsight::config::Section;
 use hindsight::filters::ins::aiding::Sensor;
 use hindsight::filters::ins::error_state::idx;
 use hindsight::recon::config::{Config, HeadingChoice};

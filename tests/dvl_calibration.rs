@@ -4,6 +4,7 @@
 //! are carried at their priors, and the position's uncertainty stays honest.
 
 use crate::common;
+use hindsight::config::Section;
 use hindsight::filters::ins::error_state::idx;
 use hindsight::recon::config::Config;
 use hindsight::recon::score::scores;

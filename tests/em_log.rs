@@ -4,6 +4,7 @@
 //! against `/truth`.
 
 use crate::common;
+use hindsight::config::Section;
 use hindsight::contract::Truth;
 use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, HeadingChoice};

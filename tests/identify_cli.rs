@@ -236,12 +236,12 @@ fn own_attitude_and_a_start_file() {
     );
 }
 
-/// `--print-config` prints every key, and that text read back with `--config` is accepted;
+/// `hindsight config identify` prints every key, and that text read back with `--config` is accepted;
 /// a bad value is named with its key and the file, a failing exit, and nothing is written.
 #[test]
 fn the_configuration_is_printed_and_read() {
     let dir = common::scratch_dir("identify-cli-config");
-    let printed = hindsight(&["identify", "--print-config"]);
+    let printed = hindsight(&["config", "identify"]);
     assert!(printed.status.success(), "{}", stderr(&printed));
     let text = String::from_utf8_lossy(&printed.stdout).into_owned();
     for key in [

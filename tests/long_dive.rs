@@ -12,6 +12,7 @@
 
 use crate::common;
 use hindsight::align::latest_at;
+use hindsight::config::Section;
 use hindsight::contract::Truth;
 use hindsight::filters::ins::driver::{run_forward, Inputs};
 use hindsight::filters::ins::error_state::{self, ErrorMatrix, ErrorState};

@@ -3,6 +3,7 @@
 
 use crate::common;
 use hindsight::align::latest_at;
+use hindsight::config::Section;
 use hindsight::contract::Truth;
 use hindsight::filters::velocity::model_aided::{self, AttitudeAt, Mode, ModelAidedFilter};
 use hindsight::ingest::{read_log, IngestOptions};

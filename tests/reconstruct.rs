@@ -3,6 +3,7 @@
 //! scored against `/truth`.
 
 use crate::common;
+use hindsight::config::Section;
 use hindsight::contract::{Dvl, GnssFix, Imu, Truth};
 use hindsight::filters::ins::aiding::Sensor;
 use hindsight::ingest::Log;

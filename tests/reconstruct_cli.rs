@@ -4,8 +4,10 @@
 use crate::common;
 use arrow_array::{Array, RecordBatch, StringArray};
 use common::{hindsight, read_parquet, stderr, SAMPLE};
+use hindsight::config::Section;
 use hindsight::contract::Dvl;
 use hindsight::ingest::Mission;
+use hindsight::recon::config::Config;
 use hindsight::sim::writer::{to_bytes, WriterOptions};
 
 /// A float column of one solution's rows of trajectory.parquet.
@@ -208,15 +210,64 @@ fn reconstruct_writes_trajectory_residuals_errors_and_summary() {
     );
 }
 
+/// `hindsight config SECTION` prints each command's documented defaults, which parse back
+/// to them; `hindsight config` alone is reconstruct's.
 #[test]
 fn config_prints_the_documented_defaults() {
-    let o = hindsight(&["config"]);
-    assert!(o.status.success());
-    let text = String::from_utf8(o.stdout).unwrap();
-    assert_eq!(
-        hindsight::recon::config::Config::from_toml(&text).unwrap(),
-        hindsight::recon::config::Config::default()
+    fn printed<T: Section + PartialEq + std::fmt::Debug>(args: &[&str]) {
+        let o = hindsight(args);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        let text = String::from_utf8(o.stdout).unwrap();
+        assert_eq!(T::from_toml(&text).unwrap(), T::default(), "{args:?}");
+        assert_eq!(text, T::DEFAULT_TOML);
+    }
+    use hindsight::{attitude::config::AttitudeConfig, identify::config::IdentifyConfig};
+    printed::<Config>(&["config"]);
+    printed::<Config>(&["config", "reconstruct"]);
+    printed::<AttitudeConfig>(&["config", "attitude"]);
+    printed::<IdentifyConfig>(&["config", "identify"]);
+}
+
+/// Every command that takes a settings file refuses an unknown key the same way: the file,
+/// the key and its line named, a hint to the command that lists the keys, exit 2, and no
+/// output written.
+#[test]
+fn every_command_refuses_an_unknown_key_naming_file_and_key() {
+    let dir = common::scratch_dir("config-unknown-key");
+    let log = dir.join("log.mcap");
+    std::fs::copy(SAMPLE, &log).unwrap();
+    let config = dir.join("settings.toml");
+    std::fs::write(&config, "[dvl]\n\nsigma_ms = 0.1\n").unwrap();
+    let out = dir.join("out");
+    let (l, c, o) = (
+        log.to_str().unwrap(),
+        config.to_str().unwrap(),
+        out.to_str().unwrap(),
     );
+    for (command, section) in [
+        ("reconstruct", "reconstruct"),
+        ("batch", "reconstruct"),
+        ("attitude", "attitude"),
+        ("identify", "identify"),
+    ] {
+        let run = hindsight(&[command, l, "--config", c, "--out", o]);
+        let err = stderr(&run);
+        assert_eq!(run.status.code(), Some(2), "{command}: {err}");
+        let wanted = [
+            "settings.toml",
+            if section == "identify" {
+                "dvl"
+            } else {
+                "sigma_ms"
+            },
+            "line",
+            &format!("hindsight config {section}"),
+        ];
+        for w in wanted {
+            assert!(err.contains(w), "{command}: {w:?} not in {err}");
+        }
+        assert!(!out.exists(), "{command} wrote {}", out.display());
+    }
 }
 
 #[test]

@@ -3,6 +3,7 @@
 //! configuration gives are kept. Scored against `/truth`.
 
 use crate::common;
+use hindsight::config::Section;
 use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, ImuGrade};
 use hindsight::recon::pipeline;

@@ -1,7 +1,7 @@
-//! Settings of `hindsight attitude`, from a TOML file (`--config`), with a default for every
-//! key: seed 001's parameters for its three filters, hindsight's MEKF densities, the DVL's
-//! mounting and the magnetometer checks. `hindsight attitude --print-config` prints
-//! [`DEFAULT_TOML`].
+//! Settings of `hindsight attitude` (the section `attitude` of the one configuration system,
+//! [`crate::config`]), with a default for every key: seed 001's parameters for its three
+//! filters, hindsight's MEKF densities, the DVL's mounting and the magnetometer checks.
+//! `hindsight config attitude` prints [`DEFAULT_TOML`].
 //!
 //! A [`Preset`] is the base a configuration file is laid over: hindsight's defaults, or
 //! seed 001's matrices as printed (`Preset::Seed001`, for reproducing the paper; its
@@ -12,6 +12,7 @@ use super::ekf::{matrix, Ekf, EkfSettings};
 use super::euler::positive_definite;
 use super::mekf::MekfSettings;
 use super::ukf::{Ukf, UkfSettings};
+use crate::config::{check_ranges, load_over, ConfigError, Range, Section};
 use crate::filters::ins::forward::DvlMounting;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
@@ -150,15 +151,6 @@ impl Default for MagnetometerChecks {
     }
 }
 
-/// Why a configuration is unusable.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum AttitudeConfigError {
-    #[error("{0}")]
-    Toml(String),
-    #[error("`{key}`: {reason}")]
-    Bad { key: &'static str, reason: String },
-}
-
 /// A covariance that had to be changed to be used, for the console.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Adjustment {
@@ -202,40 +194,22 @@ impl AttitudeConfig {
         }
     }
 
-    /// Parses a TOML configuration (unknown keys are errors, naming the key) over the
-    /// defaults, and checks it.
-    pub fn from_toml(text: &str) -> Result<AttitudeConfig, AttitudeConfigError> {
-        AttitudeConfig::from_toml_over(Preset::Hindsight, text)
-    }
-
-    /// Parses a TOML configuration over a preset: the keys it gives replace the preset's.
-    pub fn from_toml_over(
-        preset: Preset,
-        text: &str,
-    ) -> Result<AttitudeConfig, AttitudeConfigError> {
-        let toml_error = |e: &dyn std::fmt::Display| AttitudeConfigError::Toml(e.to_string());
-        let given: toml::Table = toml::from_str(text).map_err(|e| toml_error(&e))?;
-        let mut base =
-            toml::Table::try_from(AttitudeConfig::preset(preset)).map_err(|e| toml_error(&e))?;
-        merge(&mut base, given);
-        let config: AttitudeConfig = base.try_into().map_err(|e| toml_error(&e))?;
-        config.filters()?;
-        Ok(config)
+    /// Parses a file's text over a preset: the keys it gives replace the preset's.
+    pub fn from_toml_over(preset: Preset, text: &str) -> Result<AttitudeConfig, ConfigError> {
+        load_over(&AttitudeConfig::preset(preset), text)
     }
 
     /// The filters, every covariance made positive definite (reported in `adjustments`).
-    pub fn filters(&self) -> Result<Filters, AttitudeConfigError> {
+    pub fn filters(&self) -> Result<Filters, ConfigError> {
+        self.check_scalars()?;
         let floor = self.checks.covariance_floor_rad2;
-        if !(floor.is_finite() && floor > 0.0) {
-            return Err(bad(
-                "checks.covariance_floor_rad2",
-                "must be a positive number",
-            ));
-        }
         let mut adjustments = Vec::new();
         let mut checked = |key: &'static str, m: &[[f64; 3]; 3]| {
             if m.iter().flatten().any(|v| !v.is_finite()) {
-                return Err(bad(key, "every element must be a finite number"));
+                return Err(ConfigError::bad_key(
+                    key,
+                    "every element must be a finite number",
+                ));
             }
             let (fixed, found) = positive_definite(&matrix(m), floor);
             if let Some(e) = found {
@@ -247,7 +221,7 @@ impl AttitudeConfig {
                     floor,
                 });
             }
-            Ok::<Matrix3<f64>, AttitudeConfigError>(fixed)
+            Ok::<Matrix3<f64>, ConfigError>(fixed)
         };
         let ekf = Ekf {
             initial_cov: checked("ekf.initial_cov", &self.ekf.initial_cov)?,
@@ -260,45 +234,6 @@ impl AttitudeConfig {
             process_noise: checked("ukf.process_noise", &self.ukf.process_noise)?,
             measurement_noise: checked("ukf.measurement_noise", &self.ukf.measurement_noise)?,
         };
-        if !(self.ukf.kappa.is_finite() && self.ukf.kappa > -3.0) {
-            return Err(bad(
-                "ukf.kappa",
-                "must be a number above -3 (n + kappa > 0)",
-            ));
-        }
-        for (key, v) in [("cf.kp", self.cf.kp), ("cf.ki", self.cf.ki)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(key, "must be zero or positive"));
-            }
-        }
-        let m = &self.mekf;
-        for (key, v) in [
-            ("mekf.gyro_noise_rad_s_rt_hz", m.gyro_noise_rad_s_rt_hz),
-            ("mekf.gyro_bias_sigma_rad_s", m.gyro_bias_sigma_rad_s),
-            ("mekf.accel_noise_m_s2_rt_s", m.accel_noise_m_s2_rt_s),
-            ("mekf.heading_noise_rad_rt_s", m.heading_noise_rad_rt_s),
-            ("mekf.max_field_change", m.max_field_change),
-            ("mekf.max_dip_change_rad", m.max_dip_change_rad),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(bad(key, "must be a positive number"));
-            }
-        }
-        if !(m.gate_probability > 0.0 && m.gate_probability < 1.0) {
-            return Err(bad(
-                "mekf.gate_probability",
-                "must be a probability in (0, 1)",
-            ));
-        }
-        if !(self.dvl.max_gap_s.is_finite() && self.dvl.max_gap_s >= 0.0) {
-            return Err(bad(
-                "dvl.max_gap_s",
-                "must be zero or a positive number of seconds",
-            ));
-        }
-        if self.magnetometer.saturation_repeats < 2 {
-            return Err(bad("magnetometer.saturation_repeats", "must be 2 or more"));
-        }
         Ok(Filters {
             ekf,
             ukf,
@@ -307,42 +242,70 @@ impl AttitudeConfig {
             adjustments,
         })
     }
-}
 
-/// Lays `given` over `base`, table by table.
-fn merge(base: &mut toml::Table, given: toml::Table) {
-    for (key, value) in given {
-        match (base.get_mut(&key), value) {
-            (Some(toml::Value::Table(b)), toml::Value::Table(g)) => merge(b, g),
-            (_, value) => {
-                base.insert(key, value);
-            }
-        }
+    /// Every setting that is one number, against its range.
+    fn check_scalars(&self) -> Result<(), ConfigError> {
+        use Range::{NonNegative as AtLeastZero, Positive};
+        let (m, kappa) = (&self.mekf, "must be a number above -3 (n + kappa > 0)");
+        let repeats = self.magnetometer.saturation_repeats as f64;
+        check_ranges([
+            (
+                "checks.covariance_floor_rad2",
+                self.checks.covariance_floor_rad2,
+                Positive,
+            ),
+            ("ukf.kappa", self.ukf.kappa, Range::Above(-3.0, kappa)),
+            ("cf.kp", self.cf.kp, AtLeastZero),
+            ("cf.ki", self.cf.ki, AtLeastZero),
+            (
+                "mekf.gyro_noise_rad_s_rt_hz",
+                m.gyro_noise_rad_s_rt_hz,
+                Positive,
+            ),
+            (
+                "mekf.gyro_bias_sigma_rad_s",
+                m.gyro_bias_sigma_rad_s,
+                Positive,
+            ),
+            (
+                "mekf.accel_noise_m_s2_rt_s",
+                m.accel_noise_m_s2_rt_s,
+                Positive,
+            ),
+            (
+                "mekf.heading_noise_rad_rt_s",
+                m.heading_noise_rad_rt_s,
+                Positive,
+            ),
+            ("mekf.max_field_change", m.max_field_change, Positive),
+            ("mekf.max_dip_change_rad", m.max_dip_change_rad, Positive),
+            (
+                "mekf.gate_probability",
+                m.gate_probability,
+                Range::OpenProbability,
+            ),
+            ("dvl.max_gap_s", self.dvl.max_gap_s, AtLeastZero),
+            (
+                "magnetometer.saturation_repeats",
+                repeats,
+                Range::AtLeast(2.0, "must be 2 or more"),
+            ),
+        ])
     }
 }
 
-fn bad(key: &'static str, reason: &str) -> AttitudeConfigError {
-    AttitudeConfigError::Bad {
-        key,
-        reason: reason.to_string(),
+impl Section for AttitudeConfig {
+    const NAME: &'static str = "attitude";
+    const DEFAULT_TOML: &'static str = DEFAULT_TOML;
+
+    fn check(&self) -> Result<(), ConfigError> {
+        self.filters().map(|_| ())
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_documented_defaults_are_the_defaults() {
-        assert_eq!(
-            AttitudeConfig::from_toml(DEFAULT_TOML).unwrap(),
-            AttitudeConfig::default()
-        );
-        assert_eq!(
-            AttitudeConfig::from_toml("").unwrap(),
-            AttitudeConfig::default()
-        );
-    }
 
     /// The defaults need no adjustment.
     #[test]
@@ -387,12 +350,10 @@ mod tests {
     }
 
     #[test]
-    fn bad_settings_name_the_key() {
-        let e = AttitudeConfig::from_toml("[ekf]\nprocess_nois = 1").unwrap_err();
-        assert!(e.to_string().contains("process_nois"), "{e}");
-        let e = AttitudeConfig::from_toml("[cf]\nkp = -1.0").unwrap_err();
-        assert!(e.to_string().contains("cf.kp"), "{e}");
+    fn kappa_keeps_the_sigma_points_real() {
         let e = AttitudeConfig::from_toml("[ukf]\nkappa = -5.0").unwrap_err();
         assert!(e.to_string().contains("ukf.kappa"), "{e}");
+        assert!(AttitudeConfig::from_toml("[ukf]\nkappa = -3.0").is_err());
+        assert!(AttitudeConfig::from_toml("[ukf]\nkappa = -2.5").is_ok());
     }
 }

@@ -1,11 +1,12 @@
 //! `hindsight attitude LOG --out DIR`: seed 001's attitude-method comparison on any log.
 
 use super::choices::{self, Preset};
+use super::config::SectionChoice;
 use super::console::{self, out, say};
 use super::{OutputFailed, PolicyArgs};
 use anyhow::{Context, Result};
 use hindsight::attitude::compare::{self, Method, MethodRun, MethodScore, Reference};
-use hindsight::attitude::config::{AttitudeConfig, DEFAULT_TOML};
+use hindsight::attitude::config::AttitudeConfig;
 use hindsight::attitude::dead_reckoning::gaps_longer_than;
 use hindsight::attitude::mag_calibration;
 use hindsight::attitude::mag_checks::without_saturation;
@@ -59,7 +60,7 @@ use std::time::Instant;
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct AttitudeArgs {
-    /// Recorded log; not needed with --print-config.
+    /// Recorded log.
     #[arg(required_unless_present = "print_config")]
     pub log: Option<PathBuf>,
 
@@ -81,12 +82,12 @@ pub struct AttitudeArgs {
     #[arg(long, value_enum, value_delimiter = ',', value_name = "METHOD,...")]
     pub methods: Vec<choices::Method>,
 
-    /// Settings file (TOML); --print-config shows every key and its default.
+    /// Settings file (TOML); `hindsight config attitude` prints every key and its default.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
 
-    /// Print the default configuration (every key explained) and exit.
-    #[arg(long)]
+    /// The same as `hindsight config attitude` (kept for old scripts).
+    #[arg(long, hide = true)]
     pub print_config: bool,
 
     /// The settings a config file is laid over: hindsight's defaults, or seed 001's EKF and
@@ -118,19 +119,14 @@ pub enum MagCalibration {
 
 pub fn run(args: AttitudeArgs) -> Result<()> {
     if args.print_config {
-        print!("{DEFAULT_TOML}");
+        print!("{}", super::config::default_toml(SectionChoice::Attitude));
         return Ok(());
     }
     let (Some(log_path), Some(out)) = (args.log.clone(), args.out.clone()) else {
         anyhow::bail!("a LOG and --out DIR are needed");
     };
     let config = match &args.config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading {}", path.display()))?;
-            AttitudeConfig::from_toml_over(args.preset.into(), &text)
-                .with_context(|| format!("in {}", path.display()))?
-        }
+        Some(path) => super::config::read(path, Some(&AttitudeConfig::preset(args.preset.into())))?,
         None => AttitudeConfig::preset(args.preset.into()),
     };
     let filters = config.filters()?;

@@ -213,10 +213,7 @@ pub fn run(args: BatchArgs) -> Result<()> {
     // A bad configuration fails every mission: say so once, up front.
     let config = match &args.config {
         Some(c) => {
-            let text = std::fs::read_to_string(c)
-                .with_context(|| format!("reading the configuration {}", c.display()))?;
-            let mut config = Config::from_toml(&text)
-                .with_context(|| format!("configuration {}", c.display()))?;
+            let mut config: Config = super::config::read(c, None)?;
             super::reconstruct::read_vehicle_file(&mut config)
                 .with_context(|| format!("configuration {}", c.display()))?;
             config

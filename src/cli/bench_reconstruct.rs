@@ -176,7 +176,7 @@ fn scratch(scenario: &str, name: &str) -> Result<(std::path::PathBuf, std::path:
 
 fn measure(path: &Path, repeat: usize, scenario: &str) -> Result<()> {
     let config = if scenario == "long-dive" {
-        Config::from_toml(LONG_DIVE_CONFIG)?
+        hindsight::config::load(LONG_DIVE_CONFIG)?
     } else {
         Config::default()
     };

@@ -1,9 +1,10 @@
 //! `hindsight identify LOG... --out DIR`: hydrodynamic coefficients from sea-trial logs.
 
+use super::config::SectionChoice;
 use super::console::{out, say};
 use super::{OutputFailed, PolicyArgs};
 use anyhow::{bail, Context, Result};
-use hindsight::identify::config::{IdentifyConfig, DEFAULT_TOML};
+use hindsight::identify::config::IdentifyConfig;
 use hindsight::identify::design::{suggest, Addition, DesignSettings, Suggestion};
 use hindsight::identify::record::Record;
 use hindsight::identify::settings::Settings;
@@ -39,8 +40,8 @@ use std::time::Instant;
 ///
 /// A coefficient whose 1-sigma exceeds 5 % of its value is flagged as poorly determined: the
 /// data do not tell it. One correlated above 0.95 with another is noted: the data determine
-/// the two together. Every threshold, the noise and the filters' tuning are in the config
-/// (--print-config).
+/// the two together. Every threshold, the noise and the filters' tuning are settings
+/// (`hindsight config identify` prints them).
 ///
 /// --model six-dof: seed 000's 6-DOF model of a vehicle file (--vehicle; default the log's
 /// mission vehicle): the coefficients of --coefficients (horizontal: Yv, Yr, Ydr, Nv, Nr,
@@ -78,12 +79,13 @@ pub struct IdentifyArgs {
     pub out: Option<PathBuf>,
 
     /// Settings file (TOML: sensor noise and whether it is learnt, the EKF's tuning, the
-    /// refinement, the warning thresholds); --print-config shows every key and its default.
+    /// refinement, the warning thresholds); `hindsight config identify` prints every key and
+    /// its default.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
 
-    /// Print the default configuration (every key explained) and exit.
-    #[arg(long)]
+    /// The same as `hindsight config identify` (kept for old scripts).
+    #[arg(long, hide = true)]
     pub print_config: bool,
 
     /// Starting coefficients (TOML: NAME = value, nondimensional; missing ones take the
@@ -201,7 +203,7 @@ fn start_values(args: &IdentifyArgs) -> Result<Coefficients> {
 
 pub fn run(args: IdentifyArgs) -> Result<()> {
     if args.print_config {
-        print!("{DEFAULT_TOML}");
+        print!("{}", super::config::default_toml(SectionChoice::Identify));
         return Ok(());
     }
     let Some(out_dir) = args.out.clone() else {
@@ -209,11 +211,7 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
     };
     let started = Instant::now();
     let config = match &args.config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading {}", path.display()))?;
-            IdentifyConfig::from_toml(&text).with_context(|| format!("in {}", path.display()))?
-        }
+        Some(path) => super::config::read::<IdentifyConfig>(path, None)?,
         None => IdentifyConfig::default(),
     };
     let mut settings = config.settings()?;

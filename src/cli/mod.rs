@@ -11,6 +11,7 @@ mod bench_identify;
 mod bench_reconstruct;
 mod bench_simulate;
 mod choices;
+mod config;
 mod console;
 mod export;
 mod identify;
@@ -27,8 +28,8 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 use console::{out, say};
 use hindsight::align::{AlignError, ClockOffset};
+use hindsight::config::ConfigError;
 use hindsight::ingest::{IngestError, IngestOptions, Log, MissionError};
-use hindsight::recon::config::ConfigError;
 use hindsight::recon::ReconError;
 use std::path::{Path, PathBuf};
 
@@ -72,8 +73,7 @@ pub enum Command {
     Attitude(attitude::AttitudeArgs),
     Identify(identify::IdentifyArgs),
     Vehicle(vehicle::VehicleArgs),
-    /// Print the default `reconstruct` configuration (TOML, every key explained).
-    Config(reconstruct::ConfigArgs),
+    Config(config::ConfigArgs),
     Info(info::InfoArgs),
     Export(export::ExportArgs),
     Import(import::ImportArgs),
@@ -184,7 +184,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Attitude(a) => attitude::run(a),
         Command::Identify(a) => identify::run(a),
         Command::Vehicle(a) => vehicle::run(a),
-        Command::Config(a) => reconstruct::print_config(a),
+        Command::Config(a) => config::run(a),
         Command::Info(a) => info::run(a),
         Command::Export(a) => export::run(a),
         Command::Simulate(a) => simulate::run(a),
@@ -216,6 +216,10 @@ pub fn hint(err: &anyhow::Error) -> Option<&'static str> {
             Some("give the initial heading with --initial-yaw DEG (or [initial] yaw_deg)")
         } else if let Some(ScenarioError::Unknown { .. }) = cause.downcast_ref() {
             Some("give your own with --scenario-file FILE")
+        } else if let Some(hindsight::config::ConfigError::Toml { section, .. }) =
+            cause.downcast_ref()
+        {
+            Some(config::every_key_hint(section))
         } else if let Some(RecordError::NoDvl { .. }) = cause.downcast_ref() {
             Some("give the speed with --speed M_S")
         } else {
@@ -246,9 +250,6 @@ pub fn exit_code(err: &anyhow::Error) -> u8 {
     {
         EXIT_BAD_INPUT
     } else if err.downcast_ref::<ConfigError>().is_some()
-        || err
-            .downcast_ref::<hindsight::attitude::config::AttitudeConfigError>()
-            .is_some()
         || err
             .downcast_ref::<identify::CoefficientArgError>()
             .is_some()

@@ -7,6 +7,7 @@ use super::choices::{HeadingChoice, ImuGrade};
 use super::console;
 use super::{LogArgs, OutputFailed, PolicyArgs};
 use anyhow::{Context, Result};
+use hindsight::config::Section;
 use hindsight::contract::Truth;
 use hindsight::filters::ins::aiding::Sensor;
 use hindsight::filters::ins::record::Solution;
@@ -161,24 +162,10 @@ pub enum Toggle {
     Off,
 }
 
-/// Print the default `reconstruct` configuration (TOML, every key explained).
-#[derive(Debug, clap::Args)]
-pub struct ConfigArgs {}
-
-pub fn print_config(_: ConfigArgs) -> Result<()> {
-    print!("{}", hindsight::recon::config::DEFAULT_TOML);
-    Ok(())
-}
-
 impl ReconstructArgs {
     fn config(&self) -> Result<Config> {
         let mut config = match &self.config {
-            Some(path) => {
-                let text = std::fs::read_to_string(path)
-                    .with_context(|| format!("reading the configuration {}", path.display()))?;
-                Config::from_toml(&text)
-                    .with_context(|| format!("configuration {}", path.display()))?
-            }
+            Some(path) => super::config::read(path, None)?,
             None => Config::default(),
         };
         if let Some(g) = self.imu_grade {

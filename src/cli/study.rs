@@ -106,10 +106,7 @@ fn parse_solution(text: &str) -> Result<(String, PathBuf), String> {
 }
 
 fn read_config(path: &std::path::Path) -> Result<Config> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("reading the configuration {}", path.display()))?;
-    let mut config =
-        Config::from_toml(&text).with_context(|| format!("configuration {}", path.display()))?;
+    let mut config: Config = super::config::read(path, None)?;
     super::reconstruct::read_vehicle_file(&mut config)
         .with_context(|| format!("configuration {}", path.display()))?;
     Ok(config)

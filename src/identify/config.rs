@@ -1,9 +1,10 @@
-//! Settings of `hindsight identify` from a TOML file (`--config`), with a default for every
-//! key; `hindsight identify --print-config` prints [`DEFAULT_TOML`]. Angles are in degrees
-//! here and in radians in [`Settings`].
+//! Settings of `hindsight identify` (the section `identify` of the one configuration system,
+//! [`crate::config`]), with a default for every key; `hindsight config identify` prints
+//! [`DEFAULT_TOML`]. Angles are in degrees here and in radians in [`Settings`].
 
 use super::design::DesignSettings;
 use super::settings::{ProcessNoise, Settings, Sigmas, Thresholds};
+use crate::config::{all, check_ranges, ConfigError, Range, Section};
 use serde::{Deserialize, Serialize};
 
 /// The documented defaults (a test parses it back to [`IdentifyConfig::default`]).
@@ -52,13 +53,13 @@ ballast_fraction = 0.0005    # a known ballast change to try: (W - B) / W, posit
 "#;
 
 /// Everything `hindsight identify` can be told from a file.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct IdentifyConfig {
     pub noise: NoiseConfig,
     pub ekf: EkfConfig,
     pub refinement: RefinementConfig,
-    pub thresholds: ThresholdsConfig,
+    pub thresholds: Thresholds,
     pub design: DesignSettings,
 }
 
@@ -73,21 +74,6 @@ pub struct NoiseConfig {
     pub depth_m: f64,
 }
 
-impl Default for NoiseConfig {
-    fn default() -> Self {
-        // The figures of [`Sigmas::default`], in degrees as given there.
-        let (s, d) = (Sigmas::default(), Settings::default());
-        NoiseConfig {
-            learn: d.learn_noise,
-            max_rounds: d.noise_rounds,
-            q_deg_s: 0.01,
-            theta_deg: 0.02,
-            w_m_s: s.w_m_s,
-            depth_m: s.depth_m,
-        }
-    }
-}
-
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct EkfConfig {
@@ -97,18 +83,6 @@ pub struct EkfConfig {
     pub history_interval_s: f64,
 }
 
-impl Default for EkfConfig {
-    fn default() -> Self {
-        let d = Settings::default();
-        EkfConfig {
-            initial_coefficient_sigma: d.initial_coefficient_sigma,
-            w_accel_m_s2_rt_s: d.process_noise.w_accel_m_s2_rt_s,
-            q_accel_rad_s2_rt_s: d.process_noise.q_accel_rad_s2_rt_s,
-            history_interval_s: d.history_interval_s,
-        }
-    }
-}
-
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RefinementConfig {
@@ -116,93 +90,95 @@ pub struct RefinementConfig {
     pub substeps: usize,
 }
 
-impl Default for RefinementConfig {
+impl Default for IdentifyConfig {
+    /// The figures of [`Settings::default`], angles in degrees as given there.
     fn default() -> Self {
         let d = Settings::default();
-        RefinementConfig {
-            max_iterations: d.max_iterations,
-            substeps: d.substeps,
+        IdentifyConfig {
+            noise: NoiseConfig {
+                learn: d.learn_noise,
+                max_rounds: d.noise_rounds,
+                q_deg_s: 0.01,
+                theta_deg: 0.02,
+                w_m_s: d.sigma.w_m_s,
+                depth_m: d.sigma.depth_m,
+            },
+            ekf: EkfConfig {
+                initial_coefficient_sigma: d.initial_coefficient_sigma,
+                w_accel_m_s2_rt_s: d.process_noise.w_accel_m_s2_rt_s,
+                q_accel_rad_s2_rt_s: d.process_noise.q_accel_rad_s2_rt_s,
+                history_interval_s: d.history_interval_s,
+            },
+            refinement: RefinementConfig {
+                max_iterations: d.max_iterations,
+                substeps: d.substeps,
+            },
+            thresholds: d.thresholds,
+            design: DesignSettings::default(),
         }
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ThresholdsConfig {
-    pub max_relative_sigma: f64,
-    pub max_correlation: f64,
-    pub max_residual_lag1: f64,
-    pub max_noise_ratio: f64,
-    pub max_normalised_rms: f64,
+/// A section left out of a file, or a key left out of a section, takes the default of
+/// [`IdentifyConfig::default`].
+macro_rules! section_defaults {
+    ($($section:ident: $type:ty),*) => {
+        $(impl Default for $type {
+            fn default() -> Self {
+                IdentifyConfig::default().$section
+            }
+        })*
+    };
 }
+section_defaults!(noise: NoiseConfig, ekf: EkfConfig, refinement: RefinementConfig);
 
-impl Default for ThresholdsConfig {
-    fn default() -> Self {
-        let t = Thresholds::default();
-        ThresholdsConfig {
-            max_relative_sigma: t.max_relative_sigma,
-            max_correlation: t.max_correlation,
-            max_residual_lag1: t.max_residual_lag1,
-            max_noise_ratio: t.max_noise_ratio,
-            max_normalised_rms: t.max_normalised_rms,
-        }
+impl Section for IdentifyConfig {
+    const NAME: &'static str = "identify";
+    const DEFAULT_TOML: &'static str = DEFAULT_TOML;
+
+    fn check(&self) -> Result<(), ConfigError> {
+        self.settings()?;
+        self.design()?;
+        Ok(())
     }
-}
-
-/// A configuration that cannot be used, naming the key.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum IdentifyConfigError {
-    #[error("{0}")]
-    Toml(String),
-    #[error("{key}: {reason}")]
-    Bad { key: &'static str, reason: String },
 }
 
 impl IdentifyConfig {
-    /// Parses a file's text (missing keys take their defaults) and checks every value.
-    pub fn from_toml(text: &str) -> Result<IdentifyConfig, IdentifyConfigError> {
-        let config: IdentifyConfig =
-            toml::from_str(text).map_err(|e| IdentifyConfigError::Toml(e.to_string()))?;
-        config.settings()?;
-        config.design()?;
-        Ok(config)
-    }
-
     /// The identification's settings (no coefficient fixed).
-    pub fn settings(&self) -> Result<Settings, IdentifyConfigError> {
+    pub fn settings(&self) -> Result<Settings, ConfigError> {
         let (n, e, r, t) = (&self.noise, &self.ekf, &self.refinement, &self.thresholds);
-        for (key, value) in [
-            ("noise.q_deg_s", n.q_deg_s),
-            ("noise.theta_deg", n.theta_deg),
-            ("noise.w_m_s", n.w_m_s),
-            ("noise.depth_m", n.depth_m),
-            ("ekf.initial_coefficient_sigma", e.initial_coefficient_sigma),
-            ("ekf.history_interval_s", e.history_interval_s),
-            ("thresholds.max_relative_sigma", t.max_relative_sigma),
-            ("thresholds.max_correlation", t.max_correlation),
-            ("thresholds.max_residual_lag1", t.max_residual_lag1),
-            ("thresholds.max_noise_ratio", t.max_noise_ratio),
-            ("thresholds.max_normalised_rms", t.max_normalised_rms),
-        ] {
-            positive(key, value)?;
-        }
-        for (key, value) in [
-            ("ekf.w_accel_m_s2_rt_s", e.w_accel_m_s2_rt_s),
-            ("ekf.q_accel_rad_s2_rt_s", e.q_accel_rad_s2_rt_s),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(bad(key, "must be a number, zero or more"));
-            }
-        }
-        for (key, value) in [
-            ("noise.max_rounds", n.max_rounds),
-            ("refinement.max_iterations", r.max_iterations),
-            ("refinement.substeps", r.substeps),
-        ] {
-            if value == 0 {
-                return Err(bad(key, "must be at least 1"));
-            }
-        }
+        let positive = all(
+            Range::Positive,
+            [
+                ("noise.q_deg_s", n.q_deg_s),
+                ("noise.theta_deg", n.theta_deg),
+                ("noise.w_m_s", n.w_m_s),
+                ("noise.depth_m", n.depth_m),
+                ("ekf.initial_coefficient_sigma", e.initial_coefficient_sigma),
+                ("ekf.history_interval_s", e.history_interval_s),
+                ("thresholds.max_relative_sigma", t.max_relative_sigma),
+                ("thresholds.max_correlation", t.max_correlation),
+                ("thresholds.max_residual_lag1", t.max_residual_lag1),
+                ("thresholds.max_noise_ratio", t.max_noise_ratio),
+                ("thresholds.max_normalised_rms", t.max_normalised_rms),
+            ],
+        );
+        let non_negative = all(
+            Range::NonNegative,
+            [
+                ("ekf.w_accel_m_s2_rt_s", e.w_accel_m_s2_rt_s),
+                ("ekf.q_accel_rad_s2_rt_s", e.q_accel_rad_s2_rt_s),
+            ],
+        );
+        let counts = all(
+            Range::AtLeast(1.0, "must be at least 1"),
+            [
+                ("noise.max_rounds", n.max_rounds as f64),
+                ("refinement.max_iterations", r.max_iterations as f64),
+                ("refinement.substeps", r.substeps as f64),
+            ],
+        );
+        check_ranges(positive.chain(non_negative).chain(counts))?;
         Ok(Settings {
             sigma: Sigmas {
                 q_rad_s: n.q_deg_s.to_radians(),
@@ -220,13 +196,7 @@ impl IdentifyConfig {
             max_iterations: r.max_iterations,
             learn_noise: n.learn,
             noise_rounds: n.max_rounds,
-            thresholds: Thresholds {
-                max_relative_sigma: t.max_relative_sigma,
-                max_correlation: t.max_correlation,
-                max_residual_lag1: t.max_residual_lag1,
-                max_noise_ratio: t.max_noise_ratio,
-                max_normalised_rms: t.max_normalised_rms,
-            },
+            thresholds: *t,
             ..Settings::default()
         })
     }
@@ -234,48 +204,38 @@ impl IdentifyConfig {
 
 impl IdentifyConfig {
     /// The candidates of `identify --suggest`.
-    pub fn design(&self) -> Result<DesignSettings, IdentifyConfigError> {
+    pub fn design(&self) -> Result<DesignSettings, ConfigError> {
         let d = &self.design;
-        for (key, value) in [
-            ("design.plane_deg", d.plane_deg),
-            ("design.trigger_deg", d.trigger_deg),
-            ("design.duration_s", d.duration_s),
-            ("design.plane_rate_deg_s", d.plane_rate_deg_s),
-        ] {
-            positive(key, value)?;
-        }
+        check_ranges(all(
+            Range::Positive,
+            [
+                ("design.plane_deg", d.plane_deg),
+                ("design.trigger_deg", d.trigger_deg),
+                ("design.duration_s", d.duration_s),
+                ("design.plane_rate_deg_s", d.plane_rate_deg_s),
+            ],
+        ))?;
         if let Some(f) = d
             .speed_factors
             .iter()
             .find(|f| !(f.is_finite() && **f > 0.0))
         {
-            return Err(bad(
+            return Err(ConfigError::bad(
                 "design.speed_factors",
-                &format!("{f} is not a positive number"),
+                f,
+                "every factor must be a positive number",
             ));
         }
-        if !(d.ballast_fraction.is_finite() && d.ballast_fraction.abs() < 0.1) {
-            return Err(bad(
-                "design.ballast_fraction",
+        check_ranges([(
+            "design.ballast_fraction",
+            d.ballast_fraction,
+            Range::Within(
+                -0.1,
+                0.1,
                 "must be a fraction of the weight, between -0.1 and 0.1",
-            ));
-        }
+            ),
+        )])?;
         Ok(d.clone())
-    }
-}
-
-fn positive(key: &'static str, value: f64) -> Result<(), IdentifyConfigError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(bad(key, "must be a positive number"))
-    }
-}
-
-fn bad(key: &'static str, reason: &str) -> IdentifyConfigError {
-    IdentifyConfigError::Bad {
-        key,
-        reason: reason.to_string(),
     }
 }
 
@@ -284,10 +244,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_documented_defaults_are_the_defaults() {
+    fn the_documented_defaults_are_the_settings_defaults() {
         let documented = IdentifyConfig::from_toml(DEFAULT_TOML).unwrap();
-        assert_eq!(documented, IdentifyConfig::default());
-        assert_eq!(IdentifyConfig::from_toml("").unwrap(), documented);
         assert_eq!(documented.settings().unwrap(), Settings::default());
         assert_eq!(documented.design().unwrap(), DesignSettings::default());
     }
@@ -320,9 +278,7 @@ mod tests {
             ),
         ] {
             let e = IdentifyConfig::from_toml(text).unwrap_err().to_string();
-            assert!(e.starts_with(key), "{e}");
+            assert!(e.starts_with(&format!("`{key}`")), "{e}");
         }
-        let e = IdentifyConfig::from_toml("[noise]\ndepth = 0.02").unwrap_err();
-        assert!(e.to_string().contains("depth"), "{e}");
     }
 }

@@ -82,8 +82,9 @@ pub struct Settings {
     pub thresholds: Thresholds,
 }
 
-/// Where identify starts to warn.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Where identify starts to warn (the `[thresholds]` section of its settings).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct Thresholds {
     /// Above this relative 1-sigma a coefficient is reported as poorly determined.
     pub max_relative_sigma: f64,

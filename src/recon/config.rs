@@ -1,10 +1,12 @@
-//! Settings of a reconstruction, from a TOML file (`--config`), with a default for every
-//! key. `hindsight reconstruct --print-config` prints [`DEFAULT_TOML`], which documents
-//! every key; a test checks that it parses to [`Config::default`].
+//! Settings of a reconstruction (the section `reconstruct` of the one configuration system,
+//! [`crate::config`]), with a default for every key. `hindsight config reconstruct` prints
+//! [`DEFAULT_TOML`], the one place every key is documented; a test checks that it parses
+//! to [`Config::default`].
 //!
 //! The IMU's noise comes from a grade (typical data-sheet figures of the class), any value
 //! of which a key overrides.
 
+use crate::config::{all, check_ranges, ConfigError, Range, Section};
 use crate::filters::ins::aiding::{Aiding, RpmVelocity, Sensor};
 use crate::filters::ins::driver::{Propagation, Settings};
 use crate::filters::ins::forward::{DvlMounting, Filter, ImuNoise};
@@ -944,66 +946,31 @@ impl Default for ModelVelocityConfig {
     }
 }
 
-/// Why a configuration is unusable.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ConfigError {
-    #[error("{0}")]
-    Toml(String),
-    #[error("`{key}` = {value}: {reason}")]
-    Bad {
-        key: &'static str,
-        value: f64,
-        reason: &'static str,
-    },
-}
-
-impl Config {
-    /// Parses a TOML configuration (unknown keys are errors, naming the key).
-    pub fn from_toml(text: &str) -> Result<Config, ConfigError> {
-        let mut config: Config =
-            toml::from_str(text).map_err(|e| ConfigError::Toml(e.to_string()))?;
-        let table: toml::Table =
-            toml::from_str(text).map_err(|e| ConfigError::Toml(e.to_string()))?;
-        config.fixed = TUNABLE_KEYS
-            .iter()
-            .filter(|key| {
-                let (section, name) = key.split_once('.').unwrap_or((key, ""));
-                table
-                    .get(section)
-                    .and_then(|t| t.as_table())
-                    .is_some_and(|t| t.contains_key(name))
-            })
-            .map(|key| key.to_string())
-            .collect();
-        config.check()?;
-        Ok(config)
-    }
+impl Section for Config {
+    const NAME: &'static str = "reconstruct";
+    const DEFAULT_TOML: &'static str = DEFAULT_TOML;
 
     /// Checks ranges (positive sigmas and intervals, a probability in (0, 1]): the first key
     /// out of its range is the error.
-    pub fn check(&self) -> Result<(), ConfigError> {
-        let rules = self
-            .positive()
-            .into_iter()
-            .map(|(key, value)| (key, value, Range::Positive))
-            .chain(
-                self.non_negative()
-                    .into_iter()
-                    .map(|(key, value)| (key, value, Range::NonNegative)),
-            )
-            .chain(self.other_ranges());
-        for (key, value, range) in rules {
-            if !range.holds(value) {
-                return Err(ConfigError::Bad {
-                    key,
-                    value,
-                    reason: range.reason(),
-                });
-            }
-        }
-        Ok(())
+    fn check(&self) -> Result<(), ConfigError> {
+        check_ranges(
+            all(Range::Positive, self.positive())
+                .chain(all(Range::NonNegative, self.non_negative()))
+                .chain(self.other_ranges()),
+        )
     }
 
+    /// The tunable keys ([`TUNABLE_KEYS`]) the file gives are kept as given.
+    fn given(&mut self, keys: &std::collections::BTreeSet<String>) {
+        self.fixed = TUNABLE_KEYS
+            .iter()
+            .filter(|key| keys.contains(**key))
+            .map(|key| key.to_string())
+            .collect();
+    }
+}
+
+impl Config {
     /// The keys that must be positive numbers.
     fn positive(&self) -> [(&'static str, f64); 33] {
         let spec = self.imu.spec();
@@ -1226,53 +1193,9 @@ impl Config {
     }
 }
 
-/// The range a configuration value must lie in.
-#[derive(Debug, Clone, Copy)]
-enum Range {
-    Positive,
-    NonNegative,
-    /// In (0, 1).
-    OpenProbability,
-    /// In (0, 1].
-    Probability,
-    /// In `[low, high]`, and why.
-    Within(f64, f64, &'static str),
-    /// At least this, and why.
-    AtLeast(f64, &'static str),
-}
-
-impl Range {
-    fn holds(self, x: f64) -> bool {
-        match self {
-            Range::Positive => x.is_finite() && x > 0.0,
-            Range::NonNegative => x.is_finite() && x >= 0.0,
-            Range::OpenProbability => x > 0.0 && x < 1.0,
-            Range::Probability => x > 0.0 && x <= 1.0,
-            Range::Within(low, high, _) => x.is_finite() && (low..=high).contains(&x),
-            Range::AtLeast(low, _) => x >= low,
-        }
-    }
-
-    fn reason(self) -> &'static str {
-        match self {
-            Range::Positive => "must be a positive number",
-            Range::NonNegative => "must be zero or positive",
-            Range::OpenProbability => "must be a probability in (0, 1)",
-            Range::Probability => "must be a probability in (0, 1]",
-            Range::Within(_, _, why) | Range::AtLeast(_, why) => why,
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_documented_defaults_are_the_defaults() {
-        assert_eq!(Config::from_toml(DEFAULT_TOML).unwrap(), Config::default());
-        assert_eq!(Config::from_toml("").unwrap(), Config::default());
-    }
 
     #[test]
     fn every_commented_override_is_a_known_key() {
@@ -1299,10 +1222,6 @@ mod tests {
 
     #[test]
     fn bad_settings_name_the_key() {
-        let e = Config::from_toml("[dvl]\nsigma_m_s = -1.0\n").unwrap_err();
-        assert!(e.to_string().contains("dvl.sigma_m_s"), "{e}");
-        let e = Config::from_toml("[dvl]\nsigma = 0.1\n").unwrap_err();
-        assert!(e.to_string().contains("sigma"), "{e}");
         let e = Config::from_toml("[imu]\ngrade = \"consumer\"\n").unwrap_err();
         assert!(e.to_string().contains("grade"), "{e}");
         let e = Config::from_toml("[gate]\nprobability = 1.5\n").unwrap_err();

@@ -919,6 +919,7 @@ fn scale_misalignment(facts: &LogFacts, config: &Config, dvl: bool) -> Decision 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::Section;
 
     fn facts() -> LogFacts {
         LogFacts {
