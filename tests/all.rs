@@ -20,6 +20,7 @@ mod em_log;
 mod foreign_bags;
 mod foreign_writer;
 mod fuzz;
+mod gating;
 mod house;
 mod identify;
 mod identify_cli;

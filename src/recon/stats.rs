@@ -126,6 +126,12 @@ pub enum RunWarning {
         sensor: &'static str,
         readings: usize,
     },
+    /// Rejected readings that repeated the reading before exactly: a stuck sensor, whose
+    /// gate was never reopened for them.
+    StuckReadings {
+        sensor: &'static str,
+        readings: usize,
+    },
     /// Readings skipped: their innovation covariance was not positive definite.
     NotPositiveDefinite {
         sensor: &'static str,
@@ -182,6 +188,12 @@ impl std::fmt::Display for RunWarning {
                 f,
                 "{sensor}: {readings} readings in a row were rejected by the gate (the longest \
                  run): a stuck or faulty sensor, or a filter that drifted from it (see \
+                 residuals.parquet)"
+            ),
+            RunWarning::StuckReadings { sensor, readings } => write!(
+                f,
+                "{sensor}: {readings} readings repeated the one before exactly and disagreed \
+                 with the filter: a stuck sensor? None of them was applied (see \
                  residuals.parquet)"
             ),
             RunWarning::NotPositiveDefinite { sensor, readings } => write!(
@@ -256,6 +268,13 @@ pub fn warnings(
         let readings = run.longest_rejected_run[sensor];
         if readings >= LONG_REJECTED_RUN {
             out.push(RunWarning::LongRejectedRun {
+                sensor: sensor.name(),
+                readings,
+            });
+        }
+        let readings = run.repeated_rejected[sensor];
+        if readings > 0 {
+            out.push(RunWarning::StuckReadings {
                 sensor: sensor.name(),
                 readings,
             });

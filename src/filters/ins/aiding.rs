@@ -192,6 +192,25 @@ pub struct LeftOut {
     pub disturbed: usize,
 }
 
+/// A reading as the sensor gave it: its first `dims` components, in the sensor's units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensorReading {
+    pub dims: usize,
+    pub value: [f64; 3],
+}
+
+impl SensorReading {
+    pub fn one(value: f64) -> SensorReading {
+        SensorReading {
+            dims: 1,
+            value: [value, 0.0, 0.0],
+        }
+    }
+    pub fn three(value: [f64; 3]) -> SensorReading {
+        SensorReading { dims: 3, value }
+    }
+}
+
 /// One row of the aiding table.
 pub trait Aid: Sync {
     fn sensor(&self) -> Sensor;
@@ -204,6 +223,18 @@ pub trait Aid: Sync {
     fn stamp_ns(&self, i: usize) -> i64;
     /// The update of reading `i`, or `None` when the reading is not used (counted).
     fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update>;
+    /// SensorReading `i` as the sensor gave it, to judge whether a run of rejected readings agrees
+    /// with itself before the gate reopens ([`super::reopen`]). `None` for sources without
+    /// one: their gate reopens on the count of rejections alone.
+    fn reading(&self, _i: usize) -> Option<SensorReading> {
+        None
+    }
+    /// Whether reading `i` repeats reading `i - 1` exactly, every component: a stuck
+    /// sensor's sign (such a reading never reopens the gate). False for sources whose
+    /// readings may repeat honestly.
+    fn repeats(&self, _i: usize) -> bool {
+        false
+    }
     /// Readings left out before the filter.
     fn left_out(&self) -> LeftOut {
         LeftOut::default()

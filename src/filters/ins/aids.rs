@@ -2,7 +2,9 @@
 //! settings, and the update of one reading from the measurement models of
 //! [`super::forward::measure`].
 
-use super::aiding::{Aid, Epoch, LeftOut, MagAiding, Measurement, RpmVelocity, Sensor, Update};
+use super::aiding::{
+    Aid, Epoch, LeftOut, MagAiding, Measurement, RpmVelocity, Sensor, SensorReading, Update,
+};
 use super::forward::{measure, DvlMounting};
 use crate::align::latest_at;
 use crate::contract::{
@@ -52,13 +54,16 @@ impl DvlAid<'_> {
         !self.check_range || (d.valid && altitude.is_none_or(|h| h <= self.max_altitude_m))
     }
 
-    /// The readings in range, their velocity in the body axes (the nominal mounting).
+    /// The readings in range, their velocity in the body axes (the nominal mounting). A
+    /// reading that repeats the one before exactly is left out: a stuck DVL's stretch is a
+    /// gap to whoever plans around the DVL or learns from it.
     pub fn in_range_body_velocities(&self) -> Vec<BodyVelocityReading> {
         let body_from_dvl = self.mounting.dvl_from_body.inverse();
         self.readings
             .iter()
-            .filter(|d| self.in_range(d))
-            .map(|d| BodyVelocityReading {
+            .enumerate()
+            .filter(|&(i, d)| self.in_range(d) && !self.repeats(i))
+            .map(|(_, d)| BodyVelocityReading {
                 stamp_ns: d.stamp_ns,
                 v_body_m_s: body_from_dvl * Vector3::from(d.velocity),
             })
@@ -89,6 +94,13 @@ impl Aid for DvlAid<'_> {
         );
         let r = SMatrix::<f64, 3, 3>::identity() * self.sigma_m_s.powi(2);
         Some(Update::Three(Measurement { y, h, r }))
+    }
+    fn reading(&self, i: usize) -> Option<SensorReading> {
+        Some(SensorReading::three(self.readings[i].velocity))
+    }
+    /// Three noisy components repeating to the bit: the DVL has stopped measuring.
+    fn repeats(&self, i: usize) -> bool {
+        i > 0 && self.readings[i].velocity == self.readings[i - 1].velocity
     }
 }
 
@@ -127,6 +139,9 @@ impl Aid for DepthAid {
         let (y, h) = measure::depth(at.est, self.readings[i].depth);
         let r = SMatrix::<f64, 1, 1>::new(self.sigma_m.powi(2));
         Some(Update::One(Measurement { y, h, r }))
+    }
+    fn reading(&self, i: usize) -> Option<SensorReading> {
+        Some(SensorReading::one(self.readings[i].depth))
     }
     fn left_out(&self) -> LeftOut {
         self.left_out
@@ -225,6 +240,9 @@ impl Aid for SpeedLogAid<'_> {
         let (y, h, attitude_variance) = measure::speed(at.est, self.readings[i].speed)?;
         let r = SMatrix::<f64, 1, 1>::new(self.sigma_m_s.powi(2) + attitude_variance);
         Some(Update::One(Measurement { y, h, r }))
+    }
+    fn reading(&self, i: usize) -> Option<SensorReading> {
+        Some(SensorReading::one(self.readings[i].speed))
     }
 }
 

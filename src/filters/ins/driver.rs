@@ -19,11 +19,14 @@
 //!
 //! Takes the IMU's time-sorted messages and the aiding table, so it imports no I/O.
 
-use super::aiding::{first_after, Aid, Aiding, Epoch, Measurement, PerSensor, Sensor, Update};
+use super::aiding::{
+    first_after, Aid, Aiding, Epoch, Measurement, PerSensor, Sensor, SensorReading, Update,
+};
 use super::error_state::{ErrorMatrix, ErrorState};
 use super::forward::{Estimate, Filter, ImuNoise};
 use super::mechanization::{ImuSample, NavState};
 use super::record::{EpochRecord, NavPoint};
+use super::reopen::{RecentRejections, Rejected};
 use crate::contract::Imu;
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
 use crate::geodesy;
@@ -155,6 +158,8 @@ pub struct ForwardRun {
     pub longest_rejected_run: PerSensor,
     /// Readings skipped because their innovation covariance was not positive definite.
     pub not_positive_definite: PerSensor,
+    /// Rejected readings that repeated the reading before exactly: a stuck sensor.
+    pub repeated_rejected: PerSensor,
     pub imu_gaps: Vec<ImuGap>,
     /// Log-likelihood of the innovations, `-1/2 sum (NIS + ln det S + m ln 2 pi)`, with each
     /// NIS capped at the gate's bound (so that an outlier counts as a rejection, not as a
@@ -231,6 +236,16 @@ struct Pass<'a> {
     run: ForwardRun,
     /// Rejections in a row, per sensor.
     consecutive_rejections: PerSensor,
+    /// The readings of those rejections, per sensor, to judge whether the gate may reopen.
+    recent: [RecentRejections; Sensor::ALL.len()],
+}
+
+/// What the gate's reopening needs to know of a reading besides its update.
+#[derive(Debug, Clone, Copy)]
+struct AsGiven {
+    reading: Option<SensorReading>,
+    /// It repeats the reading before exactly.
+    repeats: bool,
 }
 
 /// Runs the forward filter from `initial` (the estimate at the first IMU sample).
@@ -253,6 +268,7 @@ pub fn run_forward(settings: &Settings, inputs: &Inputs<'_>, initial: Estimate) 
     };
     let mut pass = Pass {
         consecutive_rejections: PerSensor::default(),
+        recent: Default::default(),
         settings,
         inputs,
         gate: [None, gate(1), gate(2), gate(3)],
@@ -421,20 +437,35 @@ impl Pass<'_> {
     }
 
     /// Applies an update of any size.
-    fn apply_any(&mut self, stamp_ns: i64, sensor: Sensor, u: &Update) {
+    fn apply_any(&mut self, stamp_ns: i64, sensor: Sensor, u: &Update, given: AsGiven) {
         match u {
-            Update::One(m) => self.apply(stamp_ns, sensor, m),
-            Update::Two(m) => self.apply(stamp_ns, sensor, m),
-            Update::Three(m) => self.apply(stamp_ns, sensor, m),
+            Update::One(m) => self.apply(stamp_ns, sensor, m, given),
+            Update::Two(m) => self.apply(stamp_ns, sensor, m, given),
+            Update::Three(m) => self.apply(stamp_ns, sensor, m, given),
         }
     }
 
-    /// Applies an update and records its residual.
-    fn apply<const M: usize>(&mut self, stamp_ns: i64, sensor: Sensor, m: &Measurement<M>) {
-        // A sensor rejected this many times in a row is more likely right than the filter
-        // (which has drifted away from it): reopen its gate for one measurement.
+    /// Whether the gate reopens for this reading: a sensor rejected `gate_reset_after` times
+    /// in a row is more likely right than the filter (which has drifted away from it), when
+    /// those readings agree with each other and this one is not a stuck sensor's repeat
+    /// ([`super::reopen`]). A source that gives no reading reopens on the count alone.
+    fn reopens(&self, sensor: Sensor, given: AsGiven) -> bool {
         let reset_after = self.settings.aiding.gate_reset_after;
-        let reopen = reset_after > 0 && self.consecutive_rejections[sensor] >= reset_after;
+        reset_after > 0
+            && self.consecutive_rejections[sensor] >= reset_after
+            && !given.repeats
+            && (given.reading.is_none() || self.recent[sensor as usize].agree())
+    }
+
+    /// Applies an update and records its residual.
+    fn apply<const M: usize>(
+        &mut self,
+        stamp_ns: i64,
+        sensor: Sensor,
+        m: &Measurement<M>,
+        given: AsGiven,
+    ) {
+        let reopen = self.reopens(sensor, given);
         let gate = if reopen { None } else { self.gate[M] };
         if reopen {
             self.run.gate_resets += 1;
@@ -452,17 +483,18 @@ impl Pass<'_> {
                 return;
             }
         };
-        self.consecutive_rejections[sensor] = if rec.accepted {
-            0
-        } else {
-            self.consecutive_rejections[sensor] + 1
-        };
+        self.remember(stamp_ns, sensor, m, rec.accepted, given);
         let longest = &mut self.run.longest_rejected_run[sensor];
         *longest = (*longest).max(self.consecutive_rejections[sensor]);
-        let log_likelihood = -0.5
-            * (rec.nis.min(self.nis_cap[M])
+        // A stuck sensor's repeats are no measurements: they do not score the noise settings
+        // (a capped NIS still rewards a small innovation covariance, reading after reading).
+        let log_likelihood = if given.repeats {
+            0.0
+        } else {
+            -0.5 * (rec.nis.min(self.nis_cap[M])
                 + rec.log_det_innovation_cov
-                + M as f64 * (2.0 * std::f64::consts::PI).ln());
+                + M as f64 * (2.0 * std::f64::consts::PI).ln())
+        };
         self.run.log_likelihood += log_likelihood;
         self.run.residuals.push(Residual::from_record(
             stamp_ns,
@@ -470,6 +502,39 @@ impl Pass<'_> {
             &rec,
             log_likelihood,
         ));
+    }
+
+    /// Counts the rejections in a row, and keeps their readings for [`Pass::reopens`].
+    fn remember<const M: usize>(
+        &mut self,
+        stamp_ns: i64,
+        sensor: Sensor,
+        m: &Measurement<M>,
+        accepted: bool,
+        given: AsGiven,
+    ) {
+        let recent = &mut self.recent[sensor as usize];
+        if accepted {
+            self.consecutive_rejections[sensor] = 0;
+            recent.clear();
+            return;
+        }
+        self.consecutive_rejections[sensor] += 1;
+        self.run.repeated_rejected[sensor] += usize::from(given.repeats);
+        let Some(reading) = given.reading else {
+            return;
+        };
+        let mut variance = [0.0; 3];
+        for (c, v) in variance.iter_mut().enumerate().take(M.min(reading.dims)) {
+            *v = m.r[(c, c)];
+        }
+        let rejected = Rejected {
+            t_s: stamp_ns as f64 * 1e-9,
+            value: reading.value,
+            variance,
+            dims: reading.dims,
+        };
+        recent.push(rejected, self.settings.aiding.gate_reset_after);
     }
 
     /// Every reading due at `t`, row by row of the aiding table.
@@ -484,7 +549,13 @@ impl Pass<'_> {
                     omega_nb_body: self.omega_nb_body,
                 };
                 match aid.measure(i, &at) {
-                    Some(u) => self.apply_any(aid.stamp_ns(i), aid.sensor(), &u),
+                    Some(u) => {
+                        let given = AsGiven {
+                            reading: aid.reading(i),
+                            repeats: aid.repeats(i),
+                        };
+                        self.apply_any(aid.stamp_ns(i), aid.sensor(), &u, given)
+                    }
                     None => self.run.unused[aid.sensor()] += 1,
                 }
             }

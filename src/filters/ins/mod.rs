@@ -9,4 +9,5 @@ pub mod error_state;
 pub mod forward;
 pub mod mechanization;
 pub mod record;
+pub mod reopen;
 pub mod solutions;
