@@ -166,7 +166,9 @@ use = true                 # sigma from each fix's sigma_m
 # a rejected one is counted and recorded in residuals.parquet. 1.0 disables the gate.
 probability = 0.999
 # After this many rejections in a row of one sensor, its next measurement is applied
-# ungated: a filter that has drifted must not lock its aiding out (0: never).
+# ungated: a filter that has drifted must not lock its aiding out (0: never). Only when
+# those rejected readings agree with each other and the reading is no exact repeat of the
+# one before: an erratic or stuck sensor stays out.
 reset_after = 20
 
 [propagation]
