@@ -47,12 +47,16 @@ pub struct SensorStats {
     pub normalised_variance: f64,
 }
 
-/// Statistics of every sensor that has residuals.
+/// Statistics of every sensor that has residuals. A stuck sensor's rejected repeats are left
+/// out: they say nothing of its noise or its clock (they are warned of on their own).
 pub fn sensor_stats(residuals: &[Residual]) -> Vec<SensorStats> {
     Sensor::ALL
         .iter()
         .filter_map(|&sensor| {
-            let all: Vec<&Residual> = residuals.iter().filter(|r| r.sensor == sensor).collect();
+            let all: Vec<&Residual> = residuals
+                .iter()
+                .filter(|r| r.sensor == sensor && (r.accepted || !r.repeats))
+                .collect();
             if all.is_empty() {
                 return None;
             }
@@ -348,6 +352,7 @@ mod tests {
                     nis: (innovation[0].powi(2) + innovation[1].powi(2)) / 4.0,
                     accepted: k % 100 != 0,
                     log_likelihood: 0.0,
+                    repeats: false,
                 }
             })
             .collect();

@@ -101,6 +101,8 @@ pub struct Residual {
     pub accepted: bool,
     /// This reading's term of the pass's log-likelihood ([`ForwardRun::log_likelihood`]).
     pub log_likelihood: f64,
+    /// The reading repeated the one before exactly (a stuck sensor's sign).
+    pub repeats: bool,
 }
 
 impl Residual {
@@ -109,6 +111,7 @@ impl Residual {
         sensor: Sensor,
         rec: &UpdateRecord<M>,
         log_likelihood: f64,
+        repeats: bool,
     ) -> Self {
         let mut innovation = [0.0; 3];
         let mut sigma = [0.0; 3];
@@ -125,6 +128,7 @@ impl Residual {
             nis: rec.nis,
             accepted: rec.accepted,
             log_likelihood,
+            repeats,
         }
     }
 }
@@ -501,6 +505,7 @@ impl Pass<'_> {
             sensor,
             &rec,
             log_likelihood,
+            given.repeats,
         ));
     }
 
@@ -586,6 +591,7 @@ mod tests {
             nis: 0.0,
             accepted: true,
             log_likelihood,
+            repeats: false,
         };
         let run = ForwardRun {
             residuals: vec![residual(10, -1.0), residual(20, -2.0), residual(30, -4.0)],
