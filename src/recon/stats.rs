@@ -130,7 +130,7 @@ pub enum RunWarning {
         sensor: &'static str,
         readings: usize,
     },
-    /// Rejected readings that repeated the reading before exactly: a stuck sensor, whose
+    /// Rejected readings that repeated the readings before exactly: a stuck sensor, whose
     /// gate was never reopened for them.
     StuckReadings {
         sensor: &'static str,
@@ -196,7 +196,7 @@ impl std::fmt::Display for RunWarning {
             ),
             RunWarning::StuckReadings { sensor, readings } => write!(
                 f,
-                "{sensor}: {readings} readings repeated the one before exactly and disagreed \
+                "{sensor}: {readings} readings repeated the ones before exactly and disagreed \
                  with the filter: a stuck sensor? None of them was applied (see \
                  residuals.parquet)"
             ),

@@ -229,7 +229,7 @@ pub trait Aid: Sync {
     fn reading(&self, _i: usize) -> Option<SensorReading> {
         None
     }
-    /// Whether reading `i` repeats reading `i - 1` exactly, every component: a stuck
+    /// Whether reading `i` repeats the readings before it exactly, every component: a stuck
     /// sensor's sign (such a reading never reopens the gate). False for sources whose
     /// readings may repeat honestly.
     fn repeats(&self, _i: usize) -> bool {

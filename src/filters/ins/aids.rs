@@ -55,7 +55,7 @@ impl DvlAid<'_> {
     }
 
     /// The readings in range, their velocity in the body axes (the nominal mounting). A
-    /// reading that repeats the one before exactly is left out: a stuck DVL's stretch is a
+    /// reading that repeats the two before exactly is left out: a stuck DVL's stretch is a
     /// gap to whoever plans around the DVL or learns from it.
     pub fn in_range_body_velocities(&self) -> Vec<BodyVelocityReading> {
         let body_from_dvl = self.mounting.dvl_from_body.inverse();
@@ -98,9 +98,12 @@ impl Aid for DvlAid<'_> {
     fn reading(&self, i: usize) -> Option<SensorReading> {
         Some(SensorReading::three(self.readings[i].velocity))
     }
-    /// Three noisy components repeating to the bit: the DVL has stopped measuring.
+    /// Three noisy components repeating to the bit, three readings running: the DVL has
+    /// stopped measuring. (Two in a row happen to a DVL that reports whole mm/s with less
+    /// than a mm/s of noise; three, about a thousandth as often.)
     fn repeats(&self, i: usize) -> bool {
-        i > 0 && self.readings[i].velocity == self.readings[i - 1].velocity
+        let v = |k: usize| self.readings[k].velocity;
+        i >= 2 && v(i) == v(i - 1) && v(i - 1) == v(i - 2)
     }
 }
 

@@ -101,7 +101,7 @@ pub struct Residual {
     pub accepted: bool,
     /// This reading's term of the pass's log-likelihood ([`ForwardRun::log_likelihood`]).
     pub log_likelihood: f64,
-    /// The reading repeated the one before exactly (a stuck sensor's sign).
+    /// The reading repeated the ones before exactly (a stuck sensor's sign).
     pub repeats: bool,
 }
 
@@ -162,7 +162,7 @@ pub struct ForwardRun {
     pub longest_rejected_run: PerSensor,
     /// Readings skipped because their innovation covariance was not positive definite.
     pub not_positive_definite: PerSensor,
-    /// Rejected readings that repeated the reading before exactly: a stuck sensor.
+    /// Rejected readings that repeated the readings before exactly: a stuck sensor.
     pub repeated_rejected: PerSensor,
     pub imu_gaps: Vec<ImuGap>,
     /// Log-likelihood of the innovations, `-1/2 sum (NIS + ln det S + m ln 2 pi)`, with each
@@ -248,7 +248,7 @@ struct Pass<'a> {
 #[derive(Debug, Clone, Copy)]
 struct AsGiven {
     reading: Option<SensorReading>,
-    /// It repeats the reading before exactly.
+    /// It repeats the readings before exactly.
     repeats: bool,
 }
 

@@ -13,9 +13,9 @@
 //!   readings; those are the filter's, not the sensor's, so the readings are judged).
 //! - **An erratic sensor**: the readings scatter far beyond its noise. They do not agree,
 //!   and the gate stays shut.
-//! - **A stuck sensor**: every reading repeats the one before exactly (a real sensor's noise
-//!   makes an exact repeat of every component all but impossible). A reading that repeats
-//!   its predecessor never reopens the gate, however well the readings agree: a stuck
+//! - **A stuck sensor**: every reading repeats the ones before exactly (a real sensor's noise
+//!   makes a run of exact repeats of every component all but impossible). A reading that
+//!   repeats its predecessors never reopens the gate, however well the readings agree: a stuck
 //!   sensor agrees with itself perfectly.
 
 use crate::filters::kalman::chi_square_quantile;
