@@ -172,4 +172,49 @@ mod tests {
         w.push(r(0.0), 0);
         assert!(w.readings.is_empty());
     }
+
+    /// The judgement sees the readings' scatter about a line, nothing else: any offset and
+    /// any steady drift leave it as it was. And a healthy sensor is refused only as often as
+    /// the bound allows (0.1 % at five times its noise figure, less below): never, in 2000
+    /// seeded windows of its noise at one to five times its figure.
+    #[test]
+    fn offsets_and_drifts_do_not_matter_and_healthy_noise_passes() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut refused = 0;
+        for _ in 0..2000 {
+            let scale: f64 = rng.random_range(1.0..5.0);
+            let noise: Vec<[f64; 3]> = (0..20)
+                .map(|_| std::array::from_fn(|_| scale * noise(&mut rng)))
+                .collect();
+            let offset: [f64; 3] = std::array::from_fn(|_| rng.random_range(-5.0..5.0));
+            let drift: [f64; 3] = std::array::from_fn(|_| rng.random_range(-0.5..0.5));
+            let make = |moved: bool| {
+                let mut w = RecentRejections::default();
+                for (k, n) in noise.iter().enumerate() {
+                    let t_s = 0.2 * k as f64;
+                    let value = std::array::from_fn(|c| {
+                        n[c] + if moved {
+                            offset[c] + drift[c] * t_s
+                        } else {
+                            0.0
+                        }
+                    });
+                    let reading = Rejected {
+                        t_s,
+                        value,
+                        variance: [0.01f64.powi(2); 3],
+                        dims: 3,
+                    };
+                    w.push(reading, 20);
+                }
+                w
+            };
+            let (still, moved) = (make(false), make(true));
+            let scatter =
+                |w: &RecentRejections| (0..3).map(|c| w.detrended_scatter(c)).sum::<f64>();
+            assert!((scatter(&still) - scatter(&moved)).abs() < 1e-6 * scatter(&still).max(1.0));
+            refused += usize::from(!moved.agree());
+        }
+        assert_eq!(refused, 0);
+    }
 }
