@@ -6,6 +6,7 @@
 use crate::common;
 use hindsight::contract::Dvl;
 use hindsight::filters::ins::aiding::Sensor;
+use hindsight::filters::ins::driver::Residual;
 use hindsight::ingest::Log;
 use hindsight::recon::config::Config;
 use hindsight::recon::pipeline::{self, Outcome, Warning};
@@ -56,15 +57,20 @@ fn run(streams: &Streams<'_>, log: &Log) -> (Outcome, Scores) {
     (outcome, scores(&forward).unwrap())
 }
 
-/// DVL residuals in `[from, to)`: (count, accepted).
-fn dvl_residuals(outcome: &Outcome, from: i64, to: i64) -> (usize, usize) {
-    let within: Vec<_> = outcome
+/// DVL residuals in `[from, to)`.
+fn dvl_within(outcome: &Outcome, from: i64, to: i64) -> Vec<&Residual> {
+    outcome
         .reconstruction
         .run
         .residuals
         .iter()
         .filter(|r| r.sensor == Sensor::Dvl && (from..to).contains(&r.stamp_ns))
-        .collect();
+        .collect()
+}
+
+/// DVL residuals in `[from, to)`: (count, accepted).
+fn dvl_residuals(outcome: &Outcome, from: i64, to: i64) -> (usize, usize) {
+    let within = dvl_within(outcome, from, to);
     (within.len(), within.iter().filter(|r| r.accepted).count())
 }
 
@@ -196,12 +202,8 @@ fn an_erratic_dvl_never_reopens_its_gate() {
     );
     // A reading applied though its NIS is beyond the gate's bound went in by a reopened gate.
     let bound = hindsight::filters::kalman::chi_square_quantile(3, 0.999);
-    let reopened = outcome
-        .reconstruction
-        .run
-        .residuals
+    let reopened = dvl_within(&outcome, from, to)
         .iter()
-        .filter(|r| r.sensor == Sensor::Dvl && (from..to).contains(&r.stamp_ns))
         .filter(|r| r.accepted && r.nis > bound)
         .count();
     eprintln!(
