@@ -12,6 +12,7 @@ pub mod attitude;
 pub mod config;
 pub mod contract;
 pub mod dense;
+pub mod feed;
 pub mod filters;
 pub mod geodesy;
 pub mod geomag;

@@ -24,7 +24,7 @@ use super::config::AlignmentConfig;
 use super::heading::HeadingSource;
 use super::init::Initialisation;
 use crate::angle::wrap_pi;
-use crate::filters::ins::driver::{run_forward, Inputs, Residual, Settings};
+use crate::filters::ins::driver::{run_forward, Inputs, Keep, Residual, Settings};
 use crate::filters::ins::error_state::idx;
 use crate::filters::kalman::chi_square_quantile;
 use crate::smooth::rts::smooth;
@@ -130,6 +130,11 @@ fn score_bank(
     hypotheses: &[HypothesisPrior],
 ) -> (Vec<f64>, Vec<f64>) {
     let gate_p = settings.aiding.gate_probability.unwrap_or(0.999);
+    // Only the residuals are scored.
+    let cut = &Inputs {
+        keep: Keep::Nothing,
+        ..*cut
+    };
     let scores: Vec<f64> = hypotheses
         .par_iter()
         .map(|&(yaw, sigma, _)| {

@@ -300,12 +300,17 @@ pub fn forward_with(
     let started = Instant::now();
     take_start(start, config, &settings, &inputs, &mut init)?;
     let mut aid_notes: Vec<AidNote> = Vec::new();
-    let model = with_model(config, mission, shared_attitude, &settings, &inputs, &init)?;
+    let model = with_model(config, mission)?;
     let attitude = match model {
-        Ok(Some((model, attitude))) => {
-            aids.push(Box::new(model_aid(
-                &model, &streams, &attitude, config, &settings,
-            )));
+        Ok(Some(model)) => {
+            let (aid, attitude) = model_velocity::aid_beside_attitude(
+                shared_attitude,
+                &settings,
+                &inputs,
+                &init,
+                |attitude| model_aid(&model, &streams, attitude, config, &settings),
+            );
+            aids.push(Box::new(aid));
             Some(attitude)
         }
         Ok(None) => None,
@@ -370,31 +375,17 @@ fn take_start(
     }
 }
 
-/// The vehicle model and the attitude it runs on, when the configuration uses the model aid
-/// (seed 000): the attitude of a pass without it (this one's, or one handed in). `Err` is the
-/// note of a model that cannot be used.
+/// The vehicle model, when the configuration uses the model aid (seed 000). `Err` is the note
+/// of a model that cannot be used.
 fn with_model(
     config: &Config,
     mission: &Mission,
-    shared_attitude: Option<AttitudeTrack>,
-    settings: &crate::filters::ins::driver::Settings,
-    inputs: &Inputs<'_>,
-    init: &Initialisation,
-) -> Result<
-    Result<Option<(crate::vehicle::six_dof::model::SixDof, AttitudeTrack)>, AidNote>,
-    ReconError,
-> {
+) -> Result<Result<Option<crate::vehicle::six_dof::model::SixDof>, AidNote>, ReconError> {
     if !config.uses(Sensor::ModelVelocity) {
         return Ok(Ok(None));
     }
     match model_velocity::model_for(&config.model_velocity, mission).map_err(ReconError::Vehicle)? {
-        Ok(model) => {
-            let attitude = match shared_attitude {
-                Some(track) => track,
-                None => attitude_of_pass(settings, inputs, init)?,
-            };
-            Ok(Ok(Some((model, attitude))))
-        }
+        Ok(model) => Ok(Ok(Some(model))),
         Err(why) => Ok(Err(AidNote {
             sensor: Sensor::ModelVelocity,
             text: format!("model_velocity: not used: {why}"),
@@ -519,28 +510,11 @@ pub fn settled_start(
     Ok(init)
 }
 
-/// The attitude of a pass without the model aid: what drives the model.
-fn attitude_of_pass(
-    settings: &crate::filters::ins::driver::Settings,
-    inputs: &Inputs<'_>,
-    init: &Initialisation,
-) -> Result<AttitudeTrack, ReconError> {
-    let run = run_forward(
-        settings,
-        &Inputs {
-            keep: Keep::Navigation,
-            ..*inputs
-        },
-        init.estimate,
-    );
-    Ok(Arc::new(model_velocity::attitude_track(&run.navigation)))
-}
-
 /// Seed 000's model aid over the log, driven by `attitude`.
 fn model_aid(
     model: &crate::vehicle::six_dof::model::SixDof,
     streams: &Streams<'_>,
-    attitude: &[crate::filters::velocity::model_aided::AttitudeAt],
+    attitude: &dyn crate::filters::velocity::model_aided::AttitudeSource,
     config: &Config,
     settings: &crate::filters::ins::driver::Settings,
 ) -> crate::filters::ins::aids::ModelVelocityAid {

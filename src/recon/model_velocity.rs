@@ -3,15 +3,19 @@
 //! fits the vehicle before its velocities are trusted.
 
 use super::config::{ModelMethod, ModelVelocityConfig};
+use super::init::Initialisation;
+use super::AttitudeTrack;
 use super::Streams;
+use crate::feed::{Closer, Feed};
 use crate::filters::ins::aids::{ModelVelocityAid, ModelVelocityUse};
-use crate::filters::ins::driver::NavAt;
+use crate::filters::ins::driver::{Inputs, Keep, NavAt, Running, Settings};
 use crate::filters::velocity::model_aided::{
-    self, AttitudeAt, BodyVelocityReading, Mode, ModelAidedFilter,
+    self, AttitudeAt, AttitudeSource, BodyVelocityReading, Mode, ModelAidedFilter,
 };
 use crate::ingest::Mission;
 use crate::vehicle::six_dof::description::{Vehicle, BUILT_IN};
 use crate::vehicle::six_dof::model::SixDof;
+use std::sync::Arc;
 
 /// A vehicle the configuration names cannot be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -89,12 +93,62 @@ pub fn attitude_track(navigation: &[NavAt]) -> Vec<AttitudeAt> {
         .collect()
 }
 
+/// Log time the attitude pass runs between handing its attitude to the model's filter, ns.
+const ATTITUDE_CHUNK_NS: i64 = 10_000_000_000;
+
+/// The model's aid and the attitude that drove it: the track handed in, else the attitude of a
+/// forward pass without the aid, run on a thread beside the model's filter (which waits for
+/// the attitude it needs) rather than before it.
+pub fn aid_beside_attitude<A>(
+    shared: Option<AttitudeTrack>,
+    settings: &Settings,
+    inputs: &Inputs<'_>,
+    init: &Initialisation,
+    aid: impl FnOnce(&dyn AttitudeSource) -> A,
+) -> (A, AttitudeTrack) {
+    if let Some(track) = shared {
+        return (aid(&*track), track);
+    }
+    let feed = Feed::new();
+    let made = std::thread::scope(|s| {
+        s.spawn(|| attitude_pass(settings, inputs, init, &feed));
+        aid(&feed)
+    });
+    (made, Arc::new(feed.into_items()))
+}
+
+/// The attitude of a forward pass from `init` without the model's aid, into `feed` as it goes.
+fn attitude_pass(
+    settings: &Settings,
+    inputs: &Inputs<'_>,
+    init: &Initialisation,
+    feed: &Feed<AttitudeAt>,
+) {
+    let _closer = Closer(feed);
+    let inputs = Inputs {
+        keep: Keep::Navigation,
+        ..*inputs
+    };
+    let (Some(first), Some(last)) = (inputs.imu.first(), inputs.imu.last()) else {
+        return;
+    };
+    let Some(mut running) = Running::start(settings, &inputs, init.estimate) else {
+        return;
+    };
+    let mut until_ns = first.stamp_ns;
+    while until_ns < last.stamp_ns {
+        until_ns = until_ns.saturating_add(ATTITUDE_CHUNK_NS);
+        running.run_until(until_ns);
+        feed.extend(attitude_track(&running.take_navigation()));
+    }
+}
+
 /// The aid: the filter run over the log with `attitude` driving the model, refused (with the
 /// reason as its note) when the model cannot run or does not fit the vehicle.
 pub fn aid(
     model: &SixDof,
     streams: &Streams<'_>,
-    attitude: &[AttitudeAt],
+    attitude: &dyn AttitudeSource,
     dvl_in_range: &[BodyVelocityReading],
     config: &ModelVelocityConfig,
     filter: &ModelAidedFilter,

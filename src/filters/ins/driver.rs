@@ -254,69 +254,111 @@ struct AsGiven {
 
 /// Runs the forward filter from `initial` (the estimate at the first IMU sample).
 pub fn run_forward(settings: &Settings, inputs: &Inputs<'_>, initial: Estimate) -> ForwardRun {
-    let Some(first) = inputs.imu.first() else {
-        return ForwardRun::default();
-    };
-    let t0 = first.stamp_ns;
-    let aiding = &settings.aiding;
-    let gate = |m: usize| aiding.gate_probability.map(|p| chi_square_quantile(m, p));
-    let cap = |m: usize| gate(m).unwrap_or_else(|| chi_square_quantile(m, 0.999));
-    // Measurements at or before the first IMU sample predate the initial estimate.
-    let at = Cursor {
-        aids: inputs
-            .aids
-            .iter()
-            .map(|aid| first_after(aid.as_ref(), t0))
-            .collect(),
-        out: inputs.output_stamps_ns.partition_point(|&s| s <= t0),
-    };
-    let mut pass = Pass {
-        consecutive_rejections: PerSensor::default(),
-        recent: Default::default(),
-        settings,
-        inputs,
-        gate: [None, gate(1), gate(2), gate(3)],
-        nis_cap: [0.0, cap(1), cap(2), cap(3)],
-        est: initial,
-        cov_nav: initial.nav,
-        f_dt_sum: Vector3::zeros(),
-        w_dt_sum: Vector3::zeros(),
-        cov_dt_s: 0.0,
-        gap_since_cov: false,
-        step_phi: ErrorMatrix::identity(),
-        step_q: ErrorState::zeros(),
-        omega_nb_body: Vector3::zeros(),
-        at,
-        run: ForwardRun::default(),
-    };
-    for aid in inputs.aids {
-        let left = aid.left_out();
-        pass.run.by_interval[aid.sensor()] += left.by_interval;
-        pass.run.disturbed[aid.sensor()] += left.disturbed;
+    match Running::start(settings, inputs, initial) {
+        Some(mut running) => {
+            running.run_until(i64::MAX);
+            running.finish()
+        }
+        None => ForwardRun::default(),
     }
-    // The first epoch: the estimate is the initial one, its step the identity.
-    pass.keep(t0, true, &NavPoint::from(&initial));
+}
 
-    let usual_dt = usual_imu_interval_s(inputs.imu).unwrap_or(0.01);
-    let gap_s = settings.propagation.imu_gap_s.max(3.0 * usual_dt);
-    let samples = inputs.imu.len();
-    for (k, pair) in inputs.imu.windows(2).enumerate() {
-        crate::progress::tell(inputs.progress, k, samples, 1 << 16);
-        let (a, b) = (&pair[0], &pair[1]);
+/// A forward pass that can be stopped at a time, looked at and carried on: a bank of
+/// hypotheses drops the ones the data have ruled out without running them to the end.
+pub struct Running<'a> {
+    pass: Pass<'a>,
+    /// The IMU interval to integrate next (from sample `next` to `next + 1`).
+    next: usize,
+    usual_dt: f64,
+    gap_s: f64,
+}
+
+impl<'a> Running<'a> {
+    /// The pass at the first IMU sample, its first epoch kept (`None`: no IMU samples).
+    pub fn start(
+        settings: &'a Settings,
+        inputs: &'a Inputs<'a>,
+        initial: Estimate,
+    ) -> Option<Self> {
+        let first = inputs.imu.first()?;
+        let t0 = first.stamp_ns;
+        let aiding = &settings.aiding;
+        let gate = |m: usize| aiding.gate_probability.map(|p| chi_square_quantile(m, p));
+        let cap = |m: usize| gate(m).unwrap_or_else(|| chi_square_quantile(m, 0.999));
+        // Measurements at or before the first IMU sample predate the initial estimate.
+        let at = Cursor {
+            aids: inputs
+                .aids
+                .iter()
+                .map(|aid| first_after(aid.as_ref(), t0))
+                .collect(),
+            out: inputs.output_stamps_ns.partition_point(|&s| s <= t0),
+        };
+        let mut pass = Pass {
+            consecutive_rejections: PerSensor::default(),
+            recent: Default::default(),
+            settings,
+            inputs,
+            gate: [None, gate(1), gate(2), gate(3)],
+            nis_cap: [0.0, cap(1), cap(2), cap(3)],
+            est: initial,
+            cov_nav: initial.nav,
+            f_dt_sum: Vector3::zeros(),
+            w_dt_sum: Vector3::zeros(),
+            cov_dt_s: 0.0,
+            gap_since_cov: false,
+            step_phi: ErrorMatrix::identity(),
+            step_q: ErrorState::zeros(),
+            omega_nb_body: Vector3::zeros(),
+            at,
+            run: ForwardRun::default(),
+        };
+        for aid in inputs.aids {
+            let left = aid.left_out();
+            pass.run.by_interval[aid.sensor()] += left.by_interval;
+            pass.run.disturbed[aid.sensor()] += left.disturbed;
+        }
+        // The first epoch: the estimate is the initial one, its step the identity.
+        pass.keep(t0, true, &NavPoint::from(&initial));
+        let usual_dt = usual_imu_interval_s(inputs.imu).unwrap_or(0.01);
+        Some(Running {
+            pass,
+            next: 0,
+            usual_dt,
+            gap_s: settings.propagation.imu_gap_s.max(3.0 * usual_dt),
+        })
+    }
+
+    /// Integrates the IMU samples stamped up to `end_ns`, with the measurements and outputs
+    /// due on the way.
+    pub fn run_until(&mut self, end_ns: i64) {
+        let imu = self.pass.inputs.imu;
+        let samples = imu.len();
+        while self.next + 1 < samples && imu[self.next + 1].stamp_ns <= end_ns {
+            let k = self.next;
+            self.next += 1;
+            crate::progress::tell(self.pass.inputs.progress, k, samples, 1 << 16);
+            self.integrate(&imu[k], &imu[k + 1]);
+        }
+    }
+
+    /// One IMU interval: a step, or interpolated steps over a gap (recorded as one).
+    fn integrate(&mut self, a: &Imu, b: &Imu) {
+        let pass = &mut self.pass;
         let dt = (b.stamp_ns - a.stamp_ns) as f64 * 1e-9;
         if dt <= 0.0 {
-            continue; // ingest sorts and removes duplicates; nothing to integrate
+            return; // ingest sorts and removes duplicates; nothing to integrate
         }
         let (sa, sb) = (imu_sample(a), imu_sample(b));
-        if dt <= gap_s {
+        if dt <= self.gap_s {
             pass.advance(&sa, &sb, dt, b.stamp_ns, false);
-            continue;
+            return;
         }
         pass.run.imu_gaps.push(ImuGap {
             from_ns: a.stamp_ns,
             to_ns: b.stamp_ns,
         });
-        let steps = (dt / usual_dt).ceil().max(1.0) as i64;
+        let steps = (dt / self.usual_dt).ceil().max(1.0) as i64;
         let span_ns = b.stamp_ns - a.stamp_ns;
         let mut prev = sa;
         for k in 1..=steps {
@@ -327,7 +369,22 @@ pub fn run_forward(settings: &Settings, inputs: &Inputs<'_>, initial: Estimate) 
             prev = next;
         }
     }
-    pass.run
+
+    /// What the pass has kept so far.
+    pub fn so_far(&self) -> &ForwardRun {
+        &self.pass.run
+    }
+
+    /// The navigation states kept since the last call (with [`Keep::Navigation`]), handed
+    /// over.
+    pub fn take_navigation(&mut self) -> Vec<NavAt> {
+        std::mem::take(&mut self.pass.run.navigation)
+    }
+
+    /// What the pass kept.
+    pub fn finish(self) -> ForwardRun {
+        self.pass.run
+    }
 }
 
 impl Pass<'_> {

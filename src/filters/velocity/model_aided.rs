@@ -24,6 +24,7 @@
 //! is not modelled (the EM log's speed through water is taken as the body speed).
 
 use crate::contract::{ControlSurfaces, Depth, Imu, Propeller, SpeedLog};
+use crate::feed::Feed;
 use crate::filters::kalman::{self, chi_square_quantile, Gaussian};
 use crate::geodesy;
 use crate::vehicle::six_dof::model::{Attitude, SixDof};
@@ -95,6 +96,57 @@ pub struct AttitudeAt {
     pub lat_rad: f64,
 }
 
+/// The attitude that drives the model, looked up by time: a whole track, or a [`Feed`] that
+/// a pass beside this filter is still making (a lookup then waits for the part it needs).
+pub trait AttitudeSource: Sync {
+    /// The first attitude.
+    fn first(&self) -> Option<AttitudeAt>;
+    /// The latest attitude at or before `t_ns`, else the first.
+    fn latest_at(&self, t_ns: i64) -> Option<AttitudeAt>;
+    /// Whether the track reaches `t_ns` (has an attitude stamped at or after it).
+    fn reaches(&self, t_ns: i64) -> bool;
+}
+
+/// The latest at or before `t_ns`, else the first.
+fn latest_or_first(track: &[AttitudeAt], t_ns: i64) -> Option<AttitudeAt> {
+    latest(track, t_ns, |a| a.stamp_ns)
+        .or(track.first())
+        .copied()
+}
+
+impl AttitudeSource for Vec<AttitudeAt> {
+    fn first(&self) -> Option<AttitudeAt> {
+        self.as_slice().first().copied()
+    }
+
+    fn latest_at(&self, t_ns: i64) -> Option<AttitudeAt> {
+        latest_or_first(self, t_ns)
+    }
+
+    fn reaches(&self, t_ns: i64) -> bool {
+        self.last().is_some_and(|a| a.stamp_ns >= t_ns)
+    }
+}
+
+impl AttitudeSource for Feed<AttitudeAt> {
+    fn first(&self) -> Option<AttitudeAt> {
+        self.read_when(|track| !track.is_empty(), |track| track.first().copied())
+    }
+
+    fn latest_at(&self, t_ns: i64) -> Option<AttitudeAt> {
+        // Settled once an attitude after `t_ns` has come (or none will).
+        self.read_when(
+            |track| track.last().is_some_and(|a| a.stamp_ns > t_ns),
+            |track| latest_or_first(track, t_ns),
+        )
+    }
+
+    fn reaches(&self, t_ns: i64) -> bool {
+        let reached = |track: &[AttitudeAt]| track.last().is_some_and(|a| a.stamp_ns >= t_ns);
+        self.read_when(reached, reached)
+    }
+}
+
 /// A DVL reading in range: velocity over ground in the body axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BodyVelocityReading {
@@ -103,11 +155,11 @@ pub struct BodyVelocityReading {
 }
 
 /// What the filter reads, each time-sorted.
-#[derive(Debug, Clone, Copy)]
+#[derive(Clone, Copy)]
 pub struct Inputs<'a> {
     pub fins: &'a [ControlSurfaces],
     pub propeller: &'a [Propeller],
-    pub attitude: &'a [AttitudeAt],
+    pub attitude: &'a dyn AttitudeSource,
     pub imu: &'a [Imu],
     pub depth: &'a [Depth],
     pub eml: &'a [SpeedLog],
@@ -234,8 +286,7 @@ fn actuation_at(inputs: &Inputs<'_>, t_ns: i64) -> Actuation {
 }
 
 /// The model's attitude inputs (roll, pitch, Earth's rate in the body) at `t_ns`.
-fn attitude_at(inputs: &Inputs<'_>, t_ns: i64) -> Attitude {
-    let a = latest(inputs.attitude, t_ns, |a| a.stamp_ns).unwrap_or(&inputs.attitude[0]);
+fn attitude_at(a: &AttitudeAt) -> Attitude {
     let (roll_rad, pitch_rad, _) = a.ned_from_body.euler_angles();
     let earth_rate_body = a.ned_from_body.inverse() * geodesy::earth_rate_ned(a.lat_rad);
     Attitude {
@@ -257,7 +308,7 @@ pub fn run(
     if inputs.propeller.is_empty() {
         return Err(ModelRefused::NoPropeller);
     }
-    let (Some(first), Some(last)) = (inputs.attitude.first(), inputs.attitude.last()) else {
+    let Some(first) = inputs.attitude.first() else {
         return Err(ModelRefused::NoAttitude);
     };
     let step_ns = (settings.step_s * 1e9).round() as i64;
@@ -283,13 +334,13 @@ pub fn run(
     let proposed = settings.mode == Mode::Proposed;
     let updates = Updates::new(settings, inputs);
     let mut out = ModelRun {
-        velocities: Vec::with_capacity(((last.stamp_ns - t0) / step_ns.max(1)) as usize + 1),
+        velocities: Vec::with_capacity(capacity(inputs.imu, t0, step_ns)),
         ..ModelRun::default()
     };
 
     let mut t_ns = t0;
-    while t_ns + step_ns <= last.stamp_ns {
-        let at = attitude_at(inputs, t_ns);
+    while inputs.attitude.reaches(t_ns + step_ns) {
+        let at = attitude_at(&inputs.attitude.latest_at(t_ns).unwrap_or(first));
         let act = actuation_at(inputs, t_ns);
         // Simulator and the error's prediction over [t, t + T].
         let g = depth_rate_gradient(at.roll_rad, at.pitch_rad);
@@ -317,6 +368,13 @@ pub fn run(
         t_ns = next_ns;
     }
     Ok(out)
+}
+
+/// Steps from `t0` to the IMU's last sample (the attitude's track ends there, or sooner).
+fn capacity(imu: &[Imu], t0: i64, step_ns: i64) -> usize {
+    imu.last().map_or(0, |last| {
+        ((last.stamp_ns - t0).max(0) / step_ns.max(1)) as usize + 1
+    })
 }
 
 /// One step of the filter, `(from_ns, to_ns]`, with the simulator's state at its end.
