@@ -30,6 +30,7 @@ use crate::filters::velocity::model_aided::BodyVelocityReading;
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// Length of a window with its own gravity and drift, s.
@@ -568,17 +569,19 @@ fn windows(
     let end_ns = first.stamp_ns + (MAX_SPAN_S * 1e9) as i64;
     let dvl = &dvl[..dvl.partition_point(|d| d.stamp_ns <= end_ns)];
     let window_ns = (WINDOW_S * 1e9) as i64;
-    let mut out = Vec::new();
+    let mut spans = Vec::new();
     let mut start = 0;
     while start < dvl.len() {
         let end = dvl.partition_point(|d| d.stamp_ns < dvl[start].stamp_ns + window_ns);
         let last = end.saturating_sub(1).max(start);
-        if let Some(w) = window(imu, dvl, start, last, lever_arm_body_m) {
-            out.push(w);
-        }
+        spans.push((start, last));
         start = last + 1;
     }
-    out
+    // Each window integrates its own IMU slice: in parallel, kept in order.
+    spans
+        .into_par_iter()
+        .filter_map(|(first, last)| window(imu, dvl, first, last, lever_arm_body_m))
+        .collect()
 }
 
 /// The grid's minimum, refined by a parabola through it and its neighbours.
@@ -696,7 +699,7 @@ pub fn estimate(
 /// is left out).
 fn fit_grid<'a>(windows: &'a [Window], delays: &[f64]) -> Vec<(&'a Window, Vec<Reduced>)> {
     windows
-        .iter()
+        .par_iter()
         .filter_map(|w| {
             let row = delays
                 .iter()
@@ -905,8 +908,9 @@ fn with_gyro_bias(windows: &mut [Window]) {
     let coarse: Vec<f64> = (-6..=6).map(|k| k as f64 * 0.5).collect();
     let mut best = |on: bool| -> (f64, usize) {
         windows.iter_mut().for_each(|w| w.gyro_bias = on);
-        windows
-            .iter()
+        // Each window's best fit in parallel; summed in order (the same sum every run).
+        let fits: Vec<(f64, usize)> = windows
+            .par_iter()
             .filter_map(|w| {
                 let ss = coarse
                     .iter()
@@ -914,6 +918,8 @@ fn with_gyro_bias(windows: &mut [Window]) {
                     .fold(f64::INFINITY, f64::min);
                 ss.is_finite().then(|| (ss, dof(w)))
             })
+            .collect();
+        fits.into_iter()
             .fold((0.0, 0), |(s, n), (ss, d)| (s + ss, n + d))
     };
     let (off, _) = best(false);
