@@ -164,36 +164,56 @@ fn reconstruct_writes_trajectory_residuals_errors_and_summary() {
             "tuned.toml"
         ]
     );
-    // trajectory.mcap: each solution's rows as Foxglove messages, the smoothed fix at the
-    // trajectory's latitude.
+    // trajectory.mcap: each solution's rows as Foxglove messages (ROS 2 CDR), the smoothed
+    // fix at the trajectory's latitude, read by the ingest's ROS 2 reader from the definition
+    // the file carries.
     let bytes = std::fs::read(out.join("trajectory.mcap")).unwrap();
     let mut counts = std::collections::BTreeMap::<(String, String), usize>::new();
-    let mut first_fix: Option<serde_json::Value> = None;
+    let mut first_fix: Option<(f64, f64)> = None;
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
-        let schema = m.channel.schema.as_ref().unwrap().name.clone();
+        let schema = m.channel.schema.as_ref().unwrap();
+        assert_eq!(
+            (
+                m.channel.message_encoding.as_str(),
+                schema.encoding.as_str()
+            ),
+            ("cdr", "ros2msg")
+        );
         if m.channel.topic == "/hindsight/smoothed/fix" && first_fix.is_none() {
-            first_fix = Some(serde_json::from_slice(&m.data).unwrap());
+            use hindsight::ingest::ros::{cdr::Plan, msg};
+            let text = std::str::from_utf8(&schema.data).unwrap();
+            let defs = msg::parse(&schema.name, text).unwrap();
+            let plan = Plan::new(&defs, &["latitude", "position_covariance[8]"], &[]).unwrap();
+            let got = plan.read(&m.data).unwrap();
+            first_fix = Some((got.number[0], got.number[1]));
         }
-        *counts.entry((m.channel.topic.clone(), schema)).or_default() += 1;
+        *counts
+            .entry((m.channel.topic.clone(), schema.name.clone()))
+            .or_default() += 1;
     }
     let expected: Vec<((String, String), usize)> = [
-        ("/hindsight/forward/fix", "foxglove.LocationFix"),
-        ("/hindsight/forward/pose", "foxglove.PoseInFrame"),
-        ("/hindsight/smoothed/fix", "foxglove.LocationFix"),
-        ("/hindsight/smoothed/pose", "foxglove.PoseInFrame"),
+        ("/hindsight/forward/fix", "foxglove_msgs/msg/LocationFix"),
+        ("/hindsight/forward/pose", "foxglove_msgs/msg/PoseInFrame"),
+        ("/hindsight/smoothed/fix", "foxglove_msgs/msg/LocationFix"),
+        ("/hindsight/smoothed/pose", "foxglove_msgs/msg/PoseInFrame"),
     ]
     .into_iter()
     .map(|(t, s)| ((t.to_string(), s.to_string()), per_solution))
     .collect();
     assert_eq!(counts.into_iter().collect::<Vec<_>>(), expected);
-    let fix = first_fix.unwrap();
+    let (latitude, up_variance) = first_fix.unwrap();
     let smoothed_latitude = trajectory_column(&trajectory, "latitude_deg", "smoothed")[0];
     assert!(
-        (fix["latitude"].as_f64().unwrap() - smoothed_latitude).abs() < 1e-9,
-        "{fix}"
+        (latitude - smoothed_latitude).abs() < 1e-9,
+        "{latitude} against {smoothed_latitude}"
     );
-    assert_eq!(fix["position_covariance"].as_array().unwrap().len(), 9);
+    // The up variance is the down sigma squared.
+    let down_sigma = trajectory_column(&trajectory, "down_sigma_m", "smoothed")[0];
+    assert!(
+        (up_variance.sqrt() - down_sigma).abs() < 1e-6 * down_sigma,
+        "{up_variance} against {down_sigma}^2"
+    );
     // Self-tuning's figures are reported and reusable as a configuration that fixes them.
     let tuning = &summary["tuning"];
     assert_eq!(tuning["imu"]["source"], "estimated", "{tuning}");

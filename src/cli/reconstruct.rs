@@ -2,6 +2,8 @@
 
 use super::console::{out, say};
 mod report;
+mod tables;
+use tables::Tables;
 
 use super::choices::{HeadingChoice, ImuGrade};
 use super::console;
@@ -12,19 +14,17 @@ use hindsight::contract::Truth;
 use hindsight::filters::ins::aiding::Sensor;
 use hindsight::filters::ins::record::Solution;
 use hindsight::output::atomic::Staging;
-use hindsight::output::parquet::{write_batches, ROWS_PER_BATCH};
 use hindsight::output::recon_tables;
 use hindsight::recon::calibration::{self, DvlCalibrationReport, WaterReport};
 use hindsight::recon::config::Config;
 use hindsight::recon::consistency::{self, Consistency};
 use hindsight::recon::pipeline::{self, Stage, Warning};
 use hindsight::recon::plan::{Part, Plan};
-use hindsight::recon::score::{self, EpochError, Scores};
+use hindsight::recon::score::{self, Scores};
 use hindsight::recon::stats::RunWarning;
-use hindsight::recon::stats::{self, SensorStats};
+use hindsight::recon::stats::SensorStats;
 use hindsight::recon::tune::Tuning;
-use hindsight::recon::{self, Reconstruction, Streams};
-use rayon::prelude::*;
+use hindsight::recon::{Reconstruction, Streams};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -46,9 +46,10 @@ use std::time::Instant;
 ///   trajectory.parquet  forward and smoothed solutions at --output-rate: position (lat/lon
 ///                       and north/east/down in the mission frame), NED velocity,
 ///                       roll/pitch/yaw, their 1-sigma, gyro and accelerometer biases
-///   trajectory.mcap     the same rows for Foxglove: foxglove.LocationFix (map panel) and
-///                       foxglove.PoseInFrame (3-D panel, `map` = east/north/up from the
-///                       origin) on /hindsight/{forward,smoothed}/{fix,pose}
+///   trajectory.mcap     the same rows for Foxglove: LocationFix (map panel) and PoseInFrame
+///                       (3-D panel, `map` = east/north/up from the origin) on
+///                       /hindsight/{forward,smoothed}/{fix,pose}, as ROS 2 messages
+///                       (foxglove_msgs, CDR)
 ///   residuals.parquet   every aiding measurement: innovation, predicted sigma, NIS, accepted
 ///   summary.json        the plan, inputs, initialisation, tuning, counts, rejections, NIS
 ///                       per sensor, distance, final 1-sigma, run time per stage, and truth
@@ -384,78 +385,6 @@ fn ingest_for(
     options
 }
 
-/// `trajectory.mcap`: the forward and smoothed solutions at the output rows as Foxglove
-/// messages (`foxglove.LocationFix` on `/hindsight/<solution>/fix`, `foxglove.PoseInFrame`
-/// on `/hindsight/<solution>/pose`), logged at their stamps.
-fn write_trajectory_mcap(
-    file: std::fs::File,
-    r: &recon::Reconstruction,
-    keep: &[usize],
-    origin_rad: (f64, f64),
-) -> Result<()> {
-    use hindsight::output::foxglove::{
-        location_fix, pose_in_frame, LOCATION_FIX_SCHEMA, POSE_IN_FRAME_SCHEMA,
-    };
-    use hindsight::sim::writer::{LogWriter, WriterOptions};
-    // lz4: a tenth of zstd's time for this output, which Foxglove and the mcap tools read alike.
-    let options = WriterOptions {
-        compression: hindsight::sim::writer::Compression::Lz4,
-        ..WriterOptions::default()
-    };
-    let mut w = LogWriter::new(std::io::BufWriter::new(file), options)?;
-    let solutions = [("forward", &r.forward), ("smoothed", &r.smoothed)];
-    let topics = solutions.map(|(name, _)| {
-        (
-            format!("/hindsight/{name}/fix"),
-            format!("/hindsight/{name}/pose"),
-        )
-    });
-    for rows in keep.chunks(ROWS_PER_BATCH) {
-        let picked = solutions.map(|(_, sol)| sol.pick(rows));
-        let [fwd, smo] = picked;
-        let (fwd, smo) = (fwd?, smo?);
-        // The JSON payloads of a block are made in parallel, then written in order.
-        let payloads: Vec<[Vec<u8>; 4]> = fwd
-            .par_iter()
-            .zip(&smo)
-            .map(|(f, s)| {
-                [
-                    location_fix(f, "forward"),
-                    pose_in_frame(f, origin_rad, "map"),
-                    location_fix(s, "smoothed"),
-                    pose_in_frame(s, origin_rad, "map"),
-                ]
-            })
-            .collect();
-        for (f, [fwd_fix, fwd_pose, smo_fix, smo_pose]) in fwd.iter().zip(&payloads) {
-            let t = u64::try_from(f.stamp_ns).unwrap_or(0);
-            for ((fix, pose), (fix_topic, pose_topic)) in [(fwd_fix, fwd_pose), (smo_fix, smo_pose)]
-                .iter()
-                .zip(&topics)
-            {
-                w.write_raw(
-                    fix_topic,
-                    "foxglove.LocationFix",
-                    LOCATION_FIX_SCHEMA,
-                    "json",
-                    fix,
-                    t,
-                )?;
-                w.write_raw(
-                    pose_topic,
-                    "foxglove.PoseInFrame",
-                    POSE_IN_FRAME_SCHEMA,
-                    "json",
-                    pose,
-                    t,
-                )?;
-            }
-        }
-    }
-    std::io::Write::flush(&mut w.finish()?)?;
-    Ok(())
-}
-
 pub fn run(args: ReconstructArgs) -> Result<()> {
     let config = args.config()?;
     let job = Job {
@@ -683,11 +612,19 @@ struct Written<'a> {
     started: Instant,
 }
 
-/// The scores against the log's truth, when it has one: both solutions' errors at the kept
-/// rows, and the truth's positions for the report's track.
-struct AgainstTruth {
-    errors: Option<(Vec<EpochError>, Vec<EpochError>)>,
-    from_log: report::FromLog,
+/// A thread's result; its panic goes on.
+fn joined<T>(thread: std::thread::ScopedJoinHandle<'_, T>) -> T {
+    thread
+        .join()
+        .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+}
+
+/// Where the scores' thread writes: the staging (tuned.toml and the report), the list of
+/// files written, and the errors table when the log has a truth.
+struct Outputs<'a> {
+    staging: &'a mut Staging,
+    written: &'a mut Vec<PathBuf>,
+    errors: Option<tables::Staged>,
 }
 
 /// The rows the outputs hold: every output epoch (and every epoch with `aiding_epochs`).
@@ -698,6 +635,9 @@ fn kept_rows(r: &Reconstruction, config: &Config) -> Vec<usize> {
 }
 
 impl Written<'_> {
+    /// Every output, staged and then renamed together. The solutions are read back once
+    /// ([`tables`]): the trajectory's tables are written beside the scores, and beside the
+    /// summary, the errors table and the report made from them.
     fn write(self, outcome: pipeline::Outcome) -> Result<()> {
         let outputs_started = Instant::now();
         let r = &outcome.reconstruction;
@@ -711,47 +651,48 @@ impl Written<'_> {
             self.mission.origin_latitude_deg.to_radians(),
             self.mission.origin_longitude_deg.to_radians(),
         );
-        let mut tables = Tables::create(&mut staging, &job.out, self.has_truth())?;
+        let tables = Tables::create(&mut staging, &job.out, self.has_truth())?;
         let mut written = tables.paths();
-        let errors_file = tables.errors.take();
-        // The trajectory's tables need nothing more: they are written beside the scores
-        // against the truth, the summary, the errors table and the report, which follow one
-        // another.
-        let (tables, scored) = rayon::join(
-            || tables.write(r, &keep, origin),
-            || -> Result<Summary> {
-                let truth = self.against_truth(r, &keep)?;
-                let mut summary = self.summary(&outcome, &keep, &truth)?;
-                if let (Some((path, file)), Some((fwd, smo))) = (errors_file, &truth.errors) {
-                    write_errors(file, fwd, smo).with_context(|| OutputFailed { path })?;
-                }
-                if let Some(t) = &summary.tuning {
-                    let path = job.out.join("tuned.toml");
-                    let mut file = staging
-                        .create(&path)
-                        .with_context(|| OutputFailed { path: path.clone() })?;
-                    std::io::Write::write_all(&mut file, t.as_toml().as_bytes())
-                        .with_context(|| OutputFailed { path: path.clone() })?;
-                    written.push(path);
-                }
-                let started = Instant::now();
-                let page = report::build(&report::Inputs {
-                    summary: &summary,
-                    r,
-                    keep: &keep,
-                    origin_rad: origin,
-                    from_log: &truth.from_log,
-                    truth_errors: truth.errors.as_ref(),
-                    init_text: r.init.to_string(),
-                })
-                .context("reading the solutions back for report.html")?;
-                super::write_report(&mut staging, &job.out, &page, &mut written)?;
-                summary.run_time_s.report = started.elapsed().as_secs_f64();
-                Ok(summary)
-            },
-        );
-        tables?;
+        let Tables {
+            trajectory,
+            foxglove,
+            residuals,
+            errors,
+        } = tables;
+        let (to_parquet, parquet_blocks) = tables::channel();
+        let (to_mcap, mcap_blocks) = tables::channel();
+        let (to_scores, score_blocks) = tables::channel();
+        let outputs = Outputs {
+            staging: &mut staging,
+            written: &mut written,
+            errors,
+        };
+        // The writers' threads use no rayon: the report, which does, is made on this thread
+        // (a rayon worker's, in a batch), so that no thread waits on the pool from outside it.
+        let (read, parquet, mcap, scored) = std::thread::scope(|s| {
+            let parquet = s.spawn(|| -> Result<()> {
+                tables::trajectory_parquet(trajectory, parquet_blocks, origin)?;
+                tables::write_chunks(residuals, &r.run.residuals, recon_tables::residuals_batch)
+            });
+            let mcap = s.spawn(|| tables::trajectory_mcap(foxglove, mcap_blocks, origin));
+            let scores = s.spawn(|| -> Result<_> {
+                let truth = self.truth_back()?;
+                let from_log = self.from_log.clone().with_truth(&truth);
+                let sample_rows = tables::sample_rows(&keep);
+                Ok((tables::score(score_blocks, &truth, &sample_rows), from_log))
+            });
+            let read = tables::read_blocks(r, &keep, vec![to_parquet, to_mcap, to_scores]);
+            let scored = joined(scores).and_then(|(scored, from_log)| {
+                let report_inputs = (&keep[..], origin, &from_log);
+                self.summary_and_report(&outcome, scored, outputs, report_inputs)
+            });
+            (read, joined(parquet), joined(mcap), scored)
+        });
+        // A writer's own failure first: it is why the reading stopped.
+        parquet?;
+        mcap?;
         let mut summary = scored?;
+        read?;
         summary.run_time_s.outputs = outputs_started.elapsed().as_secs_f64();
         summary.run_time_s.total = self.started.elapsed().as_secs_f64();
         let path = job.out.join("summary.json");
@@ -767,6 +708,44 @@ impl Written<'_> {
         Ok(())
     }
 
+    /// The summary from the scores, then errors.parquet, tuned.toml and the report.
+    fn summary_and_report(
+        &self,
+        outcome: &pipeline::Outcome,
+        scored: tables::Scored,
+        out: Outputs<'_>,
+        (keep, origin_rad, from_log): (&[usize], (f64, f64), &report::FromLog),
+    ) -> Result<Summary> {
+        let mut summary = self.summary(outcome, keep, &scored)?;
+        if let (Some(file), Some((fwd, smo))) = (out.errors, &scored.errors) {
+            tables::write_errors(file, fwd, smo)?;
+        }
+        if let Some(t) = &summary.tuning {
+            let path = self.job.out.join("tuned.toml");
+            let mut file = out
+                .staging
+                .create(&path)
+                .with_context(|| OutputFailed { path: path.clone() })?;
+            std::io::Write::write_all(&mut file, t.as_toml().as_bytes())
+                .with_context(|| OutputFailed { path: path.clone() })?;
+            out.written.push(path);
+        }
+        let started = Instant::now();
+        let r = &outcome.reconstruction;
+        let page = report::build(&report::Inputs {
+            summary: &summary,
+            r,
+            samples: &scored.samples,
+            origin_rad,
+            from_log,
+            truth_errors: scored.errors.as_ref(),
+            init_text: r.init.to_string(),
+        });
+        super::write_report(out.staging, &self.job.out, &page, out.written)?;
+        summary.run_time_s.report = started.elapsed().as_secs_f64();
+        Ok(summary)
+    }
+
     /// Whether the log has a truth to score against (its errors table is then written).
     fn has_truth(&self) -> bool {
         match &self.truth {
@@ -777,25 +756,13 @@ impl Written<'_> {
     }
 
     /// The truth read back (it waited on its temporary file through the smoother; held only
-    /// while the errors are taken: a day of it is 140 MB) and both solutions' errors.
-    fn against_truth(&self, r: &Reconstruction, keep: &[usize]) -> Result<AgainstTruth> {
-        let (log_truth, parked) = &self.truth;
-        let truth: Vec<Truth> = match (log_truth, parked) {
+    /// while the errors are taken: a day of it is 140 MB).
+    fn truth_back(&self) -> Result<Vec<Truth>> {
+        Ok(match &self.truth {
             (Some(truth), _) => truth.clone(),
             (None, Some(parked)) => parked.to_vec().context("reading the truth back")?,
             (None, None) => Vec::new(),
-        };
-        let from_log = self.from_log.clone().with_truth(&truth);
-        let kept = keep_mask(r.forward.len(), keep);
-        let errors = if truth.is_empty() {
-            None
-        } else {
-            Some((
-                score::errors(&truth, &r.forward, &kept)?,
-                score::errors(&truth, &r.smoothed, &kept)?,
-            ))
-        };
-        Ok(AgainstTruth { errors, from_log })
+        })
     }
 
     /// summary.json, but the outputs' and the report's times and the whole run's (filled once
@@ -804,7 +771,7 @@ impl Written<'_> {
         &self,
         outcome: &pipeline::Outcome,
         keep: &[usize],
-        against: &AgainstTruth,
+        against: &tables::Scored,
     ) -> Result<Summary> {
         let r = &outcome.reconstruction;
         let config = &outcome.config;
@@ -886,7 +853,7 @@ impl Written<'_> {
                 (Some(a), Some(b)) => (b.stamp_ns - a.stamp_ns) as f64 * 1e-9,
                 _ => 0.0,
             },
-            distance_travelled_m: stats::distance_travelled_m(r.smoothed.iter())?,
+            distance_travelled_m: against.distance_m,
             final_sigma: FinalSigma {
                 forward: final_sigma(last_forward.as_ref()),
                 smoothed: final_sigma(last_smoothed.as_ref()),
@@ -968,72 +935,6 @@ fn water_summary(
     used.then_some(last)
         .flatten()
         .map(|last| calibration::water_report(last, &sigma))
-}
-
-/// The table files of a run, created (staged) before they are written.
-struct Tables {
-    trajectory: (PathBuf, std::fs::File),
-    foxglove: (PathBuf, std::fs::File),
-    residuals: (PathBuf, std::fs::File),
-    errors: Option<(PathBuf, std::fs::File)>,
-}
-
-impl Tables {
-    fn create(staging: &mut Staging, out: &std::path::Path, with_errors: bool) -> Result<Tables> {
-        let mut create = |name: &str| -> Result<(PathBuf, std::fs::File)> {
-            let path = out.join(name);
-            let file = staging
-                .create(&path)
-                .with_context(|| OutputFailed { path: path.clone() })?;
-            Ok((path, file))
-        };
-        Ok(Tables {
-            trajectory: create("trajectory.parquet")?,
-            foxglove: create("trajectory.mcap")?,
-            residuals: create("residuals.parquet")?,
-            errors: if with_errors {
-                Some(create("errors.parquet")?)
-            } else {
-                None
-            },
-        })
-    }
-
-    fn paths(&self) -> Vec<PathBuf> {
-        [&self.trajectory, &self.foxglove, &self.residuals]
-            .into_iter()
-            .chain(&self.errors)
-            .map(|(path, _)| path.clone())
-            .collect()
-    }
-
-    /// Writes the trajectory's tables (trajectory.mcap beside the Parquet files); the errors
-    /// table, taken out before, is written with the scores.
-    fn write(self, r: &Reconstruction, keep: &[usize], origin: (f64, f64)) -> Result<()> {
-        let failed = |path: &PathBuf| OutputFailed { path: path.clone() };
-        let Tables {
-            trajectory,
-            foxglove,
-            residuals,
-            errors: _,
-        } = self;
-        let (parquet, mcap) = rayon::join(
-            || -> Result<()> {
-                let (path, file) = trajectory;
-                write_trajectory(file, r, keep, origin).with_context(|| failed(&path))?;
-                let (path, file) = residuals;
-                write_chunks(file, &r.run.residuals, recon_tables::residuals_batch)
-                    .with_context(|| failed(&path))?;
-                Ok(())
-            },
-            || {
-                let (path, file) = foxglove;
-                write_trajectory_mcap(file, r, keep, origin).with_context(|| failed(&path))
-            },
-        );
-        parquet?;
-        mcap
-    }
 }
 
 fn indent(text: &str) -> String {
@@ -1160,61 +1061,6 @@ fn park_truth(
         return None;
     }
     Some(log.take_role::<Truth>().into_iter().collect())
-}
-
-fn write_trajectory(
-    file: std::fs::File,
-    r: &Reconstruction,
-    keep: &[usize],
-    origin: (f64, f64),
-) -> Result<()> {
-    let mut chunks = [("forward", &r.forward), ("smoothed", &r.smoothed)]
-        .into_iter()
-        .flat_map(|(name, sol)| {
-            keep.chunks(ROWS_PER_BATCH)
-                .map(move |c| (name, sol.pick(c)))
-        });
-    let batch = |(name, rows): (&str, std::io::Result<Vec<Solution>>)| {
-        recon_tables::trajectory_batch(name, &rows.map_err(arrow_error)?, origin)
-    };
-    let first = batch(chunks.next().unwrap_or(("forward", Ok(Vec::new()))))?;
-    write_batches(file, first, || chunks.next().map(batch))?;
-    Ok(())
-}
-
-/// A failed read of the solutions' temporary file, as the table writer's error.
-fn arrow_error(e: std::io::Error) -> arrow_schema::ArrowError {
-    arrow_schema::ArrowError::IoError(format!("reading the solutions back: {e}"), e)
-}
-
-/// One flag per epoch: whether it is among `keep` (ascending).
-fn keep_mask(epochs: usize, keep: &[usize]) -> Vec<bool> {
-    let mut mask = vec![false; epochs];
-    for &k in keep {
-        mask[k] = true;
-    }
-    mask
-}
-
-fn write_chunks<T>(
-    file: std::fs::File,
-    rows: &[T],
-    batch: impl Fn(&[T]) -> Result<arrow_array::RecordBatch, arrow_schema::ArrowError>,
-) -> Result<()> {
-    let mut chunks = rows.chunks(ROWS_PER_BATCH);
-    let first = batch(chunks.next().unwrap_or(&[]))?;
-    write_batches(file, first, || chunks.next().map(&batch))?;
-    Ok(())
-}
-
-fn write_errors(file: std::fs::File, fwd: &[EpochError], smo: &[EpochError]) -> Result<()> {
-    let mut chunks = [("forward", fwd), ("smoothed", smo)]
-        .into_iter()
-        .flat_map(|(name, rows)| rows.chunks(ROWS_PER_BATCH).map(move |c| (name, c)));
-    let batch = |(name, rows): (&str, &[EpochError])| recon_tables::errors_batch(name, rows);
-    let first = batch(chunks.next().unwrap_or(("forward", &[])))?;
-    write_batches(file, first, || chunks.next().map(batch))?;
-    Ok(())
 }
 
 /// An estimate and its sigma (times `scale`), "(prior)" where the log did not tell it, "held"

@@ -171,9 +171,9 @@ pub fn write_png(plot: &Plot, out: impl Write) -> Result<(), PlotError> {
     let mut encoder = png::Encoder::new(out, WIDTH, HEIGHT);
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);
-    // Line art compresses well with per-row adaptive filters: about a tenth of the size of
-    // the defaults' output, for a few milliseconds more.
-    encoder.set_compression(png::Compression::Best);
+    // Line art compresses well with per-row adaptive filters. The default level: `Best`
+    // saves 1.5 % of the size for several times the time, `Fast` triples the size.
+    encoder.set_compression(png::Compression::Default);
     encoder.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
     let mut writer = encoder.write_header()?;
     writer.write_image_data(&rgb)?;

@@ -316,18 +316,30 @@ pub fn warnings(
 pub fn distance_travelled_m<E>(
     solutions: impl IntoIterator<Item = Result<Solution, E>>,
 ) -> Result<f64, E> {
-    let mut total = 0.0;
-    let mut previous: Option<Solution> = None;
+    let mut distance = Distance::default();
     for s in solutions {
-        let s = s?;
-        if let Some(p) = previous {
-            let (a, b) = (&p.point.nav, &s.point.nav);
-            let (n, e) = geodesy::local_north_east_m(a.lat_rad, a.lon_rad, b.lat_rad, b.lon_rad);
-            total += n.hypot(e);
-        }
-        previous = Some(s);
+        distance.add(&s?);
     }
-    Ok(total)
+    Ok(distance.total_m)
+}
+
+/// The distance travelled so far, summed a solution at a time.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Distance {
+    pub total_m: f64,
+    previous: Option<(f64, f64)>,
+}
+
+impl Distance {
+    /// Adds the leg from the previous solution to `s`.
+    pub fn add(&mut self, s: &Solution) {
+        let here = (s.point.nav.lat_rad, s.point.nav.lon_rad);
+        if let Some((lat, lon)) = self.previous {
+            let (n, e) = geodesy::local_north_east_m(lat, lon, here.0, here.1);
+            self.total_m += n.hypot(e);
+        }
+        self.previous = Some(here);
+    }
 }
 
 #[cfg(test)]

@@ -121,18 +121,19 @@ impl<W: Write + Seek> LogWriter<W> {
         )
     }
 
-    /// Writes a message as given bytes under any schema: for tests of bad input and for
+    /// Writes a message as given bytes under any schema (its text: a JSON Schema, or a ROS
+    /// message definition for `cdr` and `ros1`): for binary messages, tests of bad input and
     /// messages of other tools.
     pub fn write_raw(
         &mut self,
         topic: &str,
         schema_name: &str,
-        schema_json: &str,
+        schema_text: &str,
         message_encoding: &str,
         data: &[u8],
         log_time_ns: u64,
     ) -> Result<(), WriteError> {
-        let channel_id = self.channel(topic, schema_name, schema_json, message_encoding)?;
+        let channel_id = self.channel(topic, schema_name, schema_text, message_encoding)?;
         self.sequence = self.sequence.wrapping_add(1);
         self.inner.write_to_known_channel(
             &MessageHeader {
@@ -150,7 +151,7 @@ impl<W: Write + Seek> LogWriter<W> {
         &mut self,
         topic: &str,
         schema_name: &str,
-        schema_json: &str,
+        schema_text: &str,
         message_encoding: &str,
     ) -> Result<u16, WriteError> {
         if let Some(&id) = self
@@ -170,7 +171,7 @@ impl<W: Write + Seek> LogWriter<W> {
                 };
                 let id = self
                     .inner
-                    .add_schema(schema_name, encoding, schema_json.as_bytes())?;
+                    .add_schema(schema_name, encoding, schema_text.as_bytes())?;
                 self.schemas.insert(schema_name.to_string(), id);
                 id
             }

@@ -8,9 +8,10 @@ three with the same row counts; stamp_ns is timestamp[ns, tz=UTC]; within each s
 (`forward`, `smoothed`) the trajectory's stamps strictly increase and every sigma is
 positive; residuals have a known sensor and a NIS >= 0; summary.json parses and its counts
 match the files.
-trajectory.mcap, read with the official `mcap` reader, holds each solution's rows as
-foxglove.LocationFix and foxglove.PoseInFrame messages.
-Needs: pip install pyarrow polars duckdb mcap
+trajectory.mcap, read with the official `mcap` reader and decoded by `mcap-ros2-support`
+from the definitions it carries, holds each solution's rows as foxglove_msgs/msg/LocationFix
+and foxglove_msgs/msg/PoseInFrame (ROS 2 CDR), whose stamps and positions are the table's.
+Needs: pip install pyarrow polars duckdb mcap mcap-ros2-support
 """
 import json
 import os
@@ -37,25 +38,42 @@ def open_everywhere(con, path):
     return table
 
 
-def check_trajectory_mcap(path, per_solution):
-    from collections import Counter
+def check_trajectory_mcap(path, trajectory, per_solution):
+    from collections import Counter, defaultdict
 
     from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
 
     counts = Counter()
+    fixes = defaultdict(list)
     with open(path, "rb") as f:
-        for schema, channel, message in make_reader(f).iter_messages():
-            assert channel.message_encoding == "json" and schema.encoding == "jsonschema"
-            body = json.loads(message.data)
-            assert body["timestamp"]["nsec"] < 10**9
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for schema, channel, message, body in reader.iter_decoded_messages():
+            assert channel.message_encoding == "cdr" and schema.encoding == "ros2msg"
+            assert body.timestamp.nanosec < 10**9
+            assert message.log_time == body.timestamp.sec * 10**9 + body.timestamp.nanosec
             counts[(channel.topic, schema.name)] += 1
+            if schema.name.endswith("LocationFix"):
+                assert len(body.position_covariance) == 9
+                fixes[body.frame_id].append((message.log_time, body.latitude, body.longitude))
     expected = {
-        (f"/hindsight/{s}/{kind}", schema): per_solution
+        (f"/hindsight/{s}/{kind}", f"foxglove_msgs/msg/{schema}"): per_solution
         for s in ("forward", "smoothed")
-        for kind, schema in (("fix", "foxglove.LocationFix"), ("pose", "foxglove.PoseInFrame"))
+        for kind, schema in (("fix", "LocationFix"), ("pose", "PoseInFrame"))
     }
     assert dict(counts) == expected, counts
-    print(f"ok  trajectory.mcap      {sum(counts.values()):>8} messages on {len(counts)} topics (mcap reader)")
+    # The fixes are the trajectory table's rows, solution by solution.
+    for solution, got in fixes.items():
+        rows = trajectory.filter(pc.equal(trajectory.column("solution"), solution))
+        table = zip(
+            rows.column("stamp_ns").cast(pa.int64()).to_pylist(),
+            rows.column("latitude_deg").to_pylist(),
+            rows.column("longitude_deg").to_pylist(),
+        )
+        for (t, lat, lon), (t_table, lat_table, lon_table) in zip(got, table):
+            assert t == t_table and abs(lat - lat_table) < 1e-9 and abs(lon - lon_table) < 1e-9
+    print(f"ok  trajectory.mcap      {sum(counts.values()):>8} messages on {len(counts)} topics "
+          "(mcap reader, ROS 2 decoder)")
 
 
 def main(out_dir):
@@ -85,7 +103,7 @@ def main(out_dir):
         assert table.num_rows == 2 * per_solution
     else:
         assert not os.path.exists(errors)
-    check_trajectory_mcap(os.path.join(out_dir, "trajectory.mcap"), per_solution)
+    check_trajectory_mcap(os.path.join(out_dir, "trajectory.mcap"), trajectory, per_solution)
     print(f"reconstruct outputs open in pyarrow {pa.__version__}, polars {pl.__version__}, "
           f"duckdb {duckdb.__version__} without warnings")
 

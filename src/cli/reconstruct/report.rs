@@ -111,7 +111,8 @@ impl TimeAxis {
 pub struct Inputs<'a> {
     pub summary: &'a Summary,
     pub r: &'a Reconstruction,
-    pub keep: &'a [usize],
+    /// Both solutions at the rows drawn.
+    pub samples: &'a Samples,
     pub origin_rad: (f64, f64),
     pub from_log: &'a FromLog,
     pub truth_errors: Option<&'a (Vec<EpochError>, Vec<EpochError>)>,
@@ -141,11 +142,19 @@ fn plan(s: &Summary) -> Section {
         .with(Block::table(["part", "used", "why"], rows))
 }
 
-pub fn build(x: &Inputs<'_>) -> std::io::Result<Report> {
+/// Both solutions at the rows the page draws ([`spread`] over the output rows).
+#[derive(Debug, Clone, Default)]
+pub struct Samples {
+    pub forward: Vec<Solution>,
+    pub smoothed: Vec<Solution>,
+}
+
+pub fn build(x: &Inputs<'_>) -> Report {
     let s = x.summary;
-    let rows = spread(x.keep, REPORT_ROWS);
-    let (fwd, smo) = (x.r.forward.pick(&rows)?, x.r.smoothed.pick(&rows)?);
-    let (fwd, smo): (Vec<&Solution>, Vec<&Solution>) = (fwd.iter().collect(), smo.iter().collect());
+    let (fwd, smo): (Vec<&Solution>, Vec<&Solution>) = (
+        x.samples.forward.iter().collect(),
+        x.samples.smoothed.iter().collect(),
+    );
     let axis = TimeAxis::new(fwd.first().map_or(0, |s| s.stamp_ns), s.duration_s);
     let bands: Vec<(f64, f64)> = x
         .from_log
@@ -219,7 +228,7 @@ pub fn build(x: &Inputs<'_>) -> std::io::Result<Report> {
     sections.push(innovations(s, &x.r.run.residuals, &axis));
     sections.push(calibration(s));
     sections.push(Section::new("Warnings").with(Block::Warnings(s.warnings.clone())));
-    Ok(Report {
+    Report {
         title: format!("hindsight reconstruct: {}", file_name(&s.log)),
         subtitle: format!(
             "{}: {:.0} s, {:.0} m travelled (smoothed)",
@@ -230,16 +239,15 @@ pub fn build(x: &Inputs<'_>) -> std::io::Result<Report> {
             "hindsight {}; every setting of the run is in summary.json",
             s.hindsight_version
         ),
-    })
+    }
 }
 
-/// The output rows of a solution.
 /// Output rows read back for the page's pictures: a picture thins to a few thousand points
 /// anyway, and a day-long mission has a million rows.
-const REPORT_ROWS: usize = 50_000;
+pub const REPORT_ROWS: usize = 50_000;
 
 /// At most `n` of `keep`, evenly spread, the first and last among them.
-fn spread(keep: &[usize], n: usize) -> Vec<usize> {
+pub fn spread(keep: &[usize], n: usize) -> Vec<usize> {
     if keep.len() <= n || n < 2 {
         return keep.to_vec();
     }

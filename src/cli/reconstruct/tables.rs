@@ -1,0 +1,289 @@
+//! The run's tables, from one read of the solutions.
+//!
+//! After the smoother the forward and smoothed solutions wait on temporary files (a day's
+//! mission holds a million of each). They are read back once, a block of epochs at a time,
+//! and every block goes to three writers, each on a thread of its own:
+//! - trajectory.parquet: each block's forward rows, then its smoothed rows (then
+//!   residuals.parquet);
+//! - trajectory.mcap: both solutions' messages, row by row;
+//! - the scores: the errors against the truth, the distance travelled and the rows the report
+//!   draws ([`Scored`]), which the summary, errors.parquet and the report are made from.
+
+use super::report::{self, Samples};
+use crate::cli::OutputFailed;
+use anyhow::{Context, Result};
+use hindsight::contract::Truth;
+use hindsight::filters::ins::record::Solution;
+use hindsight::output::atomic::Staging;
+use hindsight::output::parquet::{write_batches, TableWriter, ROWS_PER_BATCH};
+use hindsight::output::recon_tables;
+use hindsight::recon::score::{self, EpochError};
+use hindsight::recon::stats::Distance;
+use hindsight::recon::Reconstruction;
+use std::path::{Path, PathBuf};
+use std::sync::{mpsc, Arc};
+
+/// Epochs read back at a time (two solutions of them are 35 MB).
+const BLOCK_EPOCHS: usize = ROWS_PER_BATCH / 2;
+
+/// A block of epochs: both solutions at every epoch from `first`, and the kept rows among
+/// them.
+pub struct Block {
+    first: usize,
+    forward: Vec<Solution>,
+    smoothed: Vec<Solution>,
+    /// The kept epochs in the block (indices from the run's first epoch, ascending).
+    kept: Vec<usize>,
+}
+
+impl Block {
+    /// Both solutions at each kept row.
+    fn rows(&self) -> impl Iterator<Item = (&Solution, &Solution)> + '_ {
+        self.kept.iter().map(|&k| {
+            (
+                &self.forward[k - self.first],
+                &self.smoothed[k - self.first],
+            )
+        })
+    }
+
+    /// One solution's kept rows.
+    fn kept_of(&self, all: &[Solution]) -> Vec<Solution> {
+        self.kept.iter().map(|&k| all[k - self.first]).collect()
+    }
+}
+
+/// Reads the solutions back a block at a time and hands every block to each of `to`, in
+/// order. Stops at a read that fails (its error), or when a writer hangs up (it failed, and
+/// its own error says why).
+pub fn read_blocks(
+    r: &Reconstruction,
+    keep: &[usize],
+    to: Vec<mpsc::SyncSender<Arc<Block>>>,
+) -> Result<()> {
+    let n = r.forward.len();
+    let mut rest = keep;
+    for first in (0..n).step_by(BLOCK_EPOCHS) {
+        let end = (first + BLOCK_EPOCHS).min(n);
+        let (forward, smoothed) = rayon::join(
+            || r.forward.read(first..end),
+            || r.smoothed.read(first..end),
+        );
+        let taken = rest.partition_point(|&k| k < end);
+        let block = Arc::new(Block {
+            first,
+            forward: forward.context("reading the forward solutions back")?,
+            smoothed: smoothed.context("reading the smoothed solutions back")?,
+            kept: rest[..taken].to_vec(),
+        });
+        rest = &rest[taken..];
+        for tx in &to {
+            if tx.send(Arc::clone(&block)).is_err() {
+                return Ok(());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A channel of blocks, as deep as one block being worked on and one waiting.
+pub fn channel() -> (mpsc::SyncSender<Arc<Block>>, mpsc::Receiver<Arc<Block>>) {
+    mpsc::sync_channel(1)
+}
+
+/// A staged output file and its path, for messages.
+pub type Staged = (PathBuf, std::fs::File);
+
+fn failed(path: &Path) -> OutputFailed {
+    OutputFailed {
+        path: path.to_path_buf(),
+    }
+}
+
+/// trajectory.parquet from the blocks: each block's forward rows, then its smoothed rows.
+pub fn trajectory_parquet(
+    (path, file): Staged,
+    blocks: mpsc::Receiver<Arc<Block>>,
+    origin_rad: (f64, f64),
+) -> Result<()> {
+    let write = || -> Result<(), anyhow::Error> {
+        let schema = recon_tables::trajectory_batch("forward", &[], origin_rad)?.schema();
+        let mut w = TableWriter::new(file, schema)?;
+        for b in blocks {
+            if b.kept.is_empty() {
+                continue;
+            }
+            for (name, all) in [("forward", &b.forward), ("smoothed", &b.smoothed)] {
+                let rows = b.kept_of(all);
+                w.write(&recon_tables::trajectory_batch(name, &rows, origin_rad)?)?;
+            }
+        }
+        w.finish()?;
+        Ok(())
+    };
+    write().with_context(|| failed(&path))
+}
+
+/// trajectory.mcap from the blocks: the forward and smoothed solutions at each row as
+/// Foxglove messages (a LocationFix on `/hindsight/<solution>/fix`, a PoseInFrame on
+/// `/hindsight/<solution>/pose`, ROS 2 CDR), logged at their stamps.
+pub fn trajectory_mcap(
+    (path, file): Staged,
+    blocks: mpsc::Receiver<Arc<Block>>,
+    origin_rad: (f64, f64),
+) -> Result<()> {
+    use hindsight::output::foxglove::{
+        location_fix, pose_in_frame, LOCATION_FIX, LOCATION_FIX_MSG, POSE_IN_FRAME,
+        POSE_IN_FRAME_MSG,
+    };
+    use hindsight::sim::writer::{Compression, LogWriter, WriterOptions};
+    let write = || -> Result<(), anyhow::Error> {
+        // lz4: a tenth of zstd's time for this output, which Foxglove and the mcap tools
+        // read alike.
+        let options = WriterOptions {
+            compression: Compression::Lz4,
+            ..WriterOptions::default()
+        };
+        let mut w = LogWriter::new(std::io::BufWriter::new(file), options)?;
+        let topics = ["forward", "smoothed"].map(|name| {
+            (
+                name,
+                format!("/hindsight/{name}/fix"),
+                format!("/hindsight/{name}/pose"),
+            )
+        });
+        let mut data = Vec::with_capacity(256);
+        for b in blocks {
+            for (f, s) in b.rows() {
+                let t = u64::try_from(f.stamp_ns).unwrap_or(0);
+                for (solution, (frame, fix_topic, pose_topic)) in [f, s].into_iter().zip(&topics) {
+                    location_fix(solution, frame, &mut data)?;
+                    w.write_raw(fix_topic, LOCATION_FIX, LOCATION_FIX_MSG, "cdr", &data, t)?;
+                    pose_in_frame(solution, origin_rad, "map", &mut data)?;
+                    w.write_raw(
+                        pose_topic,
+                        POSE_IN_FRAME,
+                        POSE_IN_FRAME_MSG,
+                        "cdr",
+                        &data,
+                        t,
+                    )?;
+                }
+            }
+        }
+        std::io::Write::flush(&mut w.finish()?)?;
+        Ok(())
+    };
+    write().with_context(|| failed(&path))
+}
+
+/// What the outputs take from the solutions besides the tables.
+pub struct Scored {
+    /// Both solutions' errors against the truth at the kept rows (logs with a truth).
+    pub errors: Option<(Vec<EpochError>, Vec<EpochError>)>,
+    /// Along the smoothed solution, every epoch.
+    pub distance_m: f64,
+    /// The rows the report draws.
+    pub samples: Samples,
+}
+
+/// The scores from the blocks: errors against `truth` (none when it is empty), the distance
+/// travelled, and both solutions at `sample_rows` (ascending, among the kept rows).
+pub fn score(blocks: mpsc::Receiver<Arc<Block>>, truth: &[Truth], sample_rows: &[usize]) -> Scored {
+    let mut errors = (!truth.is_empty()).then(|| (Vec::new(), Vec::new()));
+    let mut distance = Distance::default();
+    let mut samples = Samples::default();
+    let mut samples_left = sample_rows;
+    for b in blocks {
+        b.smoothed.iter().for_each(|s| distance.add(s));
+        if let Some((fwd, smo)) = errors.as_mut() {
+            for (f, s) in b.rows() {
+                fwd.extend(score::epoch_error(truth, f));
+                smo.extend(score::epoch_error(truth, s));
+            }
+        }
+        let end = b.first + b.forward.len();
+        let taken = samples_left.partition_point(|&k| k < end);
+        for &k in &samples_left[..taken] {
+            samples.forward.push(b.forward[k - b.first]);
+            samples.smoothed.push(b.smoothed[k - b.first]);
+        }
+        samples_left = &samples_left[taken..];
+    }
+    Scored {
+        errors,
+        distance_m: distance.total_m,
+        samples,
+    }
+}
+
+/// The table files of a run, created (staged) before they are written.
+pub struct Tables {
+    pub trajectory: Staged,
+    pub foxglove: Staged,
+    pub residuals: Staged,
+    pub errors: Option<Staged>,
+}
+
+impl Tables {
+    pub fn create(staging: &mut Staging, out: &Path, with_errors: bool) -> Result<Tables> {
+        let mut create = |name: &str| -> Result<Staged> {
+            let path = out.join(name);
+            let file = staging.create(&path).with_context(|| failed(&path))?;
+            Ok((path, file))
+        };
+        Ok(Tables {
+            trajectory: create("trajectory.parquet")?,
+            foxglove: create("trajectory.mcap")?,
+            residuals: create("residuals.parquet")?,
+            errors: if with_errors {
+                Some(create("errors.parquet")?)
+            } else {
+                None
+            },
+        })
+    }
+
+    pub fn paths(&self) -> Vec<PathBuf> {
+        [&self.trajectory, &self.foxglove, &self.residuals]
+            .into_iter()
+            .chain(&self.errors)
+            .map(|(path, _)| path.clone())
+            .collect()
+    }
+}
+
+/// A table of `rows`, a batch at a time.
+pub fn write_chunks<T>(
+    (path, file): Staged,
+    rows: &[T],
+    batch: impl Fn(&[T]) -> Result<arrow_array::RecordBatch, arrow_schema::ArrowError>,
+) -> Result<()> {
+    let mut chunks = rows.chunks(ROWS_PER_BATCH);
+    let write = || -> Result<(), anyhow::Error> {
+        let first = batch(chunks.next().unwrap_or(&[]))?;
+        write_batches(file, first, || chunks.next().map(&batch))?;
+        Ok(())
+    };
+    write().with_context(|| failed(&path))
+}
+
+/// errors.parquet: the forward rows, then the smoothed.
+pub fn write_errors((path, file): Staged, fwd: &[EpochError], smo: &[EpochError]) -> Result<()> {
+    let mut chunks = [("forward", fwd), ("smoothed", smo)]
+        .into_iter()
+        .flat_map(|(name, rows)| rows.chunks(ROWS_PER_BATCH).map(move |c| (name, c)));
+    let batch = |(name, rows): (&str, &[EpochError])| recon_tables::errors_batch(name, rows);
+    let write = || -> Result<(), anyhow::Error> {
+        let first = batch(chunks.next().unwrap_or(("forward", &[])))?;
+        write_batches(file, first, || chunks.next().map(batch))?;
+        Ok(())
+    };
+    write().with_context(|| failed(&path))
+}
+
+/// The rows the report draws: a picture thins to a few thousand points anyway, and a
+/// day-long mission has a million rows.
+pub fn sample_rows(keep: &[usize]) -> Vec<usize> {
+    report::spread(keep, report::REPORT_ROWS)
+}
