@@ -284,7 +284,7 @@ pub fn forward_with(
     let streams = used_streams(streams, config, &mag.readings);
     let (settings, mut init) = initialise_for(&streams, mission, config, mag)?;
     let stamps = output_stamps(streams.imu, config.output.rate_hz);
-    let mut aids = settings.aiding.table(&streams, mission_origin_rad(mission));
+    let aids = settings.aiding.table(&streams, mission_origin_rad(mission));
     let keep = if scored_only {
         Keep::Nothing
     } else {
@@ -300,38 +300,34 @@ pub fn forward_with(
     let started = Instant::now();
     take_start(start, config, &settings, &inputs, &mut init)?;
     let mut aid_notes: Vec<AidNote> = Vec::new();
-    let model = with_model(config, mission)?;
-    let attitude = match model {
+    let inputs = Inputs { progress, ..inputs };
+    let (run, model_note, attitude) = match with_model(config, mission)? {
         Ok(Some(model)) => {
-            let (aid, attitude) = model_velocity::aid_beside_attitude(
+            let beside = pass_with_model(
+                &model,
                 shared_attitude,
                 &settings,
                 &inputs,
                 &init,
-                |attitude| model_aid(&model, &streams, attitude, config, &settings),
+                (&streams, config),
             );
-            aids.push(Box::new(aid));
-            Some(attitude)
+            (beside.run, beside.refused, Some(beside.attitude))
         }
-        Ok(None) => None,
+        Ok(None) => (run_forward(&settings, &inputs, init.estimate), None, None),
         Err(note) => {
             aid_notes.push(note);
-            None
+            (run_forward(&settings, &inputs, init.estimate), None, None)
         }
     };
-    let inputs = Inputs {
-        imu: streams.imu,
-        aids: &aids,
-        output_stamps_ns: &stamps,
-        progress,
-        keep,
-    };
-    let run = run_forward(&settings, &inputs, init.estimate);
     aid_notes.extend(aids.iter().flat_map(|aid| {
         let sensor = aid.sensor();
         aid.notes()
             .into_iter()
             .map(move |text| AidNote { sensor, text })
+    }));
+    aid_notes.extend(model_note.map(|text| AidNote {
+        sensor: Sensor::ModelVelocity,
+        text,
     }));
     // The table borrows the magnetometer's readings. Readings prepared here are a copy of
     // the log's: freed. Readings handed in are kept (the log no longer has them).
@@ -510,29 +506,45 @@ pub fn settled_start(
     Ok(init)
 }
 
-/// Seed 000's model aid over the log, driven by `attitude`.
-fn model_aid(
+/// The navigation pass with the model's aid beside it ([`model_velocity::pass_beside_model`]).
+fn pass_with_model(
     model: &crate::vehicle::six_dof::model::SixDof,
-    streams: &Streams<'_>,
-    attitude: &dyn crate::filters::velocity::model_aided::AttitudeSource,
-    config: &Config,
+    shared_attitude: Option<AttitudeTrack>,
     settings: &crate::filters::ins::driver::Settings,
-) -> crate::filters::ins::aids::ModelVelocityAid {
+    inputs: &Inputs<'_>,
+    init: &Initialisation,
+    (streams, config): (&Streams<'_>, &Config),
+) -> model_velocity::BesideModel {
     let dvl_in_range = settings.aiding.dvl(streams).in_range_body_velocities();
-    let filter = ModelAidedFilter {
+    let filter = model_filter(config);
+    model_velocity::pass_beside_model(
+        shared_attitude,
+        settings,
+        inputs,
+        init,
+        (&dvl_in_range, &config.model_velocity),
+        |attitude, hand_on| {
+            model_velocity::run_model(
+                model,
+                streams,
+                attitude,
+                &dvl_in_range,
+                &config.model_velocity,
+                &filter,
+                hand_on,
+            )
+        },
+    )
+}
+
+/// The model's filter's settings: the sensors' noise the configuration gives.
+fn model_filter(config: &Config) -> ModelAidedFilter {
+    ModelAidedFilter {
         depth_sigma_m: config.depth.sigma_m,
         eml_sigma_m_s: config.eml.sigma_m_s,
         dvl_sigma_m_s: config.dvl.sigma_m_s,
         ..ModelAidedFilter::default()
-    };
-    model_velocity::aid(
-        model,
-        streams,
-        attitude,
-        &dvl_in_range,
-        &config.model_velocity,
-        &filter,
-    )
+    }
 }
 
 /// The in-motion alignment: a decisive heading other than the initial one replaces it (with a

@@ -7,10 +7,16 @@ use super::init::Initialisation;
 use super::AttitudeTrack;
 use super::Streams;
 use crate::feed::{Closer, Feed};
-use crate::filters::ins::aids::{ModelVelocityAid, ModelVelocityUse};
-use crate::filters::ins::driver::{Inputs, Keep, NavAt, Running, Settings};
+use crate::filters::ins::aiding::{Aid, AidTable};
+use crate::filters::ins::aids::{
+    Borrowed, ModelVelocityAid, ModelVelocitySelection, ModelVelocityUse,
+};
+use crate::filters::ins::driver::{
+    run_forward, ForwardRun, Inputs, Keep, NavAt, Running, Settings,
+};
 use crate::filters::velocity::model_aided::{
-    self, AttitudeAt, AttitudeSource, BodyVelocityReading, Mode, ModelAidedFilter,
+    self, AttitudeAt, AttitudeSource, BodyVelocityReading, Mode, ModelAidedFilter, ModelRun,
+    ModelVelocity,
 };
 use crate::ingest::Mission;
 use crate::vehicle::six_dof::description::{Vehicle, BUILT_IN};
@@ -143,16 +149,27 @@ fn attitude_pass(
     }
 }
 
-/// The aid: the filter run over the log with `attitude` driving the model, refused (with the
-/// reason as its note) when the model cannot run or does not fit the vehicle.
-pub fn aid(
+/// How the model's velocities are handed to the navigation filter.
+fn use_of(config: &ModelVelocityConfig) -> ModelVelocityUse {
+    ModelVelocityUse {
+        correlation_s: config.correlation_s,
+        min_interval_s: config.min_interval_s,
+        dvl_timeout_s: config.dvl_timeout_s,
+    }
+}
+
+/// The model's filter run over the log with `attitude` driving the model, its velocities
+/// handed on as they are made; refused (the reason, as the aid's note) when the model cannot
+/// run or does not fit the vehicle.
+pub fn run_model(
     model: &SixDof,
     streams: &Streams<'_>,
     attitude: &dyn AttitudeSource,
     dvl_in_range: &[BodyVelocityReading],
     config: &ModelVelocityConfig,
     filter: &ModelAidedFilter,
-) -> ModelVelocityAid {
+    hand_on: &mut dyn FnMut(&[ModelVelocity]),
+) -> Result<ModelRun, String> {
     let inputs = model_aided::Inputs {
         fins: streams.fins,
         propeller: streams.rpm,
@@ -169,23 +186,130 @@ pub fn aid(
         },
         ..*filter
     };
-    let how = ModelVelocityUse {
-        correlation_s: config.correlation_s,
-        min_interval_s: config.min_interval_s,
-        dvl_timeout_s: config.dvl_timeout_s,
-    };
-    let run = match model_aided::run(&settings, model, &inputs) {
-        Ok(run) => run,
-        Err(why) => return ModelVelocityAid::refused(format!("model_velocity: not used: {why}")),
-    };
+    let run = model_aided::run_handing_on(&settings, model, &inputs, hand_on)
+        .map_err(|why| format!("model_velocity: not used: {why}"))?;
     if let Some(why) = misfit(&run, config.max_nis) {
-        return ModelVelocityAid::refused(format!(
+        return Err(format!(
             "model_velocity: not used: the vehicle model `{}` does not fit this vehicle: {why}; \
              the navigation runs without it",
             model.vehicle.name
         ));
     }
-    ModelVelocityAid::new(run, dvl_in_range, &how)
+    Ok(run)
+}
+
+/// The navigation pass with the model's aid, and what came of the aid.
+pub struct BesideModel {
+    pub run: ForwardRun,
+    /// Why the aid was refused, when it was.
+    pub refused: Option<String>,
+    /// The attitude that drove the model.
+    pub attitude: AttitudeTrack,
+}
+
+/// The navigation pass with the model's aid, run beside the filters that make it.
+///
+/// The attitude pass (on a thread) drives the model's filter (on another), whose velocities
+/// the pass takes as they come, [`ATTITUDE_CHUNK_NS`] of log time at a time: each velocity is
+/// in the pass's table before the pass reaches its stamp, so the pass is the one a pass after
+/// the model would be. The model's misfit check needs its whole run: when it refuses the aid,
+/// a pass that took any of its velocities runs again without them.
+///
+/// `inputs` hold the other aids; `run_model` runs the model's filter ([`run_model`]).
+pub fn pass_beside_model(
+    shared: Option<AttitudeTrack>,
+    settings: &Settings,
+    inputs: &Inputs<'_>,
+    init: &Initialisation,
+    (dvl_in_range, config): (&[BodyVelocityReading], &ModelVelocityConfig),
+    run_model: impl FnOnce(&dyn AttitudeSource, &mut dyn FnMut(&[ModelVelocity])) -> Result<ModelRun, String>
+        + Send,
+) -> BesideModel {
+    let how = use_of(config);
+    let made: Feed<ModelVelocity> = Feed::new();
+    let aid = ModelVelocityAid::taking(&how);
+    let mut table: AidTable<'_> = inputs
+        .aids
+        .iter()
+        .map(|a| Box::new(Borrowed(a.as_ref())) as Box<dyn Aid>)
+        .collect();
+    table.push(Box::new(Borrowed(&aid)));
+    let with_model = Inputs {
+        aids: &table,
+        ..*inputs
+    };
+    let quiet = Inputs {
+        progress: None,
+        ..*inputs
+    };
+    let (run, (model_run, attitude)) = std::thread::scope(|s| {
+        let model = s.spawn(|| {
+            let _closer = Closer(&made);
+            aid_beside_attitude(shared, settings, &quiet, init, |attitude| {
+                run_model(attitude, &mut |v| made.extend(v.iter().copied()))
+            })
+        });
+        let mut selection = ModelVelocitySelection::new(dvl_in_range, &how);
+        let mut seen = 0;
+        let run = pass_in_stretches(settings, &with_model, init, |until_ns| {
+            made.read_when(
+                |v| v.last().is_some_and(|last| last.stamp_ns >= until_ns),
+                |v| {
+                    aid.take(&v[seen..], &mut selection);
+                    seen = v.len();
+                },
+            )
+        });
+        let made = model
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        (run, made)
+    });
+    let refused = model_run.err();
+    let run = match &refused {
+        Some(_) if !aid.is_empty() => {
+            table.pop();
+            table.push(Box::new(ModelVelocityAid::refused(String::new())));
+            run_forward(
+                settings,
+                &Inputs {
+                    aids: &table,
+                    ..*inputs
+                },
+                init.estimate,
+            )
+        }
+        _ => run,
+    };
+    BesideModel {
+        run,
+        refused,
+        attitude,
+    }
+}
+
+/// A pass from `init` a stretch of [`ATTITUDE_CHUNK_NS`] at a time, `before(until_ns)` called
+/// before each stretch (and before the start) to put in the readings up to its end.
+fn pass_in_stretches(
+    settings: &Settings,
+    inputs: &Inputs<'_>,
+    init: &Initialisation,
+    mut before: impl FnMut(i64),
+) -> ForwardRun {
+    let (Some(first), Some(last)) = (inputs.imu.first(), inputs.imu.last()) else {
+        return ForwardRun::default();
+    };
+    before(first.stamp_ns);
+    let Some(mut running) = Running::start(settings, inputs, init.estimate) else {
+        return ForwardRun::default();
+    };
+    let mut until_ns = first.stamp_ns;
+    while until_ns < last.stamp_ns {
+        until_ns = until_ns.saturating_add(ATTITUDE_CHUNK_NS);
+        before(until_ns);
+        running.run_until(until_ns);
+    }
+    running.finish()
 }
 
 /// Why the filter's updates say the model does not fit (mean NIS per dimension of the DVL's

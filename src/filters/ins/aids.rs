@@ -14,6 +14,7 @@ use crate::filters::velocity::model_aided::{BodyVelocityReading, ModelRun, Model
 use crate::filters::velocity::rpm::{self, Reading, RpmFilter, RpmRun};
 use crate::geodesy;
 use nalgebra::{SMatrix, Vector3};
+use std::sync::Mutex;
 
 /// Readings at least `min_interval_s` apart, the first one kept.
 fn thinned<T: Clone>(readings: &[T], min_interval_s: f64, stamp: impl Fn(&T) -> i64) -> Vec<T> {
@@ -394,8 +395,12 @@ impl Aid for RpmVelocityAid {
 /// filter's body velocity over ground with its covariance, spread over the updates within its
 /// correlation time (the filter's error is slow: a covariance applied at every update as if
 /// independent would be averaged away).
+///
+/// The velocities may come in as the model's filter runs ([`ModelVelocityAid::taking`]): the
+/// table grows between the stretches of a pass, each velocity put in before the pass reaches
+/// its stamp.
 pub struct ModelVelocityAid {
-    velocities: Vec<ModelVelocity>,
+    velocities: Mutex<Vec<ModelVelocity>>,
     /// Each velocity's covariance is multiplied by this.
     inflation: f64,
     notes: Vec<String>,
@@ -409,38 +414,84 @@ pub struct ModelVelocityUse {
     pub dvl_timeout_s: f64,
 }
 
+/// Which of the model's velocities (in time order) the navigation filter takes: those with
+/// no DVL reading in range within the timeout before them, at least the least interval
+/// apart.
+pub struct ModelVelocitySelection<'a> {
+    dvl_in_range: &'a [BodyVelocityReading],
+    timeout_ns: i64,
+    min_interval_ns: i64,
+    last_taken_ns: Option<i64>,
+}
+
+impl<'a> ModelVelocitySelection<'a> {
+    /// `dvl_in_range`: the DVL's readings in range, time-sorted.
+    pub fn new(dvl_in_range: &'a [BodyVelocityReading], how: &ModelVelocityUse) -> Self {
+        ModelVelocitySelection {
+            dvl_in_range,
+            timeout_ns: (how.dvl_timeout_s * 1e9) as i64,
+            min_interval_ns: (how.min_interval_s * 1e9) as i64,
+            last_taken_ns: None,
+        }
+    }
+
+    /// Whether the next velocity, stamped `t_ns`, is taken.
+    pub fn takes(&mut self, t_ns: i64) -> bool {
+        let i = self.dvl_in_range.partition_point(|d| d.stamp_ns <= t_ns);
+        let dvl_out = i == 0 || t_ns - self.dvl_in_range[i - 1].stamp_ns > self.timeout_ns;
+        let spaced = self
+            .last_taken_ns
+            .is_none_or(|last| t_ns - last >= self.min_interval_ns);
+        let taken = dvl_out && spaced;
+        if taken {
+            self.last_taken_ns = Some(t_ns);
+        }
+        taken
+    }
+}
+
 impl ModelVelocityAid {
-    /// The velocities of `run` at least `min_interval_s` apart, those with no DVL reading
-    /// in range (`dvl_in_range`, time-sorted) within the timeout before them.
+    /// The velocities of `run` the selection takes ([`ModelVelocitySelection`]).
     pub fn new(
         run: ModelRun,
         dvl_in_range: &[BodyVelocityReading],
         how: &ModelVelocityUse,
     ) -> Self {
-        let timeout_ns = (how.dvl_timeout_s * 1e9) as i64;
-        let dvl_out = |t_ns: i64| {
-            let i = dvl_in_range.partition_point(|d| d.stamp_ns <= t_ns);
-            i == 0 || t_ns - dvl_in_range[i - 1].stamp_ns > timeout_ns
-        };
-        let out: Vec<ModelVelocity> = run
-            .velocities
-            .into_iter()
-            .filter(|v| dvl_out(v.stamp_ns))
-            .collect();
+        let aid = Self::taking(how);
+        aid.take(
+            &run.velocities,
+            &mut ModelVelocitySelection::new(dvl_in_range, how),
+        );
+        aid
+    }
+
+    /// No velocities yet: they are put in with [`ModelVelocityAid::take`] as they come.
+    pub fn taking(how: &ModelVelocityUse) -> Self {
         ModelVelocityAid {
-            velocities: thinned(&out, how.min_interval_s, |v| v.stamp_ns),
+            velocities: Mutex::new(Vec::new()),
             inflation: (how.correlation_s / how.min_interval_s).max(1.0),
             notes: Vec::new(),
         }
     }
 
+    /// Puts in the next of the model's velocities (time order) that `selection` takes.
+    pub fn take(&self, velocities: &[ModelVelocity], selection: &mut ModelVelocitySelection<'_>) {
+        self.list()
+            .extend(velocities.iter().filter(|v| selection.takes(v.stamp_ns)));
+    }
+
     /// No velocities, and why.
     pub fn refused(why: String) -> Self {
         ModelVelocityAid {
-            velocities: Vec::new(),
+            velocities: Mutex::new(Vec::new()),
             inflation: 1.0,
             notes: vec![why],
         }
+    }
+
+    fn list(&self) -> std::sync::MutexGuard<'_, Vec<ModelVelocity>> {
+        // A producer that panicked left whole velocities behind: still good to read.
+        self.velocities.lock().unwrap_or_else(|e| e.into_inner())
     }
 }
 
@@ -449,13 +500,13 @@ impl Aid for ModelVelocityAid {
         Sensor::ModelVelocity
     }
     fn len(&self) -> usize {
-        self.velocities.len()
+        self.list().len()
     }
     fn stamp_ns(&self, i: usize) -> i64 {
-        self.velocities[i].stamp_ns
+        self.list()[i].stamp_ns
     }
     fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
-        let v = &self.velocities[i];
+        let v = self.list()[i];
         let (y, h) = super::forward::measure::body_velocity_uncalibrated(at.est, &v.v_body_m_s);
         Some(Update::Three(Measurement {
             y,
@@ -465,6 +516,37 @@ impl Aid for ModelVelocityAid {
     }
     fn notes(&self) -> Vec<String> {
         self.notes.clone()
+    }
+}
+
+/// A row of another table, borrowed: a pass whose table adds a row to a table another pass
+/// uses at the same time.
+pub struct Borrowed<'a>(pub &'a dyn Aid);
+
+impl Aid for Borrowed<'_> {
+    fn sensor(&self) -> Sensor {
+        self.0.sensor()
+    }
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+    fn stamp_ns(&self, i: usize) -> i64 {
+        self.0.stamp_ns(i)
+    }
+    fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
+        self.0.measure(i, at)
+    }
+    fn reading(&self, i: usize) -> Option<SensorReading> {
+        self.0.reading(i)
+    }
+    fn repeats(&self, i: usize) -> bool {
+        self.0.repeats(i)
+    }
+    fn left_out(&self) -> LeftOut {
+        self.0.left_out()
+    }
+    fn notes(&self) -> Vec<String> {
+        self.0.notes()
     }
 }
 

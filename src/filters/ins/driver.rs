@@ -214,7 +214,22 @@ pub fn usual_imu_interval_s(imu: &[Imu]) -> Option<f64> {
 #[derive(Debug, Clone)]
 struct Cursor {
     aids: Vec<usize>,
+    /// The stamp of each row's next reading (`i64::MAX` past its last), so that the check
+    /// at every IMU sample asks no aid.
+    due_ns: Vec<i64>,
     out: usize,
+}
+
+impl Cursor {
+    /// Row `row`'s next stamp, read again from its aid.
+    fn refresh(&mut self, row: usize, aid: &dyn Aid) {
+        let next = self.aids[row];
+        self.due_ns[row] = if next < aid.len() {
+            aid.stamp_ns(next)
+        } else {
+            i64::MAX
+        };
+    }
 }
 
 struct Pass<'a> {
@@ -286,14 +301,18 @@ impl<'a> Running<'a> {
         let gate = |m: usize| aiding.gate_probability.map(|p| chi_square_quantile(m, p));
         let cap = |m: usize| gate(m).unwrap_or_else(|| chi_square_quantile(m, 0.999));
         // Measurements at or before the first IMU sample predate the initial estimate.
-        let at = Cursor {
+        let mut at = Cursor {
             aids: inputs
                 .aids
                 .iter()
                 .map(|aid| first_after(aid.as_ref(), t0))
                 .collect(),
+            due_ns: vec![i64::MAX; inputs.aids.len()],
             out: inputs.output_stamps_ns.partition_point(|&s| s <= t0),
         };
+        for (row, aid) in inputs.aids.iter().enumerate() {
+            at.refresh(row, aid.as_ref());
+        }
         let mut pass = Pass {
             consecutive_rejections: PerSensor::default(),
             recent: Default::default(),
@@ -330,8 +349,13 @@ impl<'a> Running<'a> {
     }
 
     /// Integrates the IMU samples stamped up to `end_ns`, with the measurements and outputs
-    /// due on the way.
+    /// due on the way. An aid may have grown since the last call (one filled as another
+    /// filter runs): its readings up to `end_ns` must be in it by now.
     pub fn run_until(&mut self, end_ns: i64) {
+        let pass = &mut self.pass;
+        for (row, aid) in pass.inputs.aids.iter().enumerate() {
+            pass.at.refresh(row, aid.as_ref());
+        }
         let imu = self.pass.inputs.imu;
         let samples = imu.len();
         while self.next + 1 < samples && imu[self.next + 1].stamp_ns <= end_ns {
@@ -449,12 +473,7 @@ impl Pass<'_> {
     /// Whether any measurement or output is due at or before `t`.
     fn due(&self, t: i64) -> bool {
         let inputs = self.inputs;
-        let aid_due = inputs
-            .aids
-            .iter()
-            .zip(&self.at.aids)
-            .any(|(aid, &next)| next < aid.len() && aid.stamp_ns(next) <= t);
-        aid_due
+        self.at.due_ns.iter().any(|&s| s <= t)
             || inputs
                 .output_stamps_ns
                 .get(self.at.out)
@@ -621,6 +640,7 @@ impl Pass<'_> {
                     None => self.run.unused[aid.sensor()] += 1,
                 }
             }
+            self.at.refresh(row, aid.as_ref());
         }
         while self
             .inputs

@@ -302,6 +302,21 @@ pub fn run(
     model: &SixDof,
     inputs: &Inputs<'_>,
 ) -> Result<ModelRun, ModelRefused> {
+    run_handing_on(settings, model, inputs, &mut |_| {})
+}
+
+/// Steps between two hand-overs of [`run_handing_on`].
+const HAND_ON_STEPS: usize = 256;
+
+/// [`run`], handing the velocities made so far to `hand_on` as it goes (every
+/// [`HAND_ON_STEPS`] steps, and the rest at the end), for a filter that takes them as they
+/// come.
+pub fn run_handing_on(
+    settings: &ModelAidedFilter,
+    model: &SixDof,
+    inputs: &Inputs<'_>,
+    hand_on: &mut dyn FnMut(&[ModelVelocity]),
+) -> Result<ModelRun, ModelRefused> {
     if inputs.fins.is_empty() {
         return Err(ModelRefused::NoFins);
     }
@@ -339,6 +354,7 @@ pub fn run(
     };
 
     let mut t_ns = t0;
+    let mut handed = 0;
     while inputs.attitude.reaches(t_ns + step_ns) {
         let at = attitude_at(&inputs.attitude.latest_at(t_ns).unwrap_or(first));
         let act = actuation_at(inputs, t_ns);
@@ -365,8 +381,13 @@ pub fn run(
             est = updates.apply_all(&step, est, &mut out)?;
         }
         out.velocities.push(handed_on(settings, &step, &est));
+        if out.velocities.len() - handed >= HAND_ON_STEPS {
+            hand_on(&out.velocities[handed..]);
+            handed = out.velocities.len();
+        }
         t_ns = next_ns;
     }
+    hand_on(&out.velocities[handed..]);
     Ok(out)
 }
 
