@@ -596,4 +596,56 @@ mod tests {
         assert_eq!(stamps, [0, 120_000_000, 240_000_000, 360_000_000]);
         assert_eq!(aid.left_out().by_interval, 6);
     }
+
+    /// The model's velocities the navigation filter takes: only while the DVL has been out
+    /// for the timeout, at least the least interval apart; the same whether the velocities
+    /// come all at once or in pieces as the model's filter makes them.
+    #[test]
+    fn model_velocities_are_taken_while_the_dvl_is_out_and_the_same_in_pieces() {
+        let s = 1_000_000_000i64;
+        // The DVL in range until 10 s and again from 30 s.
+        let dvl: Vec<BodyVelocityReading> = (0..=10)
+            .chain(30..=40)
+            .map(|k| BodyVelocityReading {
+                stamp_ns: k * s,
+                v_body_m_s: Vector3::zeros(),
+            })
+            .collect();
+        let how = ModelVelocityUse {
+            correlation_s: 4.0,
+            min_interval_s: 2.0,
+            dvl_timeout_s: 3.0,
+        };
+        // The model at 10 Hz from 0 to 45 s.
+        let velocities: Vec<ModelVelocity> = (0..450)
+            .map(|k| ModelVelocity {
+                stamp_ns: k * s / 10,
+                v_body_m_s: Vector3::new(k as f64, 0.0, 0.0),
+                cov: nalgebra::Matrix3::identity(),
+            })
+            .collect();
+        let run = ModelRun {
+            velocities: velocities.clone(),
+            ..ModelRun::default()
+        };
+        let whole = ModelVelocityAid::new(run, &dvl, &how);
+        let stamps = |aid: &ModelVelocityAid| -> Vec<i64> {
+            (0..aid.len()).map(|i| aid.stamp_ns(i) / (s / 10)).collect()
+        };
+        // Out from 13.1 s (more than 3 s after the reading at 10 s) to 30 s, and after 43 s;
+        // 2 s apart.
+        let want: Vec<i64> = (131..300)
+            .step_by(20)
+            .chain((431..450).step_by(20))
+            .collect();
+        assert_eq!(stamps(&whole), want);
+        let pieces = ModelVelocityAid::taking(&how);
+        let mut selection = ModelVelocitySelection::new(&dvl, &how);
+        for piece in velocities.chunks(37) {
+            pieces.take(piece, &mut selection);
+        }
+        assert_eq!(stamps(&pieces), want);
+        // The covariance is spread over the updates within the correlation time.
+        assert_eq!((whole.inflation, pieces.inflation), (2.0, 2.0));
+    }
 }
