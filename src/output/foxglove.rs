@@ -4,8 +4,9 @@
 //!
 //! The messages are Foxglove's schemas as ROS 2 messages (`foxglove_msgs/msg/LocationFix`,
 //! `foxglove_msgs/msg/PoseInFrame`), in CDR with their `ros2msg` definitions: Foxglove reads
-//! them as its own, and so does any ROS 2 tool. A fixed binary layout is a third of the JSON
-//! it replaced and a fraction of its time to write (a day's mission is a million messages).
+//! them as its own, and so does any ROS 2 tool. A fixed binary layout takes under a third of
+//! the JSON it replaced before compression (60 % after) and a fraction of its time to write (a
+//! day's mission is a million messages).
 //!
 //! Foxglove's frames are REP-103: the pose is in `map` (east, north, up from the mission
 //! origin) with the body FLU; the fix covariance is east-north-up.
