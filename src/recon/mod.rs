@@ -486,14 +486,61 @@ pub fn settled_start(
     config: &Config,
     mag: &magnetometer::PreparedMag,
 ) -> Result<Initialisation, ReconError> {
+    let (streams, settings, mut init) = unsettled_start(streams, mission, config, mag)?;
+    settle_start(&streams, mission, &settings, &mut init, config)?;
+    Ok(init)
+}
+
+/// [`settled_start`] when the log gives the heading a source, else `None` without settling
+/// it (the in-motion alignment would then find it from nothing, on figures not yet tuned).
+pub fn settled_start_from_sources(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    mag: &magnetometer::PreparedMag,
+) -> Result<Option<Initialisation>, ReconError> {
+    let (streams, settings, mut init) = unsettled_start(streams, mission, config, mag)?;
+    if init.heading_sources.is_empty() {
+        return Ok(None);
+    }
+    settle_start(&streams, mission, &settings, &mut init, config)?;
+    Ok(Some(init))
+}
+
+/// The streams a pass with this configuration uses, its settings and its initialisation,
+/// the heading not yet settled.
+fn unsettled_start<'a>(
+    streams: &Streams<'a>,
+    mission: &Mission,
+    config: &Config,
+    mag: &'a magnetometer::PreparedMag,
+) -> Result<
+    (
+        Streams<'a>,
+        crate::filters::ins::driver::Settings,
+        Initialisation,
+    ),
+    ReconError,
+> {
     let mag_readings = if config.mag.enabled {
         &mag.readings[..]
     } else {
         &[]
     };
     let streams = used_streams(streams, config, mag_readings);
-    let (settings, mut init) = initialise_for(&streams, mission, config, mag)?;
-    let aids = settings.aiding.table(&streams, mission_origin_rad(mission));
+    let (settings, init) = initialise_for(&streams, mission, config, mag)?;
+    Ok((streams, settings, init))
+}
+
+/// Settles the start's heading over the aids of `streams`.
+fn settle_start(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    settings: &crate::filters::ins::driver::Settings,
+    init: &mut Initialisation,
+    config: &Config,
+) -> Result<(), ReconError> {
+    let aids = settings.aiding.table(streams, mission_origin_rad(mission));
     let inputs = Inputs {
         imu: streams.imu,
         aids: &aids,
@@ -502,8 +549,7 @@ pub fn settled_start(
         // The alignment smooths its winner back to the start: it needs the records.
         keep: Keep::Records,
     };
-    settle_heading(&settings, &inputs, &mut init, config)?;
-    Ok(init)
+    settle_heading(settings, &inputs, init, config)
 }
 
 /// The navigation pass with the model's aid beside it ([`model_velocity::pass_beside_model`]).

@@ -17,8 +17,8 @@ use super::plan::{LogFacts, Part, Plan};
 use super::stats::{self, SensorStats};
 use super::tune::{self, Tuning};
 use super::{
-    finish_reporting, forward_with, settled_start, AttitudeTrack, ForwardPass, MagInput,
-    PassOptions, Prepared, ReconError, Reconstruction, Streams,
+    finish_reporting, forward_with, settled_start, settled_start_from_sources, AttitudeTrack,
+    ForwardPass, MagInput, PassOptions, Prepared, ReconError, Reconstruction, Streams,
 };
 use crate::angle::wrap_pi;
 use crate::contract::{Dvl, MagneticField};
@@ -455,9 +455,9 @@ fn settle_and_tune(
     // A heading the alignment found from nothing (no source at all) rests on the untuned
     // figures, which may be far off: the candidates then align themselves, each with its own
     // figures (the right model finds the right heading and scores best).
-    let first = settled_start(streams, mission, config, mag)
+    let first = settled_start_from_sources(streams, mission, config, mag)
         .ok()
-        .filter(|start| !start.heading_sources.is_empty());
+        .flatten();
     times.align_s += stages.start(Stage::Tune);
     // The candidates are scored without the model aid: it would cost each a pass more, and
     // the IMU's noise is to be learnt from the sensors, not from the model's errors.
