@@ -99,8 +99,9 @@ pub fn attitude_track(navigation: &[NavAt]) -> Vec<AttitudeAt> {
         .collect()
 }
 
-/// Log time the attitude pass runs between handing its attitude to the model's filter, ns.
-const ATTITUDE_CHUNK_NS: i64 = 10_000_000_000;
+/// Log time a pass runs between two hand-overs (the attitude pass's attitude to the model's
+/// filter, the model's velocities to the navigation pass), ns.
+const STRETCH_NS: i64 = 10_000_000_000;
 
 /// The model's aid and the attitude that drove it: the track handed in, else the attitude of a
 /// forward pass without the aid, run on a thread beside the model's filter (which waits for
@@ -135,18 +136,13 @@ fn attitude_pass(
         keep: Keep::Navigation,
         ..*inputs
     };
-    let (Some(first), Some(last)) = (inputs.imu.first(), inputs.imu.last()) else {
-        return;
-    };
-    let Some(mut running) = Running::start(settings, &inputs, init.estimate) else {
-        return;
-    };
-    let mut until_ns = first.stamp_ns;
-    while until_ns < last.stamp_ns {
-        until_ns = until_ns.saturating_add(ATTITUDE_CHUNK_NS);
-        running.run_until(until_ns);
-        feed.extend(attitude_track(&running.take_navigation()));
-    }
+    run_in_stretches(
+        settings,
+        &inputs,
+        init,
+        |_| {},
+        |running| feed.extend(attitude_track(&running.take_navigation())),
+    );
 }
 
 /// How the model's velocities are handed to the navigation filter.
@@ -210,7 +206,7 @@ pub struct BesideModel {
 /// The navigation pass with the model's aid, run beside the filters that make it.
 ///
 /// The attitude pass (on a thread) drives the model's filter (on another), whose velocities
-/// the pass takes as they come, [`ATTITUDE_CHUNK_NS`] of log time at a time: each velocity is
+/// the pass takes as they come, [`STRETCH_NS`] of log time at a time: each velocity is
 /// in the pass's table before the pass reaches its stamp, so the pass is the one a pass after
 /// the model would be. The model's misfit check needs its whole run: when it refuses the aid,
 /// a pass that took any of its velocities runs again without them.
@@ -251,7 +247,7 @@ pub fn pass_beside_model(
         });
         let mut selection = ModelVelocitySelection::new(dvl_in_range, &how);
         let mut seen = 0;
-        let run = pass_in_stretches(settings, &with_model, init, |until_ns| {
+        let take_until = |until_ns: i64| {
             made.read_when(
                 |v| v.last().is_some_and(|last| last.stamp_ns >= until_ns),
                 |v| {
@@ -259,7 +255,8 @@ pub fn pass_beside_model(
                     seen = v.len();
                 },
             )
-        });
+        };
+        let run = run_in_stretches(settings, &with_model, init, take_until, |_| {});
         let made = model
             .join()
             .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
@@ -288,13 +285,15 @@ pub fn pass_beside_model(
     }
 }
 
-/// A pass from `init` a stretch of [`ATTITUDE_CHUNK_NS`] at a time, `before(until_ns)` called
-/// before each stretch (and before the start) to put in the readings up to its end.
-fn pass_in_stretches(
+/// A pass from `init` a stretch of [`STRETCH_NS`] of log time at a time: `before(until_ns)`
+/// is called before each stretch (and before the start) to put in the readings up to its
+/// end, `after` once the stretch is run (to hand on what it made).
+fn run_in_stretches(
     settings: &Settings,
     inputs: &Inputs<'_>,
     init: &Initialisation,
     mut before: impl FnMut(i64),
+    mut after: impl FnMut(&mut Running<'_>),
 ) -> ForwardRun {
     let (Some(first), Some(last)) = (inputs.imu.first(), inputs.imu.last()) else {
         return ForwardRun::default();
@@ -305,9 +304,10 @@ fn pass_in_stretches(
     };
     let mut until_ns = first.stamp_ns;
     while until_ns < last.stamp_ns {
-        until_ns = until_ns.saturating_add(ATTITUDE_CHUNK_NS);
+        until_ns = until_ns.saturating_add(STRETCH_NS);
         before(until_ns);
         running.run_until(until_ns);
+        after(&mut running);
     }
     running.finish()
 }
