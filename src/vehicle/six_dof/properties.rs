@@ -47,7 +47,7 @@ pub struct Properties {
 /// Straight, level flight at `u` with the propeller at `n`: the surge force.
 fn surge_force(model: &SixDof, u: f64, n: f64) -> f64 {
     let nu = Nu::new(u, 0.0, 0.0, 0.0, 0.0, 0.0);
-    model.forces(&nu, &level(), &inputs(n)).0[0]
+    model.force_values(&nu, &level(), &inputs(n))[0]
 }
 
 fn level() -> Attitude {

@@ -68,16 +68,20 @@ impl Factor {
         }
     }
 
-    /// The factor's value and its gradient by `nu`.
-    fn eval(self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Nu) {
-        let mut grad = Nu::zeros();
+    /// The factor's value, and the one component of `nu` it depends on with its derivative
+    /// by it (a fin angle depends on none).
+    fn eval(self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Option<(usize, f64)>) {
         match self {
-            Factor::Nu(i) => grad[i] = 1.0,
-            Factor::AbsNu(i) => grad[i] = nu[i].signum(),
-            Factor::Rudder | Factor::Stern | Factor::Bow => {}
-            Factor::Wake => grad[0] = wake(nu[0], inputs.propeller_rad_s, length_m).1,
+            Factor::Nu(i) => (nu[i], Some((i, 1.0))),
+            Factor::AbsNu(i) => (nu[i].abs(), Some((i, nu[i].signum()))),
+            Factor::Rudder | Factor::Stern | Factor::Bow => {
+                (self.value(nu, inputs, length_m), None)
+            }
+            Factor::Wake => {
+                let (value, derivative) = wake(nu[0], inputs.propeller_rad_s, length_m);
+                (value, Some((0, derivative)))
+            }
         }
-        (self.value(nu, inputs, length_m), grad)
     }
 }
 
@@ -110,14 +114,18 @@ impl Term {
 
     /// The term's value and gradient by `nu`.
     pub fn eval(&self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Nu) {
-        // The product rule one factor at a time: (p g)' = p' g + p g'.
-        let (value, grad) =
-            self.factors
-                .iter()
-                .fold((self.coefficient, Nu::zeros()), |(p, dp), f| {
-                    let (v, dv) = f.eval(nu, inputs, length_m);
-                    (p * v, dp * v + dv * p)
-                });
+        // The product rule one factor at a time, (p g)' = p' g + p g', where g' has at most
+        // one non-zero component.
+        let mut value = self.coefficient;
+        let mut grad = Nu::zeros();
+        for f in &self.factors {
+            let (v, d) = f.eval(nu, inputs, length_m);
+            grad *= v;
+            if let Some((i, dv)) = d {
+                grad[i] += dv * value;
+            }
+            value *= v;
+        }
         (value, grad)
     }
 }
