@@ -281,6 +281,19 @@ pub struct Solution {
     pub attitude_cov: Matrix3<f64>,
 }
 
+/// The Jacobian of the Z-Y-X Euler angles (roll, pitch, yaw) by a small rotation of the NED
+/// frame (`ned_from_body` turned to `R(d) ned_from_body`), at `pitch` and `yaw` (rad): the
+/// inverse of the map from Euler rates to the angular rate in NED,
+/// `[[cy cp, -sy, 0], [sy cp, cy, 0], [-sp, 0, 1]]`. The cosine of the pitch is kept off zero
+/// (at +-90 deg roll and yaw are one angle).
+pub fn euler_from_ned_rotation(pitch: f64, yaw: f64) -> Matrix3<f64> {
+    let (sy, cy) = yaw.sin_cos();
+    let (sp, cp) = pitch.sin_cos();
+    let cp = if cp.abs() < 1e-9 { 1e-9 } else { cp };
+    let tp = sp / cp;
+    Matrix3::new(cy / cp, sy / cp, 0.0, -sy, cy, 0.0, cy * tp, sy * tp, 1.0)
+}
+
 impl Solution {
     pub fn new(stamp_ns: i64, point: NavPoint, cov: &PackedCov) -> Self {
         Solution {
@@ -310,23 +323,11 @@ impl Solution {
     }
 
     /// One-sigma of roll, pitch and yaw, rad: the attitude-error covariance (a rotation of
-    /// the NED frame) mapped through the Jacobian of the Euler angles (central differences).
+    /// the NED frame) mapped through the Jacobian of the Euler angles
+    /// ([`euler_from_ned_rotation`]).
     pub fn euler_sigma_rad(&self) -> [f64; 3] {
-        let q = self.point.nav.ned_from_body;
-        let eps = 1e-6;
-        let mut jac = Matrix3::zeros();
-        for k in 0..3 {
-            let mut d = Vector3::zeros();
-            d[k] = eps;
-            let (r1, p1, y1) = (UnitQuaternion::from_scaled_axis(d) * q).euler_angles();
-            let (r0, p0, y0) = (UnitQuaternion::from_scaled_axis(-d) * q).euler_angles();
-            let col = Vector3::new(
-                crate::angle::wrap_pi(r1 - r0),
-                p1 - p0,
-                crate::angle::wrap_pi(y1 - y0),
-            ) / (2.0 * eps);
-            jac.set_column(k, &col);
-        }
+        let [_, pitch, yaw] = self.euler_rad();
+        let jac = euler_from_ned_rotation(pitch, yaw);
         let cov = jac * self.attitude_cov * jac.transpose();
         [0, 1, 2].map(|i| cov[(i, i)].max(0.0).sqrt())
     }
@@ -455,6 +456,39 @@ impl Fixed for Solution {
 
 #[cfg(test)]
 mod tests {
+    /// The Euler Jacobian against central differences of the angles themselves, at attitudes
+    /// that cover every quadrant of yaw and pitches up to 85 deg.
+    #[test]
+    fn euler_jacobian_matches_finite_differences() {
+        for (roll, pitch, yaw) in [
+            (0.1, 0.2, 0.3),
+            (-2.5, -1.2, 2.9),
+            (3.0, 1.48, -1.7),
+            (0.0, 0.0, -3.1),
+            (1.0, -0.7, 1.6),
+        ] {
+            let q = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
+            let jac = euler_from_ned_rotation(pitch, yaw);
+            let eps = 1e-6;
+            for k in 0..3 {
+                let mut d = Vector3::zeros();
+                d[k] = eps;
+                let (r1, p1, y1) = (UnitQuaternion::from_scaled_axis(d) * q).euler_angles();
+                let (r0, p0, y0) = (UnitQuaternion::from_scaled_axis(-d) * q).euler_angles();
+                let numeric = Vector3::new(
+                    crate::angle::wrap_pi(r1 - r0),
+                    p1 - p0,
+                    crate::angle::wrap_pi(y1 - y0),
+                ) / (2.0 * eps);
+                let analytic = jac.column(k);
+                assert!(
+                    (numeric - analytic).norm() < 1e-6 * (1.0 + analytic.norm()),
+                    "({roll}, {pitch}, {yaw}) column {k}: {analytic:?} vs {numeric:?}"
+                );
+            }
+        }
+    }
+
     use super::*;
 
     #[test]
