@@ -191,17 +191,27 @@ fn dvl_walk_unset(config: &Config, best: &Candidate) -> bool {
 
 /// The fine grades scored with a DVL bias walk, when the walk is the tuning's to choose (an
 /// empty list otherwise): a fibre-optic IMU whose DVL's error drifts would otherwise lose
-/// the ladder to a noisy model that absorbs that error.
-fn fine_grades_with_walk(scorer: Scorer<'_>, config: &Config) -> Vec<Scored> {
-    let candidates: Vec<Candidate> = ladder().into_iter().filter(|c| fine(c.grade)).collect();
-    if !candidates.iter().any(|c| dvl_walk_unset(config, c)) {
+/// the ladder to a noisy model that absorbs that error. Without a settled start each starts
+/// from the alignment its grade found in the ladder (`ladder`: the ladder's candidates with
+/// their starts): one alignment per grade.
+fn fine_grades_with_walk(
+    scorer: Scorer<'_>,
+    config: &Config,
+    ladder: &[(Candidate, Option<&Initialisation>)],
+) -> Vec<Scored> {
+    let candidates: Vec<(Candidate, Option<&Initialisation>)> = ladder
+        .iter()
+        .copied()
+        .filter(|(c, _)| fine(c.grade))
+        .collect();
+    if !candidates.iter().any(|(c, _)| dvl_walk_unset(config, c)) {
         return Vec::new();
     }
     let walked = with_dvl_walk(config, LADDER_WALK, config.dvl.bias_correlation_s);
-    scorer
-        .score_all(&walked, &candidates)
-        .into_iter()
-        .map(|(mut scored, _)| {
+    candidates
+        .par_iter()
+        .map(|&(c, start)| {
+            let mut scored = scorer.starting_at(start).scored(&walked, &c);
             scored.label = format!("{}, dvl bias walk {LADDER_WALK}", scored.label);
             scored
         })
@@ -220,22 +230,33 @@ fn with_dvl_walk(config: &Config, walk: f64, correlation_s: f64) -> Config {
 /// than [`MIN_GAIN`] over the configuration's, then, with it and when `[tune]
 /// dvl_bias_correlation` asks, the correlation time of [`DVL_CORRELATIONS_S`] that gains more
 /// than that over the plain walk (unless the configuration gives one). Returns the drift and
-/// the posterior with it.
+/// the posterior with it. `walked` are the fine grades already scored with [`LADDER_WALK`] and
+/// the configured correlation, from the start `scorer` has: that pass is not run again.
 fn dvl_bias_drift(
     scorer: Scorer<'_>,
     config: &Config,
-    best: &Candidate,
-    best_ll: f64,
+    (best, best_ll): (&Candidate, f64),
+    walked: &[Scored],
 ) -> (DvlDrift, f64) {
     let prior = bias_prior(best, scorer.white);
+    let given_correlation = config.dvl.bias_correlation_s;
+    let already = |walk: f64, correlation_s: f64| {
+        walked
+            .iter()
+            .filter(|_| walk == LADDER_WALK && correlation_s == given_correlation)
+            .find(|s| s.candidate.same_as(best))
+            .and_then(|s| s.log_likelihood)
+    };
     // The (walk, correlation time) of `tries` most likely, by more than MIN_GAIN over `over`.
     let most_likely = |tries: Vec<(f64, f64)>, over: f64| {
         let scored: Vec<((f64, f64), f64)> = tries
             .par_iter()
             .filter_map(|&(walk, correlation_s)| {
-                let c = with_dvl_walk(config, walk, correlation_s);
-                let scored = scorer.score(&c, best);
-                scored.map(|(ll, _)| ((walk, correlation_s), ll + prior))
+                let ll = already(walk, correlation_s).or_else(|| {
+                    let c = with_dvl_walk(config, walk, correlation_s);
+                    scorer.score(&c, best).map(|(ll, _)| ll)
+                });
+                ll.map(|ll| ((walk, correlation_s), ll + prior))
             })
             .collect();
         scored
@@ -243,7 +264,6 @@ fn dvl_bias_drift(
             .filter(|&(_, ll)| ll > over + MIN_GAIN)
             .max_by(|a, b| a.1.total_cmp(&b.1))
     };
-    let given_correlation = config.dvl.bias_correlation_s;
     let walks = DVL_WALKS.iter().map(|&w| (w, given_correlation)).collect();
     let Some(((walk, _), walk_ll)) = most_likely(walks, best_ll) else {
         let kept = DvlDrift {
@@ -413,6 +433,44 @@ impl Scorer<'_> {
             .filter(|(l, _)| l.is_finite())
     }
 
+    /// The scorer with `start` as its start when it has none settled (a start found for the
+    /// same grade).
+    fn starting_at<'t>(&self, start: Option<&'t Initialisation>) -> Scorer<'t>
+    where
+        Self: 't,
+    {
+        Scorer {
+            from: Prepared {
+                start: self.from.start.or(start),
+                ..self.from
+            },
+            ..*self
+        }
+    }
+
+    /// One candidate scored, with the start its pass took.
+    fn scored_with_start(
+        &self,
+        config: &Config,
+        c: &Candidate,
+    ) -> (Scored, Option<Initialisation>) {
+        let (log_likelihood, start) = self
+            .score(config, c)
+            .map_or((None, None), |(l, i)| (Some(l), Some(i)));
+        let scored = Scored {
+            label: c.label(),
+            candidate: *c,
+            log_likelihood,
+            log_prior: bias_prior(c, self.white),
+        };
+        (scored, start)
+    }
+
+    /// One candidate scored.
+    fn scored(&self, config: &Config, c: &Candidate) -> Scored {
+        self.scored_with_start(config, c).0
+    }
+
     /// Scores the candidates in parallel; each with the start its pass took.
     fn score_all(
         &self,
@@ -421,18 +479,7 @@ impl Scorer<'_> {
     ) -> Vec<(Scored, Option<Initialisation>)> {
         candidates
             .par_iter()
-            .map(|c| {
-                let scored = self.score(config, c);
-                let (log_likelihood, start) =
-                    scored.map_or((None, None), |(l, i)| (Some(l), Some(i)));
-                let scored = Scored {
-                    label: c.label(),
-                    candidate: *c,
-                    log_likelihood,
-                    log_prior: bias_prior(c, self.white),
-                };
-                (scored, start)
-            })
+            .map(|c| self.scored_with_start(config, c))
             .collect()
     }
 }
@@ -521,11 +568,15 @@ pub fn search(
             ),
         };
     };
-    // The fine grades with a walk start as the ladder's did (each aligns itself without a
-    // settled start).
+    // The fine grades with a walk start where their grade's ladder pass started.
     // The better of them, when it beats the ladder's best, becomes the best, with its
     // posterior without the walk (the walk's own search below then takes it up).
-    let with_walk = fine_grades_with_walk(scorer, config);
+    let ladder_starts: Vec<(Candidate, Option<&Initialisation>)> = tried
+        .iter()
+        .zip(&starts)
+        .map(|(t, s)| (t.candidate, s.as_ref()))
+        .collect();
+    let with_walk = fine_grades_with_walk(scorer, config, &ladder_starts);
     if let Some((c, ll)) = best_of(&with_walk).filter(|&(_, ll)| ll > best_ll + MIN_GAIN) {
         let without_walk = tried
             .iter()
@@ -534,29 +585,19 @@ pub fn search(
         best = c;
         best_ll = without_walk.unwrap_or(ll);
     }
-    tried.extend(with_walk);
+    tried.extend(with_walk.iter().cloned());
     // Without a settled start each grade aligned itself: the refinements, near the best
     // grade, start from the start the best grade found (one alignment per grade, not per
     // candidate).
-    let best_start = tried
+    let best_start = ladder_starts
         .iter()
-        .zip(&starts)
-        .find(|(t, _)| t.candidate.same_as(&best))
-        .and_then(|(_, s)| s.as_ref());
-    let scorer = match (from.start, best_start) {
-        (None, Some(start)) => Scorer {
-            from: Prepared {
-                start: Some(start),
-                ..from
-            },
-            ..scorer
-        },
-        _ => scorer,
-    };
+        .find(|(c, _)| c.same_as(&best))
+        .and_then(|(_, s)| *s);
+    let scorer = scorer.starting_at(best_start);
     // The DVL's error correlated in time is modelled before the refinements, so that they
     // do not blame it on the IMU.
     let dvl_bias_walk = dvl_walk_unset(config, &best).then(|| {
-        let (drift, ll) = dvl_bias_drift(scorer, config, &best, best_ll);
+        let (drift, ll) = dvl_bias_drift(scorer, config, (&best, best_ll), &with_walk);
         best_ll = ll;
         drift
     });
