@@ -22,12 +22,13 @@
 use super::aiding::{
     first_after, Aid, Aiding, Epoch, Measurement, PerSensor, Sensor, SensorReading, Update,
 };
-use super::error_state::{ErrorMatrix, ErrorState};
+use super::error_state::ErrorState;
 use super::forward::{Estimate, Filter, ImuNoise};
 use super::mechanization::{ImuSample, NavState};
 use super::record::{EpochRecord, NavPoint};
 use super::reopen::{RecentRejections, Rejected};
 use crate::contract::Imu;
+use crate::filters::ins::record::PackedTransition;
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
 use crate::geodesy;
 use crate::spill::Spilled;
@@ -247,7 +248,7 @@ struct Pass<'a> {
     cov_dt_s: f64,
     gap_since_cov: bool,
     /// Transition and process-noise diagonal of the last covariance step (one per epoch).
-    step_phi: ErrorMatrix,
+    step_phi: PackedTransition,
     step_q: ErrorState,
     /// Bias-corrected body rate relative to NED at the current epoch.
     omega_nb_body: Vector3<f64>,
@@ -326,7 +327,7 @@ impl<'a> Running<'a> {
             w_dt_sum: Vector3::zeros(),
             cov_dt_s: 0.0,
             gap_since_cov: false,
-            step_phi: ErrorMatrix::identity(),
+            step_phi: PackedTransition::identity(),
             step_q: ErrorState::zeros(),
             omega_nb_body: Vector3::zeros(),
             at,

@@ -90,6 +90,19 @@ pub fn continuous_matrix(
     f_body: &Vector3<f64>,
     omega_body: &Vector3<f64>,
 ) -> ErrorMatrix {
+    let mut f = ErrorMatrix::zeros();
+    f.fixed_rows_mut::<NAV_ROWS>(0)
+        .copy_from(&continuous_rows(nav, f_body, omega_body));
+    f
+}
+
+/// The rows of [`continuous_matrix`] that are not zero: the navigation errors'
+/// ([`NAV_ROWS`]).
+pub fn continuous_rows(
+    nav: &NavState,
+    f_body: &Vector3<f64>,
+    omega_body: &Vector3<f64>,
+) -> TransitionRows {
     use idx::*;
     let (lat, h) = (nav.lat_rad, nav.height_m);
     let v = nav.vel_ned_m_s;
@@ -126,7 +139,7 @@ pub fn continuous_matrix(
     );
     let die_dlat = Vector3::new(-omega * s, 0.0, -omega * c);
 
-    let mut f = ErrorMatrix::zeros();
+    let mut f = TransitionRows::zeros();
     // Position (dlat = dN / rho_n, dh = -dD).
     f[(POS, POS)] = -vd / rho_n;
     f[(POS, POS + 2)] = vn / rho_n;
@@ -239,17 +252,28 @@ pub fn transition(f: &ErrorMatrix, dt_s: f64) -> ErrorMatrix {
         f.fixed_rows::<HELD_ROWS>(NAV_ROWS).amax() == 0.0,
         "F's rows below the attitude are not zero"
     );
+    let mut phi = ErrorMatrix::identity();
+    phi.fixed_rows_mut::<NAV_ROWS>(0)
+        .copy_from(&transition_rows(
+            &f.fixed_rows::<NAV_ROWS>(0).into_owned(),
+            dt_s,
+        ));
+    phi
+}
+
+/// The top rows of [`transition`], from the top rows of `F` (the others are zero).
+pub fn transition_rows(f_top: &TransitionRows, dt_s: f64) -> TransitionRows {
     type Square = SMatrix<f64, NAV_ROWS, NAV_ROWS>;
-    let a: Square = f.fixed_view::<NAV_ROWS, NAV_ROWS>(0, 0) * dt_s;
-    let b = f.fixed_view::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS) * dt_s;
+    let a: Square = f_top.fixed_view::<NAV_ROWS, NAV_ROWS>(0, 0) * dt_s;
+    let b = f_top.fixed_view::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS) * dt_s;
     let i = Square::identity();
     let t = i + dense::mul(&a, &(i + dense::mul(&a, &(i + a * 0.25)) * (1.0 / 3.0))) * 0.5;
-    let mut phi = ErrorMatrix::identity();
-    phi.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
+    let mut top = TransitionRows::zeros();
+    top.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
         .copy_from(&(i + dense::mul(&a, &t)));
-    phi.fixed_view_mut::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS)
+    top.fixed_view_mut::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS)
         .copy_from(&dense::mul(&t, &b));
-    phi
+    top
 }
 
 /// `Phi P` for a transition whose rows below [`NAV_ROWS`] are `[0 I]`, given its top rows.

@@ -12,6 +12,7 @@ use super::error_state::{
     self, idx, DvlCalibration, ErrorMatrix, ErrorState, WaterState, DVL_STATES, N, WATER_STATES,
 };
 use super::mechanization::{propagate, HeightDamping, ImuSample, NavState};
+use crate::filters::ins::record::PackedTransition;
 use crate::filters::kalman::{self, KalmanError, UpdateRecord};
 use crate::geodesy;
 use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector3};
@@ -199,21 +200,21 @@ impl Filter {
         dt_s: f64,
         noise: &ImuNoise,
     ) -> (ErrorMatrix, ErrorMatrix, ErrorState) {
-        let (mut cov, mut phi) = (*cov, ErrorMatrix::zeros());
+        let (mut cov, mut phi) = (*cov, PackedTransition::identity());
         let q = self.propagate_covariance_in_place(
             &mut cov, &mut phi, nav_from, nav_to, imu_mean, dt_s, noise,
         );
-        (cov, phi, q)
+        (cov, phi.unpack(), q)
     }
 
     /// [`Filter::propagate_covariance_with`] in place: `cov` is propagated and `phi` set to
     /// the transition (the forward pass keeps both, and copies neither); returns the
-    /// diagonal of `Q`.
+    /// diagonal of `Q`. Only the transition's top rows are made (the others are `[0 D]`).
     #[allow(clippy::too_many_arguments)]
     pub fn propagate_covariance_in_place(
         &self,
         cov: &mut ErrorMatrix,
-        phi: &mut ErrorMatrix,
+        phi: &mut PackedTransition,
         nav_from: &NavState,
         nav_to: &NavState,
         imu_mean: &ImuSample,
@@ -221,20 +222,23 @@ impl Filter {
         noise: &ImuNoise,
     ) -> ErrorState {
         let (f_body, w_body) = (&imu_mean.specific_force_body, &imu_mean.omega_ib_body);
-        let mut f = error_state::continuous_matrix(nav_from, f_body, w_body);
-        f += error_state::continuous_matrix(nav_to, f_body, w_body);
+        let mut f = error_state::continuous_rows(nav_from, f_body, w_body);
+        f += error_state::continuous_rows(nav_to, f_body, w_body);
         f *= 0.5;
-        *phi = error_state::transition(&f, dt_s);
+        let top = error_state::transition_rows(&f, dt_s);
         let mut q = process_noise(noise, self.current_walk, self.dvl_bias_walk, dt_s).diagonal();
-        if let Some((decay, variance)) = self.dvl_bias_markov_step(dt_s) {
-            error_state::decay_dvl_bias(cov, decay);
-            for k in 0..3 {
-                phi[(idx::DVL_BIAS + k, idx::DVL_BIAS + k)] = decay;
-                q[idx::DVL_BIAS + k] = variance;
+        let decay = match self.dvl_bias_markov_step(dt_s) {
+            Some((decay, variance)) => {
+                error_state::decay_dvl_bias(cov, decay);
+                for k in 0..3 {
+                    q[idx::DVL_BIAS + k] = variance;
+                }
+                decay
             }
-        }
-        let top = phi.fixed_rows::<{ error_state::NAV_ROWS }>(0).into_owned();
+            None => 1.0,
+        };
         error_state::predict_cov_in_place(&top, cov, &q);
+        *phi = PackedTransition::from_top_rows(top, decay);
         q
     }
 
@@ -719,7 +723,7 @@ mod tests {
         };
         let (dt, steps) = (0.5, 1200); // 600 s, ten correlation times
         let run = |f: &Filter| {
-            let (mut c, mut phi) = (cov, ErrorMatrix::zeros());
+            let (mut c, mut phi) = (cov, PackedTransition::identity());
             for _ in 0..steps {
                 f.propagate_covariance_in_place(
                     &mut c, &mut phi, &est.nav, &est.nav, &imu, dt, &f.noise,
@@ -735,7 +739,7 @@ mod tests {
             "{} vs {want}",
             gm[(b, b)]
         );
-        assert!((phi[(b, b)] - (-dt / tau).exp()).abs() < 1e-15);
+        assert!((phi.dvl_bias_decay() - (-dt / tau).exp()).abs() < 1e-15);
         let cross_want = 5e-7 * (-600.0 / tau).exp();
         assert!(
             (gm[(b, idx::CURRENT)] / cross_want - 1.0).abs() < 1e-9,
@@ -752,6 +756,6 @@ mod tests {
         assert!(block.cholesky().is_some());
         let (rw, phi) = run(&filter(None));
         assert!((rw[(b, b)] - (1e-6 + walk * walk * 600.0)).abs() < 1e-12);
-        assert_eq!(phi[(b, b)], 1.0);
+        assert_eq!(phi.dvl_bias_decay(), 1.0);
     }
 }

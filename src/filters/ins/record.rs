@@ -109,6 +109,19 @@ impl PackedTransition {
         }
     }
 
+    /// The transition with these top rows and the DVL bias's `decay` (1: none) on the
+    /// diagonal of its bias rows, which are `[0 I]` otherwise.
+    pub fn from_top_rows(top: TransitionRows, dvl_bias_decay: f64) -> Self {
+        debug_assert!(
+            (idx::DVL..idx::GYRO_SCALE_Z).all(|c| top.column(c).amax() == 0.0),
+            "transition's top rows involve the DVL or water states"
+        );
+        PackedTransition {
+            top,
+            dvl_bias_decay,
+        }
+    }
+
     /// The identity with `decay` on the DVL bias's diagonal.
     fn bottom_rows(decay: f64) -> ErrorMatrix {
         let mut m = ErrorMatrix::identity();
@@ -210,7 +223,7 @@ impl EpochRecord {
     pub fn new(
         stamp_ns: i64,
         output: bool,
-        phi_from_previous: &ErrorMatrix,
+        phi_from_previous: &PackedTransition,
         process_noise: &ErrorState,
         prior: &NavPoint,
         posterior: &Estimate,
@@ -219,7 +232,7 @@ impl EpochRecord {
         EpochRecord {
             stamp_ns,
             output,
-            phi_from_previous: PackedTransition::pack(phi_from_previous),
+            phi_from_previous: *phi_from_previous,
             process_noise: *process_noise,
             correction: correction_between(prior, &posterior_point),
             posterior: posterior_point,
@@ -540,7 +553,7 @@ mod tests {
         let bytes = encoded(&EpochRecord::new(
             7,
             false,
-            &phi,
+            &PackedTransition::pack(&phi),
             &q,
             &NavPoint::from(&est_with(p)),
             &est_with(p),
@@ -600,7 +613,14 @@ mod tests {
         prior.nav.lat_rad += 1e-7;
         let q = ErrorState::from_fn(|i, _| i as f64 * 1e-9);
         let prior = NavPoint::from(&prior);
-        let rec = EpochRecord::new(1_700_000_000_123_456_789, true, &phi, &q, &prior, &est);
+        let rec = EpochRecord::new(
+            1_700_000_000_123_456_789,
+            true,
+            &PackedTransition::pack(&phi),
+            &q,
+            &prior,
+            &est,
+        );
         let bytes = encoded(&rec);
         assert_eq!(bytes.len(), EpochRecord::BYTES);
         assert_eq!(EpochRecord::decode(&mut Decoder::new(&bytes)), rec);
