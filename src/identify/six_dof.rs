@@ -28,7 +28,7 @@ use crate::contract::{ControlSurfaces, Dvl, Imu, Propeller};
 use crate::ingest::Log;
 use crate::vehicle::six_dof::description::Vehicle;
 use crate::vehicle::six_dof::model::{Attitude, SixDof};
-use crate::vehicle::six_dof::terms::{Inputs, Nu};
+use crate::vehicle::six_dof::terms::{Factors, Inputs, Nu};
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, SMatrix, SVector, Vector3};
 
 /// `[u, v, w, p, q, r, roll, pitch, yaw]`.
@@ -452,11 +452,12 @@ impl Problem<'_> {
         f[(8, 7)] = (q * sr + r * cr) * sp / (cp * cp);
         let len = model.vehicle.length_m;
         let mut fc = DMatrix::zeros(NX, self.terms.len());
+        let factors = Factors::at(&nu, inputs, len);
         for (k, idx) in self.terms.iter().enumerate() {
             let mut tau = Nu::zeros();
             for &t in idx {
                 let term = &model.vehicle.terms[t];
-                tau[term.axis] += term.regressor(&nu, inputs, len) / idx.len() as f64;
+                tau[term.axis] += term.regressor(&factors) / idx.len() as f64;
             }
             fc.view_mut((0, k), (6, 1)).copy_from(&(m_inv * tau));
         }

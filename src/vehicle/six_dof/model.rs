@@ -12,7 +12,7 @@
 //! appendix's `A_v2, A_v3, A_w2, A_w3` blocks, analytic term by term.
 
 use super::description::{Propulsion, Vehicle};
-use super::terms::{Inputs, Nu};
+use super::terms::{Factors, Inputs, Nu};
 use nalgebra::{Matrix3, Matrix6, SMatrix, SVector, Vector3};
 
 /// Sections of the strip-theory cross-flow integral.
@@ -129,15 +129,16 @@ impl SixDof {
         }
 
         // The file's hydrodynamic terms.
+        let factors = Factors::at(nu, inputs, veh.length_m);
         for term in &veh.terms {
             match d.as_deref_mut() {
                 Some(d) => {
-                    let (value, grad) = term.eval(nu, inputs, veh.length_m);
+                    let (value, grad) = term.eval(&factors);
                     tau[term.axis] += value;
                     let mut row = d.row_mut(term.axis);
                     row += grad.transpose();
                 }
-                None => tau[term.axis] += term.value(nu, inputs, veh.length_m),
+                None => tau[term.axis] += term.value(&factors),
             }
         }
 

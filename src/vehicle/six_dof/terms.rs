@@ -55,33 +55,52 @@ pub fn wake(u: f64, n: f64, length_m: f64) -> (f64, f64) {
     (value, derivative)
 }
 
+/// Kinds of factor: six velocities, their six magnitudes, three fins and the wake.
+const KINDS: usize = 16;
+
 impl Factor {
-    /// The factor's value.
-    fn value(self, nu: &Nu, inputs: &Inputs, length_m: f64) -> f64 {
+    /// Where the factor's value sits in a [`Factors`] table.
+    fn slot(self) -> usize {
         match self {
-            Factor::Nu(i) => nu[i],
-            Factor::AbsNu(i) => nu[i].abs(),
-            Factor::Rudder => inputs.rudder_rad,
-            Factor::Stern => inputs.stern_rad,
-            Factor::Bow => inputs.bow_rad,
-            Factor::Wake => wake(nu[0], inputs.propeller_rad_s, length_m).0,
+            Factor::Nu(i) => i,
+            Factor::AbsNu(i) => 6 + i,
+            Factor::Rudder => 12,
+            Factor::Stern => 13,
+            Factor::Bow => 14,
+            Factor::Wake => 15,
         }
     }
+}
 
-    /// The factor's value, and the one component of `nu` it depends on with its derivative
-    /// by it (a fin angle depends on none).
-    fn eval(self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Option<(usize, f64)>) {
-        match self {
-            Factor::Nu(i) => (nu[i], Some((i, 1.0))),
-            Factor::AbsNu(i) => (nu[i].abs(), Some((i, nu[i].signum()))),
-            Factor::Rudder | Factor::Stern | Factor::Bow => {
-                (self.value(nu, inputs, length_m), None)
-            }
-            Factor::Wake => {
-                let (value, derivative) = wake(nu[0], inputs.propeller_rad_s, length_m);
-                (value, Some((0, derivative)))
-            }
+/// Every kind of factor evaluated once at one `nu` and actuation (the wake factor's square
+/// roots above all), with the one component of `nu` each depends on and its derivative by it
+/// (a fin angle depends on none).
+pub struct Factors {
+    value: [f64; KINDS],
+    derivative: [Option<(usize, f64)>; KINDS],
+}
+
+impl Factors {
+    pub fn at(nu: &Nu, inputs: &Inputs, length_m: f64) -> Self {
+        let mut value = [0.0; KINDS];
+        let mut derivative = [None; KINDS];
+        for i in 0..6 {
+            value[i] = nu[i];
+            derivative[i] = Some((i, 1.0));
+            value[6 + i] = nu[i].abs();
+            derivative[6 + i] = Some((i, nu[i].signum()));
         }
+        value[12] = inputs.rudder_rad;
+        value[13] = inputs.stern_rad;
+        value[14] = inputs.bow_rad;
+        let (wake_value, wake_derivative) = wake(nu[0], inputs.propeller_rad_s, length_m);
+        value[15] = wake_value;
+        derivative[15] = Some((0, wake_derivative));
+        Factors { value, derivative }
+    }
+
+    fn value(&self, f: Factor) -> f64 {
+        self.value[f.slot()]
     }
 }
 
@@ -98,30 +117,29 @@ pub struct Term {
 
 impl Term {
     /// The term's value (the simulator's path: no gradient, no allocation).
-    pub fn value(&self, nu: &Nu, inputs: &Inputs, length_m: f64) -> f64 {
+    pub fn value(&self, f: &Factors) -> f64 {
         self.factors
             .iter()
-            .fold(self.coefficient, |p, f| p * f.value(nu, inputs, length_m))
+            .fold(self.coefficient, |p, &k| p * f.value(k))
     }
 
     /// The term's value per unit coefficient (the product of its factors): its derivative by
     /// the coefficient.
-    pub fn regressor(&self, nu: &Nu, inputs: &Inputs, length_m: f64) -> f64 {
-        self.factors
-            .iter()
-            .fold(1.0, |p, f| p * f.value(nu, inputs, length_m))
+    pub fn regressor(&self, f: &Factors) -> f64 {
+        self.factors.iter().fold(1.0, |p, &k| p * f.value(k))
     }
 
     /// The term's value and gradient by `nu`.
-    pub fn eval(&self, nu: &Nu, inputs: &Inputs, length_m: f64) -> (f64, Nu) {
+    pub fn eval(&self, f: &Factors) -> (f64, Nu) {
         // The product rule one factor at a time, (p g)' = p' g + p g', where g' has at most
         // one non-zero component.
         let mut value = self.coefficient;
         let mut grad = Nu::zeros();
-        for f in &self.factors {
-            let (v, d) = f.eval(nu, inputs, length_m);
+        for &k in &self.factors {
+            let slot = k.slot();
+            let v = f.value[slot];
             grad *= v;
-            if let Some((i, dv)) = d {
+            if let Some((i, dv)) = f.derivative[slot] {
                 grad[i] += dv * value;
             }
             value *= v;
