@@ -200,12 +200,27 @@ impl Window {
         before.plus(&s.integrands, (t - s.start_s).max(0.0))
     }
 
+    /// [`Window::integrals`]'s rate alone.
+    fn rate_integral(&self, t: f64) -> Vector3<f64> {
+        let i = self.samples.partition_point(|s| s.end_s < t);
+        if i >= self.samples.len() {
+            return self.sums[self.samples.len() - 1].r;
+        }
+        let s = &self.samples[i];
+        let before = if i == 0 {
+            Vector3::zeros()
+        } else {
+            self.sums[i - 1].r
+        };
+        before + s.integrands.r * (t - s.start_s).max(0.0)
+    }
+
     /// The gyro's mean rate over [`RATE_MEAN_S`] about `t`: a regressor of the lever arm,
     /// whose noise would draw the estimate towards zero (a MEMS gyro's sample is 0.003 rad/s
     /// of noise, as much as a pool vehicle's rate changes between readings).
     fn rate_at(&self, t: f64) -> Vector3<f64> {
         let half = 0.5 * RATE_MEAN_S;
-        (self.integrals(t + half).r - self.integrals(t - half).r) / RATE_MEAN_S
+        (self.rate_integral(t + half) - self.rate_integral(t - half)) / RATE_MEAN_S
     }
 
     /// Each pair's design row (the window's unknowns, then the lever arm's three) and the
