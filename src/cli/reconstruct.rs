@@ -619,12 +619,11 @@ fn joined<T>(thread: std::thread::ScopedJoinHandle<'_, T>) -> T {
         .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
 }
 
-/// Where the scores' thread writes: the staging (tuned.toml and the report), the list of
-/// files written, and the errors table when the log has a truth.
+/// Where the scores' thread writes: the staging (tuned.toml and the report) and the list of
+/// files written.
 struct Outputs<'a> {
     staging: &'a mut Staging,
     written: &'a mut Vec<PathBuf>,
-    errors: Option<tables::Staged>,
 }
 
 /// The rows the outputs hold: every output epoch (and every epoch with `aiding_epochs`).
@@ -662,35 +661,42 @@ impl Written<'_> {
         let (to_parquet, parquet_blocks) = tables::channel();
         let (to_mcap, mcap_blocks) = tables::channel();
         let (to_scores, score_blocks) = tables::channel();
+        let (to_errors, block_errors) = std::sync::mpsc::sync_channel(1);
+        let to_errors = errors.is_some().then_some(to_errors);
         let outputs = Outputs {
             staging: &mut staging,
             written: &mut written,
-            errors,
         };
         // The writers' threads use no rayon: the report, which does, is made on this thread
         // (a rayon worker's, in a batch), so that no thread waits on the pool from outside it.
-        let (read, parquet, mcap, scored) = std::thread::scope(|s| {
+        let (read, parquet, mcap, errors, scored) = std::thread::scope(|s| {
             let parquet = s.spawn(|| -> Result<()> {
                 tables::trajectory_parquet(trajectory, parquet_blocks, origin)?;
                 tables::write_chunks(residuals, &r.run.residuals, recon_tables::residuals_batch)
             });
             let mcap = s.spawn(|| tables::trajectory_mcap(foxglove, mcap_blocks, origin));
+            let errors = s.spawn(|| match errors {
+                Some(file) => tables::errors_parquet(file, block_errors),
+                None => Ok(()),
+            });
             let scores = s.spawn(|| -> Result<_> {
                 let truth = self.truth_back()?;
                 let from_log = self.from_log.clone().with_truth(&truth);
                 let sample_rows = tables::sample_rows(&keep);
-                Ok((tables::score(score_blocks, &truth, &sample_rows), from_log))
+                let scored = tables::score(score_blocks, &truth, &sample_rows, to_errors);
+                Ok((scored, from_log))
             });
             let read = tables::read_blocks(r, &keep, vec![to_parquet, to_mcap, to_scores]);
             let scored = joined(scores).and_then(|(scored, from_log)| {
                 let report_inputs = (&keep[..], origin, &from_log);
                 self.summary_and_report(&outcome, scored, outputs, report_inputs)
             });
-            (read, joined(parquet), joined(mcap), scored)
+            (read, joined(parquet), joined(mcap), joined(errors), scored)
         });
         // A writer's own failure first: it is why the reading stopped.
         parquet?;
         mcap?;
+        errors?;
         let mut summary = scored?;
         read?;
         summary.run_time_s.outputs = outputs_started.elapsed().as_secs_f64();
@@ -717,9 +723,6 @@ impl Written<'_> {
         (keep, origin_rad, from_log): (&[usize], (f64, f64), &report::FromLog),
     ) -> Result<Summary> {
         let mut summary = self.summary(outcome, keep, &scored)?;
-        if let (Some(file), Some((fwd, smo))) = (out.errors, &scored.errors) {
-            tables::write_errors(file, fwd, smo)?;
-        }
         if let Some(t) = &summary.tuning {
             let path = self.job.out.join("tuned.toml");
             let mut file = out

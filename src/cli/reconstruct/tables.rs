@@ -6,8 +6,9 @@
 //! - trajectory.parquet: each block's forward rows, then its smoothed rows (then
 //!   residuals.parquet);
 //! - trajectory.mcap: both solutions' messages, row by row;
-//! - the scores: the errors against the truth, the distance travelled and the rows the report
-//!   draws ([`Scored`]), which the summary, errors.parquet and the report are made from.
+//! - the scores: the errors against the truth (each block's handed on to errors.parquet's
+//!   writer, a thread of its own), the distance travelled and the rows the report draws
+//!   ([`Scored`]), which the summary and the report are made from.
 
 use super::report::{self, Samples};
 use crate::cli::OutputFailed;
@@ -187,9 +188,18 @@ pub struct Scored {
     pub samples: Samples,
 }
 
-/// The scores from the blocks: errors against `truth` (none when it is empty), the distance
-/// travelled, and both solutions at `sample_rows` (ascending, among the kept rows).
-pub fn score(blocks: mpsc::Receiver<Arc<Block>>, truth: &[Truth], sample_rows: &[usize]) -> Scored {
+/// A block's errors against the truth: the forward solution's, then the smoothed one's.
+pub type BlockErrors = (Vec<EpochError>, Vec<EpochError>);
+
+/// The scores from the blocks: errors against `truth` (none when it is empty), each block's
+/// also handed to `errors_to` (errors.parquet's writer), the distance travelled, and both
+/// solutions at `sample_rows` (ascending, among the kept rows).
+pub fn score(
+    blocks: mpsc::Receiver<Arc<Block>>,
+    truth: &[Truth],
+    sample_rows: &[usize],
+    errors_to: Option<mpsc::SyncSender<BlockErrors>>,
+) -> Scored {
     let mut errors = (!truth.is_empty()).then(|| (Vec::new(), Vec::new()));
     let mut distance = Distance::default();
     let mut samples = Samples::default();
@@ -197,9 +207,16 @@ pub fn score(blocks: mpsc::Receiver<Arc<Block>>, truth: &[Truth], sample_rows: &
     for b in blocks {
         b.smoothed.iter().for_each(|s| distance.add(s));
         if let Some((fwd, smo)) = errors.as_mut() {
+            let (mut block_fwd, mut block_smo) = (Vec::new(), Vec::new());
             for (f, s) in b.rows() {
-                fwd.extend(score::epoch_error(truth, f));
-                smo.extend(score::epoch_error(truth, s));
+                block_fwd.extend(score::epoch_error(truth, f));
+                block_smo.extend(score::epoch_error(truth, s));
+            }
+            fwd.extend_from_slice(&block_fwd);
+            smo.extend_from_slice(&block_smo);
+            // A writer that hung up has failed, and says why itself.
+            if let Some(to) = &errors_to {
+                let _ = to.send((block_fwd, block_smo));
             }
         }
         let end = b.first + b.forward.len();
@@ -268,15 +285,19 @@ pub fn write_chunks<T>(
     write().with_context(|| failed(&path))
 }
 
-/// errors.parquet: the forward rows, then the smoothed.
-pub fn write_errors((path, file): Staged, fwd: &[EpochError], smo: &[EpochError]) -> Result<()> {
-    let mut chunks = [("forward", fwd), ("smoothed", smo)]
-        .into_iter()
-        .flat_map(|(name, rows)| rows.chunks(ROWS_PER_BATCH).map(move |c| (name, c)));
-    let batch = |(name, rows): (&str, &[EpochError])| recon_tables::errors_batch(name, rows);
+/// errors.parquet from the blocks' errors: each block's forward rows, then its smoothed rows.
+pub fn errors_parquet((path, file): Staged, blocks: mpsc::Receiver<BlockErrors>) -> Result<()> {
     let write = || -> Result<(), anyhow::Error> {
-        let first = batch(chunks.next().unwrap_or(("forward", &[])))?;
-        write_batches(file, first, || chunks.next().map(batch))?;
+        let schema = recon_tables::errors_batch("forward", &[])?.schema();
+        let mut w = TableWriter::new(file, schema)?;
+        for (fwd, smo) in blocks {
+            for (name, rows) in [("forward", &fwd), ("smoothed", &smo)] {
+                if !rows.is_empty() {
+                    w.write(&recon_tables::errors_batch(name, rows)?)?;
+                }
+            }
+        }
+        w.finish()?;
         Ok(())
     };
     write().with_context(|| failed(&path))
