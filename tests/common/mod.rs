@@ -59,12 +59,43 @@ pub fn close(a: PropValue<'_>, b: PropValue<'_>, rel: f64) -> bool {
     }
 }
 
-/// A fresh empty folder under the system temp folder.
+/// A fresh empty folder under the system temp folder. The folders of test runs that have
+/// ended are removed the first time (they hold whole reconstructions: runs left behind
+/// filled a disk).
 pub fn scratch_dir(name: &str) -> std::path::PathBuf {
+    static SWEPT: std::sync::Once = std::sync::Once::new();
+    SWEPT.call_once(remove_ended_runs_folders);
     let d = std::env::temp_dir().join(format!("hindsight-test-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).expect("temp dir");
     d
+}
+
+/// Removes the `scratch_dir` folders of test processes that are no longer running (Linux,
+/// where `/proc` says which are; elsewhere nothing is removed).
+fn remove_ended_runs_folders() {
+    if !std::path::Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(rest) = name
+            .to_str()
+            .and_then(|n| n.strip_prefix("hindsight-test-"))
+        else {
+            continue;
+        };
+        let pid = rest.rsplit('-').next().and_then(|p| p.parse::<u32>().ok());
+        let ended = pid.is_some_and(|p| {
+            p != std::process::id() && !std::path::Path::new(&format!("/proc/{p}")).exists()
+        });
+        if ended {
+            let _ = std::fs::remove_dir_all(entry.path());
+        }
+    }
 }
 
 /// A built-in or parsed scenario simulated with `seed`, as MCAP bytes.
