@@ -669,13 +669,13 @@ impl Written<'_> {
         };
         // The writers' threads use no rayon: the report, which does, is made on this thread
         // (a rayon worker's, in a batch), so that no thread waits on the pool from outside it.
-        let (read, parquet, mcap, errors, scored) = std::thread::scope(|s| {
+        let (read, parquet, mcap, errors_table, scored) = std::thread::scope(|s| {
             let parquet = s.spawn(|| -> Result<()> {
                 tables::trajectory_parquet(trajectory, parquet_blocks, origin)?;
                 tables::write_chunks(residuals, &r.run.residuals, recon_tables::residuals_batch)
             });
             let mcap = s.spawn(|| tables::trajectory_mcap(foxglove, mcap_blocks, origin));
-            let errors = s.spawn(|| match errors {
+            let errors_table = s.spawn(|| match errors {
                 Some(file) => tables::errors_parquet(file, block_errors),
                 None => Ok(()),
             });
@@ -691,12 +691,18 @@ impl Written<'_> {
                 let report_inputs = (&keep[..], origin, &from_log);
                 self.summary_and_report(&outcome, scored, outputs, report_inputs)
             });
-            (read, joined(parquet), joined(mcap), joined(errors), scored)
+            (
+                read,
+                joined(parquet),
+                joined(mcap),
+                joined(errors_table),
+                scored,
+            )
         });
         // A writer's own failure first: it is why the reading stopped.
         parquet?;
         mcap?;
-        errors?;
+        errors_table?;
         let mut summary = scored?;
         read?;
         summary.run_time_s.outputs = outputs_started.elapsed().as_secs_f64();

@@ -241,9 +241,11 @@ fn dvl_bias_drift(
     let prior = bias_prior(best, scorer.white);
     let given_correlation = config.dvl.bias_correlation_s;
     let already = |walk: f64, correlation_s: f64| {
+        if walk != LADDER_WALK || correlation_s != given_correlation {
+            return None;
+        }
         walked
             .iter()
-            .filter(|_| walk == LADDER_WALK && correlation_s == given_correlation)
             .find(|s| s.candidate.same_as(best))
             .and_then(|s| s.log_likelihood)
     };
