@@ -185,34 +185,34 @@ struct Window {
 }
 
 impl Window {
+    /// Where `t` falls: the sums before its sample (none at the first), its sample's
+    /// integrands and the time into it; or, past the last sample, the window's sums.
+    fn locate(&self, t: f64) -> Result<(Option<&Integrals>, &Integrals, f64), &Integrals> {
+        let i = self.samples.partition_point(|s| s.end_s < t);
+        let Some(s) = self.samples.get(i) else {
+            return Err(&self.sums[self.samples.len() - 1]);
+        };
+        let before = i.checked_sub(1).map(|k| &self.sums[k]);
+        Ok((before, &s.integrands, (t - s.start_s).max(0.0)))
+    }
+
     /// Integrals from the first sample's start to `t` (clamped to the samples' span).
     fn integrals(&self, t: f64) -> Integrals {
-        let i = self.samples.partition_point(|s| s.end_s < t);
-        if i >= self.samples.len() {
-            return self.sums[self.samples.len() - 1];
+        match self.locate(t) {
+            Ok((before, rate, dt)) => before
+                .copied()
+                .unwrap_or_else(Integrals::zero)
+                .plus(rate, dt),
+            Err(all) => *all,
         }
-        let s = &self.samples[i];
-        let before = if i == 0 {
-            Integrals::zero()
-        } else {
-            self.sums[i - 1]
-        };
-        before.plus(&s.integrands, (t - s.start_s).max(0.0))
     }
 
     /// [`Window::integrals`]'s rate alone.
     fn rate_integral(&self, t: f64) -> Vector3<f64> {
-        let i = self.samples.partition_point(|s| s.end_s < t);
-        if i >= self.samples.len() {
-            return self.sums[self.samples.len() - 1].r;
+        match self.locate(t) {
+            Ok((before, rate, dt)) => before.map_or_else(Vector3::zeros, |b| b.r) + rate.r * dt,
+            Err(all) => all.r,
         }
-        let s = &self.samples[i];
-        let before = if i == 0 {
-            Vector3::zeros()
-        } else {
-            self.sums[i - 1].r
-        };
-        before + s.integrands.r * (t - s.start_s).max(0.0)
     }
 
     /// The gyro's mean rate over [`RATE_MEAN_S`] about `t`: a regressor of the lever arm,

@@ -99,14 +99,10 @@ impl PackedTransition {
                 == 0.0,
             "transition's bias rows are not [0 D]"
         );
-        debug_assert!(
-            (idx::DVL..idx::GYRO_SCALE_Z).all(|c| phi.column(c).rows(0, NAV_ROWS).amax() == 0.0),
-            "transition's top rows involve the DVL or water states"
-        );
-        PackedTransition {
-            top: phi.fixed_view::<NAV_ROWS, N>(0, 0).into_owned(),
+        Self::from_top_rows(
+            phi.fixed_view::<NAV_ROWS, N>(0, 0).into_owned(),
             dvl_bias_decay,
-        }
+        )
     }
 
     /// The transition with these top rows and the DVL bias's `decay` (1: none) on the
