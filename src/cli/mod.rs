@@ -18,6 +18,7 @@ mod identify;
 mod identify_six_dof;
 mod import;
 mod info;
+mod memory;
 mod reconstruct;
 mod simulate;
 mod source;

@@ -433,6 +433,8 @@ struct StageConsole {
 
 impl StageConsole {
     fn on_stage(&self, stage: Stage) {
+        // What the stage before freed goes back before the next one allocates.
+        super::memory::give_back();
         if let Some(s) = self.spinner.lock().ok().and_then(|mut s| s.take()) {
             s.finish_and_clear();
         }
@@ -639,6 +641,7 @@ impl Written<'_> {
     /// summary, the errors table and the report made from them.
     fn write(self, outcome: pipeline::Outcome) -> Result<()> {
         let outputs_started = Instant::now();
+        super::memory::give_back();
         let r = &outcome.reconstruction;
         let keep = kept_rows(r, &outcome.config);
         let job = self.job;
@@ -747,7 +750,10 @@ impl Written<'_> {
             samples: &scored.samples,
             origin_rad,
             from_log,
-            truth_errors: scored.errors.as_ref(),
+            truth_errors: scored
+                .errors
+                .as_ref()
+                .map(|(f, s)| (&f.points[..], &s.points[..])),
             init_text: r.init.to_string(),
         });
         super::write_report(out.staging, &self.job.out, &page, out.written)?;
@@ -800,8 +806,8 @@ impl Written<'_> {
             ));
         }
         let truth = against.errors.as_ref().map(|(fwd, smo)| TruthSummary {
-            forward: score::scores(fwd),
-            smoothed: score::scores(smo),
+            forward: fwd.sums.scores(),
+            smoothed: smo.sums.scores(),
             nees_horizontal_bounds_95: score::bounds_95(2),
             nees_position_bounds_95: score::bounds_95(3),
         });

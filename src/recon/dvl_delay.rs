@@ -121,7 +121,7 @@ pub struct LeverArm {
     pub rates_biased: bool,
 }
 
-/// What is integrated over time, per unit time (a sample's integrands) or summed.
+/// What is integrated over time, summed.
 #[derive(Debug, Clone, Copy)]
 struct Integrals {
     /// The specific force.
@@ -139,6 +139,17 @@ struct Integrals {
     r: Vector3<f64>,
 }
 
+/// A sample's [`Integrals`] per unit time; `ww` is made from the rate where it is summed (an
+/// hour's samples hold 72 bytes less each).
+#[derive(Debug, Clone, Copy)]
+struct Integrands {
+    f: Vector3<f64>,
+    c: Matrix3<f64>,
+    w: Vector3<f64>,
+    b: Matrix3<f64>,
+    r: Vector3<f64>,
+}
+
 impl Integrals {
     fn zero() -> Integrals {
         Integrals {
@@ -152,13 +163,14 @@ impl Integrals {
     }
 
     /// `self + rate * dt`.
-    fn plus(&self, rate: &Integrals, dt: f64) -> Integrals {
+    fn plus(&self, rate: &Integrands, dt: f64) -> Integrals {
+        let ww = rate.r.cross_matrix() * rate.r.cross_matrix();
         Integrals {
             f: self.f + rate.f * dt,
             c: self.c + rate.c * dt,
             w: self.w + rate.w * dt,
             b: self.b + rate.b * dt,
-            ww: self.ww + rate.ww * dt,
+            ww: self.ww + ww * dt,
             r: self.r + rate.r * dt,
         }
     }
@@ -168,14 +180,16 @@ impl Integrals {
 struct Sample {
     start_s: f64,
     end_s: f64,
-    integrands: Integrals,
+    integrands: Integrands,
 }
 
-/// Integrals from the window's first IMU stamp, sample by sample (running sums at each end).
+/// Integrals from the window's first IMU stamp, sample by sample.
 struct Window {
     samples: Vec<Sample>,
-    /// Running integrals at each sample's end.
-    sums: Vec<Integrals>,
+    /// Running integrals at the end of every [`CHECKPOINT`]-th sample; the rest are summed
+    /// from the one before (one at every sample would be 216 bytes more per IMU sample: 100
+    /// MB over an hour of windows at 100 Hz).
+    checkpoints: Vec<Integrals>,
     /// Pairs: the two stamps (s from the window's origin) and the DVL's velocity change.
     pairs: Vec<(f64, f64, Vector3<f64>)>,
     mid_s: f64,
@@ -184,34 +198,71 @@ struct Window {
     gyro_bias: bool,
 }
 
+/// Samples per stored running sum in a [`Window`].
+const CHECKPOINT: usize = 4;
+
 impl Window {
-    /// Where `t` falls: the sums before its sample (none at the first), its sample's
-    /// integrands and the time into it; or, past the last sample, the window's sums.
-    fn locate(&self, t: f64) -> Result<(Option<&Integrals>, &Integrals, f64), &Integrals> {
+    /// Where `t` falls: its sample's index and the time into it; or `None` past the last
+    /// sample.
+    fn locate(&self, t: f64) -> Option<(usize, f64)> {
         let i = self.samples.partition_point(|s| s.end_s < t);
-        let Some(s) = self.samples.get(i) else {
-            return Err(&self.sums[self.samples.len() - 1]);
-        };
-        let before = i.checked_sub(1).map(|k| &self.sums[k]);
-        Ok((before, &s.integrands, (t - s.start_s).max(0.0)))
+        let s = self.samples.get(i)?;
+        Some((i, (t - s.start_s).max(0.0)))
+    }
+
+    /// The samples from the last checkpoint before sample `i` up to it, and that checkpoint
+    /// (`None` before the first).
+    fn since_checkpoint(&self, i: usize) -> (Option<&Integrals>, &[Sample]) {
+        let chunk = i / CHECKPOINT;
+        let from = chunk * CHECKPOINT;
+        let at = chunk.checked_sub(1).map(|c| &self.checkpoints[c]);
+        (at, &self.samples[from..i])
+    }
+
+    /// The running integrals before sample `i` (`None` at the first), summed in the order
+    /// [`checkpoints`] sums them: exactly what a stored sum would be.
+    fn sums_before(&self, i: usize) -> Option<Integrals> {
+        let (at, rest) = self.since_checkpoint(i);
+        let mut running = at.copied();
+        for s in rest {
+            running = Some(
+                running
+                    .unwrap_or_else(Integrals::zero)
+                    .plus(&s.integrands, s.end_s - s.start_s),
+            );
+        }
+        running
+    }
+
+    /// [`Window::sums_before`]'s rate alone.
+    fn rate_sums_before(&self, i: usize) -> Option<Vector3<f64>> {
+        let (at, rest) = self.since_checkpoint(i);
+        let mut running = at.map(|a| a.r);
+        for s in rest {
+            running = Some(
+                running.unwrap_or_else(Vector3::zeros) + s.integrands.r * (s.end_s - s.start_s),
+            );
+        }
+        running
     }
 
     /// Integrals from the first sample's start to `t` (clamped to the samples' span).
     fn integrals(&self, t: f64) -> Integrals {
-        match self.locate(t) {
-            Ok((before, rate, dt)) => before
-                .copied()
-                .unwrap_or_else(Integrals::zero)
-                .plus(rate, dt),
-            Err(all) => *all,
+        let (i, dt) = self.locate(t).unwrap_or((self.samples.len(), 0.0));
+        let before = self.sums_before(i).unwrap_or_else(Integrals::zero);
+        match self.samples.get(i) {
+            Some(s) => before.plus(&s.integrands, dt),
+            None => before,
         }
     }
 
     /// [`Window::integrals`]'s rate alone.
     fn rate_integral(&self, t: f64) -> Vector3<f64> {
-        match self.locate(t) {
-            Ok((before, rate, dt)) => before.map_or_else(Vector3::zeros, |b| b.r) + rate.r * dt,
-            Err(all) => all.r,
+        let (i, dt) = self.locate(t).unwrap_or((self.samples.len(), 0.0));
+        let before = self.rate_sums_before(i).unwrap_or_else(Vector3::zeros);
+        match self.samples.get(i) {
+            Some(s) => before + s.integrands.r * dt,
+            None => before,
         }
     }
 
@@ -314,7 +365,7 @@ impl Window {
     fn lever_effect(&self, delay_s: f64, l: &Vector3<f64>) -> (f64, usize) {
         let (first, last) = (&self.samples[0], &self.samples[self.samples.len() - 1]);
         let span_s = last.end_s - first.start_s;
-        let mean = self.sums[self.samples.len() - 1].r / span_s;
+        let mean = self.rate_integral(f64::INFINITY) / span_s;
         let sum = self
             .pairs
             .iter()
@@ -432,12 +483,12 @@ fn window(
     let seconds = |ns: i64| (ns - origin_ns) as f64 * 1e-9;
     let (lo, referenced) = referenced_readings(slice, dvl, (first, last), lever_arm_body_m)?;
     let samples = integrated_samples(slice, &referenced, origin_ns)?;
-    let sums = running_sums(&samples);
+    let checkpoints = checkpoints(&samples);
     let pairs = reading_pairs(&referenced[first - lo..=last - lo], seconds);
     let (t_first, t_last) = (seconds(dvl[first].stamp_ns), seconds(dvl[last].stamp_ns));
     (pairs.len() >= MIN_PAIRS).then(|| Window {
         samples,
-        sums,
+        checkpoints,
         pairs,
         mid_s: 0.5 * (t_first + t_last),
         half_s: (0.5 * (t_last - t_first)).max(1.0),
@@ -504,12 +555,11 @@ fn integrated_samples(
         samples.push(Sample {
             start_s,
             end_s,
-            integrands: Integrals {
+            integrands: Integrands {
                 f: Vector3::from(w[1].specific_force),
                 c: first_from_body.transpose(),
                 w: rate.cross(&velocity_at(referenced, w[1].stamp_ns)),
                 b: Matrix3::zeros(),
-                ww: rate.cross_matrix() * rate.cross_matrix(),
                 r: rate,
             },
         });
@@ -529,16 +579,17 @@ fn integrated_samples(
     Some(samples)
 }
 
-/// The integrals from the slice's start to the end of each sample.
-fn running_sums(samples: &[Sample]) -> Vec<Integrals> {
+/// The integrals from the slice's start to the end of every [`CHECKPOINT`]-th sample.
+fn checkpoints(samples: &[Sample]) -> Vec<Integrals> {
     let mut running = Integrals::zero();
-    samples
-        .iter()
-        .map(|s| {
-            running = running.plus(&s.integrands, s.end_s - s.start_s);
-            running
-        })
-        .collect()
+    let mut out = Vec::with_capacity(samples.len() / CHECKPOINT);
+    for (k, s) in samples.iter().enumerate() {
+        running = running.plus(&s.integrands, s.end_s - s.start_s);
+        if (k + 1) % CHECKPOINT == 0 {
+            out.push(running);
+        }
+    }
+    out
 }
 
 /// Consecutive readings' velocity changes `(from s, to s, change)`, of readings at least

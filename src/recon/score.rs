@@ -159,31 +159,76 @@ pub fn bounds_95(dof: usize) -> (f64, f64) {
 
 /// Scores of a series of epoch errors (`None` when empty).
 pub fn scores(errors: &[EpochError]) -> Option<Scores> {
-    let last = errors.last()?;
-    let n = errors.len() as f64;
-    let (horizontal, position) = (bounds_95(2), bounds_95(3));
-    let inside = |(lo, hi): (f64, f64), f: &dyn Fn(&EpochError) -> f64| {
-        errors.iter().filter(|e| (lo..=hi).contains(&f(e))).count() as f64 / n
-    };
-    Some(Scores {
-        epochs: errors.len(),
-        horizontal_rms_m: (errors.iter().map(|e| e.horizontal_m().powi(2)).sum::<f64>() / n).sqrt(),
-        horizontal_max_m: errors
-            .iter()
-            .map(EpochError::horizontal_m)
-            .fold(0.0, f64::max),
-        horizontal_final_m: last.horizontal_m(),
-        nees_horizontal_inside_95: inside(horizontal, &|e| e.nees_horizontal),
-        nees_horizontal_above_95: errors
-            .iter()
-            .filter(|e| e.nees_horizontal > horizontal.1)
-            .count() as f64
-            / n,
-        nees_position_inside_95: inside(position, &|e| e.nees_position),
-        yaw_rms_deg: (errors.iter().map(|e| e.euler_rad[2].powi(2)).sum::<f64>() / n)
-            .sqrt()
-            .to_degrees(),
-    })
+    let mut sums = ScoreSums::default();
+    errors.iter().for_each(|e| sums.add(e));
+    sums.scores()
+}
+
+/// The running sums [`Scores`] are made from, taken an epoch at a time: a day's mission
+/// need not hold its million errors to be scored.
+#[derive(Debug, Clone, Copy)]
+pub struct ScoreSums {
+    /// The two-sided 95 % bounds of the horizontal (2 dof) and 3-D (3 dof) NEES.
+    bounds: [(f64, f64); 2],
+    epochs: usize,
+    horizontal_squares_m2: f64,
+    horizontal_max_m: f64,
+    last_horizontal_m: f64,
+    nees_horizontal_inside: usize,
+    nees_horizontal_above: usize,
+    nees_position_inside: usize,
+    yaw_squares_rad2: f64,
+}
+
+impl Default for ScoreSums {
+    fn default() -> Self {
+        ScoreSums {
+            bounds: [bounds_95(2), bounds_95(3)],
+            epochs: 0,
+            horizontal_squares_m2: 0.0,
+            horizontal_max_m: 0.0,
+            last_horizontal_m: 0.0,
+            nees_horizontal_inside: 0,
+            nees_horizontal_above: 0,
+            nees_position_inside: 0,
+            yaw_squares_rad2: 0.0,
+        }
+    }
+}
+
+impl ScoreSums {
+    /// Adds the next epoch's error (in time order).
+    pub fn add(&mut self, e: &EpochError) {
+        let [horizontal, position] = self.bounds;
+        let inside = |(lo, hi): (f64, f64), nees: f64| usize::from((lo..=hi).contains(&nees));
+        let h = e.horizontal_m();
+        self.epochs += 1;
+        self.horizontal_squares_m2 += h.powi(2);
+        self.horizontal_max_m = self.horizontal_max_m.max(h);
+        self.last_horizontal_m = h;
+        self.nees_horizontal_inside += inside(horizontal, e.nees_horizontal);
+        self.nees_horizontal_above += usize::from(e.nees_horizontal > horizontal.1);
+        self.nees_position_inside += inside(position, e.nees_position);
+        self.yaw_squares_rad2 += e.euler_rad[2].powi(2);
+    }
+
+    /// The scores of the epochs added (`None` before the first).
+    pub fn scores(&self) -> Option<Scores> {
+        if self.epochs == 0 {
+            return None;
+        }
+        let n = self.epochs as f64;
+        Some(Scores {
+            epochs: self.epochs,
+            horizontal_rms_m: (self.horizontal_squares_m2 / n).sqrt(),
+            horizontal_max_m: self.horizontal_max_m,
+            horizontal_final_m: self.last_horizontal_m,
+            nees_horizontal_inside_95: self.nees_horizontal_inside as f64 / n,
+            nees_horizontal_above_95: self.nees_horizontal_above as f64 / n,
+            nees_position_inside_95: self.nees_position_inside as f64 / n,
+            yaw_rms_deg: (self.yaw_squares_rad2 / n).sqrt().to_degrees(),
+        })
+    }
 }
 
 #[cfg(test)]

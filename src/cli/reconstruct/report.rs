@@ -115,7 +115,8 @@ pub struct Inputs<'a> {
     pub samples: &'a Samples,
     pub origin_rad: (f64, f64),
     pub from_log: &'a FromLog,
-    pub truth_errors: Option<&'a (Vec<EpochError>, Vec<EpochError>)>,
+    /// The forward and smoothed solutions' errors against the truth.
+    pub truth_errors: Option<(&'a [ErrorPoint], &'a [ErrorPoint])>,
     pub init_text: String,
 }
 
@@ -498,39 +499,59 @@ fn sigma_plot(axis: &TimeAxis, fwd: &[&Solution], smo: &[&Solution]) -> Plot {
 /// The radius that holds a circular 2-D Gaussian error 95 % of the time, in sigmas.
 const CIRCLE_95: f64 = 2.447_746_830_680_816;
 
-fn error_plot(axis: &TimeAxis, fwd: &[EpochError], smo: &[EpochError]) -> Plot {
-    let series = |rows: &[EpochError], f: &dyn Fn(&EpochError) -> f64| -> Vec<(f64, f64)> {
-        let points: Vec<(f64, f64)> = rows.iter().map(|e| (axis.at(e.stamp_ns), f(e))).collect();
-        min_max(&points, LINE_POINTS)
-    };
-    let radius =
-        |e: &EpochError| CIRCLE_95 * e.position_sigma_m.x.hypot(e.position_sigma_m.y) / 2f64.sqrt();
-    axis.plot("horizontal error against /truth", "horizontal error (m)")
-        .with(
-            Series::line("forward", series(fwd, &EpochError::horizontal_m))
-                .coloured(colour::FORWARD),
-        )
-        .with(
-            Series::line("smoothed", series(smo, &EpochError::horizontal_m))
-                .coloured(colour::SMOOTHED),
-        )
-        .with(Series::line("forward 95 % radius", series(fwd, &radius)).coloured(colour::CYAN))
-        .with(Series::line("smoothed 95 % radius", series(smo, &radius)).coloured(colour::PINK))
+/// What the report draws of a solution's error against the truth at an epoch (a day's
+/// mission has a million of them per solution: the whole [`EpochError`] is five times this).
+#[derive(Debug, Clone, Copy)]
+pub struct ErrorPoint {
+    stamp_ns: i64,
+    horizontal_m: f64,
+    /// The radius the filter claims holds the horizontal error 95 % of the time.
+    radius_95_m: f64,
+    nees_horizontal: f64,
 }
 
-fn nees_plot(axis: &TimeAxis, fwd: &[EpochError], smo: &[EpochError]) -> Plot {
-    let series = |rows: &[EpochError]| -> Vec<(f64, f64)> {
-        let points: Vec<(f64, f64)> = rows
-            .iter()
-            .map(|e| (axis.at(e.stamp_ns), e.nees_horizontal))
-            .collect();
-        min_max(&points, LINE_POINTS)
-    };
+impl From<&EpochError> for ErrorPoint {
+    fn from(e: &EpochError) -> Self {
+        ErrorPoint {
+            stamp_ns: e.stamp_ns,
+            horizontal_m: e.horizontal_m(),
+            radius_95_m: CIRCLE_95 * e.position_sigma_m.x.hypot(e.position_sigma_m.y) / 2f64.sqrt(),
+            nees_horizontal: e.nees_horizontal,
+        }
+    }
+}
+
+/// A line of `f` along `rows`, thinned for the picture.
+fn error_line(axis: &TimeAxis, rows: &[ErrorPoint], f: fn(&ErrorPoint) -> f64) -> Vec<(f64, f64)> {
+    let points: Vec<(f64, f64)> = rows.iter().map(|e| (axis.at(e.stamp_ns), f(e))).collect();
+    min_max(&points, LINE_POINTS)
+}
+
+fn error_plot(axis: &TimeAxis, fwd: &[ErrorPoint], smo: &[ErrorPoint]) -> Plot {
+    let horizontal = |e: &ErrorPoint| e.horizontal_m;
+    let radius = |e: &ErrorPoint| e.radius_95_m;
+    axis.plot("horizontal error against /truth", "horizontal error (m)")
+        .with(Series::line("forward", error_line(axis, fwd, horizontal)).coloured(colour::FORWARD))
+        .with(
+            Series::line("smoothed", error_line(axis, smo, horizontal)).coloured(colour::SMOOTHED),
+        )
+        .with(
+            Series::line("forward 95 % radius", error_line(axis, fwd, radius))
+                .coloured(colour::CYAN),
+        )
+        .with(
+            Series::line("smoothed 95 % radius", error_line(axis, smo, radius))
+                .coloured(colour::PINK),
+        )
+}
+
+fn nees_plot(axis: &TimeAxis, fwd: &[ErrorPoint], smo: &[ErrorPoint]) -> Plot {
+    let nees = |e: &ErrorPoint| e.nees_horizontal;
     let (lo, hi) = score::bounds_95(2);
     let mut plot = axis
         .plot("horizontal NEES", "NEES (2 dof)")
-        .with(Series::line("forward", series(fwd)).coloured(colour::FORWARD))
-        .with(Series::line("smoothed", series(smo)).coloured(colour::SMOOTHED));
+        .with(Series::line("forward", error_line(axis, fwd, nees)).coloured(colour::FORWARD))
+        .with(Series::line("smoothed", error_line(axis, smo, nees)).coloured(colour::SMOOTHED));
     plot.hlines = vec![lo, hi];
     plot.hline_label = format!("95 % bounds ({lo:.2}, {hi:.2})");
     plot

@@ -178,10 +178,27 @@ pub fn trajectory_mcap(
     write().with_context(|| failed(&path))
 }
 
+/// A solution's errors against the truth at the kept rows: their running scores, and what
+/// the report draws of them.
+#[derive(Debug, Default)]
+pub struct SolutionErrors {
+    pub sums: score::ScoreSums,
+    pub points: Vec<report::ErrorPoint>,
+}
+
+impl SolutionErrors {
+    fn add(&mut self, rows: &[EpochError]) {
+        for e in rows {
+            self.sums.add(e);
+            self.points.push(e.into());
+        }
+    }
+}
+
 /// What the outputs take from the solutions besides the tables.
 pub struct Scored {
-    /// Both solutions' errors against the truth at the kept rows (logs with a truth).
-    pub errors: Option<(Vec<EpochError>, Vec<EpochError>)>,
+    /// The forward and smoothed solutions' errors against the truth (logs with a truth).
+    pub errors: Option<(SolutionErrors, SolutionErrors)>,
     /// Along the smoothed solution, every epoch.
     pub distance_m: f64,
     /// The rows the report draws.
@@ -200,7 +217,7 @@ pub fn score(
     sample_rows: &[usize],
     errors_to: Option<mpsc::SyncSender<BlockErrors>>,
 ) -> Scored {
-    let mut errors = (!truth.is_empty()).then(|| (Vec::new(), Vec::new()));
+    let mut errors = (!truth.is_empty()).then(<(SolutionErrors, SolutionErrors)>::default);
     let mut distance = Distance::default();
     let mut samples = Samples::default();
     let mut samples_left = sample_rows;
@@ -212,8 +229,8 @@ pub fn score(
                 block_fwd.extend(score::epoch_error(truth, f));
                 block_smo.extend(score::epoch_error(truth, s));
             }
-            fwd.extend_from_slice(&block_fwd);
-            smo.extend_from_slice(&block_smo);
+            fwd.add(&block_fwd);
+            smo.add(&block_smo);
             // A writer that hung up has failed, and says why itself.
             if let Some(to) = &errors_to {
                 let _ = to.send((block_fwd, block_smo));
