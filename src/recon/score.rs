@@ -235,6 +235,42 @@ impl ScoreSums {
 mod tests {
     use super::*;
 
+    fn error_at(stamp_ns: i64, north_m: f64, east_m: f64, nees_horizontal: f64) -> EpochError {
+        EpochError {
+            stamp_ns,
+            position_m: Vector3::new(north_m, east_m, 0.0),
+            velocity_m_s: Vector3::zeros(),
+            euler_rad: [0.0, 0.0, 0.01 * stamp_ns as f64],
+            position_sigma_m: Vector3::new(1.0, 1.0, 1.0),
+            euler_sigma_rad: [0.01; 3],
+            nees_horizontal,
+            nees_position: nees_horizontal,
+        }
+    }
+
+    #[test]
+    fn running_scores_are_the_figures_of_the_errors() {
+        // Horizontal errors 5, 0 and 1 m; NEES 1.0 (inside both bounds), 0.01 (below the
+        // 2-dof lower bound 0.0506) and 20 (above both upper bounds).
+        let errors = [
+            error_at(0, 3.0, 4.0, 1.0),
+            error_at(1, 0.0, 0.0, 0.01),
+            error_at(2, 0.0, -1.0, 20.0),
+        ];
+        assert!(ScoreSums::default().scores().is_none());
+        let s = scores(&errors).unwrap();
+        assert_eq!(s.epochs, 3);
+        assert!((s.horizontal_rms_m - (26.0f64 / 3.0).sqrt()).abs() < 1e-12);
+        assert_eq!(s.horizontal_max_m, 5.0);
+        assert_eq!(s.horizontal_final_m, 1.0);
+        assert!((s.nees_horizontal_inside_95 - 1.0 / 3.0).abs() < 1e-12);
+        assert!((s.nees_horizontal_above_95 - 1.0 / 3.0).abs() < 1e-12);
+        // 3 dof: lower bound 0.216, so 0.01 is below it as well.
+        assert!((s.nees_position_inside_95 - 1.0 / 3.0).abs() < 1e-12);
+        let yaw_rms_rad = ((0.0f64 + 0.0001 + 0.0004) / 3.0).sqrt();
+        assert!((s.yaw_rms_deg - yaw_rms_rad.to_degrees()).abs() < 1e-12);
+    }
+
     #[test]
     fn truth_encodes_exactly() {
         let t = Truth {
