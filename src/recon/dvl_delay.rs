@@ -1037,7 +1037,7 @@ mod tests {
     fn integrals_from_checkpoints_equal_a_running_sum_at_every_sample() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        let mut v3 = || Vector3::from_fn(|_, _| rng.gen_range(-1.0..1.0));
+        let mut v3 = || Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0));
         let samples: Vec<Sample> = (0..37)
             .map(|k| {
                 let start_s = k as f64 * 0.01;
@@ -1068,10 +1068,9 @@ mod tests {
             half_s: 1.0,
             gyro_bias: false,
         };
-        for k in 0..window.samples.len() {
-            let s = &window.samples[k];
+        for (s, before) in window.samples.iter().zip(&every) {
             let t = s.start_s + 0.3 * (s.end_s - s.start_s);
-            let want = every[k].plus(&s.integrands, t - s.start_s);
+            let want = before.plus(&s.integrands, t - s.start_s);
             let got = window.integrals(t);
             // Bit for bit: the same additions in the same order.
             assert_eq!(
