@@ -202,54 +202,39 @@ struct Window {
 const CHECKPOINT: usize = 4;
 
 impl Window {
-    /// Where `t` falls: its sample's index and the time into it; or `None` past the last
-    /// sample.
-    fn locate(&self, t: f64) -> Option<(usize, f64)> {
+    /// Where `t` falls: its sample's index and the time into it (past the last sample, the
+    /// number of samples and 0).
+    fn locate(&self, t: f64) -> (usize, f64) {
         let i = self.samples.partition_point(|s| s.end_s < t);
-        let s = self.samples.get(i)?;
-        Some((i, (t - s.start_s).max(0.0)))
+        let dt = self
+            .samples
+            .get(i)
+            .map_or(0.0, |s| (t - s.start_s).max(0.0));
+        (i, dt)
     }
 
     /// The samples from the last checkpoint before sample `i` up to it, and that checkpoint
     /// (`None` before the first).
     fn since_checkpoint(&self, i: usize) -> (Option<&Integrals>, &[Sample]) {
         let chunk = i / CHECKPOINT;
-        let from = chunk * CHECKPOINT;
         let at = chunk.checked_sub(1).map(|c| &self.checkpoints[c]);
-        (at, &self.samples[from..i])
+        (at, &self.samples[chunk * CHECKPOINT..i])
     }
 
-    /// The running integrals before sample `i` (`None` at the first), summed in the order
-    /// [`checkpoints`] sums them: exactly what a stored sum would be.
-    fn sums_before(&self, i: usize) -> Option<Integrals> {
+    /// The running integrals before sample `i`, summed in the order [`checkpoints`] sums
+    /// them: exactly what a stored sum would be.
+    fn sums_before(&self, i: usize) -> Integrals {
         let (at, rest) = self.since_checkpoint(i);
-        let mut running = at.copied();
-        for s in rest {
-            running = Some(
-                running
-                    .unwrap_or_else(Integrals::zero)
-                    .plus(&s.integrands, s.end_s - s.start_s),
-            );
-        }
-        running
-    }
-
-    /// [`Window::sums_before`]'s rate alone.
-    fn rate_sums_before(&self, i: usize) -> Option<Vector3<f64>> {
-        let (at, rest) = self.since_checkpoint(i);
-        let mut running = at.map(|a| a.r);
-        for s in rest {
-            running = Some(
-                running.unwrap_or_else(Vector3::zeros) + s.integrands.r * (s.end_s - s.start_s),
-            );
-        }
-        running
+        rest.iter()
+            .fold(at.copied().unwrap_or_else(Integrals::zero), |sum, s| {
+                sum.plus(&s.integrands, s.end_s - s.start_s)
+            })
     }
 
     /// Integrals from the first sample's start to `t` (clamped to the samples' span).
     fn integrals(&self, t: f64) -> Integrals {
-        let (i, dt) = self.locate(t).unwrap_or((self.samples.len(), 0.0));
-        let before = self.sums_before(i).unwrap_or_else(Integrals::zero);
+        let (i, dt) = self.locate(t);
+        let before = self.sums_before(i);
         match self.samples.get(i) {
             Some(s) => before.plus(&s.integrands, dt),
             None => before,
@@ -258,8 +243,13 @@ impl Window {
 
     /// [`Window::integrals`]'s rate alone.
     fn rate_integral(&self, t: f64) -> Vector3<f64> {
-        let (i, dt) = self.locate(t).unwrap_or((self.samples.len(), 0.0));
-        let before = self.rate_sums_before(i).unwrap_or_else(Vector3::zeros);
+        let (i, dt) = self.locate(t);
+        let (at, rest) = self.since_checkpoint(i);
+        let before = rest
+            .iter()
+            .fold(at.map_or_else(Vector3::zeros, |a| a.r), |sum, s| {
+                sum + s.integrands.r * (s.end_s - s.start_s)
+            });
         match self.samples.get(i) {
             Some(s) => before + s.integrands.r * dt,
             None => before,
