@@ -3,8 +3,9 @@
 //! Each candidate noise model runs the forward filter over the same span of the log; its
 //! score is the log-likelihood of the innovations (`ForwardRun::log_likelihood_after`: from
 //! `[tune] settle_s` into the span when the start heading was found in motion). The
-//! candidates are first the grades (navigation to MEMS, and MEMS 10 and 100 times worse),
-//! then, from the best, the gyro's and the accelerometer's figures each scaled by 3 up and
+//! candidates are first the grades (navigation to MEMS, and MEMS 10 and 100 times worse
+//! unless the MEMS grade fell far below the best: [`loud_rungs_left_out`]), then, from the
+//! best, the gyro's and the accelerometer's figures each scaled by 3 up and
 //! down while the likelihood improves. An IMU whose data sheet nobody gave is thus learnt
 //! from how well each noise model predicts the aiding sensors.
 //!
@@ -141,6 +142,8 @@ pub struct Search {
     pub dvl_bias_walk: Option<DvlDrift>,
     /// Every model tried, in the order tried.
     pub tried: Vec<Scored>,
+    /// The ladder's rungs left out, and why ([`loud_rungs_left_out`]).
+    pub left_out: Option<String>,
     pub warning: Option<String>,
 }
 
@@ -335,13 +338,48 @@ fn climb(
     false
 }
 
-/// The grades first tried.
+/// The grades first tried, quietest first.
 fn ladder() -> Vec<Candidate> {
-    GRADES
+    GRADES.iter().map(|&g| Candidate::of(g, 1.0)).collect()
+}
+
+/// The ladder's rungs noisier than MEMS, scored after the grades unless
+/// [`loud_rungs_left_out`] says why not.
+fn loud_rungs() -> Vec<Candidate> {
+    [10.0, 100.0]
+        .map(|f| Candidate::of(ImuGrade::Mems, f))
+        .to_vec()
+}
+
+/// How far below the best grade the MEMS rung's posterior must fall (nats) for the noisier
+/// rungs to be left out. On the noisy side of the likelihood's peak a model only loosens
+/// further, and the likelihood falls as it does; the largest rise past the MEMS rung seen on
+/// the simulator's and the pool's logs where MEMS was not the best was 112 nats
+/// (`auv-at-sea` seed 3, far below its best).
+const LOUD_RUNGS_MARGIN: f64 = 500.0;
+
+/// Why the rungs noisier than MEMS are not scored, given the grades' scores (quietest first,
+/// MEMS last), or `None` when they are. They are left out when the MEMS rung could not run
+/// (its bank of start headings could not decide: a noisier model decides less) or scored more
+/// than [`LOUD_RUNGS_MARGIN`] below the best grade, while some grade did score: they cost as
+/// much as the grades, and on a fine IMU they are the tuning's most expensive passes for
+/// nothing.
+fn loud_rungs_left_out(grades: &[Scored]) -> Option<String> {
+    let (best, best_posterior) = best_of(grades)?;
+    let mems = grades
         .iter()
-        .map(|&g| Candidate::of(g, 1.0))
-        .chain([10.0, 100.0].map(|f| Candidate::of(ImuGrade::Mems, f)))
-        .collect()
+        .find(|s| s.candidate.same_as(&Candidate::of(ImuGrade::Mems, 1.0)))?;
+    let posterior = mems.log_likelihood.map(|l| l + mems.log_prior);
+    let why = match posterior {
+        None => "mems could not run over the span".to_string(),
+        Some(p) if p < best_posterior - LOUD_RUNGS_MARGIN => format!(
+            "mems scored {:.0} below {} (more than {LOUD_RUNGS_MARGIN:.0})",
+            best_posterior - p,
+            best.label()
+        ),
+        Some(_) => return None,
+    };
+    Some(format!("mems x10 and x100 not scored: {why}"))
 }
 
 /// The configuration with a candidate's figures, every one given.
@@ -556,13 +594,21 @@ pub fn search(
         white,
         from,
     };
-    let (mut tried, starts): (Vec<Scored>, Vec<Option<Initialisation>>) =
+    let (mut tried, mut starts): (Vec<Scored>, Vec<Option<Initialisation>>) =
         scorer.score_all(config, &ladder()).into_iter().unzip();
+    let loud_left_out = loud_rungs_left_out(&tried);
+    if loud_left_out.is_none() {
+        let (loud, loud_starts): (Vec<Scored>, Vec<Option<Initialisation>>) =
+            scorer.score_all(config, &loud_rungs()).into_iter().unzip();
+        tried.extend(loud);
+        starts.extend(loud_starts);
+    }
     let Some((mut best, mut best_ll)) = best_of(&tried) else {
         return Search {
             best: None,
             tried,
             dvl_bias_walk: None,
+            left_out: loud_left_out,
             warning: Some(
                 "imu: no candidate noise model could run over the tuning span; the \
                  configuration's figures are used"
@@ -619,6 +665,7 @@ pub fn search(
         best: Some(best),
         dvl_bias_walk,
         tried,
+        left_out: loud_left_out,
         warning,
     }
 }
@@ -662,6 +709,43 @@ mod tests {
             5_000_000_000 + 120_000_000_000
         );
         assert_eq!(scored_from_ns(&Streams::default(), &tune), i64::MIN);
+    }
+
+    fn grades_scored(posteriors: [Option<f64>; 4]) -> Vec<Scored> {
+        GRADES
+            .iter()
+            .zip(posteriors)
+            .map(|(&g, p)| {
+                let candidate = Candidate::of(g, 1.0);
+                Scored {
+                    label: candidate.label(),
+                    candidate,
+                    log_likelihood: p.map(|p| p + 1.0),
+                    log_prior: -1.0,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_noisier_rungs_are_left_out_only_when_mems_falls_far_below_or_cannot_run() {
+        let near = grades_scored([Some(-700.0), Some(-720.0), Some(-790.0), Some(-1199.0)]);
+        assert_eq!(loud_rungs_left_out(&near), None);
+        // The pool's MEMS IMUs: the likelihood climbs through MEMS.
+        let rising = grades_scored([Some(4316.0), Some(3701.0), Some(3066.0), Some(17101.0)]);
+        assert_eq!(loud_rungs_left_out(&rising), None);
+        let far = grades_scored([Some(-704.4), Some(-719.9), Some(-787.9), Some(-3143.4)]);
+        assert_eq!(
+            loud_rungs_left_out(&far).as_deref(),
+            Some("mems x10 and x100 not scored: mems scored 2439 below navigation (more than 500)")
+        );
+        let failed = grades_scored([Some(72068.8), Some(72091.9), Some(57317.5), None]);
+        assert_eq!(
+            loud_rungs_left_out(&failed).as_deref(),
+            Some("mems x10 and x100 not scored: mems could not run over the span")
+        );
+        // No grade scored: every rung is tried.
+        assert_eq!(loud_rungs_left_out(&grades_scored([None; 4])), None);
     }
 
     #[test]

@@ -92,6 +92,9 @@ pub struct ImuNoiseTuning {
     pub figures: ImuSpec,
     /// Every model tried, with its log-likelihood.
     pub candidates: Vec<imu::Scored>,
+    /// The ladder's rungs not scored, and why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_scored: Option<String>,
     /// The white noise measured where the vehicle was still ...
     pub still: Option<stationary::StillNoise>,
     /// ... and from the samples while it moved (measured when there was no still stretch).
@@ -210,6 +213,7 @@ pub fn tune_from(
             model: "configured".into(),
             figures: config.imu.spec(),
             candidates: Vec::new(),
+            not_scored: None,
             still: None,
             moving: None,
             white: None,
@@ -310,6 +314,7 @@ fn tune_imu(
                 model: best.label(),
                 figures: best.spec_with(white.as_ref()),
                 candidates: search.tried,
+                not_scored: search.left_out,
                 still,
                 moving,
                 white,
@@ -320,6 +325,7 @@ fn tune_imu(
             model: "configured".into(),
             figures: config.imu.spec(),
             candidates: search.tried,
+            not_scored: search.left_out,
             still,
             moving,
             white,
@@ -501,6 +507,9 @@ impl fmt::Display for Tuning {
                 self.span_s
             )?;
         }
+        if let Some(why) = &self.imu.not_scored {
+            writeln!(f, "           {why}")?;
+        }
         for n in &self.sensors {
             write!(f, "{:<10} {:.4} ({})", n.key, n.value, source(n.source))?;
             if let Some(d) = n.differences {
@@ -556,6 +565,7 @@ mod bound_tests {
             model: "mems".into(),
             figures,
             candidates: Vec::new(),
+            not_scored: None,
             still: Some(stationary::StillNoise {
                 from_ns: 0,
                 to_ns: 600_000_000_000,
