@@ -27,16 +27,17 @@ pub trait ForwardEpoch<const N: usize> {
     fn posterior_cov_into(&self, out: &mut SMatrix<f64, N, N>) {
         *out = self.posterior_cov();
     }
-    /// [`ForwardEpoch::prior_cov`] and [`ForwardEpoch::phi_times`] of the previous posterior,
-    /// into `prior` and `phi_p` (a filter can share the work of the two).
-    fn prior_cov_and_phi_times(
+    /// [`ForwardEpoch::prior_cov`] of the previous posterior `P` into `prior`, and `P Phi^T`
+    /// (the transpose of [`ForwardEpoch::phi_times`], `P` symmetric) into `p_phi_t` (a filter
+    /// can share the work of the two, and write the second in place).
+    fn prior_cov_and_p_phi_t(
         &self,
         previous_posterior: &SMatrix<f64, N, N>,
         prior: &mut SMatrix<f64, N, N>,
-        phi_p: &mut SMatrix<f64, N, N>,
+        p_phi_t: &mut SMatrix<f64, N, N>,
     ) {
         *prior = self.prior_cov(previous_posterior);
-        *phi_p = self.phi_times(previous_posterior);
+        p_phi_t.tr_copy_from(&self.phi_times(previous_posterior));
     }
     /// Correction this epoch's updates applied, prior to posterior.
     fn correction(&self) -> SVector<f64, N>;
@@ -54,15 +55,9 @@ fn held_states_unit<const N: usize>(c: &mut SMatrix<f64, N, N>) {
     }
 }
 
-/// The RTS gain `C = P Phi^T Pp^-1` into `gain`, given the lower Cholesky factor `L` of
-/// `Pp` (only its lower triangle is read) and `Phi P`: `G = P Phi^T = (Phi P)^T` divided by
-/// `L L^T` from the right.
-fn rts_gain<const N: usize>(
-    gain: &mut SMatrix<f64, N, N>,
-    l: &SMatrix<f64, N, N>,
-    phi_p: &SMatrix<f64, N, N>,
-) {
-    gain.tr_copy_from(phi_p);
+/// The RTS gain `C = P Phi^T Pp^-1` in place of `P Phi^T` (`gain`), given the lower Cholesky
+/// factor `L` of `Pp` (only its lower triangle is read): divided by `L L^T` from the right.
+fn rts_gain<const N: usize>(gain: &mut SMatrix<f64, N, N>, l: &SMatrix<f64, N, N>) {
     dense::right_divide_by_factor(gain, l);
 }
 
@@ -162,8 +157,7 @@ impl<const N: usize> Link<N> {
     }
 
     /// Fills the link from epoch k (`epoch`) to epoch k+1 (`after`, at index `k_after`) in
-    /// place; `scratch` is room for `Phi P` and the Cholesky factor of the predicted
-    /// covariance.
+    /// place; `scratch` is room for the Cholesky factor of the predicted covariance.
     fn fill<E: ForwardEpoch<N>>(
         &mut self,
         epoch: &E,
@@ -172,21 +166,20 @@ impl<const N: usize> Link<N> {
         scratch: &mut Scratch<N>,
     ) -> Result<(), SmoothError> {
         epoch.posterior_cov_into(&mut self.posterior_cov);
-        after.prior_cov_and_phi_times(&self.posterior_cov, &mut self.prior_cov, &mut scratch.phi_p);
+        after.prior_cov_and_p_phi_t(&self.posterior_cov, &mut self.prior_cov, &mut self.gain);
         let factor = &mut scratch.factor;
         factor.copy_from(&self.prior_cov);
         held_states_unit(factor);
         if !dense::cholesky_in_place(factor) {
             return Err(SmoothError::SingularPrior { epoch: k_after });
         }
-        rts_gain(&mut self.gain, factor, &scratch.phi_p);
+        rts_gain(&mut self.gain, factor);
         Ok(())
     }
 }
 
-/// Matrices [`Link::fill`] works in, kept from one epoch to the next.
+/// The matrix [`Link::fill`] works in, kept from one epoch to the next.
 struct Scratch<const N: usize> {
-    phi_p: SMatrix<f64, N, N>,
     factor: SMatrix<f64, N, N>,
 }
 
@@ -227,7 +220,6 @@ impl<I, B, E, const N: usize> Prepare<I, B, E, N> {
             k: n.saturating_sub(1),
             recycled,
             scratch: Box::new(Scratch {
-                phi_p: SMatrix::zeros(),
                 factor: SMatrix::zeros(),
             }),
         }
@@ -343,8 +335,8 @@ mod tests {
             let phi_p = random_matrix::<25, 25>(&mut rng);
             let chol = pp.cholesky().unwrap();
             let want = chol.solve(&phi_p).transpose();
-            let mut got = M::<25>::zeros();
-            rts_gain(&mut got, chol.l_dirty(), &phi_p);
+            let mut got = phi_p.transpose();
+            rts_gain(&mut got, chol.l_dirty());
             assert!(
                 (got - want).amax() < 1e-9 * want.amax(),
                 "{}",

@@ -53,17 +53,17 @@ impl ForwardEpoch<{ error_state::N }> for EpochRecord {
     fn posterior_cov_into(&self, out: &mut ErrorMatrix) {
         self.posterior_cov.unpack_into(out);
     }
-    fn prior_cov_and_phi_times(
+    fn prior_cov_and_p_phi_t(
         &self,
         previous_posterior: &ErrorMatrix,
         prior: &mut ErrorMatrix,
-        phi_p: &mut ErrorMatrix,
+        p_phi_t: &mut ErrorMatrix,
     ) {
-        self.phi_from_previous.predicted_cov_and_phi_p_into(
+        self.phi_from_previous.predicted_cov_and_p_phi_t_into(
             previous_posterior,
             &self.process_noise,
             prior,
-            phi_p,
+            p_phi_t,
         );
     }
     fn correction(&self) -> ErrorState {

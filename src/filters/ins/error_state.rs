@@ -350,21 +350,22 @@ pub fn predict_cov_in_place(phi_top: &TransitionRows, p: &mut ErrorMatrix, q: &E
     predict_from_top_rows(&x, &moved, p, q);
 }
 
-/// [`predicted_cov`] and [`transition_times`] together, sharing `X = [T M] P`, into `prior`
-/// and `phi_p`.
-pub fn predicted_cov_and_phi_p_into(
+/// [`predicted_cov`] and `P Phi^T` (the transpose of [`transition_times`], `P` symmetric)
+/// together, sharing `X = [T M] P`, into `prior` and `p_phi_t`: `P Phi^T` is `P` with its
+/// left columns `X^T`.
+pub fn predicted_cov_and_p_phi_t_into(
     phi_top: &TransitionRows,
     p: &ErrorMatrix,
     q: &ErrorState,
     prior: &mut ErrorMatrix,
-    phi_p: &mut ErrorMatrix,
+    p_phi_t: &mut ErrorMatrix,
 ) {
     let moved = moved_transition_columns(phi_top);
     let x = top_rows_times(&moved, p);
     prior.copy_from(p);
     predict_from_top_rows(&x, &moved, prior, q);
-    phi_p.copy_from(p);
-    phi_p.fixed_rows_mut::<NAV_ROWS>(0).copy_from(&x);
+    p_phi_t.copy_from(p);
+    p_phi_t.fixed_columns_mut::<NAV_ROWS>(0).tr_copy_from(&x);
 }
 
 /// Turns `p` into the predicted covariance, given `x = phi_top p` and the moving columns of
@@ -460,9 +461,12 @@ mod tests {
         let q = ErrorState::from_fn(|i, _| 0.1 * i as f64);
         let full = full_phi * p * full_phi.transpose() + ErrorMatrix::from_diagonal(&q);
         let got = predicted_cov(&top, &p, &q);
-        let (mut prior, mut phi_p) = (ErrorMatrix::zeros(), ErrorMatrix::zeros());
-        predicted_cov_and_phi_p_into(&top, &p, &q, &mut prior, &mut phi_p);
-        assert_eq!((prior, phi_p), (got, transition_times(&top, &p)));
+        let (mut prior, mut p_phi_t) = (ErrorMatrix::zeros(), ErrorMatrix::zeros());
+        predicted_cov_and_p_phi_t_into(&top, &p, &q, &mut prior, &mut p_phi_t);
+        assert_eq!(
+            (prior, p_phi_t),
+            (got, transition_times(&top, &p).transpose())
+        );
         assert!(
             (got - full).amax() < 1e-12 * full.amax(),
             "{}",

@@ -164,20 +164,21 @@ impl PackedTransition {
         error_state::predicted_cov(&self.top, &dpd, q)
     }
 
-    /// [`PackedTransition::predicted_cov`] and [`PackedTransition::times`] together, into
-    /// `prior` and `phi_p` (sharing their work when there is no decay).
-    pub fn predicted_cov_and_phi_p_into(
+    /// [`PackedTransition::predicted_cov`] and the transpose of [`PackedTransition::times`]
+    /// (`P Phi^T`, `P` symmetric) together, into `prior` and `p_phi_t` (sharing their work
+    /// when there is no decay).
+    pub fn predicted_cov_and_p_phi_t_into(
         &self,
         p: &ErrorMatrix,
         q: &ErrorState,
         prior: &mut ErrorMatrix,
-        phi_p: &mut ErrorMatrix,
+        p_phi_t: &mut ErrorMatrix,
     ) {
         if self.dvl_bias_decay == 1.0 {
-            error_state::predicted_cov_and_phi_p_into(&self.top, p, q, prior, phi_p);
+            error_state::predicted_cov_and_p_phi_t_into(&self.top, p, q, prior, p_phi_t);
         } else {
             *prior = self.predicted_cov(p, q);
-            *phi_p = self.times(p);
+            p_phi_t.tr_copy_from(&self.times(p));
         }
     }
 }
@@ -542,9 +543,9 @@ mod tests {
         let close = |x: &ErrorMatrix, y: &ErrorMatrix| (x - y).amax() < 1e-12 * y.amax();
         assert!(close(&packed.times(&p), &dense_phi_p));
         assert!(close(&packed.predicted_cov(&p, &q), &dense_prior));
-        let (mut prior, mut phi_p) = (ErrorMatrix::zeros(), ErrorMatrix::zeros());
-        packed.predicted_cov_and_phi_p_into(&p, &q, &mut prior, &mut phi_p);
-        assert!(close(&prior, &dense_prior) && close(&phi_p, &dense_phi_p));
+        let (mut prior, mut p_phi_t) = (ErrorMatrix::zeros(), ErrorMatrix::zeros());
+        packed.predicted_cov_and_p_phi_t_into(&p, &q, &mut prior, &mut p_phi_t);
+        assert!(close(&prior, &dense_prior) && close(&p_phi_t, &dense_phi_p.transpose()));
         // And through a record's encoding.
         let bytes = encoded(&EpochRecord::new(
             7,
