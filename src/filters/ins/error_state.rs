@@ -261,18 +261,24 @@ pub fn transition(f: &ErrorMatrix, dt_s: f64) -> ErrorMatrix {
     phi
 }
 
-/// The top rows of [`transition`], from the top rows of `F` (the others are zero).
+/// The top rows of [`transition`], from the top rows of `F` (the others are zero). Of `B`
+/// only the [`TRANSITION_COLUMNS`] past the navigation errors' can be non-zero: `T B` is
+/// made of them alone, and its other columns are left zero.
 pub fn transition_rows(f_top: &TransitionRows, dt_s: f64) -> TransitionRows {
     type Square = SMatrix<f64, NAV_ROWS, NAV_ROWS>;
+    const B_MOVED: usize = MOVED_BY - NAV_ROWS;
+    let b_columns = &TRANSITION_COLUMNS[NAV_ROWS..];
     let a: Square = f_top.fixed_view::<NAV_ROWS, NAV_ROWS>(0, 0) * dt_s;
-    let b = f_top.fixed_view::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS) * dt_s;
+    let b = SMatrix::<f64, NAV_ROWS, B_MOVED>::from_fn(|r, k| f_top[(r, b_columns[k])] * dt_s);
     let i = Square::identity();
     let t = i + dense::mul(&a, &(i + dense::mul(&a, &(i + a * 0.25)) * (1.0 / 3.0))) * 0.5;
     let mut top = TransitionRows::zeros();
     top.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
         .copy_from(&(i + dense::mul(&a, &t)));
-    top.fixed_view_mut::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS)
-        .copy_from(&dense::mul(&t, &b));
+    let t_b = dense::mul(&t, &b);
+    for (k, &c) in b_columns.iter().enumerate() {
+        top.column_mut(c).copy_from(&t_b.column(k));
+    }
     top
 }
 

@@ -226,7 +226,7 @@ impl Filter {
         f += error_state::continuous_rows(nav_to, f_body, w_body);
         f *= 0.5;
         let top = error_state::transition_rows(&f, dt_s);
-        let mut q = process_noise(noise, self.current_walk, self.dvl_bias_walk, dt_s).diagonal();
+        let mut q = process_noise(noise, self.current_walk, self.dvl_bias_walk, dt_s);
         let decay = match self.dvl_bias_markov_step(dt_s) {
             Some((decay, variance)) => {
                 error_state::decay_dvl_bias(cov, decay);
@@ -298,23 +298,18 @@ impl Filter {
 
 /// Discrete process noise over `dt_s` (white noise integrated over the step). The noise
 /// enters along body axes, but `C C^T = I`, so in the NED frame it is isotropic: `Q` is
-/// diagonal (the smoother's records keep only its diagonal).
-fn process_noise(n: &ImuNoise, current_walk: f64, dvl_bias_walk: f64, dt_s: f64) -> ErrorMatrix {
-    let mut q = ErrorMatrix::zeros();
-    let mut block = |at: usize, density: f64| {
-        q.fixed_view_mut::<3, 3>(at, at)
-            .copy_from(&(Matrix3::identity() * density.powi(2) * dt_s))
+/// diagonal: this is its diagonal (all the filter and the smoother's records keep).
+fn process_noise(n: &ImuNoise, current_walk: f64, dvl_bias_walk: f64, dt_s: f64) -> ErrorState {
+    let mut q = ErrorState::zeros();
+    let mut block = |at: usize, count: usize, density: f64| {
+        q.rows_mut(at, count).fill(density.powi(2) * dt_s);
     };
-    block(idx::VEL, n.accel_noise_density);
-    block(idx::ATT, n.gyro_noise_density);
-    block(idx::GYRO_BIAS, n.gyro_bias_walk);
-    block(idx::ACCEL_BIAS, n.accel_bias_walk);
-    for k in 0..2 {
-        q[(idx::CURRENT + k, idx::CURRENT + k)] = current_walk.powi(2) * dt_s;
-    }
-    for k in 0..3 {
-        q[(idx::DVL_BIAS + k, idx::DVL_BIAS + k)] = dvl_bias_walk.powi(2) * dt_s;
-    }
+    block(idx::VEL, 3, n.accel_noise_density);
+    block(idx::ATT, 3, n.gyro_noise_density);
+    block(idx::GYRO_BIAS, 3, n.gyro_bias_walk);
+    block(idx::ACCEL_BIAS, 3, n.accel_bias_walk);
+    block(idx::CURRENT, 2, current_walk);
+    block(idx::DVL_BIAS, 3, dvl_bias_walk);
     q
 }
 
