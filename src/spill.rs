@@ -434,7 +434,7 @@ impl<T: Fixed> Spilled<T> {
     pub fn read(&self, range: Range<usize>) -> io::Result<Vec<T>> {
         let store = self.store();
         self.check(&range, self.len_in(&store))?;
-        let mut bytes = Vec::new();
+        let mut bytes = Vec::with_capacity(range.len() * T::BYTES);
         self.read_bytes(&store, range, &mut bytes)?;
         Ok(bytes
             .chunks_exact(T::BYTES)
