@@ -33,6 +33,7 @@ mod ins_forward;
 mod long_dive;
 mod model_aided;
 mod pool_attitude;
+mod real_logs;
 mod reconstruct;
 mod reconstruct_cli;
 mod report;

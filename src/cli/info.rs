@@ -29,6 +29,13 @@ pub struct InfoArgs {
     /// List every gap with its time and length.
     #[arg(long)]
     pub gaps: bool,
+
+    /// Also print the IMU's motion content per axis and band, as real-sensor figures give
+    /// it: the gyro's first-difference scatter, its RMS in 1-50 Hz (vibration) and in
+    /// 0.05-1 Hz (the sea, the vehicle's wobble), the accelerometer's RMS in 1-50 Hz. Set
+    /// a simulated scenario's log beside a real one's (holds the log in memory).
+    #[arg(long)]
+    pub spectra: bool,
 }
 
 /// Repeats of one value that `info` reports as a held stream.
@@ -44,13 +51,50 @@ pub fn run(args: InfoArgs) -> Result<()> {
         check_layouts: true,
         ..IngestOptions::default()
     };
+    options.keep_messages = args.spectra;
     args.log.source.apply(&mut options);
     let log = super::load(&args.log.log, &options, &args.log.offsets)?;
     print!(
         "{}",
         render(&log, &args.log.log.display().to_string(), args.gaps)
     );
+    if args.spectra {
+        print!("{}", render_spectra(&log));
+    }
     Ok(())
+}
+
+/// The IMU's motion content per axis and band.
+fn render_spectra(log: &Log) -> String {
+    let streams = hindsight::recon::Streams::of(log);
+    let Some(b) = hindsight::recon::tune::bands::imu_bands(streams.imu) else {
+        return "spectra: fewer than 100 IMU samples\n".into();
+    };
+    let row = |what: &str, v: [f64; 3]| {
+        vec![
+            what.to_string(),
+            format!("{:.4}", v[0]),
+            format!("{:.4}", v[1]),
+            format!("{:.4}", v[2]),
+        ]
+    };
+    let rows = [
+        row(
+            "gyro first-difference std / sqrt(2), deg/s",
+            b.gyro_difference_deg_s,
+        ),
+        row("gyro RMS in 1-50 Hz, deg/s", b.gyro_vibration_deg_s),
+        row("gyro RMS in 0.05-1 Hz, deg/s", b.gyro_sea_deg_s),
+        row(
+            "accelerometer RMS in 1-50 Hz, m/s^2",
+            b.accel_vibration_m_s2,
+        ),
+    ];
+    format!(
+        "\nIMU motion content ({:.1} Hz; bands at the mean rate of the samples as logged)\n{}",
+        b.rate_hz,
+        table(&["figure", "x (roll)", "y (pitch)", "z (yaw)"], &rows)
+    )
 }
 
 fn render(log: &Log, name: &str, list_gaps: bool) -> String {

@@ -20,6 +20,7 @@ pub mod magnetometer;
 pub mod model_velocity;
 pub mod pipeline;
 pub mod plan;
+pub mod sanity;
 pub mod score;
 pub mod stats;
 pub mod switch;

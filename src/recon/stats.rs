@@ -149,6 +149,14 @@ pub enum RunWarning {
     HeadingDisagreement { text: String },
     /// Magnetometer readings left out as a disturbed field.
     MagDisturbed { readings: usize },
+    /// A long stretch with no velocity measurement taken (none in range, or all rejected):
+    /// the IMU alone carried the track there.
+    UnaidedVelocity {
+        from_ns: i64,
+        seconds: f64,
+        /// Of the span of the measurements.
+        share: f64,
+    },
 }
 
 impl std::fmt::Display for RunWarning {
@@ -222,8 +230,65 @@ impl std::fmt::Display for RunWarning {
                 "mag: {readings} readings left out, their field magnitude off the log's median \
                  by more than mag.max_field_deviation (a disturbed field)"
             ),
+            RunWarning::UnaidedVelocity {
+                from_ns,
+                seconds,
+                share,
+            } => write!(
+                f,
+                "no velocity measurement was taken for {seconds:.0} s from {} ({:.0} % of the \
+                 run: the DVL had no bottom lock, was out of range or was rejected): the IMU \
+                 alone carried the track there, and its speeds and positions in that stretch \
+                 are the IMU's drift, not the vehicle's (see residuals.parquet)",
+                crate::time::format_utc(*from_ns),
+                100.0 * share
+            ),
         }
     }
+}
+
+/// The longest stretch without a velocity measurement taken that is worth a warning: this
+/// long, and this share of the run.
+const UNAIDED_VELOCITY_S: f64 = 20.0;
+const UNAIDED_VELOCITY_SHARE: f64 = 0.1;
+
+/// The longest stretch between velocity measurements taken (DVL, EM log, the propeller's or
+/// the model's velocity), when it is long ([`UNAIDED_VELOCITY_S`]) and a large share of the
+/// run ([`UNAIDED_VELOCITY_SHARE`]); `None` for a run without any velocity sensor.
+fn unaided_velocity(residuals: &[crate::filters::ins::driver::Residual]) -> Option<RunWarning> {
+    let velocity = |s: Sensor| {
+        matches!(
+            s,
+            Sensor::Dvl | Sensor::SpeedLog | Sensor::RpmVelocity | Sensor::ModelVelocity
+        )
+    };
+    let (first, last) = (residuals.first()?.stamp_ns, residuals.last()?.stamp_ns);
+    let taken: Vec<i64> = residuals
+        .iter()
+        .filter(|r| velocity(r.sensor) && r.accepted)
+        .map(|r| r.stamp_ns)
+        .collect();
+    if !residuals.iter().any(|r| velocity(r.sensor)) {
+        return None;
+    }
+    // The stretches before the first, between, and after the last taken measurement.
+    let edges: Vec<i64> = std::iter::once(first)
+        .chain(taken.iter().copied())
+        .chain(std::iter::once(last))
+        .collect();
+    let (from_ns, longest_ns) = edges
+        .windows(2)
+        .map(|w| (w[0], w[1] - w[0]))
+        .max_by_key(|&(_, d)| d)?;
+    let seconds = longest_ns as f64 * 1e-9;
+    let share = longest_ns as f64 / (last - first).max(1) as f64;
+    (seconds >= UNAIDED_VELOCITY_S && share >= UNAIDED_VELOCITY_SHARE).then_some(
+        RunWarning::UnaidedVelocity {
+            from_ns,
+            seconds,
+            share,
+        },
+    )
 }
 
 /// Rejections in a row worth a warning: a sensor locked out that long is stuck or faulty, or
@@ -309,6 +374,7 @@ pub fn warnings(
             readings: run.disturbed[Sensor::Magnetometer],
         });
     }
+    out.extend(unaided_velocity(&run.residuals));
     out
 }
 
@@ -345,6 +411,47 @@ impl Distance {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn at(t_s: i64, sensor: Sensor, accepted: bool) -> Residual {
+        Residual {
+            stamp_ns: t_s * 1_000_000_000,
+            sensor,
+            innovation: [0.0; 3],
+            sigma: [1.0; 3],
+            dims: 3,
+            nis: 0.0,
+            accepted,
+            log_likelihood: 0.0,
+            repeats: false,
+        }
+    }
+
+    /// A vehicle lifted out of the water: DVL readings taken for 17 s, none for 48 s (no
+    /// bottom lock, then rejected), then taken again; the depth sensor's do not count.
+    #[test]
+    fn a_long_stretch_without_a_velocity_taken_is_told() {
+        let mut r: Vec<Residual> = (0..=17).map(|t| at(t, Sensor::Dvl, true)).collect();
+        r.extend((18..70).map(|t| at(t, Sensor::Depth, true)));
+        r.extend((65..70).map(|t| at(t, Sensor::Dvl, false)));
+        r.extend((70..=86).map(|t| at(t, Sensor::Dvl, true)));
+        r.sort_by_key(|x| x.stamp_ns);
+        let Some(RunWarning::UnaidedVelocity {
+            from_ns,
+            seconds,
+            share,
+        }) = unaided_velocity(&r)
+        else {
+            panic!("no warning");
+        };
+        assert_eq!(from_ns, 17_000_000_000);
+        assert_eq!(seconds, 53.0);
+        assert!((share - 53.0 / 86.0).abs() < 1e-12);
+        // Readings taken every second: nothing to tell; no velocity sensor: nothing either.
+        let steady: Vec<Residual> = (0..100).map(|t| at(t, Sensor::Dvl, true)).collect();
+        assert_eq!(unaided_velocity(&steady), None);
+        let depth: Vec<Residual> = (0..100).map(|t| at(t, Sensor::Depth, true)).collect();
+        assert_eq!(unaided_velocity(&depth), None);
+    }
 
     #[test]
     fn normalised_innovations_of_a_consistent_sensor() {

@@ -15,5 +15,6 @@ pub mod sensors;
 pub mod synthetic;
 pub mod trajectory;
 pub mod truth;
+pub mod vibration;
 pub mod writer;
 pub mod zigzag;

@@ -9,6 +9,7 @@ use super::sensors::mag::MagSensor;
 use super::sensors::scalar::{Propeller as PropellerModel, ScalarSensor};
 use super::sensors::{normal, rng_for, stream};
 use super::truth::{KinematicTruth, TruthSource};
+use super::vibration::RealMotion;
 use super::writer::{LogWriter, WriteError};
 use crate::contract::*;
 use crate::geodesy;
@@ -156,6 +157,7 @@ pub fn run_with_progress<W: Write + Seek>(
             .map(|m| m.field_ned_nt[1].atan2(m.field_ned_nt[0]).to_degrees()),
     })?;
 
+    let mut real_motion = RealMotion::new(&scenario.motion, rng_for(seed, stream::MOTION));
     let mut gyro = Triad::new(scenario.imu.gyro.triad(), rng_for(seed, stream::GYRO));
     let mut accel = Triad::new(scenario.imu.accel.triad(), rng_for(seed, stream::ACCEL));
     let mut mag = scenario.mag.map(|s| {
@@ -227,7 +229,10 @@ pub fn run_with_progress<W: Write + Seek>(
             next_progress_ns += progress_every_ns;
         }
         let t_s = t_ns as f64 * 1e-9;
-        let sample = truth.sample(t_s);
+        let mut sample = truth.sample(t_s);
+        if let Some(m) = real_motion.as_mut() {
+            m.apply(t_s, &mut sample);
+        }
         let (lat, lon, height) = (sample.lat_rad, sample.lon_rad, sample.height_m);
         let motion = &sample.motion;
         let stamp_ns = scenario.start_stamp_ns + t_ns;

@@ -52,6 +52,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../../scenarios/auv-at-sea.toml"),
     ),
     (
+        "auv-at-sea-straight",
+        include_str!("../../scenarios/auv-at-sea-straight.toml"),
+    ),
+    (
         "survey-27h",
         include_str!("../../scenarios/survey-27h.toml"),
     ),
@@ -126,6 +130,9 @@ pub struct Scenario {
     #[serde(default, rename = "phase")]
     pub phases: Vec<Phase>,
     pub imu: ImuSpec,
+    /// Real motion on the flight: vibration and the sea's oscillation (none by default).
+    #[serde(default)]
+    pub motion: super::vibration::MotionSpec,
     pub mag: Option<MagSpec>,
     pub dvl: Option<DvlSpec>,
     pub eml: Option<RatedScalar>,
@@ -305,6 +312,9 @@ pub struct GyroGrade {
     pub scale_ppm: f64,
     pub misalignment_mrad: f64,
     pub arw_deg_rt_h: f64,
+    /// Readings rounded to this step, rad/s (0: not quantised); the remainder is carried to
+    /// the next reading, as an integrating sensor's counter does.
+    pub quantum_rad_s: f64,
 }
 
 /// Accelerometer errors: micro-g, ppm, mrad, micro-g/sqrt(Hz).
@@ -317,6 +327,8 @@ pub struct AccelGrade {
     pub scale_ppm: f64,
     pub misalignment_mrad: f64,
     pub vrw_ug_rt_hz: f64,
+    /// Readings rounded to this step, m/s^2 (0: not quantised), the remainder carried.
+    pub quantum_m_s2: f64,
 }
 
 const DEG_H: f64 = std::f64::consts::PI / 180.0 / 3600.0;
@@ -332,6 +344,7 @@ impl GyroGrade {
             scale_ppm: self.scale_ppm,
             misalignment_rad: self.misalignment_mrad * 1e-3,
             noise_density: self.arw_deg_rt_h.to_radians() / 60.0,
+            quantum: self.quantum_rad_s,
         }
     }
 }
@@ -346,6 +359,7 @@ impl AccelGrade {
             scale_ppm: self.scale_ppm,
             misalignment_rad: self.misalignment_mrad * 1e-3,
             noise_density: self.vrw_ug_rt_hz * UG,
+            quantum: self.quantum_m_s2,
         }
     }
 }
@@ -535,6 +549,14 @@ impl Scenario {
                 "a parameter is {v}: every number of the mission, start and sensors must be finite"
             )));
         }
+        if self.motion.numbers().iter().any(|&x| x < 0.0)
+            || self.imu.gyro.quantum_rad_s < 0.0
+            || self.imu.accel.quantum_m_s2 < 0.0
+        {
+            return Err(bad(
+                "motion.* RMS figures and imu.*.quantum must not be negative".into(),
+            ));
+        }
         if self.imu.host_burst_s < 0.0 {
             return Err(bad(format!(
                 "imu.host_burst_s {} must not be negative",
@@ -654,6 +676,8 @@ impl Scenario {
             g.scale_ppm,
             g.misalignment_mrad,
             g.arw_deg_rt_h,
+            g.quantum_rad_s,
+            a.quantum_m_s2,
             a.bias_ug,
             a.bias_instability_ug,
             a.bias_correlation_s,

@@ -37,30 +37,41 @@ const MIN_GAIN: f64 = 0.5;
 /// A noise model: a grade's figures with the gyro's and the accelerometer's scaled.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Candidate {
+    /// The gyro's grade (and the model's, for what follows from a grade) ...
     pub grade: ImuGrade,
+    /// ... and the accelerometer's: the same, unless the ladder's second stage paired a finer
+    /// gyro with the best grade's accelerometer ([`finer_gyros`]).
+    pub accel_grade: ImuGrade,
     pub gyro_factor: f64,
     pub accel_factor: f64,
+    /// The gyro's white noise (ARW) scaled apart from its biases: a grade ties them, and an
+    /// IMU need not follow it (a MEMS gyro of 1000 deg/h whose white noise is 2 deg/sqrt(h)
+    /// is no grade's 1000/30).
+    pub gyro_white_factor: f64,
 }
 
 impl Candidate {
     fn of(grade: ImuGrade, factor: f64) -> Self {
         Candidate {
             grade,
+            accel_grade: grade,
             gyro_factor: factor,
             accel_factor: factor,
+            gyro_white_factor: 1.0,
         }
     }
 
     /// The figures of this model.
     pub fn spec(&self) -> ImuSpec {
         let g = self.grade.spec();
+        let a = self.accel_grade.spec();
         ImuSpec {
             gyro_bias_deg_h: g.gyro_bias_deg_h * self.gyro_factor,
             gyro_bias_instability_deg_h: g.gyro_bias_instability_deg_h * self.gyro_factor,
-            gyro_arw_deg_rt_h: g.gyro_arw_deg_rt_h * self.gyro_factor,
-            accel_bias_ug: g.accel_bias_ug * self.accel_factor,
-            accel_bias_instability_ug: g.accel_bias_instability_ug * self.accel_factor,
-            accel_vrw_ug_rt_hz: g.accel_vrw_ug_rt_hz * self.accel_factor,
+            gyro_arw_deg_rt_h: g.gyro_arw_deg_rt_h * self.gyro_factor * self.gyro_white_factor,
+            accel_bias_ug: a.accel_bias_ug * self.accel_factor,
+            accel_bias_instability_ug: a.accel_bias_instability_ug * self.accel_factor,
+            accel_vrw_ug_rt_hz: a.accel_vrw_ug_rt_hz * self.accel_factor,
             bias_correlation_s: g.bias_correlation_s,
             gyro_scale_ppm: g.gyro_scale_ppm,
         }
@@ -69,19 +80,31 @@ impl Candidate {
     /// The figures with the white noise measured from the IMU's own data, when it was.
     pub fn spec_with(&self, white: Option<&ImuWhite>) -> ImuSpec {
         let mut s = self.spec();
-        if let Some(w) = white {
+        if let Some(w) = white.filter(|w| w.is_measured()) {
             s.gyro_arw_deg_rt_h = w.gyro_arw_deg_rt_h;
             s.accel_vrw_ug_rt_hz = w.accel_vrw_ug_rt_hz;
         }
         s
     }
 
-    /// "tactical", "mems x100", "navigation, gyro x3, accel x0.33".
+    /// "tactical", "mems x100", "navigation, gyro x3, accel x0.33", "navigation gyro,
+    /// tactical accel".
     pub fn label(&self) -> String {
-        let grade = serde_json::to_value(self.grade)
-            .ok()
-            .and_then(|v| v.as_str().map(str::to_owned))
-            .unwrap_or_default();
+        let name = |g: ImuGrade| {
+            serde_json::to_value(g)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_owned))
+                .unwrap_or_default()
+        };
+        let grade = if self.accel_grade == self.grade {
+            name(self.grade)
+        } else {
+            format!(
+                "{} gyro, {} accel",
+                name(self.grade),
+                name(self.accel_grade)
+            )
+        };
         let factor = |f: f64| {
             if f >= 1.0 {
                 format!("x{f:.0}")
@@ -89,7 +112,7 @@ impl Candidate {
                 format!("x{f:.2}")
             }
         };
-        if self.gyro_factor == self.accel_factor {
+        let label = if self.gyro_factor == self.accel_factor {
             if self.gyro_factor == 1.0 {
                 grade
             } else {
@@ -101,6 +124,11 @@ impl Candidate {
                 factor(self.gyro_factor),
                 factor(self.accel_factor)
             )
+        };
+        if (self.gyro_white_factor - 1.0).abs() < 1e-9 {
+            label
+        } else {
+            format!("{label}, gyro ARW {}", factor(self.gyro_white_factor))
         }
     }
 
@@ -108,14 +136,24 @@ impl Candidate {
     fn same_as(&self, other: &Candidate) -> bool {
         let close = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-6;
         self.grade == other.grade
+            && self.accel_grade == other.accel_grade
             && close(self.gyro_factor, other.gyro_factor)
             && close(self.accel_factor, other.accel_factor)
+            && close(self.gyro_white_factor, other.gyro_white_factor)
     }
 
     fn scaled(&self, gyro: f64, accel: f64) -> Self {
         Candidate {
             gyro_factor: self.gyro_factor * gyro,
             accel_factor: self.accel_factor * accel,
+            ..*self
+        }
+    }
+
+    /// The gyro's white noise alone scaled.
+    fn white_scaled(&self, gyro_white: f64) -> Self {
+        Candidate {
+            gyro_white_factor: self.gyro_white_factor * gyro_white,
             ..*self
         }
     }
@@ -205,7 +243,7 @@ fn fine_grades_with_walk(
     let candidates: Vec<(Candidate, Option<&Initialisation>)> = ladder
         .iter()
         .copied()
-        .filter(|(c, _)| fine(c.grade))
+        .filter(|(c, _)| fine(c.grade) && c.accel_grade == c.grade)
         .collect();
     if !candidates.iter().any(|(c, _)| dvl_walk_unset(config, c)) {
         return Vec::new();
@@ -316,6 +354,8 @@ fn climb(
             best.scaled(1.0 / STEP, 1.0),
             best.scaled(1.0, STEP),
             best.scaled(1.0, 1.0 / STEP),
+            best.white_scaled(STEP),
+            best.white_scaled(1.0 / STEP),
         ]
         .into_iter()
         .filter(|c| !tried.iter().any(|t| t.candidate.same_as(c)))
@@ -345,10 +385,41 @@ fn ladder() -> Vec<Candidate> {
 
 /// The ladder's rungs noisier than MEMS, scored after the grades unless
 /// [`loud_rungs_left_out`] says why not.
-fn loud_rungs() -> Vec<Candidate> {
+///
+/// Their gyro's white noise is held at the IMU's own high-frequency content when the grade's
+/// would exceed it: a gyro biased by 100 or 1000 deg/h need not be as noisy as a grade 10 or
+/// 100 times a MEMS's (`pool-mems-host`: 1000 deg/h, 1.8 deg/sqrt(h)); the refinements raise
+/// it again where the likelihood asks (the real pool runs).
+fn loud_rungs(white: Option<&ImuWhite>) -> Vec<Candidate> {
     [10.0, 100.0]
-        .map(|f| Candidate::of(ImuGrade::Mems, f))
+        .map(|f| {
+            let c = Candidate::of(ImuGrade::Mems, f);
+            let grade_white = c.spec().gyro_arw_deg_rt_h;
+            match white {
+                Some(w) if w.gyro_arw_deg_rt_h < 0.9 * grade_white => {
+                    c.white_scaled(w.gyro_arw_deg_rt_h / grade_white)
+                }
+                _ => c,
+            }
+        })
         .to_vec()
+}
+
+/// The ladder's second stage: the gyros finer than the best grade's, each with the best
+/// grade's accelerometer. A grade pairs a gyro with an accelerometer, and an IMU need not: a
+/// fibre-optic gyro beside a tactical accelerometer loses the first stage to the tactical
+/// grade, whose accelerometer the data want, and whose gyro then lets the heading wander
+/// (`auv-at-sea-straight`: "intermediate", 0.1 deg/h, where the gyro is good to 0.01).
+fn finer_gyros(best: &Candidate) -> Vec<Candidate> {
+    GRADES
+        .iter()
+        .take_while(|&&g| g != best.grade)
+        .map(|&g| Candidate {
+            grade: g,
+            accel_grade: best.grade,
+            ..Candidate::of(g, 1.0)
+        })
+        .collect()
 }
 
 /// How far below the best grade the MEMS rung's posterior must fall (nats) for the noisier
@@ -365,7 +436,10 @@ const LOUD_RUNGS_MARGIN: f64 = 500.0;
 /// than [`LOUD_RUNGS_MARGIN`] below the best grade, while some grade did score: they cost as
 /// much as the grades, and on a fine IMU they are the tuning's most expensive passes for
 /// nothing.
-fn loud_rungs_left_out(grades: &[Scored]) -> Option<String> {
+fn loud_rungs_left_out(grades: &[Scored], white: Option<&ImuWhite>) -> Option<String> {
+    if white.is_some_and(may_be_louder_than_mems) {
+        return None;
+    }
     let (best, best_posterior) = best_of(grades)?;
     let mems = grades
         .iter()
@@ -381,6 +455,15 @@ fn loud_rungs_left_out(grades: &[Scored]) -> Option<String> {
         Some(_) => return None,
     };
     Some(format!("mems x10 and x100 not scored: {why}"))
+}
+
+/// Whether the IMU's own white noise (measured, or its upper bound while moving) leaves room
+/// for an IMU noisier than the MEMS grade: then the noisier rungs are scored whatever the
+/// grades scored (a model far too tight rejects most readings, and its score says little).
+fn may_be_louder_than_mems(white: &ImuWhite) -> bool {
+    let mems = ImuGrade::Mems.spec();
+    white.gyro_arw_deg_rt_h >= mems.gyro_arw_deg_rt_h
+        || white.accel_vrw_ug_rt_hz >= mems.accel_vrw_ug_rt_hz
 }
 
 /// The configuration with a candidate's figures, every one given.
@@ -567,8 +650,14 @@ pub fn bias_prior(c: &Candidate, white: Option<&ImuWhite>) -> f64 {
     let gyro = GRADES.map(|g| [g.spec().gyro_arw_deg_rt_h, g.spec().gyro_bias_deg_h]);
     let accel = GRADES.map(|g| [g.spec().accel_vrw_ug_rt_hz, g.spec().accel_bias_ug]);
     let s = c.spec();
+    // A white noise measured while moving bounds the sensor's from above only: biases above
+    // the paired one are penalised, those below are not.
+    let one_sided = !w.is_measured();
     let term = |bias: f64, paired: f64| {
         let decades = (bias / paired).log10() / PRIOR_DECADES;
+        if one_sided && decades < 0.0 {
+            return 0.0;
+        }
         -0.5 * decades * decades
     };
     term(s.gyro_bias_deg_h, paired_bias(&gyro, w.gyro_arw_deg_rt_h))
@@ -597,12 +686,22 @@ pub fn search(
     };
     let (mut tried, mut starts): (Vec<Scored>, Vec<Option<Initialisation>>) =
         scorer.score_all(config, &ladder()).into_iter().unzip();
-    let loud_left_out = loud_rungs_left_out(&tried);
+    let loud_left_out = loud_rungs_left_out(&tried, white);
     if loud_left_out.is_none() {
-        let (loud, loud_starts): (Vec<Scored>, Vec<Option<Initialisation>>) =
-            scorer.score_all(config, &loud_rungs()).into_iter().unzip();
+        let (loud, loud_starts): (Vec<Scored>, Vec<Option<Initialisation>>) = scorer
+            .score_all(config, &loud_rungs(white))
+            .into_iter()
+            .unzip();
         tried.extend(loud);
         starts.extend(loud_starts);
+    }
+    if let Some((first, _)) = best_of(&tried) {
+        let (finer, finer_starts): (Vec<Scored>, Vec<Option<Initialisation>>) = scorer
+            .score_all(config, &finer_gyros(&first))
+            .into_iter()
+            .unzip();
+        tried.extend(finer);
+        starts.extend(finer_starts);
     }
     let Some((mut best, mut best_ll)) = best_of(&tried) else {
         return Search {
@@ -731,22 +830,35 @@ mod tests {
     #[test]
     fn the_noisier_rungs_are_left_out_only_when_mems_falls_far_below_or_cannot_run() {
         let near = grades_scored([Some(-700.0), Some(-720.0), Some(-790.0), Some(-1199.0)]);
-        assert_eq!(loud_rungs_left_out(&near), None);
+        assert_eq!(loud_rungs_left_out(&near, None), None);
         // The pool's MEMS IMUs: the likelihood climbs through MEMS.
         let rising = grades_scored([Some(4316.0), Some(3701.0), Some(3066.0), Some(17101.0)]);
-        assert_eq!(loud_rungs_left_out(&rising), None);
+        assert_eq!(loud_rungs_left_out(&rising, None), None);
         let far = grades_scored([Some(-704.4), Some(-719.9), Some(-787.9), Some(-3143.4)]);
         assert_eq!(
-            loud_rungs_left_out(&far).as_deref(),
+            loud_rungs_left_out(&far, None).as_deref(),
             Some("mems x10 and x100 not scored: mems scored 2439 below navigation (more than 500)")
         );
         let failed = grades_scored([Some(72068.8), Some(72091.9), Some(57317.5), None]);
         assert_eq!(
-            loud_rungs_left_out(&failed).as_deref(),
+            loud_rungs_left_out(&failed, None).as_deref(),
             Some("mems x10 and x100 not scored: mems could not run over the span")
         );
+        // An IMU whose own high-frequency content is as loud as a MEMS's: scored anyway.
+        let loud = ImuWhite {
+            gyro_arw_deg_rt_h: 30.0,
+            accel_vrw_ug_rt_hz: 10_000.0,
+            from: super::super::WhiteFrom::Moving,
+        };
+        assert_eq!(loud_rungs_left_out(&far, Some(&loud)), None);
+        let quiet = ImuWhite {
+            gyro_arw_deg_rt_h: 0.13,
+            accel_vrw_ug_rt_hz: 90.0,
+            ..loud
+        };
+        assert!(loud_rungs_left_out(&far, Some(&quiet)).is_some());
         // No grade scored: every rung is tried.
-        assert_eq!(loud_rungs_left_out(&grades_scored([None; 4])), None);
+        assert_eq!(loud_rungs_left_out(&grades_scored([None; 4]), None), None);
     }
 
     #[test]

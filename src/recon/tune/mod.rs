@@ -11,6 +11,7 @@
 //!
 //! A figure the configuration gives is kept ([`Config::fixed`]) and reported as kept.
 
+pub mod bands;
 pub mod imu;
 pub mod moving;
 pub mod stationary;
@@ -65,6 +66,12 @@ pub struct ImuWhite {
 }
 
 impl ImuWhite {
+    /// Whether this is the sensor's white noise itself (a still stretch's), not an upper
+    /// bound of it (the moving samples' high-frequency content: vibration adds to it).
+    pub fn is_measured(&self) -> bool {
+        self.from == WhiteFrom::Still
+    }
+
     /// A still stretch's, else the moving samples'.
     fn of(
         still: Option<&stationary::StillNoise>,

@@ -54,6 +54,12 @@ pub struct DvlSpec {
     /// that point, `v_b + omega_nb x l`.
     #[serde(default)]
     pub lever_arm_m: [f64; 3],
+    /// Share of readings with a multipath error (a beam off a wall or the surface), and ...
+    #[serde(default)]
+    pub multipath_fraction: f64,
+    /// ... that error's 1-sigma per axis, m/s.
+    #[serde(default)]
+    pub multipath_m_s: f64,
 }
 
 fn default_max_altitude() -> f64 {
@@ -125,9 +131,16 @@ impl DvlSensor {
         let in_range = (0.0..=self.spec.max_altitude_m).contains(&altitude_m);
         self.advance_correlated();
         let correlated = self.correlated_m_s;
+        // Drawn only when the DVL has multipath, so that other DVLs' draws stay as they were.
+        let multipath = in_range
+            && self.spec.multipath_fraction > 0.0
+            && rand::Rng::random::<f64>(&mut self.rng) < self.spec.multipath_fraction;
         let mut noise = |sigma: f64| Vector3::from_fn(|_, _| sigma * normal(&mut self.rng));
         if in_range {
-            let n = noise(self.spec.noise_m_s);
+            let mut n = noise(self.spec.noise_m_s);
+            if multipath {
+                n += noise(self.spec.multipath_m_s);
+            }
             let [pitch, heading] = self.spec.misalignment_deg.map(f64::to_radians);
             let turned =
                 velocity_body_m_s - Vector3::new(0.0, pitch, heading).cross(velocity_body_m_s);
@@ -174,6 +187,8 @@ mod tests {
             scale_error: 0.0,
             misalignment_deg: [0.0; 2],
             lever_arm_m: [0.0; 3],
+            multipath_fraction: 0.0,
+            multipath_m_s: 0.0,
         }
     }
 

@@ -27,6 +27,9 @@ pub struct TriadSpec {
     pub misalignment_rad: f64,
     /// White noise density, units per sqrt(Hz).
     pub noise_density: f64,
+    /// Readings rounded to multiples of this (0: not quantised); the remainder is carried to
+    /// the next reading, so the quantisation does not accumulate.
+    pub quantum: f64,
 }
 
 /// One triad in one run: its drawn constants and its Gauss-Markov state.
@@ -38,6 +41,8 @@ pub struct Triad {
     /// Drawn (I + S)(I + M).
     pub gain: Matrix3<f64>,
     markov: Vector3<f64>,
+    /// What rounding has left out so far (carried into the next reading).
+    carry: Vector3<f64>,
     rng: ChaCha8Rng,
 }
 
@@ -58,6 +63,7 @@ impl Triad {
             turn_on_bias,
             gain,
             markov,
+            carry: Vector3::zeros(),
             rng,
         }
     }
@@ -84,7 +90,20 @@ impl Triad {
             0.0
         };
         let noise = Vector3::from_fn(|_, _| sigma * normal(&mut self.rng));
-        self.bias() + self.gain * truth + noise
+        let reading = self.bias() + self.gain * truth + noise;
+        self.quantised(reading)
+    }
+
+    /// The reading rounded to the quantum, with the remainder carried.
+    fn quantised(&mut self, reading: Vector3<f64>) -> Vector3<f64> {
+        let q = self.spec.quantum;
+        if q <= 0.0 {
+            return reading;
+        }
+        let wanted = reading + self.carry;
+        let out = wanted.map(|x| (x / q).round() * q);
+        self.carry = wanted - out;
+        out
     }
 }
 

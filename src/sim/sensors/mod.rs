@@ -27,6 +27,7 @@ pub mod stream {
     pub const FIX: u64 = 10;
     pub const AHRS: u64 = 11;
     pub const HOST: u64 = 12;
+    pub const MOTION: u64 = 13;
 }
 
 /// The generator of one sensor in one run.
