@@ -36,16 +36,7 @@ const WORSE_RATIO: f64 = 0.02;
 const WORSE_SPEED: f64 = 0.05;
 
 fn pool_dir() -> Option<PathBuf> {
-    let marker = POOL_RUNS[0].0;
-    std::env::var_os("HINDSIGHT_SHARED_DIR")
-        .map(PathBuf::from)
-        .into_iter()
-        .chain([
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared"),
-            PathBuf::from("/work/shared"),
-        ])
-        .map(|d| d.join("benchmarks/sonia-pool"))
-        .find(|d| d.join(marker).is_file())
+    common::shared_dir_if_any("benchmarks/sonia-pool", POOL_RUNS[0].0)
 }
 
 /// The landed figures of one log: rejected share, track over DVL path, top speed.

@@ -420,8 +420,8 @@ fn at_sea_true_figures(scenario: &Scenario) -> Config {
 /// white noise, as on the real vehicle): it is taken as an upper bound of the white noise,
 /// not as the white noise, so it cannot grade a fibre-optic gyro "tactical". The tuned gyro
 /// bias is within 10 times the truth (0.1 deg/h at most), and the mean smoothed horizontal
-/// RMS is within 20 % of the runs given the simulator's own figures (measured: 1.09 m against
-/// 1.23 m on seeds 1-3).
+/// RMS is within 20 % of the runs given the simulator's own figures (measured: 1.02 m against
+/// 1.09 m on seeds 1-3).
 #[test]
 fn a_fibre_optic_imu_on_a_vibrating_hull_is_not_graded_by_its_vibration() {
     use hindsight::recon::tune::WhiteFrom;

@@ -155,6 +155,13 @@ pub fn read_parquet(path: &std::path::Path) -> Vec<arrow_array::RecordBatch> {
 /// under `$HINDSIGHT_SHARED_DIR`, else `../shared` next to the repository, else
 /// `/work/shared` (a clone elsewhere on the development machine).
 pub fn shared_dir(sub: &str, marker: &str) -> std::path::PathBuf {
+    shared_dir_if_any(sub, marker).unwrap_or_else(|| {
+        panic!("shared {sub} (with {marker}) not found; set HINDSIGHT_SHARED_DIR")
+    })
+}
+
+/// [`shared_dir`], or `None` where the shared material is absent.
+pub fn shared_dir_if_any(sub: &str, marker: &str) -> Option<std::path::PathBuf> {
     use std::path::PathBuf;
     let tried: Vec<PathBuf> = std::env::var_os("HINDSIGHT_SHARED_DIR")
         .map(PathBuf::from)
@@ -165,13 +172,7 @@ pub fn shared_dir(sub: &str, marker: &str) -> std::path::PathBuf {
         ])
         .map(|d| d.join(sub))
         .collect();
-    tried
-        .iter()
-        .find(|d| d.join(marker).is_file())
-        .cloned()
-        .unwrap_or_else(|| {
-            panic!("shared {sub} not found (tried {tried:?}); set HINDSIGHT_SHARED_DIR")
-        })
+    tried.into_iter().find(|d| d.join(marker).is_file())
 }
 
 /// A reconstruction's forward and smoothed errors against the truth at its output epochs.

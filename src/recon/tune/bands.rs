@@ -8,7 +8,6 @@
 //! low-pass at its high edge, each run forwards and backwards: zero phase) on the samples as
 //! logged, at their mean rate; a band's edge above 0.45 of the rate is taken there.
 
-use super::moving::MAX_INTERVAL_S;
 use crate::contract::Imu;
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -35,16 +34,7 @@ pub fn imu_bands(imu: &[Imu]) -> Option<ImuBands> {
     if imu.len() < 100 {
         return None;
     }
-    let max_ns = (MAX_INTERVAL_S * 1e9) as i64;
-    let (sum, n) = imu
-        .windows(2)
-        .map(|w| w[1].stamp_ns - w[0].stamp_ns)
-        .filter(|&d| (1..=max_ns).contains(&d))
-        .fold((0_i64, 0_usize), |(s, c), d| (s + d, c + 1));
-    if n == 0 {
-        return None;
-    }
-    let rate_hz = 1e9 * n as f64 / sum as f64;
+    let rate_hz = 1.0 / super::moving::mean_interval_s(imu)?;
     let axis = |k: usize, gyro: bool| -> Vec<f64> {
         imu.iter()
             .map(|m| {

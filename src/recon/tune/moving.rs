@@ -75,7 +75,7 @@ pub fn moving_noise(imu: &[Imu]) -> Option<MovingNoise> {
 }
 
 /// The mean interval between samples over the stretches without a gap, s.
-fn mean_interval_s(imu: &[Imu]) -> Option<f64> {
+pub fn mean_interval_s(imu: &[Imu]) -> Option<f64> {
     let max_ns = (MAX_INTERVAL_S * 1e9) as i64;
     let (sum, count) = imu
         .windows(2)
