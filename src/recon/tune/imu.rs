@@ -11,7 +11,9 @@
 //!
 //! When the IMU's white noise was measured from its own data, the candidates are compared by
 //! their likelihood plus a prior on their biases ([`bias_prior`]): centred on the biases the
-//! grades pair with that white noise, one decade wide. Where the innovations cannot tell two
+//! grades pair with that white noise, one decade wide; one-sided (biases below the pair are
+//! not penalised) when it is the moving samples' upper bound, which a hull's vibration
+//! inflates 10-90 times on a fibre-optic IMU. Where the innovations cannot tell two
 //! models apart (a fibre-optic gyro's 0.01 deg/h moves a 400 s heading by 0.001 deg) the
 //! IMU's own noise decides; where they can, they outweigh it.
 
@@ -666,9 +668,9 @@ pub fn bias_prior(c: &Candidate, white: Option<&ImuWhite>) -> f64 {
 
 /// The most likely IMU noise model for the streams (already cut to the tuning span).
 ///
-/// With `white` (the white noise measured from the IMU's own data: still, or moving), every
-/// model takes its angle and velocity random walks from it: the search then finds the
-/// biases alone.
+/// With `white` measured on a still stretch, every model takes its angle and velocity random
+/// walks from it and the search finds the biases alone; measured while moving, it is an
+/// upper bound: each model keeps its grade's, refined apart from the biases.
 /// When the refinement has not settled after [`MAX_ROUNDS`], the best model scored is still
 /// the answer (with a warning): it is the most likely of all tried.
 pub fn search(

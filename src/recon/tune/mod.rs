@@ -4,8 +4,8 @@
 //!   consecutive readings;
 //! - `stationary`: the IMU's angle and velocity random walks from the Allan deviation where
 //!   the vehicle was still, when it was for a minute or more;
-//! - `moving`: else the same from the high-frequency content of the IMU's samples while the
-//!   vehicle moves;
+//! - `moving`: else an upper bound of them from the high-frequency content of the IMU's
+//!   samples while the vehicle moves (its vibration adds to it);
 //! - `imu`: the IMU's noise by maximum likelihood of the forward filter's innovations over
 //!   the mission's first span (the biases alone: the white noise is the IMU's own, measured).
 //!
@@ -57,7 +57,9 @@ pub enum WhiteFrom {
     Moving,
 }
 
-/// The IMU's white noise measured from its own data, used by every candidate model.
+/// The IMU's white noise measured from its own data: a still stretch's is the sensor's own and
+/// every candidate takes it; the moving samples' is an upper bound (the hull's vibration adds
+/// to it) that only bounds the bias prior and the noisier rungs' white noise.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ImuWhite {
     pub gyro_arw_deg_rt_h: f64,
@@ -106,8 +108,8 @@ pub struct ImuNoiseTuning {
     pub still: Option<stationary::StillNoise>,
     /// ... and from the samples while it moved (measured when there was no still stretch).
     pub moving: Option<moving::MovingNoise>,
-    /// The one every model used: the ARW and VRW then come from the IMU's data, and the
-    /// search finds the biases alone.
+    /// The one the search used: a still stretch's as every model's white noise (the search
+    /// then finds the biases alone), or the moving samples' as an upper bound of it.
     pub white: Option<ImuWhite>,
 }
 
