@@ -74,15 +74,12 @@ pub fn of(r: &Reconstruction, dvl: &[Dvl]) -> std::io::Result<Sanity> {
     })
 }
 
-/// The distance between two nearby positions (latitude, longitude in rad, height in m), on
-/// the local radii at the first.
+/// The distance between two nearby positions (latitude, longitude in rad, height in m): the
+/// horizontal leg as the distance travelled takes it ([`crate::geodesy::local_north_east_m`]),
+/// with the change of height.
 fn step_m(a: (f64, f64, f64), b: (f64, f64, f64)) -> f64 {
-    let local = crate::geodesy::Local::at(a.0, a.2);
-    let (rho_n, rho_e) = local.radii_plus_height_m();
-    let north = (b.0 - a.0) * rho_n;
-    let east = (b.1 - a.1) * rho_e * a.0.cos();
-    let down = a.2 - b.2;
-    (north * north + east * east + down * down).sqrt()
+    let (north, east) = crate::geodesy::local_north_east_m(a.0, a.1, b.0, b.1);
+    (north * north + east * east + (b.2 - a.2).powi(2)).sqrt()
 }
 
 /// The DVL's own path: the integral of its speed over valid readings.
