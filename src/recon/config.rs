@@ -67,6 +67,11 @@ rotation_deg = [0.0, 0.0, 0.0]    # DVL axes from body axes: roll, pitch, yaw (Z
 scale_misalignment = "auto"       # true / false: estimate them, or hold them, whatever the log
 scale_sigma = 0.005               # 1-sigma of the scale factor error (0.005 = 0.5 %)
 misalignment_sigma_deg = 1.0      # 1-sigma of the mounting's pitch and heading error
+held_misalignment_sigma_deg = 0.3 # held (not estimated): the heading misalignment's 1-sigma
+                                  # that, with scale_sigma, widens the reported horizontal
+                                  # position sigma (scale_sigma of the distance from the
+                                  # start along the track, this across it); a real AUV's DVL:
+                                  # 0.3-0.8 % and 0.2 deg. 0: not added
 bias_sigma_m_s = 0.001            # 1-sigma of the bias, per axis (data sheets: +-0.1 cm/s)
 # bias_walk_m_s_rt_h = 0.1        # random walk of the bias, per axis, m/s/sqrt(h): a DVL
                                   # error correlated in time (bottom type, beam geometry);
@@ -439,6 +444,9 @@ pub struct DvlConfig {
     pub scale_misalignment: crate::recon::switch::Switch,
     pub scale_sigma: f64,
     pub misalignment_sigma_deg: f64,
+    /// 1-sigma of a held heading misalignment, deg: with `scale_sigma`, what a held scale and
+    /// misalignment add to the reported position sigma ([`crate::recon::held_dvl`]).
+    pub held_misalignment_sigma_deg: f64,
     pub bias_sigma_m_s: f64,
     pub bias_walk_m_s_rt_h: f64,
     /// Correlation time of the bias, s (0: a random walk).
@@ -472,6 +480,7 @@ impl Default for DvlConfig {
             scale_misalignment: crate::recon::switch::Switch::Auto,
             scale_sigma: 0.005,
             misalignment_sigma_deg: 1.0,
+            held_misalignment_sigma_deg: 0.3,
             bias_sigma_m_s: 0.001,
             bias_walk_m_s_rt_h: 0.0,
             bias_correlation_s: 0.0,
@@ -1053,7 +1062,7 @@ impl Config {
     }
 
     /// The keys that must be zero or positive.
-    fn non_negative(&self) -> [(&'static str, f64); 17] {
+    fn non_negative(&self) -> [(&'static str, f64); 18] {
         let spec = self.imu.spec();
         [
             ("imu.gyro_scale_ppm", spec.gyro_scale_ppm),
@@ -1066,6 +1075,10 @@ impl Config {
             (
                 "dvl.misalignment_sigma_deg",
                 self.dvl.misalignment_sigma_deg,
+            ),
+            (
+                "dvl.held_misalignment_sigma_deg",
+                self.dvl.held_misalignment_sigma_deg,
             ),
             ("dvl.bias_sigma_m_s", self.dvl.bias_sigma_m_s),
             ("dvl.bias_walk_m_s_rt_h", self.dvl.bias_walk_m_s_rt_h),

@@ -13,6 +13,7 @@ pub mod config;
 pub mod consistency;
 pub mod dvl_delay;
 pub mod heading;
+pub mod held_dvl;
 pub mod in_motion;
 pub mod in_run;
 pub mod init;
@@ -110,6 +111,34 @@ pub fn output_stamps(imu: &[Imu], rate_hz: f64) -> Vec<i64> {
 pub fn consider_depth_bias(s: &mut Solution, bias_sigma_m: f64) {
     s.position_cov[(2, 2)] += bias_sigma_m * bias_sigma_m;
     s.sigma[2] = s.position_cov[(2, 2)].sqrt();
+}
+
+/// The DVL's held scale factor and heading misalignment, when the run used the DVL without
+/// estimating them, took no absolute position, and the configuration gives them a sigma:
+/// their share of the reported position sigma ([`held_dvl`]). An absolute position (GNSS, a
+/// fix) bounds their error after it (and, smoothed, before it), which a displacement from the
+/// start does not describe: there it is not added.
+fn held_dvl_calibration(
+    config: &Config,
+    init: &Initialisation,
+    run: &ForwardRun,
+) -> Option<held_dvl::HeldDvlCalibration> {
+    let d = &config.dvl;
+    let took = |sensor: Sensor| {
+        run.residuals
+            .iter()
+            .any(|r| r.sensor == sensor && r.accepted)
+    };
+    let dead_reckoned = took(Sensor::Dvl) && !took(Sensor::Gnss) && !took(Sensor::PositionFix);
+    let sigma_given = d.scale_sigma > 0.0 || d.held_misalignment_sigma_deg > 0.0;
+    (dead_reckoned && sigma_given && !d.scale_misalignment.is_on()).then(|| {
+        held_dvl::HeldDvlCalibration {
+            start_lat_rad: init.estimate.nav.lat_rad,
+            start_lon_rad: init.estimate.nav.lon_rad,
+            scale_sigma: d.scale_sigma,
+            heading_sigma_rad: d.held_misalignment_sigma_deg.to_radians(),
+        }
+    })
 }
 
 /// What the forward pass started from and produced.
@@ -735,15 +764,19 @@ pub fn finish_reporting(
     let started = Instant::now();
     let (mut forward, mut smoothed) = (Solutions::new(), Solutions::new());
     let mut output = Vec::with_capacity(run.records.len());
-    let depth_bias = |mut s: Solution| {
+    let held_dvl = held_dvl_calibration(config, &init, &run);
+    let considered = |mut s: Solution| {
         if depth_used {
             consider_depth_bias(&mut s, config.depth.bias_sigma_m);
+        }
+        if let Some(held) = &held_dvl {
+            held.widen(&mut s);
         }
         s
     };
     smooth_each(&run.records, progress, |_, record, smooth| {
-        forward.push_earlier(depth_bias(Solution::forward(record)));
-        smoothed.push_earlier(depth_bias(smooth));
+        forward.push_earlier(considered(Solution::forward(record)));
+        smoothed.push_earlier(considered(smooth));
         output.push(record.output);
     })?;
     output.reverse();
