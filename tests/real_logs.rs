@@ -59,13 +59,11 @@ fn landed(name: &str) -> (f64, f64, f64) {
 #[test]
 fn the_real_pool_runs_hold_the_bars_and_get_no_worse() {
     let Some(dir) = pool_dir() else {
-        assert!(
-            std::env::var_os("HINDSIGHT_REQUIRE_SHARED").is_none(),
-            "HINDSIGHT_REQUIRE_SHARED is set, but ../shared/benchmarks/sonia-pool is missing"
-        );
-        eprintln!(
+        common::skip_unless_required(
+            "HINDSIGHT_REQUIRE_SHARED",
+            "../shared/benchmarks/sonia-pool is missing",
             "SKIPPED real_logs: ../shared/benchmarks/sonia-pool not found (set \
-             HINDSIGHT_SHARED_DIR); the real pool runs were not checked"
+             HINDSIGHT_SHARED_DIR); the real pool runs were not checked",
         );
         return;
     };

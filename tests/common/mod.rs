@@ -268,3 +268,14 @@ pub fn assert_same_float_columns(a: &std::path::Path, b: &std::path::Path, what:
 pub fn repo_path(relative: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)
 }
+
+/// A test that cannot run here (`missing` says what is missing) skips, saying so on stderr
+/// (`skipped`), unless the environment variable `require` is set, as CI sets it: then it
+/// fails.
+pub fn skip_unless_required(require: &str, missing: &str, skipped: &str) {
+    assert!(
+        std::env::var_os(require).is_none(),
+        "{require} is set, but {missing}"
+    );
+    eprintln!("{skipped}");
+}
