@@ -41,6 +41,10 @@ pub trait ForwardEpoch<const N: usize> {
     }
     /// Correction this epoch's updates applied, prior to posterior.
     fn correction(&self) -> SVector<f64, N>;
+    /// A smoothed error and its covariance at this epoch, carried from the posterior's error
+    /// coordinates to the prior's: the inverse of the filter's reset. The identity (the
+    /// default) for a filter that carries its covariance over unchanged.
+    fn to_prior_coordinates(&self, _dx: &mut SVector<f64, N>, _p: &mut SMatrix<f64, N, N>) {}
 }
 
 /// `cov` with a unit variance in place of each exactly zero one. A state held at its value
@@ -271,7 +275,9 @@ where
 }
 
 /// The sequential part: `dx_k|N = C_k (dx_{k+1|N} + D_{k+1})` and
-/// `P_k|N = P_k + C_k (P_{k+1|N} - P_{k+1|k}) C_k^T`, from the last epoch down. Each epoch's
+/// `P_k|N = P_k + C_k (P_{k+1|N} - P_{k+1|k}) C_k^T`, from the last epoch down, with epoch
+/// k+1's smoothed error and covariance first carried to its prior's coordinates
+/// ([`ForwardEpoch::to_prior_coordinates`]). Each epoch's
 /// box goes to `hand_back` once the recursion is done with it.
 fn recursion<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
     n: usize,
@@ -286,8 +292,10 @@ fn recursion<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
         let item = item?;
         let dx = match (&item.link, &next) {
             (Some(link), Some((after, dx_next))) => {
-                let gain = &link.gain;
-                let dx = gain * (dx_next + after.epoch.borrow().correction());
+                let (after, gain) = (after.epoch.borrow(), &link.gain);
+                let mut dx_after = *dx_next;
+                after.to_prior_coordinates(&mut dx_after, &mut p_next);
+                let dx = gain * (dx_after + after.correction());
                 p_next -= &link.prior_cov;
                 let spread = dense::mul(gain, &p_next);
                 p_next = dense::mul_transpose(&spread, gain);
@@ -353,6 +361,9 @@ mod tests {
         posterior: V<N>,
         posterior_cov: M<N>,
         correction: V<N>,
+        /// The filter's reset after the update: posterior coordinates = `reset` times the
+        /// prior's.
+        reset: M<N>,
     }
 
     impl<const N: usize> ForwardEpoch<N> for Epoch<N> {
@@ -368,6 +379,11 @@ mod tests {
         fn correction(&self) -> V<N> {
             self.correction
         }
+        fn to_prior_coordinates(&self, dx: &mut V<N>, p: &mut M<N>) {
+            let back = self.reset.try_inverse().unwrap();
+            *dx = back * *dx;
+            *p = back * *p * back.transpose();
+        }
     }
 
     /// The backward pass over a linear model equals the batch solution: the joint posterior
@@ -376,11 +392,21 @@ mod tests {
     fn backward_pass_equals_the_batch_solution_of_a_linear_model() {
         // On the calling thread alone, and with the links prepared on a second thread.
         const { assert!(4 < TWO_THREADS_FROM_STATES && 10 >= TWO_THREADS_FROM_STATES) };
-        equals_the_batch_solution::<4>(3, 25);
-        equals_the_batch_solution::<10>(4, 2 * BATCH + 13);
+        equals_the_batch_solution::<4>(3, 25, false);
+        equals_the_batch_solution::<10>(4, 2 * BATCH + 13, false);
     }
 
-    fn equals_the_batch_solution<const N: usize>(seed: u64, epochs_n: usize) {
+    /// With a reset after each update (the filter carries its covariance into new error
+    /// coordinates, `filters::ins::heading_reset`), the pass undoes it at each epoch
+    /// ([`ForwardEpoch::to_prior_coordinates`]) and still equals the batch solution, in each
+    /// epoch's posterior coordinates.
+    #[test]
+    fn backward_pass_with_resets_equals_the_batch_solution() {
+        equals_the_batch_solution::<4>(5, 25, true);
+        equals_the_batch_solution::<10>(6, BATCH + 7, true);
+    }
+
+    fn equals_the_batch_solution<const N: usize>(seed: u64, epochs_n: usize, resets: bool) {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let (m0, p0) = (V::<N>::from_fn(|i, _| i as f64), random_spd::<N>(&mut rng));
         let h = random_matrix::<2, N>(&mut rng);
@@ -388,6 +414,7 @@ mod tests {
         let (mut epochs, mut ys, mut phis, mut qs) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let (mut mean, mut cov) = (m0, p0);
+        let mut resets_made: Vec<M<N>> = Vec::new();
         for k in 0..epochs_n {
             let (phi, q) = if k == 0 {
                 (M::<N>::identity(), M::<N>::zeros())
@@ -405,13 +432,25 @@ mod tests {
             mean = prior_mean + gain * (y - h * prior_mean);
             cov = (M::<N>::identity() - gain * h) * prior_cov;
             cov = (cov + cov.transpose()) * 0.5;
+            let reset = if resets {
+                M::<N>::identity() + random_matrix::<N, N>(&mut rng) * 0.3
+            } else {
+                M::<N>::identity()
+            };
+            // The stored transition takes the previous epoch's posterior coordinates.
+            let from_previous = match resets_made.last() {
+                Some(before) => phi * before.try_inverse().unwrap(),
+                None => phi,
+            };
             epochs.push(Epoch {
-                phi,
+                phi: from_previous,
                 q,
-                posterior: mean,
-                posterior_cov: cov,
+                posterior: reset * mean,
+                posterior_cov: reset * cov * reset.transpose(),
                 correction: mean - prior_mean,
+                reset,
             });
+            resets_made.push(reset);
             ys.push(y);
             phis.push(phi);
             qs.push(q);
@@ -422,7 +461,36 @@ mod tests {
         })
         .unwrap();
 
-        // Batch: minimise the sum of the prior, process and measurement terms over all states.
+        let (joint_mean, joint_cov) = batch_solution((&m0, &p0), &h, &r, &ys, &phis, &qs);
+        for (k, (mean, cov)) in smoothed.iter().enumerate() {
+            let j = DMatrix::from_column_slice(N, N, resets_made[k].as_slice());
+            let want_mean = &j * joint_mean.rows(k * N, N);
+            let want_cov = &j * joint_cov.view((k * N, k * N), (N, N)) * j.transpose();
+            assert!(
+                (mean - &want_mean).amax() < 1e-8,
+                "epoch {k}: mean {mean} against {want_mean}"
+            );
+            assert!(
+                (cov - &want_cov).amax() < 1e-8,
+                "epoch {k}: cov {cov} against {want_cov}"
+            );
+        }
+    }
+
+    /// The joint posterior of all states given all measurements (mean and covariance, the
+    /// states stacked), from one information matrix: the batch solution the backward pass
+    /// must equal. The prior `(m0, P0)`, each epoch's measurement `y_k = H x_k + v`, `v ~ R`,
+    /// and transition `x_k = Phi_k x_{k-1} + w`, `w ~ Q_k`.
+    fn batch_solution<const N: usize>(
+        (m0, p0): (&V<N>, &M<N>),
+        h: &SMatrix<f64, 2, N>,
+        r: &M<2>,
+        ys: &[SVector<f64, 2>],
+        phis: &[M<N>],
+        qs: &[M<N>],
+    ) -> (nalgebra::DVector<f64>, DMatrix<f64>) {
+        // Minimise the sum of the prior, process and measurement terms over all states.
+        let epochs_n = ys.len();
         let dim = N * epochs_n;
         let (mut info, mut rhs) = (
             DMatrix::<f64>::zeros(dim, dim),
@@ -445,7 +513,7 @@ mod tests {
         let inv = |m: &M<N>| dm(&m.try_inverse().unwrap());
         add(
             &[(0, dm(&M::<N>::identity()))],
-            &inv(&p0),
+            &inv(p0),
             &nalgebra::DVector::from_column_slice(m0.as_slice()),
         );
         let h_d = DMatrix::from_column_slice(2, N, h.as_slice());
@@ -467,18 +535,7 @@ mod tests {
         }
         let joint_cov = info.try_inverse().unwrap();
         let joint_mean = &joint_cov * &rhs;
-        for (k, (mean, cov)) in smoothed.iter().enumerate() {
-            let want_mean = joint_mean.rows(k * N, N);
-            let want_cov = joint_cov.view((k * N, k * N), (N, N));
-            assert!(
-                (mean - want_mean).amax() < 1e-8,
-                "epoch {k}: mean {mean} against {want_mean}"
-            );
-            assert!(
-                (cov - want_cov).amax() < 1e-8,
-                "epoch {k}: cov {cov} against {want_cov}"
-            );
-        }
+        (joint_mean, joint_cov)
     }
 
     #[test]
@@ -494,6 +551,7 @@ mod tests {
             posterior: V::<N>::zeros(),
             posterior_cov: M::<N>::identity(),
             correction: V::<N>::zeros(),
+            reset: M::<N>::identity(),
         };
         let last_first = (0..2 * BATCH).map(|i| {
             if i == 4 {

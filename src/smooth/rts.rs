@@ -16,7 +16,11 @@
 //!   P_{k|N}   = P_{k|k} + C_k (P_{k+1|N} - P_{k+1|k}) C_k^T
 //!
 //! starting from `dx_{N|N} = 0`, `P_{N|N}` at the last epoch, and the smoothed state is
-//! `x+_k (+) dx_{k|N}`. The reset Jacobian is taken as the identity, as in the forward filter.
+//! `x+_k (+) dx_{k|N}`. Where the forward filter's reset keeps the heading's unobservable
+//! direction (`filters::ins::heading_reset`), `dx+ = J (dx- - D)`:
+//! the smoothed error and covariance at k+1 are then carried back to the prior's coordinates
+//! by `J^-1` before the step above (`dx_{k+1|N}` read as `J^-1 dx_{k+1|N}`, `P_{k+1|N}` as
+//! `J^-1 P_{k+1|N} J^-T`); elsewhere the reset Jacobian is the identity.
 //!
 //! Memory: the forward pass keeps one compact record per filter epoch (measurement or output
 //! time), never per IMU sample (`filters::ins::record`), on a temporary file beyond a block
@@ -68,6 +72,9 @@ impl ForwardEpoch<{ error_state::N }> for EpochRecord {
     }
     fn correction(&self) -> ErrorState {
         self.correction
+    }
+    fn to_prior_coordinates(&self, dx: &mut ErrorState, p: &mut ErrorMatrix) {
+        crate::filters::ins::heading_reset::to_prior_coordinates(dx, p, &self.heading_turn);
     }
 }
 

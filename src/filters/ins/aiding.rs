@@ -50,6 +50,13 @@ impl Sensor {
         Sensor::ModelVelocity,
     ];
 
+    /// Whether it reads the velocity in the body's axes, where a heading error and a velocity
+    /// turned with it look alike (`super::heading_reset`). The EM log's
+    /// speed is not among them: its row leaves the attitude out.
+    pub fn reads_body_velocity(self) -> bool {
+        matches!(self, Sensor::Dvl)
+    }
+
     /// Name used in tables and summaries.
     pub fn name(self) -> &'static str {
         match self {

@@ -24,6 +24,7 @@ use super::aiding::{
 };
 use super::error_state::ErrorState;
 use super::forward::{Estimate, Filter, ImuNoise};
+use super::heading_reset;
 use super::mechanization::{ImuSample, NavState};
 use super::record::{EpochRecord, NavPoint};
 use super::reopen::{RecentRejections, Rejected};
@@ -258,6 +259,11 @@ struct Pass<'a> {
     consecutive_rejections: PerSensor,
     /// The readings of those rejections, per sensor, to judge whether the gate may reopen.
     recent: [RecentRejections; Sensor::ALL.len()],
+    /// A body-frame velocity has been read: from then on each reset keeps the heading's
+    /// unobservable direction ([`heading_reset::keep_heading_unobservable`]).
+    body_velocity_read: bool,
+    /// The turns of this epoch's resets so far, for its record.
+    heading_turn: Vector3<f64>,
 }
 
 /// What the gate's reopening needs to know of a reading besides its update.
@@ -317,6 +323,8 @@ impl<'a> Running<'a> {
         let mut pass = Pass {
             consecutive_rejections: PerSensor::default(),
             recent: Default::default(),
+            body_velocity_read: false,
+            heading_turn: Vector3::zeros(),
             settings,
             inputs,
             gate: [None, gate(1), gate(2), gate(3)],
@@ -415,6 +423,7 @@ impl<'a> Running<'a> {
 impl Pass<'_> {
     /// Keeps what the inputs ask of the epoch at `t` whose prior estimate was `prior`.
     fn keep(&mut self, t: i64, output: bool, prior: &NavPoint) {
+        let turn = std::mem::take(&mut self.heading_turn);
         match self.inputs.keep {
             Keep::Nothing => {}
             Keep::Records => self.run.records.push(EpochRecord::new(
@@ -424,6 +433,7 @@ impl Pass<'_> {
                 &self.step_q,
                 prior,
                 &self.est,
+                &turn,
             )),
             Keep::Navigation => self.run.navigation.push(NavAt {
                 stamp_ns: t,
@@ -551,6 +561,8 @@ impl Pass<'_> {
         if reopen {
             self.run.gate_resets += 1;
         }
+        let v_before = self.est.nav.vel_ned_m_s;
+        let velocity_variance = heading_reset::horizontal_velocity_variance(&self.est.cov);
         let rec = match self
             .settings
             .filter
@@ -564,6 +576,14 @@ impl Pass<'_> {
                 return;
             }
         };
+        self.body_velocity_read |= sensor.reads_body_velocity();
+        if rec.accepted && self.body_velocity_read {
+            let moved = self.est.nav.vel_ned_m_s - v_before;
+            if let Some(turn) = heading_reset::turn_of(&moved, velocity_variance) {
+                heading_reset::keep_heading_unobservable(&mut self.est.cov, &turn);
+                self.heading_turn += turn;
+            }
+        }
         self.remember(stamp_ns, sensor, m, rec.accepted, given);
         let longest = &mut self.run.longest_rejected_run[sensor];
         *longest = (*longest).max(self.consecutive_rejections[sensor]);

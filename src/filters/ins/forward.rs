@@ -6,7 +6,9 @@
 //!
 //! After each update the error estimate is injected into the navigation state and the bias
 //! estimates, and the error mean is reset to zero. The reset's Jacobian is taken as the
-//! identity (first order: the attitude correction is small), so the covariance carries over.
+//! identity (first order: the attitude correction is small), so the covariance carries over;
+//! the driver then keeps the heading's unobservable direction where body-frame velocities
+//! are read ([`super::heading_reset`]).
 
 use super::error_state::{
     self, idx, DvlCalibration, ErrorMatrix, ErrorState, WaterState, DVL_STATES, N, WATER_STATES,

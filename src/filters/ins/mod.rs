@@ -7,6 +7,7 @@ pub mod alignment;
 pub mod driver;
 pub mod error_state;
 pub mod forward;
+pub mod heading_reset;
 pub mod mechanization;
 pub mod record;
 pub mod reopen;

@@ -212,6 +212,9 @@ pub struct EpochRecord {
     /// Estimate after this epoch's updates.
     pub posterior: NavPoint,
     pub posterior_cov: PackedCov,
+    /// How this epoch's resets turned the velocity's error with the heading's (the sum of
+    /// their `heading_reset::heading_turn`s; zero where the reset was the identity).
+    pub heading_turn: Vector3<f64>,
 }
 
 impl EpochRecord {
@@ -224,6 +227,7 @@ impl EpochRecord {
         process_noise: &ErrorState,
         prior: &NavPoint,
         posterior: &Estimate,
+        heading_turn: &Vector3<f64>,
     ) -> Self {
         let posterior_point = NavPoint::from(posterior);
         EpochRecord {
@@ -234,6 +238,7 @@ impl EpochRecord {
             correction: correction_between(prior, &posterior_point),
             posterior: posterior_point,
             posterior_cov: PackedCov::pack(&posterior.cov),
+            heading_turn: *heading_turn,
         }
     }
 
@@ -405,7 +410,7 @@ impl NavPoint {
 
 impl Fixed for EpochRecord {
     const BYTES: usize =
-        8 * (3 + NAV_ROWS * TRANSITION_COLUMNS.len() + N + N + NAV_POINT_NUMBERS + PACKED);
+        8 * (3 + NAV_ROWS * TRANSITION_COLUMNS.len() + N + N + NAV_POINT_NUMBERS + PACKED + 3);
 
     fn encode(&self, out: &mut Encoder) {
         out.i64(self.stamp_ns);
@@ -418,6 +423,7 @@ impl Fixed for EpochRecord {
         out.f64s(self.correction.as_slice());
         self.posterior.encode(out);
         out.f64s(&self.posterior_cov.0);
+        out.f64s(self.heading_turn.as_slice());
     }
 
     fn decode(d: &mut Decoder<'_>) -> Self {
@@ -438,6 +444,7 @@ impl Fixed for EpochRecord {
             correction: ErrorState::from(d.f64s::<N>()),
             posterior: NavPoint::decode(d),
             posterior_cov: PackedCov(d.f64s()),
+            heading_turn: Vector3::from(d.f64s::<3>()),
         }
     }
 }
@@ -554,6 +561,7 @@ mod tests {
             &q,
             &NavPoint::from(&est_with(p)),
             &est_with(p),
+            &Vector3::zeros(),
         ));
         let rec = EpochRecord::decode(&mut Decoder::new(&bytes));
         assert_eq!(rec.phi_from_previous.dvl_bias_decay(), decay);
@@ -617,6 +625,7 @@ mod tests {
             &q,
             &prior,
             &est,
+            &Vector3::new(1e-3, -2e-3, 0.0),
         );
         let bytes = encoded(&rec);
         assert_eq!(bytes.len(), EpochRecord::BYTES);
