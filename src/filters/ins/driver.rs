@@ -641,7 +641,9 @@ impl Pass<'_> {
         remeasure: &dyn Fn(&Estimate) -> Option<Update>,
     ) {
         let reopen = self.reopens(sensor, given);
-        let prior = self.est;
+        // Kept only where it may be needed: the estimate is kilobytes, and this runs per reading.
+        let after_gap = stamp_ns - self.last_accepted_ns[sensor as usize] > AFTER_GAP_NS;
+        let prior = after_gap.then_some(self.est);
         let gate = if reopen { None } else { self.gate[M] };
         if reopen {
             self.run.gate_resets += 1;
@@ -662,10 +664,9 @@ impl Pass<'_> {
             }
         };
         if rec.accepted {
-            let after_gap = stamp_ns - self.last_accepted_ns[sensor as usize] > AFTER_GAP_NS;
             self.last_accepted_ns[sensor as usize] = stamp_ns;
-            if after_gap {
-                self.iterate(&prior, remeasure);
+            if let Some(prior) = &prior {
+                self.iterate(prior, remeasure);
             }
         }
         self.body_velocity_read |= sensor.reads_body_velocity();
