@@ -105,7 +105,41 @@ fn finish<T: Section>(config: &mut T, text: &str) -> Result<(), ConfigError> {
 fn toml_error<T: Section>(e: impl std::fmt::Display) -> ConfigError {
     ConfigError::Toml {
         section: T::NAME,
-        message: e.to_string().trim_end().to_string(),
+        message: toml_one_line(&e.to_string()),
+    }
+}
+
+/// A TOML error on one line: its place ("TOML parse error at line 8, column 5"), the line it
+/// quotes, and what is wrong, without the caret that toml draws beneath.
+pub fn toml_one_line(text: &str) -> String {
+    let quoted_source = |l: &str| {
+        let (n, rest) = l.split_once(" |")?;
+        n.trim()
+            .parse::<u64>()
+            .ok()
+            .map(|_| rest.trim().to_string())
+    };
+    let mut lines = text
+        .lines()
+        .map(str::trim_end)
+        .filter(|l| !l.trim().is_empty());
+    let mut head = lines
+        .next()
+        .unwrap_or_default()
+        .trim_end_matches(':')
+        .to_string();
+    let mut rest = Vec::new();
+    for l in lines {
+        if let Some(source) = quoted_source(l) {
+            head = format!("{head} (`{source}`)");
+        } else if !l.trim_start().starts_with('|') {
+            rest.push(l.trim());
+        }
+    }
+    if rest.is_empty() {
+        head
+    } else {
+        format!("{head}: {}", rest.join("; "))
     }
 }
 

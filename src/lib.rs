@@ -22,9 +22,12 @@ pub mod ingest;
 pub mod output;
 pub mod progress;
 pub mod recon;
+pub mod reconstruction;
 pub mod sim;
 pub mod smooth;
 pub mod spill;
 pub mod study;
 pub mod time;
 pub mod vehicle;
+
+pub use reconstruction::{reconstruct, Job, Observer, Reconstruction};

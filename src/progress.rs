@@ -16,6 +16,41 @@ pub fn tell(progress: Progress<'_>, done: usize, total: usize, every: usize) {
     }
 }
 
+/// A reader that tells `progress` the fraction of `total` bytes read, every megabyte or so.
+pub struct ReadProgress<'a, R> {
+    inner: R,
+    read: u64,
+    told: u64,
+    total: u64,
+    progress: Progress<'a>,
+}
+
+impl<'a, R> ReadProgress<'a, R> {
+    pub fn new(inner: R, total: u64, progress: Progress<'a>) -> Self {
+        ReadProgress {
+            inner,
+            read: 0,
+            told: 0,
+            total,
+            progress,
+        }
+    }
+}
+
+impl<R: std::io::Read> std::io::Read for ReadProgress<'_, R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.read += n as u64;
+        if let Some(tell) = self.progress {
+            if self.total > 0 && (self.read - self.told >= 1 << 20 || n == 0) {
+                self.told = self.read;
+                tell((self.read as f64 / self.total as f64).clamp(0.0, 1.0));
+            }
+        }
+        Ok(n)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

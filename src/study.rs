@@ -98,22 +98,6 @@ pub enum StudyError {
     Reconstruct(String),
 }
 
-/// Simulates `scenario` with `seed`, reconstructs it with `config`, scores it.
-pub fn run_one(
-    scenario: &Scenario,
-    seed: u64,
-    config: &Config,
-    case: usize,
-) -> Result<RunResult, StudyError> {
-    let solution = Solution {
-        label: String::new(),
-        config: config.clone(),
-    };
-    run_solutions(scenario, seed, std::slice::from_ref(&solution), case)?
-        .pop()
-        .expect("one solution, one result")
-}
-
 /// Simulates `scenario` with `seed` once and reconstructs it with each solution's
 /// configuration (its `initial.truth_seed` set to the run's seed), each scored.
 pub fn run_solutions(

@@ -354,11 +354,14 @@ fn without_a_temporary_file_the_records_stay_in_memory_and_the_result_is_the_sam
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
                 .unwrap();
-        let warnings: Vec<String> = summary["warnings"]
+        let warnings: Vec<(String, String)> = summary["warnings"]
             .as_array()
             .unwrap()
             .iter()
-            .map(|w| w.as_str().unwrap().to_string())
+            .map(|w| {
+                let text = |key: &str| w[key].as_str().unwrap().to_string();
+                (text("code"), text("message"))
+            })
             .collect();
         (
             std::fs::read(out.join("trajectory.parquet")).unwrap(),
@@ -369,13 +372,13 @@ fn without_a_temporary_file_the_records_stay_in_memory_and_the_result_is_the_sam
     let missing = std::env::temp_dir().join("hindsight-no-such-dir/deeper");
     let (held, held_warnings) = run("spill-missing", Some(&missing));
     assert_eq!(spilled, held, "the same trajectory either way");
-    assert!(!spilled_warnings.iter().any(|w| w.starts_with("memory:")));
-    let said: Vec<&String> = held_warnings
-        .iter()
-        .filter(|w| w.starts_with("memory:"))
-        .collect();
+    let held_in_memory = |(code, _): &&(String, String)| code == "held_in_memory";
+    assert!(!spilled_warnings.iter().any(|w| held_in_memory(&w)));
+    let said: Vec<&(String, String)> = held_warnings.iter().filter(held_in_memory).collect();
     assert_eq!(said.len(), 1, "{held_warnings:?}");
-    assert!(said[0].contains("hindsight-no-such-dir"), "{}", said[0]);
+    let message = &said[0].1;
+    assert!(message.starts_with("memory:"), "{message}");
+    assert!(message.contains("hindsight-no-such-dir"), "{message}");
 }
 
 /// The plan is printed and kept in summary.json; a model aid the configuration forces on in a

@@ -2,7 +2,6 @@
 //! parallel across logs, each into its own hive-style partition, with one summary table.
 
 use super::console;
-use super::reconstruct;
 use super::OutputFailed;
 use anyhow::{Context, Result};
 use hindsight::output::atomic::Staging;
@@ -191,10 +190,12 @@ fn row_from(mission: &str, log: &Path, summary: &serde_json::Value) -> MissionRo
 /// Reconstructs one mission as `reconstruct` would; a panic is reported as a failure, not
 /// carried into the others.
 fn run_mission(log: &Path, dir: &Path, config: &Config) -> Result<()> {
-    let job = reconstruct::Job::plain(log, dir, config.clone());
-    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        reconstruct::reconstruct(&job)
-    })) {
+    let job = hindsight::Job::new(log, config.clone());
+    let reconstructed = || -> Result<()> {
+        hindsight::reconstruct(&job, Default::default())?.write(dir)?;
+        Ok(())
+    };
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(reconstructed)) {
         Ok(result) => result,
         Err(_) => anyhow::bail!("internal error (a panic) while reconstructing: please report it"),
     }

@@ -201,9 +201,17 @@ pub fn run(args: Args) -> Result<()> {
 pub fn hint(err: &anyhow::Error) -> Option<&'static str> {
     use hindsight::identify::record::RecordError;
     use hindsight::recon::init::InitError;
+    use hindsight::reconstruction::Error as ReconstructionError;
     use hindsight::sim::scenario::ScenarioError;
     err.chain().find_map(|cause| {
-        if let Some(e) = cause.downcast_ref::<IngestError>() {
+        // The library's reconstruction boxes what failed under it.
+        let boxed = cause.downcast_ref::<ReconstructionError>();
+        let (ingest, recon) = match boxed {
+            Some(ReconstructionError::Read { source, .. }) => (Some(&**source), None),
+            Some(ReconstructionError::Reconstruct { source, .. }) => (None, Some(&**source)),
+            _ => (cause.downcast_ref::<IngestError>(), cause.downcast_ref()),
+        };
+        if let Some(e) = ingest {
             match e {
                 IngestError::UnknownSchema { .. } => {
                     Some("pass --skip-unknown to ignore the topic")
@@ -211,7 +219,7 @@ pub fn hint(err: &anyhow::Error) -> Option<&'static str> {
                 IngestError::TooManyInvalid { .. } => Some("--max-invalid raises the limit"),
                 _ => None,
             }
-        } else if let Some(ReconError::Init(InitError::NoHeading(_))) = cause.downcast_ref() {
+        } else if let Some(ReconError::Init(InitError::NoHeading(_))) = recon {
             Some("give the initial heading with --initial-yaw DEG (or [initial] yaw_deg)")
         } else if let Some(InitError::NoHeading(_)) = cause.downcast_ref() {
             Some("give the initial heading with --initial-yaw DEG (or [initial] yaw_deg)")
@@ -230,10 +238,27 @@ pub fn hint(err: &anyhow::Error) -> Option<&'static str> {
 }
 
 pub fn exit_code(err: &anyhow::Error) -> u8 {
+    use hindsight::reconstruction::Error as ReconstructionError;
     // downcast_ref sees context values and the root error through every context layer.
-    if err.downcast_ref::<OutputFailed>().is_some() {
+    if err.downcast_ref::<OutputFailed>().is_some()
+        || err
+            .downcast_ref::<hindsight::output::WriteError>()
+            .is_some()
+        || matches!(
+            err.downcast_ref::<ReconstructionError>(),
+            Some(ReconstructionError::Write(_))
+        )
+    {
         EXIT_OUTPUT
-    } else if err.downcast_ref::<IngestError>().is_some()
+    } else if matches!(
+        err.downcast_ref::<ReconstructionError>(),
+        Some(
+            ReconstructionError::Read { .. }
+                | ReconstructionError::Align { .. }
+                | ReconstructionError::Mission { .. }
+                | ReconstructionError::Reconstruct { .. }
+        )
+    ) || err.downcast_ref::<IngestError>().is_some()
         || err.downcast_ref::<batch::MissionsFailed>().is_some()
         || err.downcast_ref::<AlignError>().is_some()
         || err.downcast_ref::<MissionError>().is_some()

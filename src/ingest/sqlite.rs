@@ -26,10 +26,12 @@ pub struct SqliteBag {
     pub message_zstd: bool,
 }
 
+/// The bag's error, on one line (SQLite quotes a damaged schema's text, line breaks and all).
 fn bad(path: &Path, reason: impl Into<String>) -> IngestError {
+    let reason: String = reason.into();
     IngestError::Sqlite {
         path: path.display().to_string(),
-        reason: reason.into(),
+        reason: reason.split_whitespace().collect::<Vec<_>>().join(" "),
     }
 }
 

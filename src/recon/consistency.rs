@@ -149,22 +149,11 @@ impl Consistency {
         )
     }
 
-    /// The warnings of the NEES checks (the innovations' are the sensors' own warnings).
-    pub fn warnings(&self) -> Vec<String> {
+    /// The solutions whose NEES against the truth says their sigmas are too small.
+    pub fn over_confident(&self) -> impl Iterator<Item = &NeesCheck> {
         self.nees
             .iter()
             .filter(|c| c.verdict == Verdict::OverConfident)
-            .map(|c| {
-                format!(
-                    "{} solution over-confident against /truth: its horizontal NEES is inside \
-                     the 95 % bounds for {:.0} % of the epochs and above them for {:.0} % (its \
-                     sigmas are too small)",
-                    c.solution,
-                    100.0 * c.horizontal_inside_95,
-                    100.0 * c.horizontal_above_95
-                )
-            })
-            .collect()
     }
 }
 
@@ -220,12 +209,13 @@ mod tests {
         assert_eq!(c.nees[0].verdict, Verdict::Consistent);
         assert_eq!(c.nees[1].verdict, Verdict::Conservative);
         assert!(!c.consistent);
-        assert!(c.warnings().is_empty());
+        assert_eq!(c.over_confident().count(), 0);
 
         let c = assess(&[stats("dvl", 3, 3.0)], Some(&scores(0.3, 0.6)), None);
         assert!(!c.consistent);
         assert_eq!(c.nees[0].verdict, Verdict::OverConfident);
-        assert!(c.warnings()[0].contains("forward solution over-confident"));
+        let flagged: Vec<_> = c.over_confident().map(|c| c.solution).collect();
+        assert_eq!(flagged, ["forward"]);
         assert!(assess(&[stats("dvl", 3, 3.0)], None, None).consistent);
     }
 }

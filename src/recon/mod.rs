@@ -181,24 +181,6 @@ pub fn forward(
     forward_sharing(streams, mission, config, None, None)
 }
 
-/// [`forward`] for a pass that is only scored (residuals, likelihood): it keeps no epoch
-/// records, so it cannot be smoothed.
-pub fn forward_scored(
-    streams: &Streams<'_>,
-    mission: &Mission,
-    config: &Config,
-) -> Result<ForwardPass, ReconError> {
-    forward_with(
-        streams,
-        mission,
-        config,
-        PassOptions {
-            scored_only: true,
-            ..PassOptions::default()
-        },
-    )
-}
-
 /// The magnetometer's readings a pass uses.
 #[derive(Default)]
 pub enum MagInput<'a> {
@@ -246,16 +228,6 @@ impl<'a> Prepared<'a> {
             ..PassOptions::default()
         }
     }
-}
-
-/// [`forward`], telling `progress` how far the filter has come.
-pub fn forward_reporting(
-    streams: &Streams<'_>,
-    mission: &Mission,
-    config: &Config,
-    progress: Progress<'_>,
-) -> Result<ForwardPass, ReconError> {
-    forward_sharing(streams, mission, config, None, progress)
 }
 
 /// [`forward`], the model-aided velocity driven by `shared_attitude` when it is given (the

@@ -95,7 +95,7 @@ pub const BUILT_IN: &[(&str, &str)] = &[
 pub enum ScenarioError {
     #[error("unknown scenario `{name}` (built in: {known}); or a scenario file")]
     Unknown { name: String, known: String },
-    #[error("scenario file: {0}")]
+    #[error("scenario file: {}", crate::config::toml_one_line(&.0.to_string()))]
     Parse(#[from] toml::de::Error),
     #[error("scenario `{name}`: {reason}")]
     Invalid { name: String, reason: String },

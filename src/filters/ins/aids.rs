@@ -10,7 +10,7 @@ use crate::align::latest_at;
 use crate::contract::{
     Altimeter, Depth, Dvl, GnssFix, MagneticField, PositionFix, Propeller, SpeedLog,
 };
-use crate::filters::velocity::model_aided::{BodyVelocityReading, ModelRun, ModelVelocity};
+use crate::filters::velocity::model_aided::{BodyVelocityReading, ModelVelocity};
 use crate::filters::velocity::rpm::{self, Reading, RpmFilter, RpmRun};
 use crate::geodesy;
 use nalgebra::{SMatrix, Vector3};
@@ -451,20 +451,6 @@ impl<'a> ModelVelocitySelection<'a> {
 }
 
 impl ModelVelocityAid {
-    /// The velocities of `run` the selection takes ([`ModelVelocitySelection`]).
-    pub fn new(
-        run: ModelRun,
-        dvl_in_range: &[BodyVelocityReading],
-        how: &ModelVelocityUse,
-    ) -> Self {
-        let aid = Self::taking(how);
-        aid.take(
-            &run.velocities,
-            &mut ModelVelocitySelection::new(dvl_in_range, how),
-        );
-        aid
-    }
-
     /// No velocities yet: they are put in with [`ModelVelocityAid::take`] as they come.
     pub fn taking(how: &ModelVelocityUse) -> Self {
         ModelVelocityAid {
@@ -624,11 +610,8 @@ mod tests {
                 cov: nalgebra::Matrix3::identity(),
             })
             .collect();
-        let run = ModelRun {
-            velocities: velocities.clone(),
-            ..ModelRun::default()
-        };
-        let whole = ModelVelocityAid::new(run, &dvl, &how);
+        let whole = ModelVelocityAid::taking(&how);
+        whole.take(&velocities, &mut ModelVelocitySelection::new(&dvl, &how));
         let stamps = |aid: &ModelVelocityAid| -> Vec<i64> {
             (0..aid.len()).map(|i| aid.stamp_ns(i) / (s / 10)).collect()
         };

@@ -433,11 +433,6 @@ impl<'a> Running<'a> {
         }
     }
 
-    /// What the pass has kept so far.
-    pub fn so_far(&self) -> &ForwardRun {
-        &self.pass.run
-    }
-
     /// The navigation states kept since the last call (with [`Keep::Navigation`]), handed
     /// over.
     pub fn take_navigation(&mut self) -> Vec<NavAt> {

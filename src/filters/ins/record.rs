@@ -137,11 +137,6 @@ impl PackedTransition {
         m
     }
 
-    /// The top rows.
-    pub fn top_rows(&self) -> &TransitionRows {
-        &self.top
-    }
-
     /// The DVL bias's decay over the transition (1: none).
     pub fn dvl_bias_decay(&self) -> f64 {
         self.dvl_bias_decay
@@ -247,11 +242,6 @@ impl EpochRecord {
     pub fn prior_cov(&self, previous_posterior: &ErrorMatrix) -> ErrorMatrix {
         self.phi_from_previous
             .predicted_cov(previous_posterior, &self.process_noise)
-    }
-
-    /// The full posterior estimate.
-    pub fn posterior_estimate(&self) -> Estimate {
-        self.posterior.with_cov(self.posterior_cov.unpack())
     }
 }
 

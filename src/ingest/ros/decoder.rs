@@ -33,24 +33,8 @@ pub struct RosDecoder {
 }
 
 impl RosDecoder {
-    /// The decoder of a ROS 2 topic whose schema is `schema_name` with `schema_text`, if its
-    /// type is one hindsight reads (`Ok(None)` otherwise).
-    pub fn for_schema(
-        schema_name: &str,
-        schema_text: &str,
-        convention: Option<Convention>,
-        settings: RosSettings,
-    ) -> Result<Option<RosDecoder>, RosSchemaError> {
-        Self::for_schema_in(
-            Dialect::Ros2,
-            schema_name,
-            schema_text,
-            convention,
-            settings,
-        )
-    }
-
-    /// The decoder of a topic of the given ROS (see [`RosDecoder::for_schema`]).
+    /// The decoder of a topic of the given ROS whose schema is `schema_name` with
+    /// `schema_text`, if its type is one hindsight reads (`Ok(None)` otherwise).
     pub fn for_schema_in(
         dialect: Dialect,
         schema_name: &str,

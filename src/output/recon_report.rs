@@ -1,16 +1,16 @@
 //! reconstruct's `report.html`: what a navigation engineer looks at first, from the summary,
 //! the solutions, the residuals and what the log said (fixes, DVL outages, truth).
 
-use super::{dvl_calibration_line, estimated_text, Summary};
-use hindsight::contract::{GnssFix, PositionFix, Truth};
-use hindsight::filters::ins::aiding::Sensor;
-use hindsight::filters::ins::driver::Residual;
-use hindsight::filters::ins::record::Solution;
-use hindsight::geodesy::local_north_east_m;
-use hindsight::output::plots::{colour, min_max, sample_cloud, thin, Plot, Series};
-use hindsight::output::report::{Block, Report, Section};
-use hindsight::recon::score::{self, EpochError};
-use hindsight::recon::Reconstruction;
+use crate::contract::{GnssFix, PositionFix, Truth};
+use crate::filters::ins::aiding::Sensor;
+use crate::filters::ins::driver::Residual;
+use crate::filters::ins::record::Solution;
+use crate::geodesy::local_north_east_m;
+use crate::output::plots::{colour, min_max, sample_cloud, thin, Plot, Series};
+use crate::output::report::{Block, Report, Section};
+use crate::recon::score::{self, EpochError};
+use crate::recon::Reconstruction;
+use crate::reconstruction::summary::{dvl_calibration_line, estimated_text, Summary};
 
 /// Points per line in a picture (a 5.5 h mission has 200 000 rows per solution).
 const LINE_POINTS: usize = 4000;
@@ -38,7 +38,7 @@ impl FromLog {
     pub fn new(
         gnss: &[GnssFix],
         fixes: &[PositionFix],
-        dvl: &[hindsight::contract::Dvl],
+        dvl: &[crate::contract::Dvl],
         origin_rad: (f64, f64),
     ) -> Self {
         FromLog {
@@ -59,7 +59,7 @@ impl FromLog {
                 .map(|f| (f.label.clone(), f.east_m, f.north_m))
                 .collect(),
             truth: Vec::new(),
-            dvl_outages: hindsight::recon::stats::dvl_outages(dvl, OUTAGE_MIN_S),
+            dvl_outages: crate::recon::stats::dvl_outages(dvl, OUTAGE_MIN_S),
         }
     }
 
@@ -228,7 +228,9 @@ pub fn build(x: &Inputs<'_>) -> Report {
     }
     sections.push(innovations(s, &x.r.run.residuals, &axis));
     sections.push(calibration(s));
-    sections.push(Section::new("Warnings").with(Block::Warnings(s.warnings.clone())));
+    sections.push(Section::new("Warnings").with(Block::Warnings(
+        s.warnings.iter().map(ToString::to_string).collect(),
+    )));
     Report {
         title: format!("hindsight reconstruct: {}", file_name(&s.log)),
         subtitle: format!(
@@ -713,8 +715,8 @@ fn calibration(s: &Summary) -> Section {
     match &s.tuning {
         Some(t) => {
             section.push(Block::text(
-                "Self-tuning estimated these noise figures from the log (kept in tuned.toml for \
-                 reuse with --config):",
+                "Self-tuning estimated these noise figures from the log (kept in tuned.toml, a \
+                 settings file for a rerun):",
             ));
             section.push(Block::Pre(t.to_string()));
         }

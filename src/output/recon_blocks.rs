@@ -1,26 +1,24 @@
-//! The run's tables, from one read of the solutions.
+//! A reconstruction's solutions read back a block of epochs at a time.
 //!
 //! After the smoother the forward and smoothed solutions wait on temporary files (a day's
-//! mission holds a million of each). They are read back once, a block of epochs at a time,
-//! and every block goes to three writers, each on a thread of its own:
-//! - trajectory.parquet: each block's forward rows, then its smoothed rows (then
-//!   residuals.parquet);
-//! - trajectory.mcap: both solutions' messages, row by row;
-//! - the scores: the errors against the truth (each block's handed on to errors.parquet's
-//!   writer, a thread of its own), the distance travelled and the rows the report draws
-//!   ([`Scored`]), which the summary and the report are made from.
+//! mission holds a million of each). Each read hands every block to threads of their own:
+//! - to score them ([`score`], in the library's entry): the errors against the truth, the
+//!   distance travelled and the rows the report draws ([`Scored`]), which the summary and
+//!   the report are made from;
+//! - to write them (`recon_folder`): trajectory.parquet (each block's forward rows, then its
+//!   smoothed rows; then residuals.parquet), trajectory.mcap (both solutions' messages, row
+//!   by row) and errors.parquet (each block's errors, from a scorer that hands them on).
 
-use super::report::{self, Samples};
-use crate::cli::OutputFailed;
-use anyhow::{Context, Result};
-use hindsight::contract::Truth;
-use hindsight::filters::ins::record::Solution;
-use hindsight::output::atomic::Staging;
-use hindsight::output::parquet::{write_batches, TableWriter, ROWS_PER_BATCH};
-use hindsight::output::recon_tables;
-use hindsight::recon::score::{self, EpochError};
-use hindsight::recon::stats::Distance;
-use hindsight::recon::Reconstruction;
+use super::atomic::Staging;
+use super::parquet::{write_batches, TableWriter, ROWS_PER_BATCH};
+use super::recon_report::{self as report, Samples};
+use super::recon_tables;
+use super::WriteError;
+use crate::contract::Truth;
+use crate::filters::ins::record::Solution;
+use crate::recon::score::{self, EpochError};
+use crate::recon::stats::Distance;
+use crate::recon::Reconstruction;
 use std::path::{Path, PathBuf};
 use std::sync::{mpsc, Arc};
 
@@ -61,7 +59,7 @@ pub fn read_blocks(
     r: &Reconstruction,
     keep: &[usize],
     to: Vec<mpsc::SyncSender<Arc<Block>>>,
-) -> Result<()> {
+) -> std::io::Result<()> {
     let n = r.forward.len();
     let mut rest = keep;
     for first in (0..n).step_by(BLOCK_EPOCHS) {
@@ -73,8 +71,8 @@ pub fn read_blocks(
         let taken = rest.partition_point(|&k| k < end);
         let block = Arc::new(Block {
             first,
-            forward: forward.context("reading the forward solutions back")?,
-            smoothed: smoothed.context("reading the smoothed solutions back")?,
+            forward: forward?,
+            smoothed: smoothed?,
             kept: rest[..taken].to_vec(),
         });
         rest = &rest[taken..];
@@ -95,11 +93,10 @@ pub fn channel() -> (mpsc::SyncSender<Arc<Block>>, mpsc::Receiver<Arc<Block>>) {
 /// A staged output file and its path, for messages.
 pub type Staged = (PathBuf, std::fs::File);
 
-fn failed(path: &Path) -> OutputFailed {
-    OutputFailed {
-        path: path.to_path_buf(),
-    }
-}
+/// Any error of a writer, said with the file's path by [`WriteError`].
+type AnyError = Box<dyn std::error::Error + Send + Sync>;
+
+type Result<T, E = WriteError> = std::result::Result<T, E>;
 
 /// trajectory.parquet from the blocks: each block's forward rows, then its smoothed rows.
 pub fn trajectory_parquet(
@@ -107,7 +104,7 @@ pub fn trajectory_parquet(
     blocks: mpsc::Receiver<Arc<Block>>,
     origin_rad: (f64, f64),
 ) -> Result<()> {
-    let write = || -> Result<(), anyhow::Error> {
+    let write = || -> Result<(), AnyError> {
         let schema = recon_tables::trajectory_batch("forward", &[], origin_rad)?.schema();
         let mut w = TableWriter::new(file, schema)?;
         for b in blocks {
@@ -122,7 +119,7 @@ pub fn trajectory_parquet(
         w.finish()?;
         Ok(())
     };
-    write().with_context(|| failed(&path))
+    write().map_err(WriteError::at(&path))
 }
 
 /// trajectory.mcap from the blocks: the forward and smoothed solutions at each row as
@@ -133,12 +130,12 @@ pub fn trajectory_mcap(
     blocks: mpsc::Receiver<Arc<Block>>,
     origin_rad: (f64, f64),
 ) -> Result<()> {
-    use hindsight::output::foxglove::{
+    use crate::output::foxglove::{
         location_fix, pose_in_frame, LOCATION_FIX, LOCATION_FIX_MSG, POSE_IN_FRAME,
         POSE_IN_FRAME_MSG,
     };
-    use hindsight::sim::writer::{Compression, LogWriter, WriterOptions};
-    let write = || -> Result<(), anyhow::Error> {
+    use crate::sim::writer::{Compression, LogWriter, WriterOptions};
+    let write = || -> Result<(), AnyError> {
         // lz4: a tenth of zstd's time for this output, which Foxglove and the mcap tools
         // read alike.
         let options = WriterOptions {
@@ -175,7 +172,7 @@ pub fn trajectory_mcap(
         std::io::Write::flush(&mut w.finish()?)?;
         Ok(())
     };
-    write().with_context(|| failed(&path))
+    write().map_err(WriteError::at(&path))
 }
 
 /// A solution's errors against the truth at the kept rows: their running scores, and what
@@ -263,7 +260,7 @@ impl Tables {
     pub fn create(staging: &mut Staging, out: &Path, with_errors: bool) -> Result<Tables> {
         let mut create = |name: &str| -> Result<Staged> {
             let path = out.join(name);
-            let file = staging.create(&path).with_context(|| failed(&path))?;
+            let file = staging.create(&path).map_err(WriteError::at(&path))?;
             Ok((path, file))
         };
         Ok(Tables {
@@ -294,17 +291,17 @@ pub fn write_chunks<T>(
     batch: impl Fn(&[T]) -> Result<arrow_array::RecordBatch, arrow_schema::ArrowError>,
 ) -> Result<()> {
     let mut chunks = rows.chunks(ROWS_PER_BATCH);
-    let write = || -> Result<(), anyhow::Error> {
+    let write = || -> Result<(), AnyError> {
         let first = batch(chunks.next().unwrap_or(&[]))?;
         write_batches(file, first, || chunks.next().map(&batch))?;
         Ok(())
     };
-    write().with_context(|| failed(&path))
+    write().map_err(WriteError::at(&path))
 }
 
 /// errors.parquet from the blocks' errors: each block's forward rows, then its smoothed rows.
 pub fn errors_parquet((path, file): Staged, blocks: mpsc::Receiver<BlockErrors>) -> Result<()> {
-    let write = || -> Result<(), anyhow::Error> {
+    let write = || -> Result<(), AnyError> {
         let schema = recon_tables::errors_batch("forward", &[])?.schema();
         let mut w = TableWriter::new(file, schema)?;
         for (fwd, smo) in blocks {
@@ -317,7 +314,7 @@ pub fn errors_parquet((path, file): Staged, blocks: mpsc::Receiver<BlockErrors>)
         w.finish()?;
         Ok(())
     };
-    write().with_context(|| failed(&path))
+    write().map_err(WriteError::at(&path))
 }
 
 /// The rows the report draws: a picture thins to a few thousand points anyway, and a
