@@ -183,11 +183,7 @@ fn scenario_files_never_panic_the_reader() {
 fn vehicle_files_never_panic_the_reader() {
     let seeds: Vec<String> = ["nps-auv-ii", "remus-100"]
         .iter()
-        .map(|n| {
-            let p =
-                Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../shared/vehicles/{n}.json"));
-            std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
-        })
+        .map(|n| shipped(&format!("assets/vehicles/{n}.json")))
         .collect();
     let accepted = fuzz("vehicles", |rng| {
         let text = mutate_text(&seeds[rng.random_range(0..seeds.len())], rng);

@@ -1,5 +1,5 @@
 //! Attitude from a MEMS AHRS (gyro, accelerometer, magnetometer): the methods compared by
-//! `hindsight attitude` (issue #5), and their scores.
+//! `hindsight attitude`, and their scores.
 //!
 //! Every method is a pure function of the same [`AhrsInputs`] and returns the attitude
 //! (`ned_from_body` quaternion) at every IMU stamp. Internals are quaternions or rotation

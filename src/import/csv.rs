@@ -195,110 +195,154 @@ fn kind_of(role: &str) -> Option<&'static dyn MessageKind> {
     all_kinds().iter().copied().find(|k| role_name(*k) == role)
 }
 
-fn compile(
-    m: &MessageMap,
-    column: &dyn Fn(&str) -> Result<usize, ImportError>,
-    file: &str,
-) -> Result<Compiled, ImportError> {
-    let bad = |reason: String| ImportError::Map {
-        file: file.to_string(),
-        reason,
-    };
-    let kind = kind_of(&m.role).ok_or_else(|| {
-        let roles: Vec<&str> = all_kinds().iter().map(|k| role_name(*k)).collect();
-        bad(format!(
-            "message type `{}` is not a contract role ({})",
-            m.role,
-            roles.join(", ")
-        ))
-    })?;
-    let properties = kind.properties();
-    let known = || {
-        properties
-            .iter()
-            .map(|p| p.name)
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    if let Some(unknown) = m
-        .fields
-        .keys()
-        .chain(m.units.keys())
-        .find(|f| !properties.iter().any(|p| p.name == f.as_str()))
-    {
-        return Err(bad(format!(
-            "the {} message has no field `{unknown}` (it has: {})",
-            m.role,
-            known()
-        )));
+/// What compiling one message's map needs beside it: its columns by name, and the map's
+/// file for errors.
+struct Compiling<'a> {
+    m: &'a MessageMap,
+    column: &'a dyn Fn(&str) -> Result<usize, ImportError>,
+    file: &'a str,
+}
+
+impl Compiling<'_> {
+    fn bad(&self, reason: String) -> ImportError {
+        ImportError::Map {
+            file: self.file.to_string(),
+            reason,
+        }
     }
-    let mut columns = Vec::new();
-    let mut fields = Vec::new();
-    for p in properties {
-        let scale = match m.units.get(p.name) {
-            None => 1.0,
+
+    /// The fields the message has, for errors.
+    fn known(kind: &dyn MessageKind) -> String {
+        let names: Vec<&str> = kind.properties().iter().map(|p| p.name).collect();
+        names.join(", ")
+    }
+
+    /// The contract kind the map names; every field and unit it gives must be one of it.
+    fn kind(&self) -> Result<&'static dyn MessageKind, ImportError> {
+        let m = self.m;
+        let kind = kind_of(&m.role).ok_or_else(|| {
+            let roles: Vec<&str> = all_kinds().iter().map(|k| role_name(*k)).collect();
+            self.bad(format!(
+                "message type `{}` is not a contract role ({})",
+                m.role,
+                roles.join(", ")
+            ))
+        })?;
+        let properties = kind.properties();
+        if let Some(unknown) = (m.fields.keys().chain(m.units.keys()))
+            .find(|f| !properties.iter().any(|p| p.name == f.as_str()))
+        {
+            return Err(self.bad(format!(
+                "the {} message has no field `{unknown}` (it has: {})",
+                m.role,
+                Self::known(kind)
+            )));
+        }
+        Ok(kind)
+    }
+
+    /// The factor from the unit the map gives a field in to the contract's.
+    fn scale(&self, p: &Property) -> Result<f64, ImportError> {
+        match self.m.units.get(p.name) {
+            None => Ok(1.0),
             Some(unit) => unit_factor(unit, p.unit).ok_or_else(|| {
-                bad(format!(
+                self.bad(format!(
                     "`{}` is in {}; `{unit}` is not a unit of it (give one of: {})",
                     p.name,
                     p.unit,
                     units_of(p.unit).join(", ")
                 ))
-            })?,
-        };
-        let cell = |s: &Source, columns: &mut Vec<usize>| -> Result<Cell, ImportError> {
-            match s {
-                Source::Number(x) => Ok(Cell::Constant(x * scale)),
-                Source::Column(name) => {
-                    let (sign, name) = match name.strip_prefix('-') {
-                        Some(rest) => (-1.0, rest),
-                        None => (1.0, name.as_str()),
-                    };
-                    let index = column(name)?;
-                    columns.push(index);
-                    Ok(Cell::Column {
-                        index,
-                        scale: sign * scale,
-                    })
-                }
-                _ => Err(bad(format!(
-                    "`{}` takes a column, `-column` or a number",
-                    p.name
-                ))),
+            }),
+        }
+    }
+
+    /// A number's source: a column (`-column` for its negative) or a constant.
+    fn cell(
+        &self,
+        s: &Source,
+        p: &Property,
+        scale: f64,
+        columns: &mut Vec<usize>,
+    ) -> Result<Cell, ImportError> {
+        match s {
+            Source::Number(x) => Ok(Cell::Constant(x * scale)),
+            Source::Column(name) => {
+                let (sign, name) = match name.strip_prefix('-') {
+                    Some(rest) => (-1.0, rest),
+                    None => (1.0, name.as_str()),
+                };
+                let index = (self.column)(name)?;
+                columns.push(index);
+                Ok(Cell::Column {
+                    index,
+                    scale: sign * scale,
+                })
             }
-        };
-        let field = match (p.kind, m.fields.get(p.name)) {
+            _ => Err(self.bad(format!(
+                "`{}` takes a column, `-column` or a number",
+                p.name
+            ))),
+        }
+    }
+
+    /// How one field of the message is read, as its kind allows.
+    fn field(
+        &self,
+        kind: &dyn MessageKind,
+        p: &Property,
+        columns: &mut Vec<usize>,
+    ) -> Result<Field, ImportError> {
+        let scale = self.scale(p)?;
+        let m = self.m;
+        Ok(match (p.kind, m.fields.get(p.name)) {
             (_, None) if !p.required() => Field::Absent,
             (_, None) => {
-                return Err(bad(format!(
+                return Err(self.bad(format!(
                     "the {} message needs `{}` ({})",
                     m.role,
                     p.name,
-                    known()
+                    Self::known(kind)
                 )))
             }
-            (PropKind::F64 | PropKind::OptF64, Some(s)) => Field::Number(cell(s, &mut columns)?),
+            (PropKind::F64 | PropKind::OptF64, Some(s)) => {
+                Field::Number(self.cell(s, p, scale, columns)?)
+            }
             (PropKind::Vec3, Some(Source::Vector(v))) if v.len() == 3 => Field::Vector([
-                cell(&v[0], &mut columns)?,
-                cell(&v[1], &mut columns)?,
-                cell(&v[2], &mut columns)?,
+                self.cell(&v[0], p, scale, columns)?,
+                self.cell(&v[1], p, scale, columns)?,
+                self.cell(&v[2], p, scale, columns)?,
             ]),
             (PropKind::Vec3, Some(_)) => {
-                return Err(bad(format!("`{}` takes three sources: [x, y, z]", p.name)))
+                return Err(self.bad(format!("`{}` takes three sources: [x, y, z]", p.name)))
             }
             (PropKind::Bool, Some(Source::Flag(b))) => Field::Flag(Err(*b)),
             (PropKind::Bool, Some(Source::Column(name))) => {
-                let index = column(name)?;
+                let index = (self.column)(name)?;
                 columns.push(index);
                 Field::Flag(Ok(index))
             }
             (PropKind::Bool, Some(_)) => {
-                return Err(bad(format!("`{}` takes a column or true/false", p.name)))
+                return Err(self.bad(format!("`{}` takes a column or true/false", p.name)))
             }
-            (PropKind::Str, Some(Source::Column(name))) => Field::Text(column(name)?),
-            (PropKind::Str, Some(_)) => return Err(bad(format!("`{}` takes a column", p.name))),
-        };
-        fields.push((p, field));
+            (PropKind::Str, Some(Source::Column(name))) => Field::Text((self.column)(name)?),
+            (PropKind::Str, Some(_)) => {
+                return Err(self.bad(format!("`{}` takes a column", p.name)))
+            }
+        })
+    }
+}
+
+fn compile(
+    m: &MessageMap,
+    column: &dyn Fn(&str) -> Result<usize, ImportError>,
+    file: &str,
+) -> Result<Compiled, ImportError> {
+    let c = Compiling { m, column, file };
+    let kind = c.kind()?;
+    let mut columns = Vec::new();
+    let mut fields = Vec::new();
+    for p in kind.properties() {
+        fields.push((p, c.field(kind, p, &mut columns)?));
     }
     Ok(Compiled {
         kind,

@@ -400,81 +400,20 @@ impl<'o, 's> Builder<'o, 's> {
         let mut streams = Vec::new();
         let mut skipped = Vec::new();
         for slot in self.slots {
-            let slot = Arc::into_inner(slot)
+            let mut slot = Arc::into_inner(slot)
                 .expect("the decoding threads have ended")
                 .into_inner()
                 .unwrap_or_else(|e| e.into_inner());
-            let Some(mut samples) = slot.samples else {
-                skipped.push(SkippedTopic {
+            match slot.samples.take() {
+                Some(samples) => streams.push(stream_of(slot, samples, self.options)?),
+                None => skipped.push(SkippedTopic {
                     topic: slot.topic,
                     schema_name: slot.schema_name,
                     message_encoding: slot.message_encoding,
                     messages: slot.counts.received,
                     layout: slot.layout.map(Layout::into_check),
-                });
-                continue;
-            };
-            let mut counts = slot.counts;
-            if counts.invalid > 0
-                && counts.invalid as f64
-                    > self.options.max_invalid_fraction * counts.received as f64
-            {
-                return Err(IngestError::TooManyInvalid {
-                    topic: slot.topic,
-                    invalid: counts.invalid,
-                    received: counts.received,
-                    allowed: self.options.max_invalid_fraction,
-                    first: Box::new(slot.issues[0].clone()),
-                });
+                }),
             }
-            let keep = self.options.keep_messages;
-            let n = if keep {
-                samples.len()
-            } else {
-                slot.stamps_ns.len()
-            };
-            let stamp = |i: usize| {
-                if keep {
-                    samples.stamp_ns(i)
-                } else {
-                    slot.stamps_ns[i]
-                }
-            };
-            // Most streams are already in order without repeats: then no copy of a day's
-            // stamps and no index is made.
-            let in_order = (1..n).all(|i| stamp(i - 1) < stamp(i));
-            let (mut log_time_ns, timing) = if in_order {
-                counts.kept = n as u64;
-                (slot.log_time_ns, stats::timing_by(n, stamp))
-            } else {
-                let stamps: Vec<i64> = (0..n).map(stamp).collect();
-                let (order, duplicates) = stats::sorted_unique_order(&stamps);
-                counts.duplicates = duplicates;
-                counts.kept = order.len() as u64;
-                if keep {
-                    samples.permute(&order);
-                }
-                let sorted: Vec<i64> = order.iter().map(|&i| stamps[i]).collect();
-                let log_times = order
-                    .iter()
-                    .filter_map(|&i| slot.log_time_ns.get(i).copied())
-                    .collect();
-                (log_times, stats::timing(&sorted))
-            };
-            if !self.options.keep_messages {
-                log_time_ns = Vec::new();
-                samples.clear();
-            }
-            streams.push(Stream {
-                topic: slot.topic,
-                schema_name: slot.schema_name,
-                message_encoding: slot.message_encoding,
-                samples,
-                log_time_ns,
-                counts,
-                timing,
-                issues: slot.issues,
-            });
         }
         let (roles, role_problems) = roles::resolve(&streams, &self.options.topics);
         if let (true, Some(first)) = (self.options.strict_roles, role_problems.first()) {
@@ -497,6 +436,75 @@ impl<'o, 's> Builder<'o, 's> {
             },
         })
     }
+}
+
+/// A decoded topic's stream: its messages sorted by stamp without repeats (kept or not as the
+/// options say), its counts and timing; refused when too many of its messages were invalid.
+fn stream_of(
+    slot: Slot,
+    mut samples: Box<dyn Samples>,
+    options: &IngestOptions,
+) -> Result<Stream, IngestError> {
+    let mut counts = slot.counts;
+    if counts.invalid > 0
+        && counts.invalid as f64 > options.max_invalid_fraction * counts.received as f64
+    {
+        return Err(IngestError::TooManyInvalid {
+            topic: slot.topic,
+            invalid: counts.invalid,
+            received: counts.received,
+            allowed: options.max_invalid_fraction,
+            first: Box::new(slot.issues[0].clone()),
+        });
+    }
+    let keep = options.keep_messages;
+    let n = if keep {
+        samples.len()
+    } else {
+        slot.stamps_ns.len()
+    };
+    let stamp = |i: usize| {
+        if keep {
+            samples.stamp_ns(i)
+        } else {
+            slot.stamps_ns[i]
+        }
+    };
+    // Most streams are already in order without repeats: then no copy of a day's
+    // stamps and no index is made.
+    let in_order = (1..n).all(|i| stamp(i - 1) < stamp(i));
+    let (mut log_time_ns, timing) = if in_order {
+        counts.kept = n as u64;
+        (slot.log_time_ns, stats::timing_by(n, stamp))
+    } else {
+        let stamps: Vec<i64> = (0..n).map(stamp).collect();
+        let (order, duplicates) = stats::sorted_unique_order(&stamps);
+        counts.duplicates = duplicates;
+        counts.kept = order.len() as u64;
+        if keep {
+            samples.permute(&order);
+        }
+        let sorted: Vec<i64> = order.iter().map(|&i| stamps[i]).collect();
+        let log_times = order
+            .iter()
+            .filter_map(|&i| slot.log_time_ns.get(i).copied())
+            .collect();
+        (log_times, stats::timing(&sorted))
+    };
+    if !options.keep_messages {
+        log_time_ns = Vec::new();
+        samples.clear();
+    }
+    Ok(Stream {
+        topic: slot.topic,
+        schema_name: slot.schema_name,
+        message_encoding: slot.message_encoding,
+        samples,
+        log_time_ns,
+        counts,
+        timing,
+        issues: slot.issues,
+    })
 }
 
 /// Bytes of messages gathered for a slot before they are handed to its decoding thread.

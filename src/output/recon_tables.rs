@@ -16,6 +16,22 @@ fn column<T>(rows: &[T], f: impl Fn(&T) -> f64) -> Vec<f64> {
     rows.iter().map(f).collect()
 }
 
+/// One column per axis: `name` with `{}` replaced by each axis, the axis's index given to `f`.
+fn per_axis<T>(
+    c: &mut Columns,
+    rows: &[T],
+    (name, unit): (&str, &str),
+    axes: &[&str],
+    f: impl Fn(&T, usize) -> f64,
+) {
+    for (i, axis) in axes.iter().enumerate() {
+        c.number(&name.replace("{}", axis), unit, column(rows, |s| f(s, i)));
+    }
+}
+
+const NED: [&str; 3] = ["north", "east", "down"];
+const BODY: [&str; 3] = ["x", "y", "z"];
+
 /// Rows of `trajectory.parquet` for one solution (`forward` or `smoothed`): position
 /// (geodetic and in the mission frame), NED velocity, Euler angles, their 1-sigma, the bias
 /// estimates, the DVL's calibration and the water states.
@@ -27,6 +43,14 @@ pub fn trajectory_batch(
     let mut c = Columns::default();
     c.stamps(rows.iter().map(|s| s.stamp_ns).collect());
     c.text("solution", vec![solution; rows.len()]);
+    navigation_columns(&mut c, rows, origin_rad);
+    sigma_columns(&mut c, rows);
+    calibration_columns(&mut c, rows);
+    c.finish()
+}
+
+/// Position (geodetic and in the mission frame), NED velocity and Euler angles.
+fn navigation_columns(c: &mut Columns, rows: &[Solution], origin_rad: (f64, f64)) {
     let nav = |s: &Solution| s.point.nav;
     c.number(
         "latitude_deg",
@@ -45,95 +69,64 @@ pub fn trajectory_batch(
     c.number("north_m", "m", column(rows, |s| local(s).0));
     c.number("east_m", "m", column(rows, |s| local(s).1));
     c.number("down_m", "m", column(rows, |s| -nav(s).height_m));
-    for (i, axis) in ["north", "east", "down"].iter().enumerate() {
-        c.number(
-            &format!("vel_{axis}_m_s"),
-            "m/s",
-            column(rows, |s| nav(s).vel_ned_m_s[i]),
-        );
-    }
+    per_axis(c, rows, ("vel_{}_m_s", "m/s"), &NED, |s, i| {
+        nav(s).vel_ned_m_s[i]
+    });
     let euler: Vec<[f64; 3]> = rows.iter().map(Solution::euler_rad).collect();
+    per_axis(
+        c,
+        &euler,
+        ("{}_rad", "rad"),
+        &["roll", "pitch", "yaw"],
+        |e, i| e[i],
+    );
+}
+
+/// The 1-sigma of position, velocity and the Euler angles.
+fn sigma_columns(c: &mut Columns, rows: &[Solution]) {
+    per_axis(c, rows, ("{}_sigma_m", "m"), &NED, |s, i| s.sigma[i]);
+    per_axis(c, rows, ("vel_{}_sigma_m_s", "m/s"), &NED, |s, i| {
+        s.sigma[3 + i]
+    });
     let euler_sigma: Vec<[f64; 3]> = rows.iter().map(Solution::euler_sigma_rad).collect();
-    for (i, angle) in ["roll", "pitch", "yaw"].iter().enumerate() {
-        c.number(
-            &format!("{angle}_rad"),
-            "rad",
-            euler.iter().map(|e| e[i]).collect(),
-        );
-    }
-    for (i, axis) in ["north", "east", "down"].iter().enumerate() {
-        c.number(
-            &format!("{axis}_sigma_m"),
-            "m",
-            column(rows, |s| s.sigma[i]),
-        );
-    }
-    for (i, axis) in ["north", "east", "down"].iter().enumerate() {
-        c.number(
-            &format!("vel_{axis}_sigma_m_s"),
-            "m/s",
-            column(rows, |s| s.sigma[3 + i]),
-        );
-    }
-    for (i, angle) in ["roll", "pitch", "yaw"].iter().enumerate() {
-        c.number(
-            &format!("{angle}_sigma_rad"),
-            "rad",
-            euler_sigma.iter().map(|e| e[i]).collect(),
-        );
-    }
-    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
-        c.number(
-            &format!("gyro_bias_{axis}_rad_s"),
-            "rad/s",
-            column(rows, |s| s.point.gyro_bias[i]),
-        );
-    }
-    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
-        c.number(
-            &format!("accel_bias_{axis}_m_s2"),
-            "m/s^2",
-            column(rows, |s| s.point.accel_bias[i]),
-        );
-    }
+    let angles = ["roll", "pitch", "yaw"];
+    per_axis(c, &euler_sigma, ("{}_sigma_rad", "rad"), &angles, |e, i| {
+        e[i]
+    });
+}
+
+/// The IMU's biases and z gyro scale, the DVL's calibration and the water states (constant
+/// where they are held).
+fn calibration_columns(c: &mut Columns, rows: &[Solution]) {
+    let p = |s: &Solution| s.point;
+    per_axis(c, rows, ("gyro_bias_{}_rad_s", "rad/s"), &BODY, |s, i| {
+        p(s).gyro_bias[i]
+    });
+    per_axis(c, rows, ("accel_bias_{}_m_s2", "m/s^2"), &BODY, |s, i| {
+        p(s).accel_bias[i]
+    });
     c.number(
         "gyro_scale_factor_z",
         "1",
-        column(rows, |s| 1.0 + s.point.gyro_scale_z),
+        column(rows, |s| 1.0 + p(s).gyro_scale_z),
     );
-    // The DVL's calibration and the water states (constant where they are held).
-    c.number(
-        "dvl_scale_factor",
-        "1",
-        column(rows, |s| 1.0 + s.point.dvl[0]),
-    );
-    for (i, name) in ["pitch", "heading"].iter().enumerate() {
-        c.number(
-            &format!("dvl_misalignment_{name}_rad"),
-            "rad",
-            column(rows, |s| s.point.dvl[1 + i]),
-        );
-    }
-    for (i, axis) in ["x", "y", "z"].iter().enumerate() {
-        c.number(
-            &format!("dvl_bias_{axis}_m_s"),
-            "m/s",
-            column(rows, |s| s.point.dvl[3 + i]),
-        );
-    }
+    c.number("dvl_scale_factor", "1", column(rows, |s| 1.0 + p(s).dvl[0]));
+    let misalignment = ("dvl_misalignment_{}_rad", "rad");
+    per_axis(c, rows, misalignment, &["pitch", "heading"], |s, i| {
+        p(s).dvl[1 + i]
+    });
+    per_axis(c, rows, ("dvl_bias_{}_m_s", "m/s"), &BODY, |s, i| {
+        p(s).dvl[3 + i]
+    });
     c.number(
         "eml_scale_factor",
         "1",
-        column(rows, |s| 1.0 + s.point.water[0]),
+        column(rows, |s| 1.0 + p(s).water[0]),
     );
-    for (i, axis) in ["north", "east"].iter().enumerate() {
-        c.number(
-            &format!("current_{axis}_m_s"),
-            "m/s",
-            column(rows, |s| s.point.water[1 + i]),
-        );
-    }
-    c.finish()
+    let current = ("current_{}_m_s", "m/s");
+    per_axis(c, rows, current, &["north", "east"], |s, i| {
+        p(s).water[1 + i]
+    });
 }
 
 /// Rows of `residuals.parquet`: one per aiding measurement the filter saw. Innovation

@@ -8,7 +8,7 @@ use super::sensors::imu::Triad;
 use super::sensors::mag::MagSensor;
 use super::sensors::scalar::{Propeller as PropellerModel, ScalarSensor};
 use super::sensors::{normal, rng_for, stream};
-use super::truth::{KinematicTruth, TruthSource};
+use super::truth::{KinematicTruth, TruthSample, TruthSource};
 use super::vibration::RealMotion;
 use super::writer::{LogWriter, WriteError};
 use crate::contract::*;
@@ -139,8 +139,41 @@ pub fn run_with_progress<W: Write + Seek>(
             &mut kinematic
         }
     };
-    let origin_lat = scenario.mission.origin_latitude_deg.to_radians();
-    let origin_lon = scenario.mission.origin_longitude_deg.to_radians();
+    write_mission(scenario, seed, w)?;
+    let mut sensors = Sensors::new(scenario, seed);
+    let end_ns = secs_ns(truth.duration_s());
+    let (mut count, mut t_ns) = (0u64, 0i64);
+    let progress_every_ns = (end_ns / 100).max(1);
+    let mut next_progress_ns = 0;
+    loop {
+        if t_ns >= next_progress_ns {
+            progress(t_ns as f64 / end_ns.max(1) as f64);
+            next_progress_ns += progress_every_ns;
+        }
+        let tick = Tick {
+            t_ns,
+            dt_ns,
+            last: t_ns + dt_ns > end_ns,
+            ..sensors.tick(scenario, truth, t_ns)
+        };
+        count += sensors.write(scenario, &tick, w)?;
+        if tick.last {
+            break;
+        }
+        t_ns += dt_ns;
+    }
+    Ok(RunSummary {
+        messages: count,
+        duration_s: t_ns as f64 * 1e-9,
+    })
+}
+
+/// The mission record of a simulated log.
+fn write_mission<W: Write + Seek>(
+    scenario: &Scenario,
+    seed: u64,
+    w: &mut LogWriter<W>,
+) -> Result<(), WriteError> {
     w.write_mission(&Mission {
         origin_latitude_deg: scenario.mission.origin_latitude_deg,
         origin_longitude_deg: scenario.mission.origin_longitude_deg,
@@ -155,269 +188,417 @@ pub fn run_with_progress<W: Write + Seek>(
             .mag
             .filter(|_| scenario.mission.declination_in_log)
             .map(|m| m.field_ned_nt[1].atan2(m.field_ned_nt[0]).to_degrees()),
-    })?;
+    })
+}
 
-    let mut real_motion = RealMotion::new(&scenario.motion, rng_for(seed, stream::MOTION));
-    let mut gyro = Triad::new(scenario.imu.gyro.triad(), rng_for(seed, stream::GYRO));
-    let mut accel = Triad::new(scenario.imu.accel.triad(), rng_for(seed, stream::ACCEL));
-    let mut mag = scenario.mag.map(|s| {
-        (
-            MagSensor::new(s, rng_for(seed, stream::MAG)),
-            Schedule::new(s.rate_hz),
-        )
-    });
-    let mut dvl = scenario.dvl.map(|s| {
-        (
-            DvlSensor::new(s, rng_for(seed, stream::DVL)),
-            Schedule::new(s.rate_hz),
-            s.latency_s,
-        )
-    });
-    let dvl_delay_ns = scenario.dvl.map_or(0, |s| secs_ns(s.stamp_delay_s));
-    let mut host = HostStamps {
-        burst_ns: secs_ns(scenario.imu.host_burst_s),
-        rng: rng_for(seed, stream::HOST),
-        arrival_ns: scenario.start_stamp_ns,
-        in_burst: 0,
-    };
-    let dvl_until_ns = scenario
-        .dvl
-        .and_then(|s| s.until_s)
-        .map_or(i64::MAX, secs_ns);
-    let scalar = |spec: Option<super::scenario::RatedScalar>, id| {
-        spec.map(|s| {
-            (
-                ScalarSensor::new(s.errors, rng_for(seed, id)),
-                Schedule::new(s.rate_hz),
-                s.latency_s,
-            )
-        })
-    };
-    let mut eml = scalar(scenario.eml, stream::EML);
-    let eml_phase_s = scenario.eml.map_or(0.0, |s| s.phase_s);
-    if let Some((_, sched, _)) = eml.as_mut() {
-        *sched = Schedule::with_phase(scenario.eml.map_or(1.0, |s| s.rate_hz), eml_phase_s);
+/// The truth at one IMU tick, as the sensors read it.
+struct Tick {
+    t_ns: i64,
+    dt_ns: i64,
+    /// The run's last tick.
+    last: bool,
+    sample: TruthSample,
+    /// The stamp of the tick (the scenario's start plus `t_ns`).
+    stamp_ns: i64,
+    north_m: f64,
+    east_m: f64,
+    depth_m: f64,
+    vel_body: nalgebra::Vector3<f64>,
+    altitude_m: f64,
+}
+
+impl Tick {
+    /// The log time of a reading `latency_s` after the tick.
+    fn log_ns(&self, latency_s: f64) -> u64 {
+        (self.stamp_ns + secs_ns(latency_s)).max(0) as u64
     }
-    // The previous tick's time and speed through water, for readings between ticks.
-    let mut previous_speed: Option<(i64, f64)> = None;
-    let mut depth = scalar(scenario.depth, stream::DEPTH);
-    let mut altimeter = scalar(scenario.altimeter, stream::ALTIMETER);
-    let mut rpm = scenario.rpm.map(|s| {
-        (
-            PropellerModel::new(s.model, rng_for(seed, stream::RPM)),
-            Schedule::new(s.rate_hz),
-        )
-    });
-    let mut gnss = scenario.gnss.map(|s| (s, Schedule::new(s.rate_hz)));
-    let mut gnss_rng = rng_for(seed, stream::GNSS);
-    let mut fix_rng = rng_for(seed, stream::FIX);
-    let mut usbl = scenario
-        .fixes
-        .filter(|f| f.usbl_every_s > 0.0)
-        .map(|f| Schedule::new(1.0 / f.usbl_every_s));
-    let mut fins = scenario.fins.map(|f| Schedule::new(f.rate_hz));
-    let mut truth_schedule = Schedule::new(scenario.truth_rate_hz);
+}
 
-    let end_ns = secs_ns(truth.duration_s());
-    let mut count = 0u64;
-    let mut t_ns = 0i64;
-    let progress_every_ns = (end_ns / 100).max(1);
-    let mut next_progress_ns = 0;
-    loop {
-        if t_ns >= next_progress_ns {
-            progress(t_ns as f64 / end_ns.max(1) as f64);
-            next_progress_ns += progress_every_ns;
+/// A scalar sensor, its schedule and its latency.
+type Scalar = (ScalarSensor, Schedule, f64);
+
+/// Every sensor of a scenario with its own random stream and schedule.
+struct Sensors {
+    origin_rad: (f64, f64),
+    real_motion: Option<RealMotion>,
+    gyro: Triad,
+    accel: Triad,
+    host: HostStamps,
+    mag: Option<(MagSensor, Schedule)>,
+    dvl: Option<(DvlSensor, Schedule, f64)>,
+    dvl_delay_ns: i64,
+    dvl_until_ns: i64,
+    eml: Option<Scalar>,
+    eml_phase_s: f64,
+    /// The previous tick's time and speed through water, for readings between ticks.
+    previous_speed: Option<(i64, f64)>,
+    depth: Option<Scalar>,
+    altimeter: Option<Scalar>,
+    rpm: Option<(PropellerModel, Schedule)>,
+    gnss: Option<(super::scenario::GnssSpec, Schedule)>,
+    gnss_rng: rand_chacha::ChaCha8Rng,
+    fix_rng: rand_chacha::ChaCha8Rng,
+    usbl: Option<Schedule>,
+    fins: Option<Schedule>,
+    truth: Schedule,
+}
+
+impl Sensors {
+    fn new(scenario: &Scenario, seed: u64) -> Self {
+        // Only the EM log keeps its own clock's phase.
+        let scalar = |spec: Option<super::scenario::RatedScalar>, id, own_clock: bool| {
+            spec.map(|s| {
+                let sensor = ScalarSensor::new(s.errors, rng_for(seed, id));
+                let phase_s = if own_clock { s.phase_s } else { 0.0 };
+                (
+                    sensor,
+                    Schedule::with_phase(s.rate_hz, phase_s),
+                    s.latency_s,
+                )
+            })
+        };
+        Sensors {
+            origin_rad: (
+                scenario.mission.origin_latitude_deg.to_radians(),
+                scenario.mission.origin_longitude_deg.to_radians(),
+            ),
+            real_motion: RealMotion::new(&scenario.motion, rng_for(seed, stream::MOTION)),
+            gyro: Triad::new(scenario.imu.gyro.triad(), rng_for(seed, stream::GYRO)),
+            accel: Triad::new(scenario.imu.accel.triad(), rng_for(seed, stream::ACCEL)),
+            host: HostStamps {
+                burst_ns: secs_ns(scenario.imu.host_burst_s),
+                rng: rng_for(seed, stream::HOST),
+                arrival_ns: scenario.start_stamp_ns,
+                in_burst: 0,
+            },
+            mag: (scenario.mag).map(|s| {
+                let sensor = MagSensor::new(s, rng_for(seed, stream::MAG));
+                (sensor, Schedule::new(s.rate_hz))
+            }),
+            dvl: (scenario.dvl).map(|s| {
+                let sensor = DvlSensor::new(s, rng_for(seed, stream::DVL));
+                (sensor, Schedule::new(s.rate_hz), s.latency_s)
+            }),
+            dvl_delay_ns: scenario.dvl.map_or(0, |s| secs_ns(s.stamp_delay_s)),
+            dvl_until_ns: (scenario.dvl.and_then(|s| s.until_s)).map_or(i64::MAX, secs_ns),
+            eml: scalar(scenario.eml, stream::EML, true),
+            eml_phase_s: scenario.eml.map_or(0.0, |s| s.phase_s),
+            previous_speed: None,
+            depth: scalar(scenario.depth, stream::DEPTH, false),
+            altimeter: scalar(scenario.altimeter, stream::ALTIMETER, false),
+            rpm: (scenario.rpm).map(|s| {
+                let model = PropellerModel::new(s.model, rng_for(seed, stream::RPM));
+                (model, Schedule::new(s.rate_hz))
+            }),
+            gnss: scenario.gnss.map(|s| (s, Schedule::new(s.rate_hz))),
+            gnss_rng: rng_for(seed, stream::GNSS),
+            fix_rng: rng_for(seed, stream::FIX),
+            usbl: (scenario.fixes)
+                .filter(|f| f.usbl_every_s > 0.0)
+                .map(|f| Schedule::new(1.0 / f.usbl_every_s)),
+            fins: scenario.fins.map(|f| Schedule::new(f.rate_hz)),
+            truth: Schedule::new(scenario.truth_rate_hz),
         }
+    }
+
+    /// The truth at `t_ns`, with the hull's real motion on it.
+    fn tick(&mut self, scenario: &Scenario, truth: &mut dyn TruthSource, t_ns: i64) -> Tick {
         let t_s = t_ns as f64 * 1e-9;
         let mut sample = truth.sample(t_s);
-        if let Some(m) = real_motion.as_mut() {
+        if let Some(m) = self.real_motion.as_mut() {
             m.apply(t_s, &mut sample);
         }
-        let (lat, lon, height) = (sample.lat_rad, sample.lon_rad, sample.height_m);
+        let (origin_lat, origin_lon) = self.origin_rad;
+        let (north_m, east_m) =
+            geodesy::local_north_east_m(origin_lat, origin_lon, sample.lat_rad, sample.lon_rad);
+        let depth_m = -sample.height_m;
         let motion = &sample.motion;
-        let stamp_ns = scenario.start_stamp_ns + t_ns;
-        let log_ns = |latency_s: f64| (stamp_ns + secs_ns(latency_s)).max(0) as u64;
-        let (north, east) = geodesy::local_north_east_m(origin_lat, origin_lon, lat, lon);
-        let depth_m = -height;
-        let ned_from_body = motion.ned_from_body;
-        let vel_body = ned_from_body.inverse() * motion.vel_ned;
+        Tick {
+            t_ns,
+            dt_ns: 0,
+            last: false,
+            stamp_ns: scenario.start_stamp_ns + t_ns,
+            north_m,
+            east_m,
+            depth_m,
+            vel_body: motion.ned_from_body.inverse() * motion.vel_ned,
+            altitude_m: scenario.seabed.depth_m(north_m, east_m) - depth_m,
+            sample,
+        }
+    }
 
-        let ideal = perfect_imu(motion, lat, height);
-        let host_ns = host.stamp(stamp_ns);
+    /// Every reading due at the tick, in the log's order; returns how many were written.
+    fn write<W: Write + Seek>(
+        &mut self,
+        scenario: &Scenario,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        let mut count = self.imu(scenario, tick, w)?;
+        count += self.mag(tick, w)?;
+        count += self.dvl(tick, w)?;
+        count += self.eml(scenario, tick, w)?;
+        self.previous_speed = Some((tick.t_ns, tick.sample.speed_m_s));
+        count += Self::scalar(&mut self.depth, "/depth", tick, tick.depth_m, w)?;
+        count += Self::scalar(&mut self.altimeter, "/altimeter", tick, tick.altitude_m, w)?;
+        count += self.rpm(tick, w)?;
+        count += self.fins(tick, w)?;
+        count += self.gnss(tick, w)?;
+        count += self.fixes(scenario, tick, w)?;
+        count += self.truth(tick, w)?;
+        Ok(count)
+    }
+
+    fn imu<W: Write + Seek>(
+        &mut self,
+        scenario: &Scenario,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        let dt_s = tick.dt_ns as f64 * 1e-9;
+        let s = &tick.sample;
+        let ideal = perfect_imu(&s.motion, s.lat_rad, s.height_m);
+        let host_ns = self.host.stamp(tick.stamp_ns);
         let imu = Imu {
             stamp_ns: host_ns,
-            angular_velocity: gyro.measure(&ideal.omega_ib_body, dt_s).into(),
-            specific_force: accel.measure(&ideal.specific_force_body, dt_s).into(),
+            angular_velocity: self.gyro.measure(&ideal.omega_ib_body, dt_s).into(),
+            specific_force: self.accel.measure(&ideal.specific_force_body, dt_s).into(),
+        };
+        let log_ns = (host_ns + secs_ns(scenario.imu.latency_s)).max(0) as u64;
+        w.write("/imu", &imu, log_ns)?;
+        Ok(1)
+    }
+
+    fn mag<W: Write + Seek>(
+        &mut self,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        let Some((m, sched)) = self.mag.as_mut() else {
+            return Ok(0);
+        };
+        if !sched.due(tick.t_ns) {
+            return Ok(0);
+        }
+        let ned_from_body = &tick.sample.motion.ned_from_body;
+        let msg = MagneticField {
+            stamp_ns: tick.stamp_ns,
+            magnetic_field: m
+                .measure_at(ned_from_body, tick.north_m, tick.east_m)
+                .into(),
+        };
+        w.write("/mag", &msg, tick.log_ns(0.0))?;
+        Ok(1)
+    }
+
+    fn dvl<W: Write + Seek>(
+        &mut self,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        let Some((d, sched, latency)) = self.dvl.as_mut() else {
+            return Ok(0);
+        };
+        if !(sched.due(tick.t_ns) && tick.t_ns <= self.dvl_until_ns) {
+            return Ok(0);
+        }
+        let omega = &tick.sample.motion.omega_nb_body;
+        let r = d.measure(&tick.vel_body, omega, tick.altitude_m);
+        // Measured now, stamped late by the DVL's own clock.
+        let msg = Dvl {
+            stamp_ns: tick.stamp_ns + self.dvl_delay_ns,
+            velocity: r.velocity_body_m_s.into(),
+            valid: r.valid,
+            altitude: r.altitude_m,
         };
         w.write(
-            "/imu",
-            &imu,
-            (host_ns + secs_ns(scenario.imu.latency_s)).max(0) as u64,
+            "/dvl",
+            &msg,
+            tick.log_ns(*latency) + self.dvl_delay_ns as u64,
         )?;
-        count += 1;
+        Ok(1)
+    }
 
-        if let Some((m, sched)) = mag.as_mut() {
-            if sched.due(t_ns) {
-                let magnetic_field = m.measure_at(&ned_from_body, north, east).into();
-                w.write(
-                    "/mag",
-                    &MagneticField {
-                        stamp_ns,
-                        magnetic_field,
-                    },
-                    log_ns(0.0),
-                )?;
-                count += 1;
+    fn eml<W: Write + Seek>(
+        &mut self,
+        scenario: &Scenario,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        let Some((s, sched, latency)) = self.eml.as_mut() else {
+            return Ok(0);
+        };
+        let Some(at_ns) = sched.due_at(tick.t_ns) else {
+            return Ok(0);
+        };
+        let speed_now = tick.sample.speed_m_s;
+        // On the sensor's own clock: the truth between the last tick and this one.
+        let (stamp_ns, true_speed) = match self.previous_speed {
+            Some((t0, v0)) if self.eml_phase_s != 0.0 && at_ns < tick.t_ns => {
+                let f = (at_ns - t0) as f64 / (tick.t_ns - t0) as f64;
+                (scenario.start_stamp_ns + at_ns, v0 + f * (speed_now - v0))
             }
+            _ => (tick.stamp_ns, speed_now),
+        };
+        let speed = s.measure(true_speed).max(0.0);
+        w.write("/eml", &SpeedLog { stamp_ns, speed }, tick.log_ns(*latency))?;
+        Ok(1)
+    }
+
+    /// A depth sensor's or an altimeter's reading of `value`, when due.
+    fn scalar<W: Write + Seek>(
+        sensor: &mut Option<Scalar>,
+        topic: &str,
+        tick: &Tick,
+        value: f64,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        let Some((s, sched, latency)) = sensor.as_mut() else {
+            return Ok(0);
+        };
+        if !sched.due(tick.t_ns) {
+            return Ok(0);
         }
-        let altitude_m = scenario.seabed.depth_m(north, east) - depth_m;
-        if let Some((d, sched, latency)) = dvl.as_mut() {
-            if sched.due(t_ns) && t_ns <= dvl_until_ns {
-                let r = d.measure(&vel_body, &motion.omega_nb_body, altitude_m);
-                // Measured now, stamped late by the DVL's own clock.
-                let msg = Dvl {
-                    stamp_ns: stamp_ns + dvl_delay_ns,
-                    velocity: r.velocity_body_m_s.into(),
-                    valid: r.valid,
-                    altitude: r.altitude_m,
-                };
-                w.write("/dvl", &msg, log_ns(*latency) + dvl_delay_ns as u64)?;
-                count += 1;
-            }
+        let stamp_ns = tick.stamp_ns;
+        let log_ns = tick.log_ns(*latency);
+        if topic == "/depth" {
+            let depth = s.measure(value);
+            w.write(topic, &Depth { stamp_ns, depth }, log_ns)?;
+        } else {
+            let altitude = s.measure(value).max(0.0);
+            w.write(topic, &Altimeter { stamp_ns, altitude }, log_ns)?;
         }
-        if let Some((s, sched, latency)) = eml.as_mut() {
-            if let Some(at_ns) = sched.due_at(t_ns) {
-                // On the sensor's own clock: the truth between the last tick and this one.
-                let (stamp_ns, true_speed) = match previous_speed {
-                    Some((t0, v0)) if eml_phase_s != 0.0 && at_ns < t_ns => {
-                        let f = (at_ns - t0) as f64 / (t_ns - t0) as f64;
-                        (
-                            scenario.start_stamp_ns + at_ns,
-                            v0 + f * (sample.speed_m_s - v0),
-                        )
-                    }
-                    _ => (stamp_ns, sample.speed_m_s),
-                };
-                let speed = s.measure(true_speed).max(0.0);
-                w.write("/eml", &SpeedLog { stamp_ns, speed }, log_ns(*latency))?;
-                count += 1;
-            }
+        Ok(1)
+    }
+
+    fn rpm<W: Write + Seek>(
+        &mut self,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        let Some((prop, sched)) = self.rpm.as_mut() else {
+            return Ok(0);
+        };
+        if !sched.due(tick.t_ns) {
+            return Ok(0);
         }
-        previous_speed = Some((t_ns, sample.speed_m_s));
-        if let Some((s, sched, latency)) = depth.as_mut() {
-            if sched.due(t_ns) {
-                w.write(
-                    "/depth",
-                    &Depth {
-                        stamp_ns,
-                        depth: s.measure(depth_m),
-                    },
-                    log_ns(*latency),
-                )?;
-                count += 1;
-            }
+        // Dynamic: the propeller's own speed; kinematic: from the speed (seed 002).
+        let rpm = match tick.sample.actuators {
+            Some(a) => a.propeller_rad_s * 60.0 / std::f64::consts::TAU,
+            None => prop.measure(tick.sample.speed_m_s),
+        };
+        let stamp_ns = tick.stamp_ns;
+        w.write("/rpm", &Propeller { stamp_ns, rpm }, tick.log_ns(0.0))?;
+        Ok(1)
+    }
+
+    fn fins<W: Write + Seek>(
+        &mut self,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        let (Some(sched), Some(a)) = (self.fins.as_mut(), tick.sample.actuators) else {
+            return Ok(0);
+        };
+        if !sched.due(tick.t_ns) {
+            return Ok(0);
         }
-        if let Some((s, sched, latency)) = altimeter.as_mut() {
-            if sched.due(t_ns) {
-                let altitude = s.measure(altitude_m).max(0.0);
-                w.write(
-                    "/altimeter",
-                    &Altimeter { stamp_ns, altitude },
-                    log_ns(*latency),
-                )?;
-                count += 1;
-            }
+        let msg = ControlSurfaces {
+            stamp_ns: tick.stamp_ns,
+            rudder: a.rudder_rad,
+            bow_plane: a.bow_rad,
+            stern_plane: a.stern_rad,
+        };
+        w.write("/fins", &msg, tick.log_ns(0.0))?;
+        Ok(1)
+    }
+
+    fn gnss<W: Write + Seek>(
+        &mut self,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        let Some((g, sched)) = self.gnss.as_mut() else {
+            return Ok(0);
+        };
+        if !(sched.due(tick.t_ns) && tick.depth_m <= g.surface_depth_m) {
+            return Ok(0);
         }
-        if let Some((prop, sched)) = rpm.as_mut() {
-            if sched.due(t_ns) {
-                // Dynamic: the propeller's own speed; kinematic: from the speed (seed 002).
-                let rpm = match sample.actuators {
-                    Some(a) => a.propeller_rad_s * 60.0 / std::f64::consts::TAU,
-                    None => prop.measure(sample.speed_m_s),
-                };
-                w.write("/rpm", &Propeller { stamp_ns, rpm }, log_ns(0.0))?;
-                count += 1;
-            }
-        }
-        if let (Some(sched), Some(a)) = (fins.as_mut(), sample.actuators) {
-            if sched.due(t_ns) {
-                let msg = ControlSurfaces {
-                    stamp_ns,
-                    rudder: a.rudder_rad,
-                    bow_plane: a.bow_rad,
-                    stern_plane: a.stern_rad,
-                };
-                w.write("/fins", &msg, log_ns(0.0))?;
-                count += 1;
-            }
-        }
-        if let Some((g, sched)) = gnss.as_mut() {
-            if sched.due(t_ns) && depth_m <= g.surface_depth_m {
-                let dn = g.sigma_m * normal(&mut gnss_rng);
-                let de = g.sigma_m * normal(&mut gnss_rng);
-                let fix = GnssFix {
-                    stamp_ns,
-                    latitude_deg: (lat + dn / geodesy::meridian_radius_m(lat)).to_degrees(),
-                    longitude_deg: (lon + de / (geodesy::prime_vertical_radius_m(lat) * lat.cos()))
-                        .to_degrees(),
-                    horizontal_sigma_m: g.sigma_m,
-                };
-                w.write("/gnss", &fix, log_ns(0.1))?;
-                count += 1;
-            }
-        }
-        if let Some(f) = scenario.fixes {
-            let mut fix = |label: &str, sigma: f64, down: Option<f64>| {
-                let msg = PositionFix {
-                    stamp_ns,
-                    north_m: north + sigma * normal(&mut fix_rng),
-                    east_m: east + sigma * normal(&mut fix_rng),
-                    down_m: down.map(|d| d + sigma * normal(&mut fix_rng)),
-                    sigma_m: sigma,
-                    label: label.into(),
-                };
-                w.write("/position_fix", &msg, log_ns(0.5))
+        let (lat, lon) = (tick.sample.lat_rad, tick.sample.lon_rad);
+        let dn = g.sigma_m * normal(&mut self.gnss_rng);
+        let de = g.sigma_m * normal(&mut self.gnss_rng);
+        let east_radius = geodesy::prime_vertical_radius_m(lat) * lat.cos();
+        let fix = GnssFix {
+            stamp_ns: tick.stamp_ns,
+            latitude_deg: (lat + dn / geodesy::meridian_radius_m(lat)).to_degrees(),
+            longitude_deg: (lon + de / east_radius).to_degrees(),
+            horizontal_sigma_m: g.sigma_m,
+        };
+        w.write("/gnss", &fix, tick.log_ns(0.1))?;
+        Ok(1)
+    }
+
+    /// The start and end marks, and the USBL-like fixes.
+    fn fixes<W: Write + Seek>(
+        &mut self,
+        scenario: &Scenario,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        let Some(f) = scenario.fixes else {
+            return Ok(0);
+        };
+        let rng = &mut self.fix_rng;
+        let mut fix = |label: &str, sigma: f64, down: Option<f64>| {
+            let msg = PositionFix {
+                stamp_ns: tick.stamp_ns,
+                north_m: tick.north_m + sigma * normal(rng),
+                east_m: tick.east_m + sigma * normal(rng),
+                down_m: down.map(|d| d + sigma * normal(rng)),
+                sigma_m: sigma,
+                label: label.into(),
             };
-            if f.mark_sigma_m > 0.0 && (t_ns == 0 || t_ns + dt_ns > end_ns) {
-                fix(
-                    if t_ns == 0 { "start" } else { "end" },
-                    f.mark_sigma_m,
-                    None,
-                )?;
-                count += 1;
-            }
-            if let Some(sched) = usbl.as_mut() {
-                if t_ns > 0 && sched.due(t_ns) {
-                    fix("usbl", f.usbl_sigma_m, Some(depth_m))?;
-                    count += 1;
-                } else if t_ns == 0 {
-                    sched.due(0);
-                }
-            }
-        }
-        if truth_schedule.due(t_ns) {
-            let truth = Truth {
-                stamp_ns,
-                latitude_deg: lat.to_degrees(),
-                longitude_deg: lon.to_degrees(),
-                north_m: north,
-                east_m: east,
-                down_m: depth_m,
-                velocity_body: vel_body.into(),
-                velocity_ned: motion.vel_ned.into(),
-                attitude: sample.euler_rad,
-                angular_velocity: motion.omega_nb_body.into(),
-            };
-            w.write("/truth", &truth, log_ns(0.0))?;
+            w.write("/position_fix", &msg, tick.log_ns(0.5))
+        };
+        let mut count = 0;
+        if f.mark_sigma_m > 0.0 && (tick.t_ns == 0 || tick.last) {
+            let label = if tick.t_ns == 0 { "start" } else { "end" };
+            fix(label, f.mark_sigma_m, None)?;
             count += 1;
         }
-        if t_ns + dt_ns > end_ns {
-            break;
+        if let Some(sched) = self.usbl.as_mut() {
+            if tick.t_ns > 0 && sched.due(tick.t_ns) {
+                fix("usbl", f.usbl_sigma_m, Some(tick.depth_m))?;
+                count += 1;
+            } else if tick.t_ns == 0 {
+                sched.due(0);
+            }
         }
-        t_ns += dt_ns;
+        Ok(count)
     }
-    Ok(RunSummary {
-        messages: count,
-        duration_s: t_ns as f64 * 1e-9,
-    })
+
+    fn truth<W: Write + Seek>(
+        &mut self,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        if !self.truth.due(tick.t_ns) {
+            return Ok(0);
+        }
+        let s = &tick.sample;
+        let truth = Truth {
+            stamp_ns: tick.stamp_ns,
+            latitude_deg: s.lat_rad.to_degrees(),
+            longitude_deg: s.lon_rad.to_degrees(),
+            north_m: tick.north_m,
+            east_m: tick.east_m,
+            down_m: tick.depth_m,
+            velocity_body: tick.vel_body.into(),
+            velocity_ned: s.motion.vel_ned.into(),
+            attitude: s.euler_rad,
+            angular_velocity: s.motion.omega_nb_body.into(),
+        };
+        w.write("/truth", &truth, tick.log_ns(0.0))?;
+        Ok(1)
+    }
 }

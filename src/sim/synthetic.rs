@@ -82,17 +82,78 @@ fn kinematics(t: f64) -> Kinematics {
     }
 }
 
-/// Writes the survey; returns the number of messages written.
-pub fn write_survey<W: Write + Seek>(
-    w: &mut LogWriter<W>,
-    spec: &SurveySpec,
-) -> Result<u64, WriteError> {
-    let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
-    let noise = |sigma: f64| Normal::new(0.0, sigma).expect("sigma is a positive constant");
-    let (gyro_n, acc_n, mag_n) = (noise(1e-3), noise(2e-2), noise(2e-7));
-    let (dvl_n, depth_n, speed_n) = (noise(5e-3), noise(2e-2), noise(2e-2));
+/// The white noise of each stream, drawn from one generator in the log's order.
+struct Noise {
+    rng: ChaCha8Rng,
+    gyro: Normal<f64>,
+    acc: Normal<f64>,
+    mag: Normal<f64>,
+    dvl: Normal<f64>,
+    depth: Normal<f64>,
+    speed: Normal<f64>,
+}
 
-    let mission = Mission {
+impl Noise {
+    fn new(seed: u64) -> Self {
+        let noise = |sigma: f64| Normal::new(0.0, sigma).expect("sigma is a positive constant");
+        Noise {
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            gyro: noise(1e-3),
+            acc: noise(2e-2),
+            mag: noise(2e-7),
+            dvl: noise(5e-3),
+            depth: noise(2e-2),
+            speed: noise(2e-2),
+        }
+    }
+
+    fn draw(&mut self, d: Normal<f64>) -> f64 {
+        d.sample(&mut self.rng)
+    }
+
+    fn draw3(&mut self, d: Normal<f64>) -> [f64; 3] {
+        [self.draw(d), self.draw(d), self.draw(d)]
+    }
+}
+
+/// One IMU tick of the survey.
+struct SurveyTick {
+    k: i64,
+    t: f64,
+    stamp_ns: i64,
+    kin: Kinematics,
+    /// Metres from the origin.
+    north: f64,
+    east: f64,
+}
+
+impl SurveyTick {
+    fn log_ns(&self, latency_ms: i64) -> u64 {
+        (self.stamp_ns + latency_ms * 1_000_000) as u64
+    }
+
+    fn v_ned(&self) -> [f64; 3] {
+        let k = &self.kin;
+        [
+            SPEED_M_S * k.yaw.cos(),
+            SPEED_M_S * k.yaw.sin(),
+            k.heave_m_s,
+        ]
+    }
+
+    /// Latitude and longitude, degrees, of the tick's place.
+    fn lat_lon_deg(&self, mission: &Mission) -> (f64, f64) {
+        let m_per_deg_lat = 111_000.0;
+        let m_per_deg_lon = m_per_deg_lat * mission.origin_latitude_deg.to_radians().cos();
+        (
+            mission.origin_latitude_deg + self.north / m_per_deg_lat,
+            mission.origin_longitude_deg + self.east / m_per_deg_lon,
+        )
+    }
+}
+
+fn survey_mission(spec: &SurveySpec) -> Mission {
+    Mission {
         origin_latitude_deg: 35.1,
         origin_longitude_deg: 129.05,
         vehicle: "nps-auv-ii".into(),
@@ -102,171 +163,224 @@ pub fn write_survey<W: Write + Seek>(
         ),
         initial_yaw_rad: None,
         magnetic_declination_deg: None,
-    };
-    w.write_mission(&mission)?;
+    }
+}
 
+/// Writes the survey; returns the number of messages written.
+pub fn write_survey<W: Write + Seek>(
+    w: &mut LogWriter<W>,
+    spec: &SurveySpec,
+) -> Result<u64, WriteError> {
+    let mut noise = Noise::new(spec.seed);
+    let mission = survey_mission(spec);
+    w.write_mission(&mission)?;
     let rate = spec.imu_rate_hz.max(100);
     let period_ns = 1_000_000_000 / i64::from(rate);
     let ticks = (spec.duration_s * f64::from(rate)).round() as i64;
-    let every = |hz: u32| i64::from(rate / hz);
-    let (mut north, mut east) = (0.0f64, 0.0f64);
     let dt = 1.0 / f64::from(rate);
+    let (mut north, mut east) = (0.0f64, 0.0f64);
     let mut count = 0u64;
-    // DVL loses bottom lock over the middle tenth of the run.
-    let lock_lost = (0.45 * spec.duration_s, 0.55 * spec.duration_s);
-    let m_per_deg_lat = 111_000.0;
-    let m_per_deg_lon = m_per_deg_lat * mission.origin_latitude_deg.to_radians().cos();
-
     for k in 0..=ticks {
         let t = k as f64 * dt;
-        let stamp_ns = spec.start_stamp_ns + k * period_ns;
-        let log_ns = |latency_ms: i64| (stamp_ns + latency_ms * 1_000_000) as u64;
-        let kin = kinematics(t);
-        let (sr, cr) = kin.roll.sin_cos();
-        let (sp, cp) = kin.pitch.sin_cos();
-        let v_ned = [
-            SPEED_M_S * kin.yaw.cos(),
-            SPEED_M_S * kin.yaw.sin(),
-            kin.heave_m_s,
-        ];
-        // Gravity in the body frame: C_n^b [0, 0, g]; specific force is its negative at rest.
-        let g_body = [
-            -sp * GRAVITY_M_S2,
-            sr * cp * GRAVITY_M_S2,
-            cr * cp * GRAVITY_M_S2,
-        ];
-        let mut draw3 =
-            |d: &Normal<f64>| [d.sample(&mut rng), d.sample(&mut rng), d.sample(&mut rng)];
-
-        let gyro_noise = draw3(&gyro_n);
-        let acc_noise = draw3(&acc_n);
-        let imu = Imu {
-            stamp_ns,
-            angular_velocity: std::array::from_fn(|i| kin.rates[i] + gyro_noise[i]),
-            specific_force: std::array::from_fn(|i| -g_body[i] + acc_noise[i]),
+        let tick = SurveyTick {
+            k,
+            t,
+            stamp_ns: spec.start_stamp_ns + k * period_ns,
+            kin: kinematics(t),
+            north,
+            east,
         };
-        w.write("/imu", &imu, log_ns(1))?;
-        count += 1;
-
-        if k % every(MAG_HZ) == 0 {
-            // Earth field about 50 uT, dipping 50 deg, seen in the body (heading only).
-            let (h, z) = (3.2e-5, 3.8e-5);
-            let n = draw3(&mag_n);
-            let m = MagneticField {
-                stamp_ns,
-                magnetic_field: [
-                    h * kin.yaw.cos() + n[0],
-                    -h * kin.yaw.sin() + n[1],
-                    z + n[2],
-                ],
-            };
-            w.write("/mag", &m, log_ns(1))?;
-            count += 1;
-        }
-        if k % every(DVL_HZ) == 0 {
-            let locked = !(lock_lost.0..lock_lost.1).contains(&t);
-            let n = draw3(&dvl_n);
-            let altitude = SEABED_M - kin.depth;
-            let dvl = Dvl {
-                stamp_ns,
-                velocity: if locked {
-                    [SPEED_M_S + n[0], n[1], n[2]]
-                } else {
-                    [0.0; 3]
-                },
-                valid: locked,
-                altitude: locked.then_some(altitude),
-            };
-            w.write("/dvl", &dvl, log_ns(50))?;
-            count += 1;
-        }
-        if k % every(EML_HZ) == 0 {
-            let speed = (SPEED_M_S + 0.1 + speed_n.sample(&mut rng)).max(0.0);
-            w.write("/eml", &SpeedLog { stamp_ns, speed }, log_ns(5))?;
-            count += 1;
-        }
-        if k % every(DEPTH_HZ) == 0 {
-            let depth = kin.depth + depth_n.sample(&mut rng);
-            w.write("/depth", &Depth { stamp_ns, depth }, log_ns(5))?;
-            count += 1;
-        }
-        if k % every(ALTIMETER_HZ) == 0 {
-            let altitude = SEABED_M - kin.depth + depth_n.sample(&mut rng);
-            w.write("/altimeter", &Altimeter { stamp_ns, altitude }, log_ns(20))?;
-            count += 1;
-        }
-        if k % every(RPM_HZ) == 0 {
-            let rpm = 1200.0 + 5.0 * speed_n.sample(&mut rng);
-            w.write("/rpm", &Propeller { stamp_ns, rpm }, log_ns(2))?;
-            count += 1;
-        }
-        if k % every(FINS_HZ) == 0 {
-            let fins = ControlSurfaces {
-                stamp_ns,
-                rudder: -0.5 * kin.rates[2],
-                bow_plane: 0.0,
-                stern_plane: -2.0 * kin.rates[1],
-            };
-            w.write("/fins", &fins, log_ns(2))?;
-            count += 1;
-        }
-        if k % every(ATTITUDE_HZ) == 0 {
-            let att = Attitude {
-                stamp_ns,
-                roll: kin.roll,
-                pitch: kin.pitch,
-                yaw: wrap_pi(kin.yaw),
-            };
-            w.write("/attitude", &att, log_ns(3))?;
-            count += 1;
-        }
-        let surfaced_fix = |w: &mut LogWriter<W>, label: &str| -> Result<u64, WriteError> {
-            let lat = mission.origin_latitude_deg + north / m_per_deg_lat;
-            let lon = mission.origin_longitude_deg + east / m_per_deg_lon;
-            w.write(
-                "/gnss",
-                &GnssFix {
-                    stamp_ns,
-                    latitude_deg: lat,
-                    longitude_deg: lon,
-                    horizontal_sigma_m: 2.5,
-                },
-                log_ns(100),
-            )?;
-            let fix = PositionFix {
-                stamp_ns,
-                north_m: north,
-                east_m: east,
-                down_m: None,
-                sigma_m: 0.5,
-                label: label.into(),
-            };
-            w.write("/position_fix", &fix, log_ns(100))?;
-            Ok(2)
-        };
-        if k == 0 {
-            count += surfaced_fix(w, "start")?;
-        } else if k == ticks {
-            count += surfaced_fix(w, "end")?;
-        }
-        if spec.truth && k % every(TRUTH_HZ) == 0 {
-            let truth = Truth {
-                stamp_ns,
-                latitude_deg: mission.origin_latitude_deg + north / m_per_deg_lat,
-                longitude_deg: mission.origin_longitude_deg + east / m_per_deg_lon,
-                north_m: north,
-                east_m: east,
-                down_m: kin.depth,
-                velocity_body: [SPEED_M_S, 0.0, 0.0],
-                velocity_ned: v_ned,
-                attitude: [kin.roll, kin.pitch, wrap_pi(kin.yaw)],
-                angular_velocity: kin.rates,
-            };
-            w.write("/truth", &truth, log_ns(0))?;
-            count += 1;
-        }
+        count += write_imu(w, &tick, &mut noise)?;
+        count += write_aiding(w, spec, &tick, rate, &mut noise)?;
+        count += write_vehicle(w, &tick, rate)?;
+        count += write_references(w, spec, &tick, (rate, ticks), &mission)?;
+        let v_ned = tick.v_ned();
         north += v_ned[0] * dt;
         east += v_ned[1] * dt;
+    }
+    Ok(count)
+}
+
+fn write_imu<W: Write + Seek>(
+    w: &mut LogWriter<W>,
+    tick: &SurveyTick,
+    noise: &mut Noise,
+) -> Result<u64, WriteError> {
+    let kin = &tick.kin;
+    let (sr, cr) = kin.roll.sin_cos();
+    let (sp, cp) = kin.pitch.sin_cos();
+    // Gravity in the body frame: C_n^b [0, 0, g]; specific force is its negative at rest.
+    let g_body = [
+        -sp * GRAVITY_M_S2,
+        sr * cp * GRAVITY_M_S2,
+        cr * cp * GRAVITY_M_S2,
+    ];
+    let gyro_noise = noise.draw3(noise.gyro);
+    let acc_noise = noise.draw3(noise.acc);
+    let imu = Imu {
+        stamp_ns: tick.stamp_ns,
+        angular_velocity: std::array::from_fn(|i| kin.rates[i] + gyro_noise[i]),
+        specific_force: std::array::from_fn(|i| -g_body[i] + acc_noise[i]),
+    };
+    w.write("/imu", &imu, tick.log_ns(1))?;
+    Ok(1)
+}
+
+/// The aiding sensors' readings due at the tick: magnetometer, DVL, EM log, depth,
+/// altimeter, propeller.
+fn write_aiding<W: Write + Seek>(
+    w: &mut LogWriter<W>,
+    spec: &SurveySpec,
+    tick: &SurveyTick,
+    rate: u32,
+    noise: &mut Noise,
+) -> Result<u64, WriteError> {
+    let (kin, stamp_ns, k) = (&tick.kin, tick.stamp_ns, tick.k);
+    let due = |hz: u32| k % i64::from(rate / hz) == 0;
+    let mut count = 0;
+    if due(MAG_HZ) {
+        // Earth field about 50 uT, dipping 50 deg, seen in the body (heading only).
+        let (h, z) = (3.2e-5, 3.8e-5);
+        let n = noise.draw3(noise.mag);
+        let magnetic_field = [
+            h * kin.yaw.cos() + n[0],
+            -h * kin.yaw.sin() + n[1],
+            z + n[2],
+        ];
+        let m = MagneticField {
+            stamp_ns,
+            magnetic_field,
+        };
+        w.write("/mag", &m, tick.log_ns(1))?;
+        count += 1;
+    }
+    if due(DVL_HZ) {
+        // DVL loses bottom lock over the middle tenth of the run.
+        let locked = !(0.45 * spec.duration_s..0.55 * spec.duration_s).contains(&tick.t);
+        let n = noise.draw3(noise.dvl);
+        let dvl = Dvl {
+            stamp_ns,
+            velocity: if locked {
+                [SPEED_M_S + n[0], n[1], n[2]]
+            } else {
+                [0.0; 3]
+            },
+            valid: locked,
+            altitude: locked.then_some(SEABED_M - kin.depth),
+        };
+        w.write("/dvl", &dvl, tick.log_ns(50))?;
+        count += 1;
+    }
+    if due(EML_HZ) {
+        let speed = (SPEED_M_S + 0.1 + noise.draw(noise.speed)).max(0.0);
+        w.write("/eml", &SpeedLog { stamp_ns, speed }, tick.log_ns(5))?;
+        count += 1;
+    }
+    if due(DEPTH_HZ) {
+        let depth = kin.depth + noise.draw(noise.depth);
+        w.write("/depth", &Depth { stamp_ns, depth }, tick.log_ns(5))?;
+        count += 1;
+    }
+    if due(ALTIMETER_HZ) {
+        let altitude = SEABED_M - kin.depth + noise.draw(noise.depth);
+        w.write(
+            "/altimeter",
+            &Altimeter { stamp_ns, altitude },
+            tick.log_ns(20),
+        )?;
+        count += 1;
+    }
+    if due(RPM_HZ) {
+        let rpm = 1200.0 + 5.0 * noise.draw(noise.speed);
+        w.write("/rpm", &Propeller { stamp_ns, rpm }, tick.log_ns(2))?;
+        count += 1;
+    }
+    Ok(count)
+}
+
+/// The vehicle's own records due at the tick: fins and attitude.
+fn write_vehicle<W: Write + Seek>(
+    w: &mut LogWriter<W>,
+    tick: &SurveyTick,
+    rate: u32,
+) -> Result<u64, WriteError> {
+    let (kin, stamp_ns) = (&tick.kin, tick.stamp_ns);
+    let due = |hz: u32| tick.k % i64::from(rate / hz) == 0;
+    let mut count = 0;
+    if due(FINS_HZ) {
+        let fins = ControlSurfaces {
+            stamp_ns,
+            rudder: -0.5 * kin.rates[2],
+            bow_plane: 0.0,
+            stern_plane: -2.0 * kin.rates[1],
+        };
+        w.write("/fins", &fins, tick.log_ns(2))?;
+        count += 1;
+    }
+    if due(ATTITUDE_HZ) {
+        let att = Attitude {
+            stamp_ns,
+            roll: kin.roll,
+            pitch: kin.pitch,
+            yaw: wrap_pi(kin.yaw),
+        };
+        w.write("/attitude", &att, tick.log_ns(3))?;
+        count += 1;
+    }
+    Ok(count)
+}
+
+/// The surfaced fixes at the start and the end, and the truth.
+fn write_references<W: Write + Seek>(
+    w: &mut LogWriter<W>,
+    spec: &SurveySpec,
+    tick: &SurveyTick,
+    (rate, ticks): (u32, i64),
+    mission: &Mission,
+) -> Result<u64, WriteError> {
+    let stamp_ns = tick.stamp_ns;
+    let (latitude_deg, longitude_deg) = tick.lat_lon_deg(mission);
+    let mut count = 0;
+    let label = match tick.k {
+        0 => Some("start"),
+        k if k == ticks => Some("end"),
+        _ => None,
+    };
+    if let Some(label) = label {
+        let gnss = GnssFix {
+            stamp_ns,
+            latitude_deg,
+            longitude_deg,
+            horizontal_sigma_m: 2.5,
+        };
+        w.write("/gnss", &gnss, tick.log_ns(100))?;
+        let fix = PositionFix {
+            stamp_ns,
+            north_m: tick.north,
+            east_m: tick.east,
+            down_m: None,
+            sigma_m: 0.5,
+            label: label.into(),
+        };
+        w.write("/position_fix", &fix, tick.log_ns(100))?;
+        count += 2;
+    }
+    if spec.truth && tick.k % i64::from(rate / TRUTH_HZ) == 0 {
+        let kin = &tick.kin;
+        let truth = Truth {
+            stamp_ns,
+            latitude_deg,
+            longitude_deg,
+            north_m: tick.north,
+            east_m: tick.east,
+            down_m: kin.depth,
+            velocity_body: [SPEED_M_S, 0.0, 0.0],
+            velocity_ned: tick.v_ned(),
+            attitude: [kin.roll, kin.pitch, wrap_pi(kin.yaw)],
+            angular_velocity: kin.rates,
+        };
+        w.write("/truth", &truth, tick.log_ns(0))?;
+        count += 1;
     }
     Ok(count)
 }

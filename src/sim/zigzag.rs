@@ -183,7 +183,24 @@ pub fn run<W: Write + Seek>(
     w: &mut LogWriter<W>,
 ) -> Result<ZigzagRun, WriteError> {
     let (truth, reversals_s) = fly(spec);
-    let k = &spec.constants;
+    write_records(spec, seed, w)?;
+    let mut sensors = Sensors::new(spec, seed);
+    let mut messages = 0u64;
+    for (i, s) in truth.iter().enumerate() {
+        messages += sensors.write(spec, i, s, w)?;
+    }
+    Ok(ZigzagRun {
+        reversals_s,
+        messages,
+    })
+}
+
+/// The mission record, and the true coefficients as metadata (for scoring only).
+fn write_records<W: Write + Seek>(
+    spec: &ZigzagSpec,
+    seed: u64,
+    w: &mut LogWriter<W>,
+) -> Result<(), WriteError> {
     w.write_mission(&Mission {
         origin_latitude_deg: 0.0,
         origin_longitude_deg: 0.0,
@@ -203,127 +220,134 @@ pub fn run<W: Write + Seek>(
         .collect();
     record.insert(
         "constants".to_string(),
-        serde_json::to_string(k).unwrap_or_default(),
+        serde_json::to_string(&spec.constants).unwrap_or_default(),
     );
     record.insert(
         "note".to_string(),
         "the true coefficients of this simulated log: for scoring, never read by identify"
             .to_string(),
     );
-    w.write_metadata("heave_pitch_truth", record)?;
+    w.write_metadata("heave_pitch_truth", record)
+}
 
-    let n = &spec.noise;
-    let mut gyro_rng = rng_for(seed, stream::GYRO);
-    let mut accel_rng = rng_for(seed, stream::ACCEL);
-    let mut pitch_rng = rng_for(seed, PITCH_STREAM);
-    let mut dvl_rng = rng_for(seed, stream::DVL);
-    let mut depth_rng = rng_for(seed, stream::DEPTH);
-    let every = |rate: f64| ((n.imu_rate_hz / rate).round() as usize).max(1);
-    let (dvl_every, depth_every) = (every(n.dvl_rate_hz), every(n.depth_rate_hz));
-    let mut messages = 0u64;
-    for (i, s) in truth.iter().enumerate() {
+/// The sensors' random streams and rates.
+struct Sensors {
+    gyro: rand_chacha::ChaCha8Rng,
+    accel: rand_chacha::ChaCha8Rng,
+    pitch: rand_chacha::ChaCha8Rng,
+    dvl: rand_chacha::ChaCha8Rng,
+    depth: rand_chacha::ChaCha8Rng,
+    /// Truth samples between DVL readings, and between depth readings.
+    dvl_every: usize,
+    depth_every: usize,
+}
+
+impl Sensors {
+    fn new(spec: &ZigzagSpec, seed: u64) -> Self {
+        let n = &spec.noise;
+        let every = |rate: f64| ((n.imu_rate_hz / rate).round() as usize).max(1);
+        Sensors {
+            gyro: rng_for(seed, stream::GYRO),
+            accel: rng_for(seed, stream::ACCEL),
+            pitch: rng_for(seed, PITCH_STREAM),
+            dvl: rng_for(seed, stream::DVL),
+            depth: rng_for(seed, stream::DEPTH),
+            dvl_every: every(n.dvl_rate_hz),
+            depth_every: every(n.depth_rate_hz),
+        }
+    }
+
+    /// The readings of truth sample `i`; returns how many were written.
+    fn write<W: Write + Seek>(
+        &mut self,
+        spec: &ZigzagSpec,
+        i: usize,
+        s: &TruthSample,
+        w: &mut LogWriter<W>,
+    ) -> Result<u64, WriteError> {
+        let (n, k) = (&spec.noise, &spec.constants);
         let stamp_ns = START_STAMP_NS + (s.t_s * 1e9).round() as i64;
         let log_ns = stamp_ns as u64;
-        let (w_m_s, theta, q, z) = (s.state[0], s.state[1], s.state[2], s.state[3]);
+        let (w_m_s, theta, z) = (s.state[0], s.state[1], s.state[3]);
         let u = k.speed_m_s;
+        w.write("/imu", &self.imu(spec, s, stamp_ns), log_ns)?;
+        let fins = ControlSurfaces {
+            stamp_ns,
+            rudder: 0.0,
+            bow_plane: 0.0,
+            stern_plane: s.plane_rad,
+        };
+        w.write("/fins", &fins, log_ns)?;
+        let attitude = Attitude {
+            stamp_ns,
+            roll: 0.0,
+            pitch: theta + n.pitch_deg.to_radians() * normal(&mut self.pitch),
+            yaw: 0.0,
+        };
+        w.write("/attitude", &attitude, log_ns)?;
+        let mut messages = 3;
+        if i.is_multiple_of(self.dvl_every) {
+            let mut noise = || n.dvl_m_s * normal(&mut self.dvl);
+            let velocity = [u + noise(), noise(), w_m_s + noise()];
+            let dvl = Dvl {
+                stamp_ns,
+                velocity,
+                valid: true,
+                altitude: Some(50.0),
+            };
+            w.write("/dvl", &dvl, log_ns)?;
+            messages += 1;
+        }
+        if i.is_multiple_of(self.depth_every) {
+            let depth = z + n.depth_m * normal(&mut self.depth);
+            w.write("/depth", &Depth { stamp_ns, depth }, log_ns)?;
+            messages += 1;
+        }
+        w.write("/truth", &truth_of(spec, s, stamp_ns), log_ns)?;
+        Ok(messages + 1)
+    }
+
+    fn imu(&mut self, spec: &ZigzagSpec, s: &TruthSample, stamp_ns: i64) -> Imu {
+        let (n, k) = (&spec.noise, &spec.constants);
+        let (w_m_s, theta, q) = (s.state[0], s.state[1], s.state[2]);
         let g = k.gravity_m_s2;
         // Specific force in the body: acceleration of the origin (u constant) less gravity.
         let f = [
             q * w_m_s + g * theta.sin(),
             0.0,
-            s.derivative[0] - q * u - g * theta.cos(),
+            s.derivative[0] - q * k.speed_m_s - g * theta.cos(),
         ];
-        let accel_noise = |rng: &mut _| n.accel_m_s2 * normal(rng);
-        w.write(
-            "/imu",
-            &Imu {
-                stamp_ns,
-                angular_velocity: [
-                    n.gyro_deg_s.to_radians() * normal(&mut gyro_rng),
-                    q + n.gyro_deg_s.to_radians() * normal(&mut gyro_rng),
-                    n.gyro_deg_s.to_radians() * normal(&mut gyro_rng),
-                ],
-                specific_force: [
-                    f[0] + accel_noise(&mut accel_rng),
-                    f[1] + accel_noise(&mut accel_rng),
-                    f[2] + accel_noise(&mut accel_rng),
-                ],
-            },
-            log_ns,
-        )?;
-        w.write(
-            "/fins",
-            &ControlSurfaces {
-                stamp_ns,
-                rudder: 0.0,
-                bow_plane: 0.0,
-                stern_plane: s.plane_rad,
-            },
-            log_ns,
-        )?;
-        w.write(
-            "/attitude",
-            &Attitude {
-                stamp_ns,
-                roll: 0.0,
-                pitch: theta + n.pitch_deg.to_radians() * normal(&mut pitch_rng),
-                yaw: 0.0,
-            },
-            log_ns,
-        )?;
-        messages += 3;
-        if i % dvl_every == 0 {
-            w.write(
-                "/dvl",
-                &Dvl {
-                    stamp_ns,
-                    velocity: [
-                        u + n.dvl_m_s * normal(&mut dvl_rng),
-                        n.dvl_m_s * normal(&mut dvl_rng),
-                        w_m_s + n.dvl_m_s * normal(&mut dvl_rng),
-                    ],
-                    valid: true,
-                    altitude: Some(50.0),
-                },
-                log_ns,
-            )?;
-            messages += 1;
+        let gyro_sigma = n.gyro_deg_s.to_radians();
+        let mut gyro = || gyro_sigma * normal(&mut self.gyro);
+        let angular_velocity = [gyro(), q + gyro(), gyro()];
+        let mut accel = || n.accel_m_s2 * normal(&mut self.accel);
+        let specific_force = [f[0] + accel(), f[1] + accel(), f[2] + accel()];
+        Imu {
+            stamp_ns,
+            angular_velocity,
+            specific_force,
         }
-        if i % depth_every == 0 {
-            w.write(
-                "/depth",
-                &Depth {
-                    stamp_ns,
-                    depth: z + n.depth_m * normal(&mut depth_rng),
-                },
-                log_ns,
-            )?;
-            messages += 1;
-        }
-        // Truth: flat world, heading north; position integrated from the body velocity.
-        let (st, ct) = theta.sin_cos();
-        w.write(
-            "/truth",
-            &Truth {
-                stamp_ns,
-                latitude_deg: 0.0,
-                longitude_deg: 0.0,
-                north_m: u * s.t_s, // along-track distance (approximate: level)
-                east_m: 0.0,
-                down_m: z,
-                velocity_body: [u, 0.0, w_m_s],
-                velocity_ned: [u * ct + w_m_s * st, 0.0, -u * st + w_m_s * ct],
-                attitude: [0.0, theta, 0.0],
-                angular_velocity: [0.0, q, 0.0],
-            },
-            log_ns,
-        )?;
-        messages += 1;
     }
-    Ok(ZigzagRun {
-        reversals_s,
-        messages,
-    })
+}
+
+/// The truth of a sample: flat world, heading north; position integrated from the body
+/// velocity.
+fn truth_of(spec: &ZigzagSpec, s: &TruthSample, stamp_ns: i64) -> Truth {
+    let u = spec.constants.speed_m_s;
+    let (w_m_s, theta, q, z) = (s.state[0], s.state[1], s.state[2], s.state[3]);
+    let (st, ct) = theta.sin_cos();
+    Truth {
+        stamp_ns,
+        latitude_deg: 0.0,
+        longitude_deg: 0.0,
+        north_m: u * s.t_s, // along-track distance (approximate: level)
+        east_m: 0.0,
+        down_m: z,
+        velocity_body: [u, 0.0, w_m_s],
+        velocity_ned: [u * ct + w_m_s * st, 0.0, -u * st + w_m_s * ct],
+        attitude: [0.0, theta, 0.0],
+        angular_velocity: [0.0, q, 0.0],
+    }
 }
 
 #[cfg(test)]

@@ -356,6 +356,47 @@ pub fn ned_from_frd(q_enu_from_flu: &UnitQuaternion<f64>) -> UnitQuaternion<f64>
     UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(c))
 }
 
+/// A GNSS fix; its sigma from the covariance's horizontal terms, or the settings' when the
+/// covariance is unknown.
+fn gnss_fix(stamp_ns: i64, f: &[f64], s: &RosSettings) -> Result<GnssFix, FieldIssue> {
+    if f[0] < 0.0 {
+        return Err(FieldIssue::new("status.status", "no fix (-1)"));
+    }
+    let sigma = if f[5] == 0.0 {
+        s.gnss_sigma_unknown_m
+    } else {
+        (0.5 * (f[3] + f[4])).max(0.0).sqrt()
+    };
+    Ok(GnssFix {
+        stamp_ns,
+        latitude_deg: f[1],
+        longitude_deg: f[2],
+        horizontal_sigma_m: sigma,
+    })
+}
+
+/// A DVL reading of any of the DVL types: each marks bottom lock its own way.
+fn dvl(ty: RosType, stamp_ns: i64, f: &[f64], c: Convention) -> Dvl {
+    let (valid, altitude) = match ty {
+        // Drivers mark a reading without bottom lock with covariance[0] = -1.
+        RosType::TwistWithCovarianceStamped => (f[3] >= 0.0, None),
+        // Bottom lock: not water-track mode (2), and three beams or more.
+        RosType::AcousticDvl => (
+            f[3] != ACOUSTIC_DVL_MODE_WATER && f[4] >= 3.0,
+            positive(f[5]),
+        ),
+        RosType::WaterLinkedDvl => (f[3] != 0.0, positive(f[4])),
+        // An invalid measurement has its covariance set to -1.
+        _ => (f[3] >= 0.0, positive(f[4])),
+    };
+    Dvl {
+        stamp_ns,
+        velocity: body(Vector3::new(f[0], f[1], f[2]), c),
+        valid,
+        altitude,
+    }
+}
+
 /// The contract message of one read message (`n`: the numbers in [`RosType::numbers`]
 /// order; `frame_id`; the convention when the topic overrides it).
 pub fn convert(
@@ -388,22 +429,7 @@ pub fn convert(
             stamp_ns,
             magnetic_field: body(v3(0), c),
         }),
-        RosType::NavSatFix => {
-            if f[0] < 0.0 {
-                return Err(FieldIssue::new("status.status", "no fix (-1)"));
-            }
-            let sigma = if f[5] == 0.0 {
-                s.gnss_sigma_unknown_m
-            } else {
-                (0.5 * (f[3] + f[4])).max(0.0).sqrt()
-            };
-            Converted::GnssFix(GnssFix {
-                stamp_ns,
-                latitude_deg: f[1],
-                longitude_deg: f[2],
-                horizontal_sigma_m: sigma,
-            })
-        }
+        RosType::NavSatFix => Converted::GnssFix(gnss_fix(stamp_ns, f, s)?),
         RosType::FluidPressure => Converted::Depth(Depth {
             stamp_ns,
             depth: (f[0] - s.atmospheric_pressure_pa) / (s.water_density_kg_m3 * s.gravity_m_s2),
@@ -412,13 +438,10 @@ pub fn convert(
             stamp_ns,
             altitude: f[0],
         }),
-        RosType::TwistWithCovarianceStamped => Converted::Dvl(Dvl {
-            stamp_ns,
-            velocity: body(v3(0), c),
-            // Drivers mark a reading without bottom lock with covariance[0] = -1.
-            valid: f[3] >= 0.0,
-            altitude: None,
-        }),
+        RosType::TwistWithCovarianceStamped
+        | RosType::AcousticDvl
+        | RosType::WaterLinkedDvl
+        | RosType::UuvDvl => Converted::Dvl(dvl(ty, stamp_ns, f, c)),
         RosType::QuaternionStamped => {
             let (roll, pitch, yaw) = ned_from_body(&f[0..4], c, "quaternion")?.euler_angles();
             Converted::Attitude(Attitude {
@@ -429,26 +452,6 @@ pub fn convert(
             })
         }
         RosType::Odometry => Converted::Truth(reference(stamp_ns, f, c)?),
-        RosType::AcousticDvl => Converted::Dvl(Dvl {
-            stamp_ns,
-            velocity: body(v3(0), c),
-            // Bottom lock: not water-track mode (2), and three beams or more.
-            valid: f[3] != ACOUSTIC_DVL_MODE_WATER && f[4] >= 3.0,
-            altitude: positive(f[5]),
-        }),
-        RosType::WaterLinkedDvl => Converted::Dvl(Dvl {
-            stamp_ns,
-            velocity: body(v3(0), c),
-            valid: f[3] != 0.0,
-            altitude: positive(f[4]),
-        }),
-        RosType::UuvDvl => Converted::Dvl(Dvl {
-            stamp_ns,
-            velocity: body(v3(0), c),
-            // An invalid measurement has its covariance set to -1.
-            valid: f[3] >= 0.0,
-            altitude: positive(f[4]),
-        }),
         RosType::PointStamped => {
             let p = world(v3(0), c);
             Converted::PositionFix(PositionFix {

@@ -321,46 +321,64 @@ fn leading_number(v: &Value, key: &str) -> Result<f64, VehicleError> {
         })
 }
 
-impl Vehicle {
-    /// Reads a vehicle description (JSON text).
-    pub fn from_json(text: &str) -> Result<Vehicle, VehicleError> {
-        let root: Value =
-            serde_json::from_str(text).map_err(|e| VehicleError::Json(e.to_string()))?;
-        let name = root
-            .get("name")
-            .and_then(Value::as_str)
-            .unwrap_or("unnamed vehicle")
-            .to_string();
-        let phys = root
-            .get("physical")
-            .ok_or_else(|| VehicleError::Missing("physical".into()))?;
+/// The rigid body of a vehicle file's `physical` section, checked.
+struct Physical {
+    length_m: f64,
+    gravity_m_s2: f64,
+    water_density_kg_m3: f64,
+    weight_n: f64,
+    buoyancy_n: f64,
+    mass_kg: f64,
+    inertia_kg_m2: Matrix3<f64>,
+}
+
+/// The hydrodynamic terms, the added mass and the propulsion of a vehicle file.
+struct Hydrodynamics {
+    terms: Vec<Term>,
+    added_mass: Matrix6<f64>,
+    propulsion: Propulsion,
+}
+
+/// The mass: a number, `"W/g"`, or (absent) the weight over gravity.
+fn mass_kg(phys: &Value, weight_n: f64, gravity_m_s2: f64) -> Result<f64, VehicleError> {
+    match phys.get("mass_kg") {
+        Some(Value::String(s)) if s.replace(' ', "") == "W/g" => Ok(weight_n / gravity_m_s2),
+        Some(Value::Number(n)) => Ok(n.as_f64().unwrap_or(f64::NAN)),
+        None if weight_n > 0.0 => Ok(weight_n / gravity_m_s2),
+        _ => Err(VehicleError::Missing(
+            "physical.mass_kg (a number or \"W/g\")".into(),
+        )),
+    }
+}
+
+/// The inertia tensor from its moments (`Ix_kgm2` or `Ixx_kgm2`) and products; returns the
+/// moments too, for their checks.
+fn inertia(phys: &Value) -> Result<(Matrix3<f64>, [f64; 3]), VehicleError> {
+    let moment = |keys: [&str; 2]| -> Result<f64, VehicleError> {
+        number(phys, keys[0])?
+            .or(number(phys, keys[1])?)
+            .ok_or_else(|| VehicleError::Missing(format!("physical.{}", keys[0])))
+    };
+    let ix = moment(["Ix_kgm2", "Ixx_kgm2"])?;
+    let iy = moment(["Iy_kgm2", "Iyy_kgm2"])?;
+    let iz = moment(["Iz_kgm2", "Izz_kgm2"])?;
+    let ixy = number(phys, "Ixy_kgm2")?.unwrap_or(0.0);
+    let iyz = number(phys, "Iyz_kgm2")?.unwrap_or(0.0);
+    let ixz = number(phys, "Ixz_kgm2")?.unwrap_or(0.0);
+    // Products of inertia as the usual tensor: off-diagonals are minus the products.
+    let tensor = Matrix3::new(ix, -ixy, -ixz, -ixy, iy, -iyz, -ixz, -iyz, iz);
+    Ok((tensor, [ix, iy, iz]))
+}
+
+impl Physical {
+    fn from(phys: &Value) -> Result<Physical, VehicleError> {
         let length_m = required(phys, "physical", "L_m")?;
         let gravity_m_s2 = number(phys, "g_m_s2")?.unwrap_or(9.81);
         let water_density_kg_m3 = number(phys, "rho_kg_m3")?.unwrap_or(1025.0);
         let weight_n = required(phys, "physical", "W_N")?;
         let buoyancy_n = required(phys, "physical", "B_N")?;
-        let mass_kg = match phys.get("mass_kg") {
-            Some(Value::String(s)) if s.replace(' ', "") == "W/g" => weight_n / gravity_m_s2,
-            Some(Value::Number(n)) => n.as_f64().unwrap_or(f64::NAN),
-            None if weight_n > 0.0 => weight_n / gravity_m_s2,
-            _ => {
-                return Err(VehicleError::Missing(
-                    "physical.mass_kg (a number or \"W/g\")".into(),
-                ))
-            }
-        };
-        let inertia = |keys: [&str; 2]| -> Result<Option<f64>, VehicleError> {
-            Ok(number(phys, keys[0])?.or(number(phys, keys[1])?))
-        };
-        let ix = inertia(["Ix_kgm2", "Ixx_kgm2"])?
-            .ok_or_else(|| VehicleError::Missing("physical.Ix_kgm2".into()))?;
-        let iy = inertia(["Iy_kgm2", "Iyy_kgm2"])?
-            .ok_or_else(|| VehicleError::Missing("physical.Iy_kgm2".into()))?;
-        let iz = inertia(["Iz_kgm2", "Izz_kgm2"])?
-            .ok_or_else(|| VehicleError::Missing("physical.Iz_kgm2".into()))?;
-        let ixy = number(phys, "Ixy_kgm2")?.unwrap_or(0.0);
-        let iyz = number(phys, "Iyz_kgm2")?.unwrap_or(0.0);
-        let ixz = number(phys, "Ixz_kgm2")?.unwrap_or(0.0);
+        let mass_kg = mass_kg(phys, weight_n, gravity_m_s2)?;
+        let (inertia_kg_m2, [ix, iy, iz]) = inertia(phys)?;
         for (key, value) in [
             ("physical.L_m", length_m),
             ("physical.W_N", weight_n),
@@ -380,99 +398,123 @@ impl Vehicle {
                 });
             }
         }
-        // Products of inertia as the usual tensor: off-diagonals are minus the products.
-        let inertia_kg_m2 = Matrix3::new(ix, -ixy, -ixz, -ixy, iy, -iyz, -ixz, -iyz, iz);
         if inertia_kg_m2.cholesky().is_none() {
             return Err(VehicleError::Malformed {
                 key: "physical.I*_kgm2".into(),
                 reason: "the inertia tensor is not positive definite".into(),
             });
         }
-        let half_rho = water_density_kg_m3 / 2.0;
-        let mut terms = Vec::new();
-        let mut added_mass = Matrix6::zeros();
-        let propulsion;
-        if let Some(coefficients) = root.get("coefficients") {
-            // Dimensional (REMUS form).
-            let table = coefficients
-                .as_object()
-                .ok_or_else(|| VehicleError::Malformed {
-                    key: "coefficients".into(),
-                    reason: "expected an object of NAME: value".into(),
-                })?;
-            for (key, value) in table {
-                let v = value.as_f64().ok_or_else(|| VehicleError::Malformed {
-                    key: format!("coefficients.{key}"),
-                    reason: "expected a number".into(),
-                })?;
-                if let Some(&(_, row, col)) = REMUS_ADDED_MASS.iter().find(|m| m.0 == key) {
-                    added_mass[(row, col)] = -v;
-                } else if let Some(&(n, axis, factors, k)) = REMUS_TERMS.iter().find(|m| m.0 == key)
-                {
-                    prime_power(n, axis, factors)?;
-                    terms.push(Term {
-                        axis,
-                        coefficient: v * k,
-                        factors: factors.to_vec(),
-                        name: n.to_string(),
-                    });
-                } else {
-                    return Err(unknown(key, "coefficients", REMUS_TERMS, REMUS_ADDED_MASS));
-                }
-            }
-            let prop = root
-                .get("propulsion")
-                .ok_or_else(|| VehicleError::Missing("propulsion".into()))?;
-            propulsion = Propulsion::Quadratic {
-                thrust: leading_number(
-                    prop.get("thrust_N").unwrap_or(&Value::Null),
-                    "propulsion.thrust_N",
-                )?,
-                torque: leading_number(
-                    prop.get("torque_Nm").unwrap_or(&Value::Null),
-                    "propulsion.torque_Nm",
-                )?,
-            };
+        Ok(Physical {
+            length_m,
+            gravity_m_s2,
+            water_density_kg_m3,
+            weight_n,
+            buoyancy_n,
+            mass_kg,
+            inertia_kg_m2,
+        })
+    }
+}
+
+/// A coefficient's value, which must be a number.
+fn coefficient_value(value: &Value, section: &str, key: &str) -> Result<f64, VehicleError> {
+    value.as_f64().ok_or_else(|| VehicleError::Malformed {
+        key: format!("{section}.{key}"),
+        reason: "expected a number".into(),
+    })
+}
+
+/// Dimensional coefficients (REMUS form): one `coefficients` table, quadratic propulsion.
+fn dimensional(root: &Value, coefficients: &Value) -> Result<Hydrodynamics, VehicleError> {
+    let table = coefficients
+        .as_object()
+        .ok_or_else(|| VehicleError::Malformed {
+            key: "coefficients".into(),
+            reason: "expected an object of NAME: value".into(),
+        })?;
+    let (mut terms, mut added_mass) = (Vec::new(), Matrix6::zeros());
+    for (key, value) in table {
+        let v = coefficient_value(value, "coefficients", key)?;
+        if let Some(&(_, row, col)) = REMUS_ADDED_MASS.iter().find(|m| m.0 == key) {
+            added_mass[(row, col)] = -v;
+        } else if let Some(&(n, axis, factors, k)) = REMUS_TERMS.iter().find(|m| m.0 == key) {
+            prime_power(n, axis, factors)?;
+            terms.push(Term {
+                axis,
+                coefficient: v * k,
+                factors: factors.to_vec(),
+                name: n.to_string(),
+            });
         } else {
-            // Prime (NPS form), in sections.
-            for section in NPS_SECTIONS {
-                let Some(table) = root.get(section).and_then(Value::as_object) else {
-                    continue;
-                };
-                for (key, value) in table {
-                    let v = value.as_f64().ok_or_else(|| VehicleError::Malformed {
-                        key: format!("{section}.{key}"),
-                        reason: "expected a number".into(),
-                    })?;
-                    if let Some(&(_, row, col)) = NPS_ADDED_MASS.iter().find(|m| m.0 == key) {
-                        let k = 3 + i32::from(row >= 3) + i32::from(col >= 3);
-                        added_mass[(row, col)] = -v * half_rho * length_m.powi(k);
-                    } else if let Some(&(n, axis, factors, mult)) =
-                        NPS_TERMS.iter().find(|m| m.0 == key)
-                    {
-                        let k = prime_power(n, axis, factors)?;
-                        terms.push(Term {
-                            axis,
-                            coefficient: v * mult * half_rho * length_m.powi(k),
-                            factors: factors.to_vec(),
-                            name: n.to_string(),
-                        });
-                    } else {
-                        return Err(unknown(key, section, NPS_TERMS, NPS_ADDED_MASS));
-                    }
-                }
-            }
-            let cd0 = root
-                .get("propulsion")
-                .and_then(|p| number(p, "Cd0").transpose())
-                .transpose()?
-                .ok_or_else(|| VehicleError::Missing("propulsion.Cd0".into()))?;
-            propulsion = Propulsion::Nps {
-                cd0,
-                thrust_factor: 1.0,
-            };
+            return Err(unknown(key, "coefficients", REMUS_TERMS, REMUS_ADDED_MASS));
         }
-        let crossflow = match (
+    }
+    let prop = root
+        .get("propulsion")
+        .ok_or_else(|| VehicleError::Missing("propulsion".into()))?;
+    let formula = |key: &str| {
+        let full = format!("propulsion.{key}");
+        leading_number(prop.get(key).unwrap_or(&Value::Null), &full)
+    };
+    let propulsion = Propulsion::Quadratic {
+        thrust: formula("thrust_N")?,
+        torque: formula("torque_Nm")?,
+    };
+    Ok(Hydrodynamics {
+        terms,
+        added_mass,
+        propulsion,
+    })
+}
+
+/// Prime coefficients (NPS form), in sections, made dimensional with the length and the
+/// water's density; the propulsion from its drag coefficient.
+fn prime(root: &Value, body: &Physical) -> Result<Hydrodynamics, VehicleError> {
+    let half_rho = body.water_density_kg_m3 / 2.0;
+    let length_m = body.length_m;
+    let (mut terms, mut added_mass) = (Vec::new(), Matrix6::zeros());
+    for section in NPS_SECTIONS {
+        let Some(table) = root.get(section).and_then(Value::as_object) else {
+            continue;
+        };
+        for (key, value) in table {
+            let v = coefficient_value(value, section, key)?;
+            if let Some(&(_, row, col)) = NPS_ADDED_MASS.iter().find(|m| m.0 == key) {
+                let k = 3 + i32::from(row >= 3) + i32::from(col >= 3);
+                added_mass[(row, col)] = -v * half_rho * length_m.powi(k);
+            } else if let Some(&(n, axis, factors, mult)) = NPS_TERMS.iter().find(|m| m.0 == key) {
+                let k = prime_power(n, axis, factors)?;
+                terms.push(Term {
+                    axis,
+                    coefficient: v * mult * half_rho * length_m.powi(k),
+                    factors: factors.to_vec(),
+                    name: n.to_string(),
+                });
+            } else {
+                return Err(unknown(key, section, NPS_TERMS, NPS_ADDED_MASS));
+            }
+        }
+    }
+    let cd0 = root
+        .get("propulsion")
+        .and_then(|p| number(p, "Cd0").transpose())
+        .transpose()?
+        .ok_or_else(|| VehicleError::Missing("propulsion.Cd0".into()))?;
+    let propulsion = Propulsion::Nps {
+        cd0,
+        thrust_factor: 1.0,
+    };
+    Ok(Hydrodynamics {
+        terms,
+        added_mass,
+        propulsion,
+    })
+}
+
+/// The hull's crossflow drag, when all four of its figures are given.
+fn crossflow(phys: &Value) -> Result<Option<Crossflow>, VehicleError> {
+    Ok(
+        match (
             number(phys, "crossflow_Cdy")?,
             number(phys, "crossflow_Cdz")?,
             number(phys, "crossflow_height_m")?,
@@ -485,29 +527,48 @@ impl Vehicle {
                 width_m,
             }),
             _ => None,
+        },
+    )
+}
+
+impl Vehicle {
+    /// Reads a vehicle description (JSON text).
+    pub fn from_json(text: &str) -> Result<Vehicle, VehicleError> {
+        let root: Value =
+            serde_json::from_str(text).map_err(|e| VehicleError::Json(e.to_string()))?;
+        let name = root
+            .get("name")
+            .and_then(Value::as_str)
+            .unwrap_or("unnamed vehicle")
+            .to_string();
+        let phys = root
+            .get("physical")
+            .ok_or_else(|| VehicleError::Missing("physical".into()))?;
+        let body = Physical::from(phys)?;
+        let hydro = match root.get("coefficients") {
+            Some(coefficients) => dimensional(&root, coefficients)?,
+            None => prime(&root, &body)?,
         };
-        let fin_limit_rad = number(phys, "actuator_limit_deg")?
-            .unwrap_or(20.0)
-            .to_radians();
+        let deg = |key: &str, default: f64| -> Result<f64, VehicleError> {
+            Ok(number(phys, key)?.unwrap_or(default).to_radians())
+        };
         Ok(Vehicle {
             name,
-            length_m,
-            water_density_kg_m3,
-            gravity_m_s2,
-            weight_n,
-            buoyancy_n,
-            mass_kg,
+            length_m: body.length_m,
+            water_density_kg_m3: body.water_density_kg_m3,
+            gravity_m_s2: body.gravity_m_s2,
+            weight_n: body.weight_n,
+            buoyancy_n: body.buoyancy_n,
+            mass_kg: body.mass_kg,
             centre_of_gravity_m: vector(phys, "physical", "r_G_m")?,
             centre_of_buoyancy_m: vector(phys, "physical", "r_B_m")?,
-            inertia_kg_m2,
-            added_mass,
-            terms,
-            propulsion,
-            crossflow,
-            fin_limit_rad,
-            fin_rate_limit_rad_s: number(phys, "actuator_rate_deg_s")?
-                .unwrap_or(20.0)
-                .to_radians(),
+            inertia_kg_m2: body.inertia_kg_m2,
+            added_mass: hydro.added_mass,
+            terms: hydro.terms,
+            propulsion: hydro.propulsion,
+            crossflow: crossflow(phys)?,
+            fin_limit_rad: deg("actuator_limit_deg", 20.0)?,
+            fin_rate_limit_rad_s: deg("actuator_rate_deg_s", 20.0)?,
             actuator_time_constant_s: number(phys, "actuator_time_constant_s")?.unwrap_or(0.1),
             propeller_limit_rad_s: number(phys, "propeller_limit_rpm")?.unwrap_or(1500.0)
                 * std::f64::consts::TAU

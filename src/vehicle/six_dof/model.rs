@@ -95,40 +95,50 @@ impl SixDof {
         inputs: &Inputs,
         mut d: Option<&mut Matrix6<f64>>,
     ) -> Nu {
+        let mut tau = Nu::zeros();
+        self.rigid_body_into(nu, at, &mut tau, d.as_deref_mut());
+        self.terms_into(nu, inputs, &mut tau, d.as_deref_mut());
+        self.crossflow_into(nu, &mut tau, d.as_deref_mut());
+        self.propulsion_into(nu, inputs, &mut tau, d);
+        tau + self.restoring(at.roll_rad, at.pitch_rad).0
+    }
+
+    /// Rigid body: Coriolis and centripetal, moved to the right-hand side, and the Earth
+    /// rate's Coriolis on the translation (seed 000's f_v^RB).
+    fn rigid_body_into(&self, nu: &Nu, at: &Attitude, tau: &mut Nu, d: Option<&mut Matrix6<f64>>) {
         let veh = &self.vehicle;
         let m = veh.mass_kg;
         let r = veh.centre_of_gravity_m;
         let v: Vector3<f64> = nu.fixed_rows::<3>(0).into_owned();
         let w: Vector3<f64> = nu.fixed_rows::<3>(3).into_owned();
-        let mut tau = Nu::zeros();
-
-        // Rigid body (Coriolis and centripetal, moved to the right-hand side).
         let wxv = w.cross(&v);
         let wxwxr = w.cross(&w.cross(&r));
         let iw = veh.inertia_kg_m2 * w;
         let f_rb = -(wxv + wxwxr) * m;
         let m_rb = -(w.cross(&iw)) - r.cross(&wxv) * m;
-        add3(&mut tau, 0, &f_rb);
-        add3(&mut tau, 3, &m_rb);
-        // Earth-rate Coriolis on the translation (seed 000's f_v^RB).
+        add3(tau, 0, &f_rb);
+        add3(tau, 3, &m_rb);
         let e = at.earth_rate_body;
-        add3(&mut tau, 0, &(-e.cross(&v) * (2.0 * m)));
-        if let Some(d) = d.as_deref_mut() {
-            let d_wxwxr =
-                w * r.transpose() + Matrix3::identity() * w.dot(&r) - r * w.transpose() * 2.0;
-            let mut block = |row: usize, col: usize, b: Matrix3<f64>| {
-                let mut view = d.fixed_view_mut::<3, 3>(row, col);
-                view += b;
-            };
-            block(0, 0, -skew(&w) * m);
-            block(0, 3, (skew(&v) - d_wxwxr) * m);
-            block(3, 3, -(skew(&w) * veh.inertia_kg_m2 - skew(&iw)));
-            block(3, 0, -skew(&r) * skew(&w) * m);
-            block(3, 3, skew(&r) * skew(&v) * m);
-            block(0, 0, -skew(&e) * (2.0 * m));
-        }
+        add3(tau, 0, &(-e.cross(&v) * (2.0 * m)));
+        let Some(d) = d else {
+            return;
+        };
+        let d_wxwxr = w * r.transpose() + Matrix3::identity() * w.dot(&r) - r * w.transpose() * 2.0;
+        let mut block = |row: usize, col: usize, b: Matrix3<f64>| {
+            let mut view = d.fixed_view_mut::<3, 3>(row, col);
+            view += b;
+        };
+        block(0, 0, -skew(&w) * m);
+        block(0, 3, (skew(&v) - d_wxwxr) * m);
+        block(3, 3, -(skew(&w) * veh.inertia_kg_m2 - skew(&iw)));
+        block(3, 0, -skew(&r) * skew(&w) * m);
+        block(3, 3, skew(&r) * skew(&v) * m);
+        block(0, 0, -skew(&e) * (2.0 * m));
+    }
 
-        // The file's hydrodynamic terms.
+    /// The vehicle file's hydrodynamic terms.
+    fn terms_into(&self, nu: &Nu, inputs: &Inputs, tau: &mut Nu, mut d: Option<&mut Matrix6<f64>>) {
+        let veh = &self.vehicle;
         let factors = Factors::at(nu, inputs, veh.length_m);
         for term in &veh.terms {
             match d.as_deref_mut() {
@@ -141,50 +151,63 @@ impl SixDof {
                 None => tau[term.axis] += term.value(&factors),
             }
         }
+    }
 
-        // Cross-flow drag by strip theory.
-        if let Some(cf) = veh.crossflow {
-            let half_rho = veh.water_density_kg_m3 / 2.0;
-            let dx = veh.length_m / CROSSFLOW_SECTIONS as f64;
-            for i in 0..CROSSFLOW_SECTIONS {
-                let x = -veh.length_m / 2.0 + (i as f64 + 0.5) * dx;
-                let a = nu[1] + x * nu[5];
-                let b = nu[2] - x * nu[4];
-                let s = (a * a + b * b).sqrt();
-                if s < 1e-12 {
-                    continue;
-                }
-                let ky = -half_rho * cf.cd_y * cf.height_m * dx;
-                let kz = -half_rho * cf.cd_z * cf.width_m * dx;
-                let (fy, fz) = (ky * a * s, kz * b * s);
-                tau[1] += fy;
-                tau[2] += fz;
-                tau[4] += -x * fz;
-                tau[5] += x * fy;
-                let Some(d) = d.as_deref_mut() else {
-                    continue;
-                };
-                // Derivatives of a s and b s by a and b.
-                let (dfy_da, dfy_db) = (ky * (s + a * a / s), ky * a * b / s);
-                let (dfz_da, dfz_db) = (kz * a * b / s, kz * (s + b * b / s));
-                // a = v + x r, b = w - x q.
-                let grad = |f_da: f64, f_db: f64| {
-                    let mut g = Nu::zeros();
-                    g[1] = f_da;
-                    g[5] = f_da * x;
-                    g[2] = f_db;
-                    g[4] = -f_db * x;
-                    g
-                };
-                let (gy, gz) = (grad(dfy_da, dfy_db), grad(dfz_da, dfz_db));
-                for (axis, g) in [(1, gy), (2, gz), (4, -gz * x), (5, gy * x)] {
-                    let mut row = d.row_mut(axis);
-                    row += g.transpose();
-                }
+    /// Cross-flow drag by strip theory.
+    fn crossflow_into(&self, nu: &Nu, tau: &mut Nu, mut d: Option<&mut Matrix6<f64>>) {
+        let veh = &self.vehicle;
+        let Some(cf) = veh.crossflow else {
+            return;
+        };
+        let half_rho = veh.water_density_kg_m3 / 2.0;
+        let dx = veh.length_m / CROSSFLOW_SECTIONS as f64;
+        for i in 0..CROSSFLOW_SECTIONS {
+            let x = -veh.length_m / 2.0 + (i as f64 + 0.5) * dx;
+            let a = nu[1] + x * nu[5];
+            let b = nu[2] - x * nu[4];
+            let s = (a * a + b * b).sqrt();
+            if s < 1e-12 {
+                continue;
+            }
+            let ky = -half_rho * cf.cd_y * cf.height_m * dx;
+            let kz = -half_rho * cf.cd_z * cf.width_m * dx;
+            let (fy, fz) = (ky * a * s, kz * b * s);
+            tau[1] += fy;
+            tau[2] += fz;
+            tau[4] += -x * fz;
+            tau[5] += x * fy;
+            let Some(d) = d.as_deref_mut() else {
+                continue;
+            };
+            // Derivatives of a s and b s by a and b.
+            let (dfy_da, dfy_db) = (ky * (s + a * a / s), ky * a * b / s);
+            let (dfz_da, dfz_db) = (kz * a * b / s, kz * (s + b * b / s));
+            // a = v + x r, b = w - x q.
+            let grad = |f_da: f64, f_db: f64| {
+                let mut g = Nu::zeros();
+                g[1] = f_da;
+                g[5] = f_da * x;
+                g[2] = f_db;
+                g[4] = -f_db * x;
+                g
+            };
+            let (gy, gz) = (grad(dfy_da, dfy_db), grad(dfz_da, dfz_db));
+            for (axis, g) in [(1, gy), (2, gz), (4, -gz * x), (5, gy * x)] {
+                let mut row = d.row_mut(axis);
+                row += g.transpose();
             }
         }
+    }
 
-        // Propulsion.
+    /// The propeller's thrust (and the hull's drag, in the NPS form).
+    fn propulsion_into(
+        &self,
+        nu: &Nu,
+        inputs: &Inputs,
+        tau: &mut Nu,
+        d: Option<&mut Matrix6<f64>>,
+    ) {
+        let veh = &self.vehicle;
         let n = inputs.propeller_rad_s;
         match veh.propulsion {
             Propulsion::Nps { cd0, thrust_factor } => {
@@ -201,8 +224,6 @@ impl SixDof {
                 tau[3] += torque * n * n.abs();
             }
         }
-
-        tau + self.restoring(at.roll_rad, at.pitch_rad).0
     }
 
     /// Weight and buoyancy as generalised forces, and their derivative by roll and pitch.
