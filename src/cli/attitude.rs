@@ -134,32 +134,12 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     for a in &filters.adjustments {
         said.note(a.to_string());
     }
-    let started = Instant::now();
-    let mut log = super::load(
-        &log_path,
-        &args.policy.ingest_options(&args.source),
-        &args.offsets,
-    )?;
-    let defaults = args.source.mission_defaults(Default::default());
-    let mission = super::settle_mission(&mut log, &defaults, &log_path)?;
-    super::print_roles(&log);
+    let (log, mission) = read_log(&args, &log_path)?;
     let imu: &[Imu] = log.role();
-    if imu.len() < 2 {
-        return Err(compare::InputError::NoImu)
-            .with_context(|| format!("attitude from {}", log_path.display()));
-    }
     let raw_mag: &[MagneticField] = log.role();
     let dvl: &[Dvl] = log.role();
     let marks: &[PositionFix] = log.role();
     let truth: &[Truth] = log.role();
-    say!(
-        "read {} in {:.1} s: {} IMU, {} magnetometer, {} DVL readings",
-        log_path.display(),
-        started.elapsed().as_secs_f64(),
-        imu.len(),
-        raw_mag.len(),
-        dvl.len()
-    );
 
     // Times in messages: seconds into the log (from its first IMU sample).
     let into_log_s = |stamp_ns: i64| (stamp_ns - imu[0].stamp_ns) as f64 * 1e-9;
@@ -200,22 +180,8 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         &into_log_s,
         &mut said,
     );
-    // The angles' reference: the truth, else the smoothed MEKF (every 10th sample).
-    let truth_attitude = reference_from_truth(truth);
-    let (reference_attitude, attitude_against) = if !truth_attitude.is_empty() {
-        (truth_attitude, Some("/truth".to_string()))
-    } else if let Some(r) = compare::attitude_reference(&runs) {
-        let decimated = r.attitude.iter().step_by(10).copied().collect();
-        (decimated, Some(r.method.name().to_string()))
-    } else {
-        (Vec::new(), None)
-    };
-    let intervals: Vec<[i64; 2]> = log
-        .metadata
-        .get("broad")
-        .and_then(|b| b.get("movement_intervals_ns"))
-        .and_then(|text| serde_json::from_str(text).ok())
-        .unwrap_or_default();
+    let (reference_attitude, attitude_against) = reference_from(truth, &runs);
+    let intervals = movement_intervals(&log);
     let scored =
         move |t: i64| intervals.is_empty() || intervals.iter().any(|[a, b]| (*a..=*b).contains(&t));
     let mounting = config.dvl.mounting();
@@ -239,16 +205,7 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
         log: &log_path,
         said: &said,
         table: &table,
-        read: format!(
-            "{} IMU, {} magnetometer ({} after saturation checks), {} DVL readings; \
-             {} position marks; /truth: {}",
-            imu.len(),
-            raw_mag.len(),
-            mag.len(),
-            dvl.len(),
-            marks.len(),
-            if truth.is_empty() { "no" } else { "yes" }
-        ),
+        read: what_was_read(&log, mag.len()),
     };
     let against = attitude_against.map(|name| Against {
         name,
@@ -257,6 +214,75 @@ pub fn run(args: AttitudeArgs) -> Result<()> {
     write_outputs(&out, &runs, &scores, against, start, end, &page)?;
     table.print();
     Ok(())
+}
+
+/// The log read, its mission settled and at least two IMU samples in it.
+fn read_log(
+    args: &AttitudeArgs,
+    log_path: &std::path::Path,
+) -> Result<(hindsight::ingest::Log, hindsight::ingest::Mission)> {
+    let started = Instant::now();
+    let ingest = args.policy.ingest_options(&args.source);
+    let mut log = super::load(log_path, &ingest, &args.offsets)?;
+    let defaults = args.source.mission_defaults(Default::default());
+    let mission = super::settle_mission(&mut log, &defaults, log_path)?;
+    super::print_roles(&log);
+    let imu: &[Imu] = log.role();
+    if imu.len() < 2 {
+        return Err(compare::InputError::NoImu)
+            .with_context(|| format!("attitude from {}", log_path.display()));
+    }
+    say!(
+        "read {} in {:.1} s: {} IMU, {} magnetometer, {} DVL readings",
+        log_path.display(),
+        started.elapsed().as_secs_f64(),
+        imu.len(),
+        log.role::<MagneticField>().len(),
+        log.role::<Dvl>().len()
+    );
+    Ok((log, mission))
+}
+
+/// What the report says was read (`mag_kept`: the magnetometer's readings after the
+/// saturation checks).
+fn what_was_read(log: &hindsight::ingest::Log, mag_kept: usize) -> String {
+    format!(
+        "{} IMU, {} magnetometer ({} after saturation checks), {} DVL readings; \
+         {} position marks; /truth: {}",
+        log.role::<Imu>().len(),
+        log.role::<MagneticField>().len(),
+        mag_kept,
+        log.role::<Dvl>().len(),
+        log.role::<PositionFix>().len(),
+        if log.role::<Truth>().is_empty() {
+            "no"
+        } else {
+            "yes"
+        }
+    )
+}
+
+/// The angles' reference: the truth, else the smoothed MEKF (every 10th sample); and its
+/// name.
+fn reference_from(truth: &[Truth], runs: &[MethodRun]) -> (Vec<AttitudeSample>, Option<String>) {
+    let truth_attitude = reference_from_truth(truth);
+    if !truth_attitude.is_empty() {
+        (truth_attitude, Some("/truth".to_string()))
+    } else if let Some(r) = compare::attitude_reference(runs) {
+        let decimated = r.attitude.iter().step_by(10).copied().collect();
+        (decimated, Some(r.method.name().to_string()))
+    } else {
+        (Vec::new(), None)
+    }
+}
+
+/// The spans a benchmark log scores (its `broad` record's movement intervals; none: all).
+fn movement_intervals(log: &hindsight::ingest::Log) -> Vec<[i64; 2]> {
+    log.metadata
+        .get("broad")
+        .and_then(|b| b.get("movement_intervals_ns"))
+        .and_then(|text| serde_json::from_str(text).ok())
+        .unwrap_or_default()
 }
 
 /// The declination, deg east: given, else the mission's, else the World Magnetic Model's or
@@ -337,6 +363,20 @@ fn write_outputs(
     )?;
     written.push(path);
 
+    let report = report_of(runs, scores, against.as_ref(), (start, end), page);
+    super::write_report(&mut staging, out, &report, &mut written)?;
+    super::commit_and_list(staging, &written, out)
+}
+
+/// The page: the comparison, what was read, the tracks, the errors against the reference,
+/// the warnings.
+fn report_of(
+    runs: &[MethodRun],
+    scores: &[MethodScore],
+    against: Option<&Against<'_>>,
+    (start, end): (Option<Vector3<f64>>, Option<Vector3<f64>>),
+    page: &Page<'_>,
+) -> Report {
     let mut report = Report {
         title: format!(
             "hindsight attitude: {}",
@@ -363,57 +403,65 @@ fn write_outputs(
         footer: format!("hindsight {}", env!("CARGO_PKG_VERSION")),
     };
     if scores.iter().any(|s| !s.track.is_empty()) {
-        let marks: Vec<(&str, Vector3<f64>)> = [("start", start), ("end", end)]
-            .into_iter()
-            .filter_map(|(n, p)| Some((n, p?)))
-            .collect();
-        let mut tracks = Section::new("Dead-reckoned tracks").with(Block::text(
-            "The same DVL dead reckoning with each method's attitude.",
-        ));
-        for (stem, title, x_label, y_label, y_down, pick) in [
-            (
-                "tracks_xy",
-                "DVL dead reckoning, plan view",
-                "east (m)",
-                "north (m)",
-                false,
-                (|p: &Vector3<f64>| (p.y, p.x)) as fn(&Vector3<f64>) -> (f64, f64),
-            ),
-            (
-                "tracks_xz",
-                "DVL dead reckoning, north against depth",
-                "north (m)",
-                "down (m)",
-                true,
-                |p: &Vector3<f64>| (p.x, p.z),
-            ),
-        ] {
-            let mut plot = Plot::new(title, x_label, y_label);
-            plot.series = scores
-                .iter()
-                .map(|s| {
-                    let points: Vec<(f64, f64)> = s.track.iter().map(|t| pick(&t.ned_m)).collect();
-                    Series::line(s.method.name(), thin(&points, 4000))
-                })
-                .collect();
-            plot.marks = marks
-                .iter()
-                .map(|(n, p)| (n.to_string(), pick(p)))
-                .collect();
-            plot.y_down = y_down;
-            plot.equal_axes = !y_down;
-            tracks.push(Block::figure(stem, title, plot));
-        }
-        report.sections.push(tracks);
+        report.sections.push(tracks_section(scores, start, end));
     }
-    if let Some(against) = &against {
+    if let Some(against) = against {
         report.sections.push(error_section(runs, against));
     }
     report
         .sections
         .push(Section::new("Warnings").with(Block::Warnings(page.said.warnings.clone())));
-    super::write_report(&mut staging, out, &report, &mut written)?;
-    super::commit_and_list(staging, &written, out)
+    report
+}
+
+/// The same DVL dead reckoning with each method's attitude, in plan and in depth.
+fn tracks_section(
+    scores: &[MethodScore],
+    start: Option<Vector3<f64>>,
+    end: Option<Vector3<f64>>,
+) -> Section {
+    let marks: Vec<(&str, Vector3<f64>)> = [("start", start), ("end", end)]
+        .into_iter()
+        .filter_map(|(n, p)| Some((n, p?)))
+        .collect();
+    let mut tracks = Section::new("Dead-reckoned tracks").with(Block::text(
+        "The same DVL dead reckoning with each method's attitude.",
+    ));
+    for (stem, title, x_label, y_label, y_down, pick) in [
+        (
+            "tracks_xy",
+            "DVL dead reckoning, plan view",
+            "east (m)",
+            "north (m)",
+            false,
+            (|p: &Vector3<f64>| (p.y, p.x)) as fn(&Vector3<f64>) -> (f64, f64),
+        ),
+        (
+            "tracks_xz",
+            "DVL dead reckoning, north against depth",
+            "north (m)",
+            "down (m)",
+            true,
+            |p: &Vector3<f64>| (p.x, p.z),
+        ),
+    ] {
+        let mut plot = Plot::new(title, x_label, y_label);
+        plot.series = scores
+            .iter()
+            .map(|s| {
+                let points: Vec<(f64, f64)> = s.track.iter().map(|t| pick(&t.ned_m)).collect();
+                Series::line(s.method.name(), thin(&points, 4000))
+            })
+            .collect();
+        plot.marks = marks
+            .iter()
+            .map(|(n, p)| (n.to_string(), pick(p)))
+            .collect();
+        plot.y_down = y_down;
+        plot.equal_axes = !y_down;
+        tracks.push(Block::figure(stem, title, plot));
+    }
+    tracks
 }
 
 /// What the dead reckoning lacks: a start or end mark, the DVL, or readings across a gap.

@@ -211,16 +211,7 @@ pub struct MissionsFailed {
 
 pub fn run(args: BatchArgs) -> Result<()> {
     let started = Instant::now();
-    // A bad configuration fails every mission: say so once, up front.
-    let config = match &args.config {
-        Some(c) => {
-            let mut config: Config = super::config::read(c, None)?;
-            super::reconstruct::read_vehicle_file(&mut config)
-                .with_context(|| format!("configuration {}", c.display()))?;
-            config
-        }
-        None => Config::default(),
-    };
+    let config = batch_config(args.config.as_deref())?;
     let all = missions(&collect_logs(&args.logs)?)?;
     let (i, n) = args.shard.unwrap_or((0, 1));
     let mine = shard(&all, i, n);
@@ -245,35 +236,7 @@ pub fn run(args: BatchArgs) -> Result<()> {
     // The missions' own messages would interleave: each says its outcome in one line.
     console::set_quiet(true);
     let one = |(name, log): &(String, PathBuf)| -> MissionRow {
-        let dir = args.out.join(format!("mission={name}"));
-        let row = match complete_summary(&dir, log).filter(|_| !args.force) {
-            Some(summary) => MissionRow {
-                status: "complete",
-                ..row_from(name, log, &summary)
-            },
-            None => {
-                let t = Instant::now();
-                let outcome = run_mission(log, &dir, &config);
-                let run_time_s = Some(t.elapsed().as_secs_f64());
-                match outcome.and_then(|()| {
-                    complete_summary(&dir, log).context("no summary.json after the run")
-                }) {
-                    Ok(summary) => MissionRow {
-                        status: "done",
-                        run_time_s,
-                        ..row_from(name, log, &summary)
-                    },
-                    Err(e) => MissionRow {
-                        mission: name.clone(),
-                        log: log.display().to_string(),
-                        status: "failed",
-                        error: Some(format!("{e:#}")),
-                        run_time_s,
-                        ..MissionRow::default()
-                    },
-                }
-            }
-        };
+        let row = mission_row(name, log, &args, &config);
         bar.suspend(|| tell(outcome_line(&row)));
         bar.inc(1);
         row
@@ -289,28 +252,7 @@ pub fn run(args: BatchArgs) -> Result<()> {
     bar.finish_and_clear();
     console::set_quiet(user_quiet);
 
-    let name = match args.shard {
-        Some((i, n)) => format!("batch_summary.shard-{i}-of-{n}.parquet"),
-        None => "batch_summary.parquet".to_string(),
-    };
-    let path = args.out.join(name);
-    let mut staging = Staging::new();
-    super::write_parquet(&mut staging, &path, batch_summary(&rows)?, || None)?;
-    let page = args.out.join(match args.shard {
-        Some((i, n)) => format!("report.shard-{i}-of-{n}.html"),
-        None => "report.html".to_string(),
-    });
-    let html = report(&rows, &args.out)
-        .to_html()
-        .with_context(|| OutputFailed { path: page.clone() })?;
-    let mut file = staging
-        .create(&page)
-        .with_context(|| OutputFailed { path: page.clone() })?;
-    std::io::Write::write_all(&mut file, html.as_bytes())
-        .with_context(|| OutputFailed { path: page.clone() })?;
-    staging
-        .commit()
-        .with_context(|| OutputFailed { path: path.clone() })?;
+    let path = write_batch_outputs(&rows, &args)?;
     let failed = rows.iter().filter(|r| r.status == "failed").count();
     let count = |s: &str| rows.iter().filter(|r| r.status == s).count();
     console::say!(
@@ -329,6 +271,70 @@ pub fn run(args: BatchArgs) -> Result<()> {
         .into());
     }
     Ok(())
+}
+
+/// The batch's settings: a bad configuration fails every mission, so it is said once, up
+/// front.
+fn batch_config(path: Option<&Path>) -> Result<Config> {
+    let Some(c) = path else {
+        return Ok(Config::default());
+    };
+    let mut config: Config = super::config::read(c, None)?;
+    super::reconstruct::read_vehicle_file(&mut config)
+        .with_context(|| format!("configuration {}", c.display()))?;
+    Ok(config)
+}
+
+/// One mission's row: complete already (unless forced), else reconstructed now.
+fn mission_row(name: &str, log: &Path, args: &BatchArgs, config: &Config) -> MissionRow {
+    let dir = args.out.join(format!("mission={name}"));
+    if let Some(summary) = complete_summary(&dir, log).filter(|_| !args.force) {
+        return MissionRow {
+            status: "complete",
+            ..row_from(name, log, &summary)
+        };
+    }
+    let t = Instant::now();
+    let outcome = run_mission(log, &dir, config);
+    let run_time_s = Some(t.elapsed().as_secs_f64());
+    let summary =
+        outcome.and_then(|()| complete_summary(&dir, log).context("no summary.json after the run"));
+    match summary {
+        Ok(summary) => MissionRow {
+            status: "done",
+            run_time_s,
+            ..row_from(name, log, &summary)
+        },
+        Err(e) => MissionRow {
+            mission: name.to_string(),
+            log: log.display().to_string(),
+            status: "failed",
+            error: Some(format!("{e:#}")),
+            run_time_s,
+            ..MissionRow::default()
+        },
+    }
+}
+
+/// batch_summary.parquet and the batch's report.html (each named for its shard); returns the
+/// summary's path.
+fn write_batch_outputs(rows: &[MissionRow], args: &BatchArgs) -> Result<PathBuf> {
+    let shard = |stem: &str, ext: &str| match args.shard {
+        Some((i, n)) => format!("{stem}.shard-{i}-of-{n}.{ext}"),
+        None => format!("{stem}.{ext}"),
+    };
+    let path = args.out.join(shard("batch_summary", "parquet"));
+    let mut staging = Staging::new();
+    super::write_parquet(&mut staging, &path, batch_summary(rows)?, || None)?;
+    let page = args.out.join(shard("report", "html"));
+    let html = report(rows, &args.out)
+        .to_html()
+        .with_context(|| OutputFailed { path: page.clone() })?;
+    hindsight::output::files::write_text(&mut staging, &page, &html)?;
+    staging
+        .commit()
+        .with_context(|| OutputFailed { path: path.clone() })?;
+    Ok(path)
 }
 
 /// The batch's page: every mission's outcome (each mission's own report.html is in its

@@ -224,54 +224,9 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
             "--vehicle and --coefficients apply to --model six-dof".into()
         ));
     }
-    for f in &args.fixed {
-        let (name, value) = f.split_once('=').ok_or_else(|| {
-            CoefficientArgError(format!(
-                "--fix {f}: give NAME=VALUE, e.g. --fix Z_wdot=-0.01258"
-            ))
-        })?;
-        let value: f64 = value
-            .trim()
-            .parse()
-            .map_err(|_| CoefficientArgError(format!("--fix {f}: `{value}` is not a number")))?;
-        settings.fixed[index_of(name.trim())?] = Some(value);
-    }
+    fix_coefficients(&args.fixed, &mut settings)?;
     let start = start_values(&args)?;
-    let mut ballast = ballast_by_log(&args)?;
-    let mut records = Vec::new();
-    let mut read_logs = Vec::new();
-    for path in &args.logs {
-        let log = super::load(path, &args.policy.ingest_options(&args.source), &[])?;
-        let name = path.file_name().map_or_else(
-            || path.display().to_string(),
-            |n| n.to_string_lossy().into_owned(),
-        );
-        let mut record = Record::from_log(&name, &log, args.speed)
-            .with_context(|| format!("identifying from {}", path.display()))?;
-        record.weight_minus_buoyancy_n = ballast
-            .remove(&name)
-            .or(ballast.remove(&path.display().to_string()));
-        let mut read = format!(
-            "{name}: {:.0} s, U = {:.3} m/s, {} DVL and {} depth readings, theta from {}",
-            record.t_s.last().copied().unwrap_or(0.0),
-            record.speed_m_s,
-            record.w_m_s.len(),
-            record.depth_m.len(),
-            record.theta_source
-        );
-        if let Some(n) = record.weight_minus_buoyancy_n {
-            read += &format!(", W - B = {n} N");
-        }
-        say!("{read}");
-        read_logs.push(read);
-        records.push(record);
-    }
-    if let Some(log) = ballast.keys().next() {
-        bail!(CoefficientArgError(format!(
-            "--weight-minus-buoyancy {log}=...: no log of that name (give the path as on the \
-             command line, or its file name)"
-        )));
-    }
+    let (records, read_logs) = read_records(&args)?;
     let fitting = Instant::now();
     let id = identify(&records, &start, &settings);
     say!(
@@ -308,6 +263,63 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
     findings.print();
     say!("total {:.1} s", started.elapsed().as_secs_f64());
     Ok(())
+}
+
+/// `--fix NAME=VALUE`: the coefficients held at a value.
+fn fix_coefficients(fixed: &[String], settings: &mut Settings) -> Result<()> {
+    for f in fixed {
+        let (name, value) = f.split_once('=').ok_or_else(|| {
+            CoefficientArgError(format!(
+                "--fix {f}: give NAME=VALUE, e.g. --fix Z_wdot=-0.01258"
+            ))
+        })?;
+        let value: f64 = value
+            .trim()
+            .parse()
+            .map_err(|_| CoefficientArgError(format!("--fix {f}: `{value}` is not a number")))?;
+        settings.fixed[index_of(name.trim())?] = Some(value);
+    }
+    Ok(())
+}
+
+/// Each log's record for the identification, with its ballast; and a line on each, said.
+fn read_records(args: &IdentifyArgs) -> Result<(Vec<Record>, Vec<String>)> {
+    let mut ballast = ballast_by_log(args)?;
+    let mut records = Vec::new();
+    let mut read_logs = Vec::new();
+    for path in &args.logs {
+        let log = super::load(path, &args.policy.ingest_options(&args.source), &[])?;
+        let name = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        let mut record = Record::from_log(&name, &log, args.speed)
+            .with_context(|| format!("identifying from {}", path.display()))?;
+        record.weight_minus_buoyancy_n = ballast
+            .remove(&name)
+            .or(ballast.remove(&path.display().to_string()));
+        let mut read = format!(
+            "{name}: {:.0} s, U = {:.3} m/s, {} DVL and {} depth readings, theta from {}",
+            record.t_s.last().copied().unwrap_or(0.0),
+            record.speed_m_s,
+            record.w_m_s.len(),
+            record.depth_m.len(),
+            record.theta_source
+        );
+        if let Some(n) = record.weight_minus_buoyancy_n {
+            read += &format!(", W - B = {n} N");
+        }
+        say!("{read}");
+        read_logs.push(read);
+        records.push(record);
+    }
+    if let Some(log) = ballast.keys().next() {
+        bail!(CoefficientArgError(format!(
+            "--weight-minus-buoyancy {log}=...: no log of that name (give the path as on the \
+             command line, or its file name)"
+        )));
+    }
+    Ok((records, read_logs))
 }
 
 #[derive(serde::Serialize)]
@@ -383,6 +395,49 @@ fn write_outputs(
     )?;
     parquet("fit.parquet", identify_tables::fit_batch(id, records)?)?;
 
+    let figures = figures(id, records, settings);
+    super::write_report(&mut staging, out, &findings.report(figures), &mut written)?;
+
+    let summary = Summary::new(id, records, settings, findings);
+    let path = out.join("summary.json");
+    super::write_json(&mut staging, &path, &summary)?;
+    written.push(path);
+    super::commit_and_list(staging, &written, out)
+}
+
+impl<'a> Summary<'a> {
+    fn new(
+        id: &Identification,
+        records: &'a [Record],
+        settings: &Settings,
+        findings: &'a Findings,
+    ) -> Self {
+        Summary {
+            logs: records.iter().map(|r| r.name.as_str()).collect(),
+            iterations: id.refined.iterations,
+            converged: id.refined.converged,
+            fit: id
+                .fits
+                .iter()
+                .map(|f| CHANNELS.iter().copied().zip(f.channels).collect())
+                .collect(),
+            noise: NoiseSummary::new(id, settings),
+            warnings: &findings.warnings,
+            notes: &findings.notes,
+            design: findings.design.as_ref(),
+            poorly_determined: id
+                .assessment
+                .iter()
+                .filter(|d| d.poorly_determined)
+                .map(|d| d.to_string())
+                .collect(),
+        }
+    }
+}
+
+/// The report's figures: the EKF's convergence (each coefficient over its final refined
+/// value) and the fit of pitch and heave velocity.
+fn figures(id: &Identification, records: &[Record], settings: &Settings) -> Vec<Block> {
     // Plots: the EKF's convergence (each coefficient over its final refined value) and the fit.
     let mut offset = 0.0;
     let mut log_start = Vec::new();
@@ -458,7 +513,7 @@ fn write_outputs(
         0,
         1.0,
     );
-    let figures = vec![
+    vec![
         Block::figure(
             "convergence",
             "The EKF stage: each coefficient over its refined value, the logs one after the \
@@ -467,33 +522,7 @@ fn write_outputs(
         ),
         Block::figure("fit_theta", "Pitch, measured and re-simulated.", theta),
         Block::figure("fit_w", "Heave velocity, measured and re-simulated.", w),
-    ];
-    super::write_report(&mut staging, out, &findings.report(figures), &mut written)?;
-
-    let summary = Summary {
-        logs: records.iter().map(|r| r.name.as_str()).collect(),
-        iterations: id.refined.iterations,
-        converged: id.refined.converged,
-        fit: id
-            .fits
-            .iter()
-            .map(|f| CHANNELS.iter().copied().zip(f.channels).collect())
-            .collect(),
-        noise: NoiseSummary::new(id, settings),
-        warnings: &findings.warnings,
-        notes: &findings.notes,
-        design: findings.design.as_ref(),
-        poorly_determined: id
-            .assessment
-            .iter()
-            .filter(|d| d.poorly_determined)
-            .map(|d| d.to_string())
-            .collect(),
-    };
-    let path = out.join("summary.json");
-    super::write_json(&mut staging, &path, &summary)?;
-    written.push(path);
-    super::commit_and_list(staging, &written, out)
+    ]
 }
 
 /// The coefficients determined only together with another, when there are any.

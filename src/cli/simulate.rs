@@ -104,16 +104,7 @@ fn zigzag_options(
 
 pub fn run(args: SimulateArgs) -> Result<()> {
     if args.list {
-        for (name, _) in BUILT_IN {
-            let s = Scenario::built_in(name)?;
-            out!("{name:<20} {}", s.description);
-        }
-        for name in zigzag::BUILT_IN {
-            if let Some(s) = zigzag::ZigzagSpec::built_in(name) {
-                out!("{name:<20} {}", s.description());
-            }
-        }
-        return Ok(());
+        return list();
     }
     // Seed 004's zig-zags are flown by the heave-pitch model, not the kinematic simulator.
     let zigzag = args
@@ -122,31 +113,11 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         .and_then(zigzag::ZigzagSpec::built_in)
         .map(|spec| zigzag_options(spec, &args))
         .transpose()?;
-    let mut scenario = match (&args.scenario, &args.scenario_file) {
-        _ if zigzag.is_some() => None,
-        (_, Some(path)) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading {}", path.display()))?;
-            Some(Scenario::from_toml(&text).with_context(|| format!("in {}", path.display()))?)
-        }
-        (Some(name), None) => Some(Scenario::built_in(name)?),
-        (None, None) => bail!("give --scenario NAME or --scenario-file FILE"),
+    let scenario = match zigzag {
+        Some(_) => None,
+        None => Some(scenario_of(&args)?),
     };
-    if let Some(s) = scenario.as_mut() {
-        let base = args
-            .scenario_file
-            .as_deref()
-            .and_then(std::path::Path::parent);
-        dynamic_options(s, &args.vehicle, args.coef_uncertainty, base)?;
-        if args.speed.is_some() || args.weight_minus_buoyancy.is_some() || args.duration.is_some() {
-            return Err(SimulateArgError(
-                "--speed, --weight-minus-buoyancy and --duration apply to seed 004's zig-zags \
-                 (zigzag-A-B), not to this scenario"
-                    .into(),
-            )
-            .into());
-        }
-    } else if args.vehicle.is_some() || args.coef_uncertainty.is_some() {
+    if zigzag.is_some() && (args.vehicle.is_some() || args.coef_uncertainty.is_some()) {
         return Err(SimulateArgError(
             "--vehicle and --coef-uncertainty apply to the 6-DOF scenarios, not to seed 004's zig-zags".into(),
         )
@@ -205,6 +176,45 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// Every built-in scenario with its description.
+fn list() -> Result<()> {
+    for (name, _) in BUILT_IN {
+        let s = Scenario::built_in(name)?;
+        out!("{name:<20} {}", s.description);
+    }
+    for name in zigzag::BUILT_IN {
+        if let Some(s) = zigzag::ZigzagSpec::built_in(name) {
+            out!("{name:<20} {}", s.description());
+        }
+    }
+    Ok(())
+}
+
+/// The scenario named or read from its file, with the 6-DOF options applied; the zig-zags'
+/// options refused.
+fn scenario_of(args: &SimulateArgs) -> Result<Scenario> {
+    let mut scenario = match (&args.scenario, &args.scenario_file) {
+        (_, Some(path)) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            Scenario::from_toml(&text).with_context(|| format!("in {}", path.display()))?
+        }
+        (Some(name), None) => Scenario::built_in(name)?,
+        (None, None) => bail!("give --scenario NAME or --scenario-file FILE"),
+    };
+    let base = (args.scenario_file.as_deref()).and_then(std::path::Path::parent);
+    dynamic_options(&mut scenario, &args.vehicle, args.coef_uncertainty, base)?;
+    if args.speed.is_some() || args.weight_minus_buoyancy.is_some() || args.duration.is_some() {
+        return Err(SimulateArgError(
+            "--speed, --weight-minus-buoyancy and --duration apply to seed 004's zig-zags \
+             (zigzag-A-B), not to this scenario"
+                .into(),
+        )
+        .into());
+    }
+    Ok(scenario)
 }
 
 /// A simulate option that does not fit the scenario (exit status 2).

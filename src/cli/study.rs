@@ -12,7 +12,7 @@ use hindsight::output::study_tables::{error_vs_time_batch, runs_batch, summary_b
 use hindsight::recon::config::Config;
 use hindsight::sim::scenario::Scenario;
 use hindsight::study::{
-    error_vs_time, run_solutions, summarise, Case, RunResult, Solution, TimeRow,
+    error_vs_time, run_solutions, summarise, Case, CaseSummary, RunResult, Solution, TimeRow,
 };
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -134,8 +134,59 @@ pub fn run(args: StudyArgs) -> Result<()> {
     let jobs: Vec<(usize, u64)> = (0..cases.len())
         .flat_map(|k| (0..args.runs).map(move |i| (k, args.seed_base + i)))
         .collect();
-    let bar = super::console::bar(jobs.len() as u64, "study", "runs");
     let started = std::time::Instant::now();
+    let runs = run_all(&jobs, &scenarios, &solutions, args.jobs)?;
+    let elapsed_s = started.elapsed().as_secs_f64();
+    let labels: Vec<String> = solutions.iter().map(|s| s.label.clone()).collect();
+    let summaries = summarise(&cases, &labels, &runs);
+    let curves = error_vs_time(&runs, cases.len(), solutions.len());
+
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let mut staging = Staging::new();
+    let mut written = Vec::new();
+    write_tables(
+        &mut staging,
+        &mut written,
+        &args.out,
+        (&cases, &labels),
+        (&runs, &summaries, &curves),
+    )?;
+    let plot = error_plot(&cases, &labels, &curves);
+    let failed = failures(&cases, &runs);
+    let ran = format!(
+        "{} runs in {elapsed_s:.1} s ({} threads)",
+        runs.len(),
+        rayon::current_num_threads()
+    );
+    let report = study_report(
+        &args,
+        &scenario,
+        (&cases, &labels),
+        &summaries,
+        (&plot, &ran, &failed),
+    );
+    super::write_report(&mut staging, &args.out, &report, &mut written)?;
+    commit_and_list(staging, &written, &args.out)?;
+
+    say!("{ran}");
+    print_summary(&summary_rows(&summaries));
+    print_error_vs_time(&cases, &labels, &curves);
+    for w in failed.iter().take(5) {
+        say!("warning: {w}");
+    }
+    Ok(())
+}
+
+/// Every run of every case, each seed simulated once and reconstructed with each solution;
+/// a failed run is a row with its error.
+fn run_all(
+    jobs: &[(usize, u64)],
+    scenarios: &[Scenario],
+    solutions: &[Solution],
+    threads: Option<usize>,
+) -> Result<Vec<RunResult>> {
+    let bar = super::console::bar(jobs.len() as u64, "study", "runs");
     let work = || -> Vec<RunResult> {
         jobs.par_iter()
             .flat_map(|&(k, seed)| {
@@ -147,7 +198,7 @@ pub fn run(args: StudyArgs) -> Result<()> {
                     ..RunResult::default()
                 };
                 let results: Vec<RunResult> =
-                    match run_solutions(&scenarios[k], seed, &solutions, k) {
+                    match run_solutions(&scenarios[k], seed, solutions, k) {
                         Ok(each) => each
                             .into_iter()
                             .enumerate()
@@ -160,7 +211,7 @@ pub fn run(args: StudyArgs) -> Result<()> {
             })
             .collect()
     };
-    let runs = match args.jobs {
+    let runs = match threads {
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n.max(1))
             .build()
@@ -169,38 +220,37 @@ pub fn run(args: StudyArgs) -> Result<()> {
         None => work(),
     };
     bar.finish_and_clear();
-    let elapsed_s = started.elapsed().as_secs_f64();
-    let labels: Vec<String> = solutions.iter().map(|s| s.label.clone()).collect();
-    let summaries = summarise(&cases, &labels, &runs);
-    let curves = error_vs_time(&runs, cases.len(), solutions.len());
+    Ok(runs)
+}
 
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let mut staging = Staging::new();
-    let mut written = Vec::new();
-    let path = args.out.join("runs.parquet");
+/// runs.parquet, summary.parquet and error_vs_time.parquet.
+fn write_tables(
+    staging: &mut Staging,
+    written: &mut Vec<PathBuf>,
+    out: &std::path::Path,
+    (cases, labels): (&[Case], &[String]),
+    (runs, summaries, curves): (&[RunResult], &[CaseSummary], &[TimeRow]),
+) -> Result<()> {
+    let path = out.join("runs.parquet");
+    write_parquet(staging, &path, runs_batch(cases, labels, runs)?, || None)?;
+    written.push(path);
+    let path = out.join("summary.parquet");
+    write_parquet(staging, &path, summary_batch(summaries)?, || None)?;
+    written.push(path);
+    let path = out.join("error_vs_time.parquet");
     write_parquet(
-        &mut staging,
+        staging,
         &path,
-        runs_batch(&cases, &labels, &runs)?,
+        error_vs_time_batch(cases, labels, curves)?,
         || None,
     )?;
     written.push(path);
-    let path = args.out.join("summary.parquet");
-    write_parquet(&mut staging, &path, summary_batch(&summaries)?, || None)?;
-    written.push(path);
-    let path = args.out.join("error_vs_time.parquet");
-    write_parquet(
-        &mut staging,
-        &path,
-        error_vs_time_batch(&cases, &labels, &curves)?,
-        || None,
-    )?;
-    written.push(path);
-    let plot = error_plot(&cases, &labels, &curves);
-    let rows = summary_rows(&summaries);
-    let failed: Vec<String> = runs
-        .iter()
+    Ok(())
+}
+
+/// The runs that failed, one line each.
+fn failures(cases: &[Case], runs: &[RunResult]) -> Vec<String> {
+    runs.iter()
         .filter(|r| r.error.is_some())
         .map(|r| {
             format!(
@@ -210,13 +260,19 @@ pub fn run(args: StudyArgs) -> Result<()> {
                 r.error.as_deref().unwrap_or_default()
             )
         })
-        .collect();
-    let ran = format!(
-        "{} runs in {elapsed_s:.1} s ({} threads)",
-        runs.len(),
-        rayon::current_num_threads()
-    );
-    let report = Report {
+        .collect()
+}
+
+/// The study's page: the cases, the error against time, the failed runs.
+fn study_report(
+    args: &StudyArgs,
+    scenario: &Scenario,
+    (cases, labels): (&[Case], &[String]),
+    summaries: &[CaseSummary],
+    (plot, ran, failed): (&Plot, &str, &[String]),
+) -> Report {
+    let rows = summary_rows(summaries);
+    Report {
         title: format!("hindsight study: {}", scenario.name),
         subtitle: format!(
             "{} case(s) x {} seed(s) from {}; solutions: {}",
@@ -227,28 +283,18 @@ pub fn run(args: StudyArgs) -> Result<()> {
         ),
         sections: vec![
             Section::new("Cases")
-                .with(Block::table(SUMMARY_HEADERS, rows.clone()))
+                .with(Block::table(SUMMARY_HEADERS, rows))
                 .with(Block::text(SUMMARY_CAPTION))
-                .with(Block::text(ran.clone())),
+                .with(Block::text(ran.to_string())),
             Section::new("Error against time").with(Block::figure(
                 "error_vs_time",
                 "Horizontal error against /truth, RMS over the runs, per case and solution.",
-                plot,
+                plot.clone(),
             )),
-            Section::new("Warnings").with(Block::Warnings(failed.clone())),
+            Section::new("Warnings").with(Block::Warnings(failed.to_vec())),
         ],
         footer: format!("hindsight {}", env!("CARGO_PKG_VERSION")),
-    };
-    super::write_report(&mut staging, &args.out, &report, &mut written)?;
-    commit_and_list(staging, &written, &args.out)?;
-
-    say!("{ran}");
-    print_summary(&rows);
-    print_error_vs_time(&cases, &labels, &curves);
-    for w in failed.iter().take(5) {
-        say!("warning: {w}");
     }
-    Ok(())
 }
 
 /// The scenario flown: built in or from a file, at the IMU rate asked for.
@@ -435,7 +481,7 @@ const SUMMARY_CAPTION: &str = "errors after the alignment (estimate minus truth 
      deg; sd: sample standard deviation; RMS: horizontal error against /truth, mean over the runs";
 
 /// The case summaries as table rows (printed, and in the report).
-fn summary_rows(summaries: &[hindsight::study::CaseSummary]) -> Vec<Vec<String>> {
+fn summary_rows(summaries: &[CaseSummary]) -> Vec<Vec<String>> {
     let f = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:+.3}"));
     let one = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.1}"));
     summaries

@@ -48,6 +48,13 @@ pub fn run(args: VehicleArgs) -> Result<()> {
         });
     }
     let p = Properties::of(&model);
+    print_body(&model, &p, terms);
+    print_stability(&p);
+    Ok(())
+}
+
+/// The rigid body, the added mass, the actuators and the full-propeller speed.
+fn print_body(model: &SixDof, p: &Properties, terms: usize) {
     let v = &model.vehicle;
     println!("{}: {} hydrodynamic terms", v.name, terms);
     println!("  length                 {:10.3} m", v.length_m);
@@ -96,6 +103,10 @@ pub fn run(args: VehicleArgs) -> Result<()> {
         ),
         None => println!("  full-propeller speed          n/a (thrust never balances drag)"),
     }
+}
+
+/// The straight-line stability indices of the horizontal and vertical planes.
+fn print_stability(p: &Properties) {
     let show = |name: &str, labels: [&str; 4], s: &PlaneStability| {
         let c = s.coefficients;
         println!(
@@ -130,5 +141,4 @@ pub fn run(args: VehicleArgs) -> Result<()> {
         ["Z_w'", "Z_q'", "M_w'", "M_q'"],
         &p.vertical,
     );
-    Ok(())
 }
