@@ -47,7 +47,8 @@ use std::path::{Path, PathBuf};
 /// Memory: what grows with the mission (the smoother's records, both solutions, the truth)
 /// waits on temporary files in TMPDIR, about 6.3 kB per filter epoch (6.2 GB for 27 h at
 /// 10 Hz), deleted as the run ends; point TMPDIR at a disk, not a RAM-backed /tmp, for long
-/// missions. The 27 h `survey-27h` scenario (100 Hz IMU) peaks at 949 MB resident.
+/// missions. The 27 h `survey-27h` scenario (100 Hz IMU) stays under 1 GB resident
+/// (docs/results/speed.md).
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct ReconstructArgs {

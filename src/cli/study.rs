@@ -197,15 +197,15 @@ fn run_all(
                     error: Some(e.to_string()),
                     ..RunResult::default()
                 };
-                let results: Vec<RunResult> =
-                    match run_solutions(&scenarios[k], seed, solutions, k) {
-                        Ok(each) => each
-                            .into_iter()
-                            .enumerate()
-                            .map(|(j, r)| r.unwrap_or_else(|e| failed(j, &e)))
-                            .collect(),
-                        Err(e) => (0..solutions.len()).map(|j| failed(j, &e)).collect(),
-                    };
+                let results: Vec<RunResult> = match run_solutions(&scenarios[k], seed, solutions, k)
+                {
+                    Ok(each) => each
+                        .into_iter()
+                        .enumerate()
+                        .map(|(j, r)| r.unwrap_or_else(|e| failed(j, &e)))
+                        .collect(),
+                    Err(e) => (0..solutions.len()).map(|j| failed(j, &e)).collect(),
+                };
                 bar.inc(1);
                 results
             })
