@@ -143,11 +143,11 @@ fn a_stuck_dvl_is_never_applied_and_a_returning_one_is_back_within_30_s() {
     // look wrong.
     let misread = outcome.warnings.iter().find(|w| {
         matches!(w, Warning::DvlClock { .. })
-            || matches!(w, Warning::Run(RunWarning::InnovationsTooLarge(f)) if f.sensor == "dvl")
+            || matches!(w, Warning::Run(RunWarning::InnovationsTooLarge(f)) if f.sensor == Sensor::Dvl)
     });
     assert!(misread.is_none(), "{misread:?}");
     let (sensor, readings) = stuck_warning.expect("a stuck-sensor warning");
-    assert_eq!(sensor, "dvl");
+    assert_eq!(sensor, Sensor::Dvl);
     assert!(
         readings >= count - 2,
         "{readings} of {count} flagged as repeats"

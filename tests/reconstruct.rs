@@ -112,7 +112,7 @@ fn dive_27min_out_of_range_dvl_is_detected() {
     let (n_fwd, _) = score(streams.truth, &naive);
     let dvl = sensor_stats(&r.run.residuals)
         .into_iter()
-        .find(|s| s.sensor == "dvl")
+        .find(|s| s.sensor == Sensor::Dvl)
         .unwrap();
     println!(
         "dive-27min: {} DVL readings out of range, {} gated; hindsight forward RMS {:.1} m (smoothed {:.1} m), \
@@ -222,7 +222,7 @@ fn bad_input_is_reported_or_handled() {
     let dvl_stats = |r: &Reconstruction| {
         sensor_stats(&r.run.residuals)
             .into_iter()
-            .find(|s| s.sensor == "dvl")
+            .find(|s| s.sensor == Sensor::Dvl)
             .unwrap()
     };
     let (lag_fwd, _) = score(streams.truth, &lagged);
@@ -243,7 +243,7 @@ fn bad_input_is_reported_or_handled() {
         &sensor_stats(&lagged.run.residuals)
     )
     .iter()
-    .any(|w| matches!(w, RunWarning::InnovationsTooLarge(x) if x.sensor == "dvl")));
+    .any(|w| matches!(w, RunWarning::InnovationsTooLarge(x) if x.sensor == Sensor::Dvl)));
     assert!(
         !warnings(&clean.run, &clean.init, &sensor_stats(&clean.run.residuals))
             .iter()

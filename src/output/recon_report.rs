@@ -573,7 +573,7 @@ fn components(sensor: Sensor, dims: usize) -> &'static [&'static str] {
 }
 
 fn innovations(s: &Summary, residuals: &[Residual], axis: &TimeAxis) -> Section {
-    let verdict = |name: &str| {
+    let verdict = |name: Sensor| {
         s.consistency
             .innovations
             .iter()

@@ -8,6 +8,7 @@
 //!   correlated in time and a finite run leave less); otherwise over-confident when more lie
 //!   above the upper bound than below the lower one, else conservative.
 
+use crate::filters::ins::aiding::Sensor;
 use crate::recon::score::Scores;
 use crate::recon::stats::SensorStats;
 use serde::Serialize;
@@ -39,7 +40,7 @@ impl std::fmt::Display for Verdict {
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct InnovationCheck {
-    pub sensor: &'static str,
+    pub sensor: Sensor,
     /// Mean NIS over the components of one measurement (1 when consistent).
     pub mean_nis_per_component: f64,
     pub verdict: Verdict,
@@ -161,7 +162,7 @@ impl Consistency {
 mod tests {
     use super::*;
 
-    fn stats(sensor: &'static str, dims: usize, mean_nis: f64) -> SensorStats {
+    fn stats(sensor: Sensor, dims: usize, mean_nis: f64) -> SensorStats {
         SensorStats {
             sensor,
             count: 100,
@@ -190,9 +191,9 @@ mod tests {
     fn verdicts_follow_the_bounds() {
         let c = assess(
             &[
-                stats("dvl", 3, 3.3),
-                stats("depth", 1, 2.5),
-                stats("mag", 1, 0.01),
+                stats(Sensor::Dvl, 3, 3.3),
+                stats(Sensor::Depth, 1, 2.5),
+                stats(Sensor::Magnetometer, 1, 0.01),
             ],
             Some(&scores(0.9, 0.05)),
             Some(&scores(0.4, 0.1)),
@@ -211,11 +212,11 @@ mod tests {
         assert!(!c.consistent);
         assert_eq!(c.over_confident().count(), 0);
 
-        let c = assess(&[stats("dvl", 3, 3.0)], Some(&scores(0.3, 0.6)), None);
+        let c = assess(&[stats(Sensor::Dvl, 3, 3.0)], Some(&scores(0.3, 0.6)), None);
         assert!(!c.consistent);
         assert_eq!(c.nees[0].verdict, Verdict::OverConfident);
         let flagged: Vec<_> = c.over_confident().map(|c| c.solution).collect();
         assert_eq!(flagged, ["forward"]);
-        assert!(assess(&[stats("dvl", 3, 3.0)], None, None).consistent);
+        assert!(assess(&[stats(Sensor::Dvl, 3, 3.0)], None, None).consistent);
     }
 }

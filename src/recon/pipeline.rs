@@ -289,7 +289,7 @@ pub fn forward(
     warnings.extend(pass_warnings(&pass, &sensors, &config, tuning.as_ref()));
     if let Some(dvl) = sensors
         .iter()
-        .find(|s| s.sensor == Sensor::Dvl.name() && stats::innovations_too_large(s))
+        .find(|s| s.sensor == Sensor::Dvl && stats::innovations_too_large(s))
     {
         stages.start(Stage::ClockSearch);
         let streams = Streams {

@@ -33,7 +33,7 @@ pub fn dvl_outages(dvl: &[crate::contract::Dvl], min_s: f64) -> Vec<(i64, i64)> 
 /// Innovation statistics of one sensor.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SensorStats {
-    pub sensor: &'static str,
+    pub sensor: Sensor,
     /// Measurements the filter saw (accepted or rejected by the gate).
     pub count: usize,
     pub rejected: usize,
@@ -71,7 +71,7 @@ pub fn sensor_stats(residuals: &[Residual]) -> Vec<SensorStats> {
             let mean = z.iter().sum::<f64>() / m;
             let variance = z.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / m;
             Some(SensorStats {
-                sensor: sensor.name(),
+                sensor,
                 count: all.len(),
                 rejected: all.len() - accepted.len(),
                 dims: sensor.dims(),
@@ -92,7 +92,7 @@ pub fn innovations_too_large(s: &SensorStats) -> bool {
 /// A sensor's innovation figures, for a warning.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Flagged {
-    pub sensor: &'static str,
+    pub sensor: Sensor,
     pub mean_nis: f64,
     pub dims: usize,
     pub rejected_pct: f64,
@@ -119,28 +119,19 @@ pub enum RunWarning {
     InnovationsTooLarge(Flagged),
     /// Some of a sensor's measurements were rejected by the gate.
     Rejected {
-        sensor: &'static str,
+        sensor: Sensor,
         rejected: usize,
         count: usize,
     },
     /// The gate was reopened after runs of rejections.
     GateReopened { times: usize },
     /// A long run of one sensor's readings was rejected, none let back in.
-    LongRejectedRun {
-        sensor: &'static str,
-        readings: usize,
-    },
+    LongRejectedRun { sensor: Sensor, readings: usize },
     /// Rejected readings that repeated the readings before exactly: a stuck sensor, whose
     /// gate was never reopened for them.
-    StuckReadings {
-        sensor: &'static str,
-        readings: usize,
-    },
+    StuckReadings { sensor: Sensor, readings: usize },
     /// Readings skipped: their innovation covariance was not positive definite.
-    NotPositiveDefinite {
-        sensor: &'static str,
-        readings: usize,
-    },
+    NotPositiveDefinite { sensor: Sensor, readings: usize },
     /// An IMU gap, bridged.
     ImuGap { from_ns: i64, seconds: f64 },
     /// No declination for the log's date: 0 with a 20 deg sigma.
@@ -336,24 +327,15 @@ pub fn warnings(
     for sensor in Sensor::ALL {
         let readings = run.longest_rejected_run[sensor];
         if readings >= LONG_REJECTED_RUN {
-            out.push(RunWarning::LongRejectedRun {
-                sensor: sensor.name(),
-                readings,
-            });
+            out.push(RunWarning::LongRejectedRun { sensor, readings });
         }
         let readings = run.repeated_rejected[sensor];
         if readings > 0 {
-            out.push(RunWarning::StuckReadings {
-                sensor: sensor.name(),
-                readings,
-            });
+            out.push(RunWarning::StuckReadings { sensor, readings });
         }
         let readings = run.not_positive_definite[sensor];
         if readings > 0 {
-            out.push(RunWarning::NotPositiveDefinite {
-                sensor: sensor.name(),
-                readings,
-            });
+            out.push(RunWarning::NotPositiveDefinite { sensor, readings });
         }
     }
     out.extend(run.imu_gaps.iter().map(|g| RunWarning::ImuGap {
