@@ -85,73 +85,9 @@ pub enum Command {
     Bench(bench::BenchArgs),
 }
 
-/// Writes `value` as pretty JSON (and a newline) to the staged file that becomes `path`.
-fn write_json(
-    staging: &mut hindsight::output::atomic::Staging,
-    path: &Path,
-    value: &impl serde::Serialize,
-) -> Result<()> {
-    use anyhow::Context;
-    let failed = || OutputFailed {
-        path: path.to_path_buf(),
-    };
-    let mut file = staging.create(path).with_context(failed)?;
-    serde_json::to_writer_pretty(&mut file, value)
-        .map_err(std::io::Error::from)
-        .and_then(|_| std::io::Write::write_all(&mut file, b"\n"))
-        .with_context(failed)
-}
-
-/// Writes `first` and the batches `next` yields as Parquet to the staged file that becomes
-/// `path`.
-fn write_parquet(
-    staging: &mut hindsight::output::atomic::Staging,
-    path: &Path,
-    first: arrow_array::RecordBatch,
-    next: impl FnMut() -> Option<Result<arrow_array::RecordBatch, arrow_schema::ArrowError>>,
-) -> Result<()> {
-    use anyhow::Context;
-    let failed = || OutputFailed {
-        path: path.to_path_buf(),
-    };
-    let file = staging.create(path).with_context(failed)?;
-    hindsight::output::parquet::write_batches(file, first, next).with_context(failed)?;
-    Ok(())
-}
-
-/// Writes `report.html` and each of its figures as `<stem>.png` beside it (drawn in
-/// parallel) into the staged files of `out`, and lists them in `written`.
-fn write_report(
-    staging: &mut hindsight::output::atomic::Staging,
-    out: &Path,
-    report: &hindsight::output::report::Report,
-    written: &mut Vec<PathBuf>,
-) -> Result<()> {
-    use anyhow::Context;
-    use rayon::prelude::*;
-    let path = out.join("report.html");
-    let failed = |path: &Path| OutputFailed {
-        path: path.to_path_buf(),
-    };
-    let html = report.to_html().with_context(|| failed(&path))?;
-    let mut file = staging.create(&path).with_context(|| failed(&path))?;
-    std::io::Write::write_all(&mut file, html.as_bytes()).with_context(|| failed(&path))?;
-    written.push(path);
-    let mut pngs = Vec::new();
-    for f in report.figures() {
-        let path = out.join(format!("{}.png", f.stem));
-        let file = staging.create(&path).with_context(|| failed(&path))?;
-        pngs.push((path, file, &f.plot));
-    }
-    pngs.par_iter()
-        .map(|(path, file, plot)| {
-            hindsight::output::plots::write_png(plot, std::io::BufWriter::new(file))
-                .with_context(|| failed(path))
-        })
-        .collect::<Result<Vec<()>>>()?;
-    written.extend(pngs.into_iter().map(|(path, ..)| path));
-    Ok(())
-}
+// The commands' files are staged by the library's writers (`output::files`); their errors
+// map to the output exit status.
+use hindsight::output::files::{write_json, write_parquet, write_report};
 
 /// Renames the staged outputs of a run into place, then lists them.
 fn commit_and_list(

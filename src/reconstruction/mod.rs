@@ -203,7 +203,9 @@ pub fn reconstruct(job: &Job, observer: Observer<'_>) -> Result<Reconstruction, 
     });
     let mut run = solve(job, &mission, log, observer)?;
     let truth = std::mem::replace(&mut run.truth, TruthKept::None);
-    let scored = score(&run.outcome.reconstruction, &run.kept_rows, &truth)?;
+    // Read back once for the scores and the report's track (a day of it is 140 MB).
+    let truth_read = truth.read()?;
+    let scored = score(&run.outcome.reconstruction, &run.kept_rows, &truth_read)?;
     let summary = summary::build(&summary::Parts {
         job,
         mission: &mission,
@@ -212,7 +214,8 @@ pub fn reconstruct(job: &Job, observer: Observer<'_>) -> Result<Reconstruction, 
         ingest_s,
         started,
     })?;
-    let from_log = run.from_log.with_truth(&truth.read()?);
+    let from_log = run.from_log.with_truth(&truth_read);
+    drop(truth_read);
     Ok(Reconstruction {
         summary,
         solved: run.outcome.reconstruction,
@@ -345,12 +348,11 @@ fn park_truth(log: &mut Log, config: &Config) -> Option<Spilled<Truth>> {
 }
 
 /// The solutions read back once, scored against the truth.
-fn score(r: &Solved, keep: &[usize], truth: &TruthKept) -> Result<Scored, Error> {
-    let truth = truth.read()?;
+fn score(r: &Solved, keep: &[usize], truth: &[Truth]) -> Result<Scored, Error> {
     let (to_scores, blocks) = recon_blocks::channel();
     let sample_rows = recon_blocks::sample_rows(keep);
     std::thread::scope(|s| {
-        let scores = s.spawn(|| recon_blocks::score(blocks, &truth, &sample_rows, None));
+        let scores = s.spawn(|| recon_blocks::score(blocks, truth, &sample_rows, None));
         let read = recon_blocks::read_blocks(r, keep, vec![to_scores]);
         let scored = scores
             .join()
