@@ -36,7 +36,7 @@ fn imu_schema() -> String {
     )
 }
 
-use hindsight::sim::ros::CdrWriter as Cdr;
+use hindsight::ingest::ros::wire::WireWriter as Cdr;
 
 fn imu_cdr(stamp_ns: i64, frame: &str, w: [f64; 3], a: [f64; 3]) -> Vec<u8> {
     let mut c = Cdr::new();

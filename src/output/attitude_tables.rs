@@ -6,10 +6,9 @@ use crate::attitude::compare::{MethodRun, MethodScore};
 use crate::attitude::dead_reckoning::TrackPoint;
 use crate::attitude::euler::from_quaternion;
 use crate::attitude::AttitudeSample;
-use arrow_array::{RecordBatch, UInt64Array};
-use arrow_schema::{ArrowError, DataType, Field};
+use arrow_array::RecordBatch;
+use arrow_schema::ArrowError;
 use nalgebra::Vector3;
-use std::sync::Arc;
 
 /// Rows of `attitude.parquet` for one method: stamp, method, roll/pitch/yaw (rad) and the
 /// dead-reckoned north/east/down (m, interpolated between DVL readings; null outside the
@@ -112,11 +111,6 @@ pub fn summary_batch(
     c.optional("total_rms_deg", "deg", broad(|b| b.total_deg));
     c.optional("heading_rms_deg", "deg", broad(|b| b.heading_deg));
     c.optional("inclination_rms_deg", "deg", broad(|b| b.inclination_deg));
-    c.push(
-        Field::new("covariance_repairs", DataType::UInt64, false),
-        Arc::new(UInt64Array::from(
-            runs.iter().map(|r| r.repairs as u64).collect::<Vec<_>>(),
-        )),
-    );
+    c.count("covariance_repairs", runs.iter().map(|r| r.repairs as u64).collect());
     c.finish()
 }

@@ -4,6 +4,7 @@
 use super::tables::timestamp_type;
 use arrow_array::{
     ArrayRef, BooleanArray, Float64Array, RecordBatch, StringArray, TimestampNanosecondArray,
+    UInt64Array,
 };
 use arrow_schema::{ArrowError, DataType, Field, Schema};
 use std::collections::HashMap;
@@ -49,6 +50,14 @@ impl Columns {
         self.push(
             Field::new(name, DataType::Boolean, true),
             Arc::new(BooleanArray::from(values)),
+        );
+    }
+
+    /// A count or other whole number, never missing.
+    pub(crate) fn count(&mut self, name: &str, values: Vec<u64>) {
+        self.push(
+            Field::new(name, DataType::UInt64, false),
+            Arc::new(UInt64Array::from(values)),
         );
     }
 

@@ -14,6 +14,8 @@
 use crate::filters::ins::record::Solution;
 use crate::geodesy;
 use crate::ingest::ros::map::ned_from_frd;
+use crate::ingest::ros::msg::Dialect;
+use crate::ingest::ros::wire::WireWriter;
 use nalgebra::Matrix3;
 
 /// The schema name of a fix.
@@ -78,60 +80,16 @@ pub struct StampOutOfRange {
     pub stamp_ns: i64,
 }
 
-/// A message being written in CDR (XCDR1, little-endian, as ROS 2 writes it): each primitive
-/// aligned to its size from the first byte after the 4-byte encapsulation header.
-struct Cdr<'a> {
-    buf: &'a mut Vec<u8>,
-}
-
-impl<'a> Cdr<'a> {
-    /// Clears `buf` and starts a message in it.
-    fn start(buf: &'a mut Vec<u8>) -> Self {
-        buf.clear();
-        buf.extend_from_slice(&[0x00, 0x01, 0x00, 0x00]);
-        Cdr { buf }
-    }
-
-    fn align(&mut self, size: usize) {
-        let padding = (size - (self.buf.len() - 4) % size) % size;
-        self.buf.extend(std::iter::repeat_n(0u8, padding));
-    }
-
-    fn u8(&mut self, v: u8) {
-        self.buf.push(v);
-    }
-
-    fn u32(&mut self, v: u32) {
-        self.align(4);
-        self.buf.extend_from_slice(&v.to_le_bytes());
-    }
-
-    fn i32(&mut self, v: i32) {
-        self.align(4);
-        self.buf.extend_from_slice(&v.to_le_bytes());
-    }
-
-    fn f64(&mut self, v: f64) {
-        self.align(8);
-        self.buf.extend_from_slice(&v.to_le_bytes());
-    }
-
-    /// A string: its length with the terminating NUL, its bytes, the NUL.
-    fn string(&mut self, s: &str) {
-        self.u32(s.len() as u32 + 1);
-        self.buf.extend_from_slice(s.as_bytes());
-        self.buf.push(0);
-    }
-
-    /// A `builtin_interfaces/Time`.
-    fn time(&mut self, stamp_ns: i64) -> Result<(), StampOutOfRange> {
-        let sec = i32::try_from(stamp_ns.div_euclid(1_000_000_000))
-            .map_err(|_| StampOutOfRange { stamp_ns })?;
-        self.i32(sec);
-        // Below 10^9: fits.
-        self.u32(stamp_ns.rem_euclid(1_000_000_000) as u32);
-        Ok(())
-    }
+/// A ROS 2 message in `buffer` (its memory reused), its header's stamp checked to fit.
+fn message(
+    buffer: &mut Vec<u8>,
+    stamp_ns: i64,
+    frame_id: &str,
+) -> Result<WireWriter, StampOutOfRange> {
+    i32::try_from(stamp_ns.div_euclid(1_000_000_000)).map_err(|_| StampOutOfRange { stamp_ns })?;
+    let mut m = WireWriter::reusing(std::mem::take(buffer), Dialect::Ros2);
+    m.header(stamp_ns, frame_id);
+    Ok(m)
 }
 
 /// North-east-down to east-north-up, for a covariance: `C_enu = T C_ned T^T`.
@@ -149,16 +107,11 @@ pub fn location_fix(
     out: &mut Vec<u8>,
 ) -> Result<(), StampOutOfRange> {
     let n = &s.point.nav;
-    let mut m = Cdr::start(out);
-    m.time(s.stamp_ns)?;
-    m.string(frame_id);
-    m.f64(n.lat_rad.to_degrees());
-    m.f64(n.lon_rad.to_degrees());
-    m.f64(n.height_m);
-    for v in enu_covariance(&s.position_cov) {
-        m.f64(v);
-    }
-    m.u8(COVARIANCE_KNOWN);
+    let mut m = message(out, s.stamp_ns, frame_id)?;
+    m.f64s(&[n.lat_rad.to_degrees(), n.lon_rad.to_degrees(), n.height_m])
+        .f64s(&enu_covariance(&s.position_cov))
+        .u8(COVARIANCE_KNOWN);
+    *out = m.into_bytes();
     Ok(())
 }
 
@@ -175,12 +128,9 @@ pub fn pose_in_frame(
         geodesy::local_north_east_m(origin_rad.0, origin_rad.1, n.lat_rad, n.lon_rad);
     // The change of axes (NED-ENU, FRD-FLU) is its own inverse.
     let q = ned_from_frd(&n.ned_from_body);
-    let mut m = Cdr::start(out);
-    m.time(s.stamp_ns)?;
-    m.string(frame_id);
-    for v in [east, north, n.height_m, q.i, q.j, q.k, q.w] {
-        m.f64(v);
-    }
+    let mut m = message(out, s.stamp_ns, frame_id)?;
+    m.f64s(&[east, north, n.height_m, q.i, q.j, q.k, q.w]);
+    *out = m.into_bytes();
     Ok(())
 }
 

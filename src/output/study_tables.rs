@@ -3,9 +3,31 @@
 
 use super::columns::Columns;
 use crate::study::{Case, CaseSummary, RunResult, TimeRow};
-use arrow_array::{ArrayRef, RecordBatch, UInt64Array};
-use arrow_schema::{ArrowError, DataType, Field};
-use std::sync::Arc;
+use arrow_array::RecordBatch;
+use arrow_schema::ArrowError;
+
+/// A number column of a table: its name, its unit and how a row gives it.
+type Column<Row> = (&'static str, &'static str, fn(&Row) -> Option<f64>);
+
+/// Adds `columns`, each read from every row.
+fn add_columns<Row>(c: &mut Columns, rows: &[Row], columns: &[Column<Row>]) {
+    for &(name, unit, value) in columns {
+        c.optional(name, unit, rows.iter().map(value).collect());
+    }
+}
+
+/// Each row's case label and solution name.
+fn case_and_solution(
+    c: &mut Columns,
+    cases: &[Case],
+    solutions: &[String],
+    of_row: impl Iterator<Item = (usize, usize)> + Clone,
+) {
+    let labels = of_row.clone().map(|(case, _)| cases[case].label.as_str());
+    c.text("case", labels.collect());
+    let names = of_row.map(|(_, solution)| solutions[solution].as_str());
+    c.text("solution", names.collect());
+}
 
 /// One row per run and solution: case, solution, seed, error, alignment and scores.
 pub fn runs_batch(
@@ -14,54 +36,38 @@ pub fn runs_batch(
     runs: &[RunResult],
 ) -> Result<RecordBatch, ArrowError> {
     let mut c = Columns::default();
-    c.text(
-        "case",
-        runs.iter().map(|r| cases[r.case].label.as_str()).collect(),
+    case_and_solution(
+        &mut c,
+        cases,
+        solutions,
+        runs.iter().map(|r| (r.case, r.solution)),
     );
-    c.text(
-        "solution",
-        runs.iter()
-            .map(|r| solutions[r.solution].as_str())
-            .collect(),
-    );
-    c.push(
-        Field::new("seed", DataType::UInt64, false),
-        Arc::new(UInt64Array::from(
-            runs.iter().map(|r| r.seed).collect::<Vec<_>>(),
-        )) as ArrayRef,
-    );
+    c.count("seed", runs.iter().map(|r| r.seed).collect());
     c.optional_text("error", runs.iter().map(|r| r.error.as_deref()).collect());
-    let opt = |f: fn(&RunResult) -> Option<f64>| runs.iter().map(f).collect::<Vec<_>>();
-    c.optional("aligned_after_s", "s", opt(|r| r.aligned_after_s));
-    c.optional("roll_error_deg", "deg", opt(|r| r.roll_error_deg));
-    c.optional("pitch_error_deg", "deg", opt(|r| r.pitch_error_deg));
-    c.optional(
-        "start_roll_error_deg",
-        "deg",
-        opt(|r| r.start_roll_error_deg),
+    add_columns(
+        &mut c,
+        runs,
+        &[
+            ("aligned_after_s", "s", |r| r.aligned_after_s),
+            ("roll_error_deg", "deg", |r| r.roll_error_deg),
+            ("pitch_error_deg", "deg", |r| r.pitch_error_deg),
+            ("start_roll_error_deg", "deg", |r| r.start_roll_error_deg),
+            ("start_pitch_error_deg", "deg", |r| r.start_pitch_error_deg),
+            // Scores of a run that did not fail.
+            ("forward_horizontal_rms_m", "m", |r| {
+                r.error.is_none().then_some(r.forward_horizontal_rms_m)
+            }),
+            ("smoothed_horizontal_rms_m", "m", |r| {
+                r.error.is_none().then_some(r.smoothed_horizontal_rms_m)
+            }),
+            ("forward_final_m", "m", |r| {
+                r.error.is_none().then_some(r.forward_final_m)
+            }),
+            ("forward_yaw_rms_deg", "deg", |r| {
+                r.error.is_none().then_some(r.forward_yaw_rms_deg)
+            }),
+        ],
     );
-    c.optional(
-        "start_pitch_error_deg",
-        "deg",
-        opt(|r| r.start_pitch_error_deg),
-    );
-    let ok = |f: fn(&RunResult) -> f64| {
-        runs.iter()
-            .map(|r| r.error.is_none().then(|| f(r)))
-            .collect::<Vec<_>>()
-    };
-    c.optional(
-        "forward_horizontal_rms_m",
-        "m",
-        ok(|r| r.forward_horizontal_rms_m),
-    );
-    c.optional(
-        "smoothed_horizontal_rms_m",
-        "m",
-        ok(|r| r.smoothed_horizontal_rms_m),
-    );
-    c.optional("forward_final_m", "m", ok(|r| r.forward_final_m));
-    c.optional("forward_yaw_rms_deg", "deg", ok(|r| r.forward_yaw_rms_deg));
     c.finish()
 }
 
@@ -73,30 +79,24 @@ pub fn error_vs_time_batch(
     rows: &[TimeRow],
 ) -> Result<RecordBatch, ArrowError> {
     let mut c = Columns::default();
-    c.text(
-        "case",
-        rows.iter().map(|r| cases[r.case].label.as_str()).collect(),
+    case_and_solution(
+        &mut c,
+        cases,
+        solutions,
+        rows.iter().map(|r| (r.case, r.solution)),
     );
-    c.text(
-        "solution",
-        rows.iter()
-            .map(|r| solutions[r.solution].as_str())
-            .collect(),
-    );
-    let col = |f: fn(&TimeRow) -> f64| rows.iter().map(|r| Some(f(r))).collect::<Vec<_>>();
     c.number("t_s", "s", rows.iter().map(|r| r.t_s).collect());
-    c.push(
-        Field::new("runs", DataType::UInt64, false),
-        Arc::new(UInt64Array::from(
-            rows.iter().map(|r| r.runs as u64).collect::<Vec<_>>(),
-        )) as ArrayRef,
-    );
-    c.optional("forward_rms_m", "m", col(|r| r.forward_rms_m));
-    c.optional("smoothed_rms_m", "m", col(|r| r.smoothed_rms_m));
-    c.optional(
-        "body_x_velocity_error_mean_m_s",
-        "m/s",
-        col(|r| r.body_x_velocity_error_mean_m_s),
+    c.count("runs", rows.iter().map(|r| r.runs as u64).collect());
+    add_columns(
+        &mut c,
+        rows,
+        &[
+            ("forward_rms_m", "m", |r| Some(r.forward_rms_m)),
+            ("smoothed_rms_m", "m", |r| Some(r.smoothed_rms_m)),
+            ("body_x_velocity_error_mean_m_s", "m/s", |r| {
+                Some(r.body_x_velocity_error_mean_m_s)
+            }),
+        ],
     );
     c.finish()
 }
@@ -109,55 +109,32 @@ pub fn summary_batch(summaries: &[CaseSummary]) -> Result<RecordBatch, ArrowErro
         "solution",
         summaries.iter().map(|s| s.solution.as_str()).collect(),
     );
-    let count = |f: fn(&CaseSummary) -> usize| {
-        Arc::new(UInt64Array::from(
-            summaries.iter().map(|s| f(s) as u64).collect::<Vec<_>>(),
-        )) as ArrayRef
-    };
-    c.push(
-        Field::new("runs", DataType::UInt64, false),
-        count(|s| s.runs),
+    c.count("runs", summaries.iter().map(|s| s.runs as u64).collect());
+    c.count(
+        "failed",
+        summaries.iter().map(|s| s.failed as u64).collect(),
     );
-    c.push(
-        Field::new("failed", DataType::UInt64, false),
-        count(|s| s.failed),
+    c.count(
+        "aligned",
+        summaries.iter().map(|s| s.aligned as u64).collect(),
     );
-    c.push(
-        Field::new("aligned", DataType::UInt64, false),
-        count(|s| s.aligned),
-    );
-    let opt = |f: fn(&CaseSummary) -> Option<f64>| summaries.iter().map(f).collect::<Vec<_>>();
-    c.optional("roll_error_mean_deg", "deg", opt(|s| s.roll_error_mean_deg));
-    c.optional(
-        "roll_error_sigma_deg",
-        "deg",
-        opt(|s| s.roll_error_sigma_deg),
-    );
-    c.optional(
-        "pitch_error_mean_deg",
-        "deg",
-        opt(|s| s.pitch_error_mean_deg),
-    );
-    c.optional(
-        "pitch_error_sigma_deg",
-        "deg",
-        opt(|s| s.pitch_error_sigma_deg),
-    );
-    c.optional("aligned_after_mean_s", "s", opt(|s| s.aligned_after_mean_s));
-    c.optional(
-        "aligned_after_sigma_s",
-        "s",
-        opt(|s| s.aligned_after_sigma_s),
-    );
-    c.optional(
-        "forward_horizontal_rms_mean_m",
-        "m",
-        opt(|s| s.forward_horizontal_rms_mean_m),
-    );
-    c.optional(
-        "smoothed_horizontal_rms_mean_m",
-        "m",
-        opt(|s| s.smoothed_horizontal_rms_mean_m),
+    add_columns(
+        &mut c,
+        summaries,
+        &[
+            ("roll_error_mean_deg", "deg", |s| s.roll_error_mean_deg),
+            ("roll_error_sigma_deg", "deg", |s| s.roll_error_sigma_deg),
+            ("pitch_error_mean_deg", "deg", |s| s.pitch_error_mean_deg),
+            ("pitch_error_sigma_deg", "deg", |s| s.pitch_error_sigma_deg),
+            ("aligned_after_mean_s", "s", |s| s.aligned_after_mean_s),
+            ("aligned_after_sigma_s", "s", |s| s.aligned_after_sigma_s),
+            ("forward_horizontal_rms_mean_m", "m", |s| {
+                s.forward_horizontal_rms_mean_m
+            }),
+            ("smoothed_horizontal_rms_mean_m", "m", |s| {
+                s.smoothed_horizontal_rms_mean_m
+            }),
+        ],
     );
     c.finish()
 }

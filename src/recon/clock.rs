@@ -3,7 +3,7 @@
 //! mission with the DVL stamps shifted, and say which shift fits best.
 
 use super::config::Config;
-use super::{forward_with, Prepared, Streams};
+use super::{forward_pass, Prepared, Streams};
 use crate::contract::{Dvl, Imu};
 use crate::filters::ins::aiding::Sensor;
 use crate::ingest::Mission;
@@ -50,7 +50,7 @@ fn dvl_fit(
         dvl: &dvl,
         ..*streams
     };
-    let run = forward_with(&shifted, mission, config, from.scored())
+    let run = forward_pass(&shifted, mission, config, from.scored())
         .ok()?
         .run;
     let nis: Vec<f64> = run

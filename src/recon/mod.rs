@@ -172,15 +172,6 @@ impl std::fmt::Display for AidNote {
 /// model aid's (a study's solutions), so that the pass is made once.
 pub type AttitudeTrack = Arc<Vec<AttitudeAt>>;
 
-/// Initialises from the log and runs the forward filter.
-pub fn forward(
-    streams: &Streams<'_>,
-    mission: &Mission,
-    config: &Config,
-) -> Result<ForwardPass, ReconError> {
-    forward_sharing(streams, mission, config, None, None)
-}
-
 /// The magnetometer's readings a pass uses.
 #[derive(Default)]
 pub enum MagInput<'a> {
@@ -197,7 +188,9 @@ pub enum MagInput<'a> {
 /// How a forward pass is made, beyond its log and configuration.
 #[derive(Default)]
 pub struct PassOptions<'a> {
-    /// The attitude the model-aided velocity is driven by (see [`forward_sharing`]).
+    /// The attitude the model-aided velocity is driven by: the [`ForwardPass::model_attitude`]
+    /// of a pass over the same log whose settings differ only in `[model_velocity]`, instead
+    /// of a pass of its own.
     pub shared_attitude: Option<AttitudeTrack>,
     /// Told how far the final pass has come.
     pub progress: Progress<'a>,
@@ -230,31 +223,8 @@ impl<'a> Prepared<'a> {
     }
 }
 
-/// [`forward`], the model-aided velocity driven by `shared_attitude` when it is given (the
-/// [`ForwardPass::model_attitude`] of a reconstruction of the same log whose settings differ
-/// only in `[model_velocity]`) instead of a pass of its own. `progress` is told how far the
-/// final pass has come.
-pub fn forward_sharing(
-    streams: &Streams<'_>,
-    mission: &Mission,
-    config: &Config,
-    shared_attitude: Option<AttitudeTrack>,
-    progress: Progress<'_>,
-) -> Result<ForwardPass, ReconError> {
-    forward_with(
-        streams,
-        mission,
-        config,
-        PassOptions {
-            shared_attitude,
-            progress,
-            ..PassOptions::default()
-        },
-    )
-}
-
 /// Initialises from the log and runs the forward filter as `options` say.
-pub fn forward_with(
+pub fn forward_pass(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
@@ -682,18 +652,6 @@ pub fn magnetometer_warnings(
     saturated.chain(deviation).collect()
 }
 
-/// The library's entry: the whole default workflow ([`pipeline::run`]: the plan decided from
-/// the log, the start settled, self-tuning, the forward pass with every aid of the plan, the
-/// smoother), its solutions returned. [`pipeline::run`] also gives the plan, the tuning and
-/// the warnings.
-pub fn reconstruct(
-    streams: &Streams<'_>,
-    mission: &Mission,
-    config: &Config,
-) -> Result<Reconstruction, ReconError> {
-    pipeline::run(streams, mission, config, pipeline::Options::default()).map(|o| o.reconstruction)
-}
-
 /// Exactly the configuration given, without a plan or tuning: initialisation, forward
 /// filter, smoother (a part left `auto` is off). For tests of one method and for studies of
 /// hand-made configurations.
@@ -702,23 +660,15 @@ pub fn run_configured(
     mission: &Mission,
     config: &Config,
 ) -> Result<Reconstruction, ReconError> {
-    let pass = forward(streams, mission, config)?;
+    let pass = forward_pass(streams, mission, config, PassOptions::default())?;
     let depth_used = config.depth.enabled && !streams.depth.is_empty();
-    finish(pass, config, depth_used)
+    finish(pass, config, depth_used, None)
 }
 
-/// Smooths a forward run and turns its records into solutions (freeing the records).
-/// `depth_used`: the run had depth updates (their offset is then added to the depth sigma).
+/// Smooths a forward run and turns its records into solutions (freeing the records), telling
+/// `progress` how far the smoother has come. `depth_used`: the run had depth updates (their
+/// offset is then added to the depth sigma).
 pub fn finish(
-    pass: ForwardPass,
-    config: &Config,
-    depth_used: bool,
-) -> Result<Reconstruction, ReconError> {
-    finish_reporting(pass, config, depth_used, None)
-}
-
-/// [`finish`], telling `progress` how far the smoother has come.
-pub fn finish_reporting(
     pass: ForwardPass,
     config: &Config,
     depth_used: bool,

@@ -17,8 +17,8 @@ use super::plan::{LogFacts, Part, Plan};
 use super::stats::{self, SensorStats};
 use super::tune::{self, Tuning};
 use super::{
-    finish_reporting, forward_with, settled_start, settled_start_from_sources, AttitudeTrack,
-    ForwardPass, MagInput, PassOptions, Prepared, ReconError, Reconstruction, Streams,
+    finish, forward_pass, settled_start, settled_start_from_sources, AttitudeTrack, ForwardPass,
+    MagInput, PassOptions, Prepared, ReconError, Reconstruction, Streams,
 };
 use crate::angle::wrap_pi;
 use crate::contract::{Dvl, MagneticField};
@@ -269,7 +269,7 @@ pub fn forward(
         add_plan_figures(t, &plan, &config, planned.dvl.stamp_delay_s);
     }
     times.align_s += stages.start(Stage::Forward);
-    let pass = forward_with(
+    let pass = forward_pass(
         streams,
         mission,
         &config,
@@ -331,7 +331,7 @@ impl Forward {
         let started = Instant::now();
         let depth_used = self.plan.uses(Part::Aid(Sensor::Depth));
         let model_attitude = self.pass.model_attitude.clone();
-        let reconstruction = finish_reporting(self.pass, &self.config, depth_used, progress)?;
+        let reconstruction = finish(self.pass, &self.config, depth_used, progress)?;
         let mut times = self.times;
         times.smoother_s = started.elapsed().as_secs_f64();
         Ok(Outcome {

@@ -517,7 +517,7 @@ mod tests {
     use super::super::msg::parse;
     use super::*;
 
-    use crate::sim::ros::CdrWriter as Writer;
+    use crate::ingest::ros::wire::WireWriter as Writer;
 
     const RANGE_HUMBLE: &str = "\
 std_msgs/Header header

@@ -9,3 +9,4 @@ pub mod decoder;
 pub mod map;
 pub mod msg;
 pub mod standard;
+pub mod wire;

@@ -23,7 +23,7 @@ use crate::ingest::Mission;
 use crate::recon::config::{Config, ImuConfig, ImuGrade, ImuSpec};
 use crate::recon::heading::HeadingSource;
 use crate::recon::init::{InitError, Initialisation};
-use crate::recon::{forward_with, Prepared, ReconError, Streams};
+use crate::recon::{forward_pass, Prepared, ReconError, Streams};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -535,7 +535,7 @@ impl Scorer<'_> {
         } = *self;
         let mut cfg = with_candidate(config, c, white);
         cfg.alignment.enabled = false;
-        let pass = |cfg: &Config| forward_with(streams, mission, cfg, from.scored());
+        let pass = |cfg: &Config| forward_pass(streams, mission, cfg, from.scored());
         let pass = match pass(&cfg) {
             Err(ReconError::Init(InitError::NoHeading(_))) if config.alignment.enabled => {
                 cfg.alignment.enabled = true;
