@@ -7,12 +7,13 @@
 
 use crate::align::latest_at;
 use crate::contract::Truth;
-use crate::ingest::{read_log_from, IngestOptions};
 use crate::recon::config::Config;
 use crate::recon::score::scores;
-use crate::recon::{pipeline, AttitudeTrack, Streams};
+use crate::recon::{AttitudeTrack, Reconstruction as Solved};
+use crate::reconstruction::{Job, Observer};
 use crate::sim::scenario::Scenario;
 use crate::sim::writer::{to_bytes, Compression, WriterOptions};
+use std::sync::Arc;
 
 /// One case of a study: the scenario with its start tilt set (a dropped vehicle's roll and
 /// pitch) or its vehicle's coefficients drawn with an uncertainty (seed 000's case 2), or as
@@ -118,15 +119,7 @@ pub fn run_solutions(
     })
     .map_err(|e| StudyError::Simulate(e.to_string()))?;
     simulated.map_err(|e| StudyError::Simulate(e.to_string()))?;
-    let log = read_log_from(&bytes[..], &IngestOptions::default())
-        .map_err(|e| StudyError::Read(e.to_string()))?;
-    let mission = log.mission().map_err(|e| StudyError::Read(e.to_string()))?;
-    let streams = Streams::of(&log);
-    let span_s = match (streams.imu.first(), streams.imu.last()) {
-        (Some(a), Some(b)) => (b.stamp_ns - a.stamp_ns) as f64 * 1e-9,
-        _ => 0.0,
-    };
-    let step_s = series_step_s(span_s);
+    let bytes: Arc<[u8]> = bytes.into();
     // Solutions whose settings differ only in the model aid's share its first pass.
     let mut shared: Vec<(Config, AttitudeTrack)> = Vec::new();
     Ok(solutions
@@ -139,34 +132,50 @@ pub fn run_solutions(
                 model_velocity: Default::default(),
                 ..config.clone()
             };
-            let attitude = shared.iter().find(|(c, _)| *c == key).map(|s| s.1.clone());
-            let (mut r, used) = score_run(&streams, &mission, &config, step_s, attitude)?;
-            if let Some(track) = used {
+            let name = format!("{} seed {seed}", solution.label);
+            let job = Job {
+                shared_attitude: shared.iter().find(|(c, _)| *c == key).map(|s| s.1.clone()),
+                ..Job::in_memory(&name, bytes.clone(), config)
+            };
+            let r = crate::reconstruct(&job, Observer::default()).map_err(study_error)?;
+            if let Some(track) = r.model_attitude.clone() {
                 shared.push((key, track));
             }
-            (r.case, r.solution, r.seed) = (case, k, seed);
-            Ok(r)
+            let truth = r.truth.read().map_err(study_error)?;
+            let mut run = score_run(&r.solved, &truth)?;
+            (run.case, run.solution, run.seed) = (case, k, seed);
+            Ok(run)
         })
         .collect())
 }
 
-/// Reconstructs one log and scores it against its `/truth`.
-fn score_run(
-    streams: &Streams<'_>,
-    mission: &crate::ingest::Mission,
-    config: &Config,
-    step_s: f64,
-    shared_attitude: Option<AttitudeTrack>,
-) -> Result<(RunResult, Option<AttitudeTrack>), StudyError> {
-    let options = pipeline::Options {
-        shared_attitude,
-        ..pipeline::Options::default()
-    };
-    let outcome = pipeline::run(streams, mission, config, options)
-        .map_err(|e| StudyError::Reconstruct(e.to_string()))?;
-    let (r, attitude) = (outcome.reconstruction, outcome.model_attitude);
+/// A reconstruction's failure as a run's: the filter's own message, or the reading's.
+fn study_error(e: crate::reconstruction::Error) -> StudyError {
+    use std::error::Error as _;
+    match e {
+        crate::reconstruction::Error::Reconstruct { source, .. } => {
+            StudyError::Reconstruct(source.to_string())
+        }
+        other => StudyError::Read(match other.source() {
+            Some(source) => format!("{other}: {source}"),
+            None => other.to_string(),
+        }),
+    }
+}
+
+/// Seconds from the first to the last truth sample.
+fn truth_span_s(truth: &[Truth]) -> f64 {
+    match (truth.first(), truth.last()) {
+        (Some(a), Some(b)) => (b.stamp_ns - a.stamp_ns) as f64 * 1e-9,
+        _ => 0.0,
+    }
+}
+
+/// Scores one reconstruction against its `/truth`.
+fn score_run(r: &Solved, truth: &[Truth]) -> Result<RunResult, StudyError> {
+    let step_s = series_step_s(truth_span_s(truth));
     let pick = |sol| {
-        crate::recon::score::errors(streams.truth, sol, &r.output)
+        crate::recon::score::errors(truth, sol, &r.output)
             .map_err(|e| StudyError::Reconstruct(format!("reading the solutions back: {e}")))
     };
     let (fwd, smo) = (pick(&r.forward)?, pick(&r.smoothed)?);
@@ -182,7 +191,7 @@ fn score_run(
         if (e.stamp_ns - t0) >= series.len() as i64 * step_ns {
             series.push(e.horizontal_m());
             smoothed_series.push(s.horizontal_m());
-            let along = latest_at(streams.truth, e.stamp_ns).map_or(f64::NAN, |(t, _)| {
+            let along = latest_at(truth, e.stamp_ns).map_or(f64::NAN, |(t, _)| {
                 let ned_from_body = nalgebra::UnitQuaternion::from_euler_angles(
                     t.attitude[0],
                     t.attitude[1],
@@ -204,15 +213,11 @@ fn score_run(
     let (mut at_align, mut at_start) = (None, None);
     if let Some(a) = r.init.in_run {
         let middle = a.stable_at_ns + (t0 + (a.aligned_after_s * 1e9) as i64 - a.stable_at_ns) / 2;
-        at_align = tilt_error(latest_at(streams.truth, middle), a.roll_rad, a.pitch_rad);
+        at_align = tilt_error(latest_at(truth, middle), a.roll_rad, a.pitch_rad);
         let (roll, pitch, _) = r.init.estimate.nav.ned_from_body.euler_angles();
-        at_start = tilt_error(latest_at(streams.truth, t0), roll, pitch);
+        at_start = tilt_error(latest_at(truth, t0), roll, pitch);
     }
-    let result = RunResult {
-        case: 0,
-        solution: 0,
-        seed: 0,
-        error: None,
+    Ok(RunResult {
         aligned_after_s: r.init.in_run.map(|a| a.aligned_after_s),
         roll_error_deg: at_align.map(|e| e.0),
         pitch_error_deg: at_align.map(|e| e.1),
@@ -226,8 +231,8 @@ fn score_run(
         forward_error_series: series,
         smoothed_error_series: smoothed_series,
         forward_body_x_velocity_error_series: body_x,
-    };
-    Ok((result, attitude))
+        ..RunResult::default()
+    })
 }
 
 /// Mean and sample standard deviation (`None` for no values; sigma 0 for one).

@@ -215,11 +215,10 @@ fn ingest_options(args: &ReconstructArgs, config: &Config) -> hindsight::ingest:
 pub fn run(args: ReconstructArgs) -> Result<()> {
     let config = args.config()?;
     let job = Job {
-        log: args.log.log.clone(),
         ingest: ingest_options(&args, &config),
         offsets: args.log.offsets.clone(),
         mission_defaults: args.log.source.mission_defaults(config.mission.clone()),
-        config,
+        ..Job::new(&args.log.log, config)
     };
     reconstruct(&job, &args.out)
 }

@@ -111,6 +111,9 @@ pub fn summary_batch(
     c.optional("total_rms_deg", "deg", broad(|b| b.total_deg));
     c.optional("heading_rms_deg", "deg", broad(|b| b.heading_deg));
     c.optional("inclination_rms_deg", "deg", broad(|b| b.inclination_deg));
-    c.count("covariance_repairs", runs.iter().map(|r| r.repairs as u64).collect());
+    c.count(
+        "covariance_repairs",
+        runs.iter().map(|r| r.repairs as u64).collect(),
+    );
     c.finish()
 }

@@ -17,29 +17,63 @@ use crate::output::recon_report::FromLog;
 use crate::progress::Progress;
 use crate::recon::config::Config;
 use crate::recon::pipeline::{self, Stage};
-use crate::recon::{ReconError, Reconstruction as Solved, Streams};
+use crate::recon::{AttitudeTrack, ReconError, Reconstruction as Solved, Streams};
 use crate::spill::Spilled;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 pub use summary::Summary;
 pub use warning::Warning;
 
+/// Where a log comes from.
+#[derive(Debug, Clone)]
+pub enum LogSource {
+    /// A file or folder: MCAP, ROS 1 bag, rosbag2 (sqlite) bag.
+    File(PathBuf),
+    /// An MCAP log already in memory (a simulated one), named for messages.
+    Memory { name: String, bytes: Arc<[u8]> },
+}
+
+impl LogSource {
+    /// The name messages and `summary.json` give the log.
+    pub fn name(&self) -> PathBuf {
+        match self {
+            LogSource::File(path) => path.clone(),
+            LogSource::Memory { name, .. } => PathBuf::from(name),
+        }
+    }
+}
+
 /// One mission to reconstruct: the log, the settings, how to read it.
 #[derive(Debug, Clone)]
 pub struct Job {
-    pub log: PathBuf,
+    pub log: LogSource,
     pub config: Config,
     pub ingest: IngestOptions,
     /// Clock offsets applied to topics before anything else.
     pub offsets: Vec<ClockOffset>,
     /// The mission where the log has no record of it.
     pub mission_defaults: MissionDefaults,
+    /// The attitude the model-aided velocity is driven by, from a reconstruction of the same
+    /// log whose settings differ only in `[model_velocity]` (its
+    /// [`Reconstruction::model_attitude`]), instead of a pass of its own.
+    pub shared_attitude: Option<AttitudeTrack>,
 }
 
 impl Job {
     /// The log reconstructed with `config` and nothing else: its topics, frames and ROS 2
     /// conversions from the settings, no clock offsets.
     pub fn new(log: &Path, config: Config) -> Job {
+        Job::of(LogSource::File(log.to_path_buf()), config)
+    }
+
+    /// An MCAP log in memory, named `name`, reconstructed with `config` as [`Job::new`] says.
+    pub fn in_memory(name: &str, bytes: Arc<[u8]>, config: Config) -> Job {
+        let name = name.to_string();
+        Job::of(LogSource::Memory { name, bytes }, config)
+    }
+
+    fn of(log: LogSource, config: Config) -> Job {
         let ingest = IngestOptions {
             topics: config.topics.clone(),
             frame_conventions: config.frames.clone(),
@@ -48,10 +82,11 @@ impl Job {
             ..IngestOptions::default()
         };
         Job {
-            log: log.to_path_buf(),
+            log,
             mission_defaults: config.mission.clone(),
             ingest,
             offsets: Vec::new(),
+            shared_attitude: None,
             config,
         }
     }
@@ -148,6 +183,9 @@ pub struct Reconstruction {
     pub from_log: FromLog,
     /// The solutions' errors against the truth, the distance, the rows the report draws.
     pub scored: Scored,
+    /// The attitude the model-aided velocity was driven by, to share with a reconstruction
+    /// of the same log ([`Job::shared_attitude`]).
+    pub model_attitude: Option<AttitudeTrack>,
     pub(crate) truth: TruthKept,
     pub(crate) started: Instant,
 }
@@ -189,7 +227,7 @@ pub fn reconstruct(job: &Job, observer: Observer<'_>) -> Result<Reconstruction, 
     let mission = log
         .settle_mission(&job.mission_defaults)
         .map_err(|source| Error::Mission {
-            path: job.log.clone(),
+            path: job.log.name(),
             source: Box::new(source),
         });
     let (mission, notes) = mission?;
@@ -218,6 +256,7 @@ pub fn reconstruct(job: &Job, observer: Observer<'_>) -> Result<Reconstruction, 
     drop(truth_read);
     Ok(Reconstruction {
         summary,
+        model_attitude: run.outcome.model_attitude,
         solved: run.outcome.reconstruction,
         kept_rows: run.kept_rows,
         origin_rad: run.origin_rad,
@@ -239,31 +278,44 @@ impl Reconstruction {
 /// The log, read and put on one clock.
 fn read(job: &Job, observer: Observer<'_>) -> Result<Log, Error> {
     let failed = |source| Error::Read {
-        path: job.log.clone(),
+        path: job.log.name(),
         source: Box::new(source),
     };
-    let sqlite = crate::ingest::sqlite::bag_at(&job.log).map_err(failed)?;
-    let mut log = if sqlite.is_some() {
-        observer.note(Note::Reading { bytes: None });
-        crate::ingest::read_log(&job.log, &job.ingest).map_err(failed)?
-    } else {
-        let file = std::fs::File::open(&job.log)
-            .map_err(IngestError::from)
-            .map_err(failed)?;
-        let size = file.metadata().map(|m| m.len()).unwrap_or(0);
-        observer.note(Note::Reading { bytes: Some(size) });
-        let counted = crate::progress::ReadProgress::new(file, size, observer.read_progress);
-        let input = std::io::BufReader::with_capacity(1 << 20, counted);
-        crate::ingest::read_log_from(input, &job.ingest).map_err(failed)?
+    let mut log = match &job.log {
+        LogSource::File(path) => read_file(path, &job.ingest, observer).map_err(failed)?,
+        LogSource::Memory { bytes, .. } => {
+            observer.note(Note::Reading {
+                bytes: Some(bytes.len() as u64),
+            });
+            crate::ingest::read_log_from(&bytes[..], &job.ingest).map_err(failed)?
+        }
     };
     crate::align::apply_offsets(&mut log, &job.offsets).map_err(|source| Error::Align {
-        path: job.log.clone(),
+        path: job.log.name(),
         source: Box::new(source),
     })?;
     for w in log.warnings() {
         observer.note(Note::ReadWarning(w));
     }
     Ok(log)
+}
+
+/// A log file read as `ingest` says, its reading's progress told.
+fn read_file(
+    path: &Path,
+    ingest: &IngestOptions,
+    observer: Observer<'_>,
+) -> Result<Log, IngestError> {
+    if crate::ingest::sqlite::bag_at(path)?.is_some() {
+        observer.note(Note::Reading { bytes: None });
+        return crate::ingest::read_log(path, ingest);
+    }
+    let file = std::fs::File::open(path)?;
+    let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+    observer.note(Note::Reading { bytes: Some(size) });
+    let counted = crate::progress::ReadProgress::new(file, size, observer.read_progress);
+    let input = std::io::BufReader::with_capacity(1 << 20, counted);
+    crate::ingest::read_log_from(input, ingest)
 }
 
 /// The pipeline's outcome and what the outputs need from the log, which is freed before the
@@ -293,10 +345,11 @@ fn solve(
         forward_progress: observer.forward_progress,
         on_stage: observer.on_stage,
         mag,
+        shared_attitude: job.shared_attitude.clone(),
         ..pipeline::Options::default()
     };
     let failed = |source| Error::Reconstruct {
-        path: job.log.clone(),
+        path: job.log.name(),
         source: Box::new(source),
     };
     let forward = pipeline::forward(&streams, mission, &job.config, options).map_err(failed)?;

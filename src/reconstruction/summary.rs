@@ -370,7 +370,7 @@ pub(crate) fn build(x: &Parts<'_>) -> Result<Summary, super::Error> {
     let mission = x.mission;
     Ok(Summary {
         hindsight_version: env!("CARGO_PKG_VERSION"),
-        log: x.job.log.display().to_string(),
+        log: x.job.log.name().display().to_string(),
         mission: MissionSummary {
             origin_latitude_deg: mission.origin_latitude_deg,
             origin_longitude_deg: mission.origin_longitude_deg,
