@@ -126,7 +126,7 @@ fn forward_rms(log: &hindsight::ingest::Log, config: &Config) -> (f64, Vec<Strin
         PassOptions::default(),
     )
     .unwrap();
-    let notes = pass.aid_notes.iter().map(|n| n.text.clone()).collect();
+    let notes = pass.aid_notes.iter().map(|n| n.to_string()).collect();
     let r = finish(pass, config, true, None).unwrap();
     (
         scores(&errors(streams.truth, &r).0)

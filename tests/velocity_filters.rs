@@ -78,7 +78,9 @@ fn a_stuck_propeller_is_refused_and_the_rest_runs() {
     )
     .unwrap();
     assert!(
-        pass.aid_notes.iter().any(|n| n.text.contains("read zero")),
+        pass.aid_notes
+            .iter()
+            .any(|n| n.to_string().contains("read zero")),
         "{:?}",
         pass.aid_notes
     );

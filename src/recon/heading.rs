@@ -10,6 +10,7 @@
 
 use crate::angle::wrap_pi;
 use serde::Serialize;
+use std::fmt;
 
 /// Where the declination used with the magnetometer came from.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -82,6 +83,15 @@ pub struct HeadingCandidate {
 }
 
 impl HeadingCandidate {
+    /// Its source and heading.
+    pub fn named(&self) -> SourceHeading {
+        SourceHeading {
+            source: self.source,
+            heading_deg: self.heading_deg,
+            sigma_deg: self.sigma_deg,
+        }
+    }
+
     pub fn new(source: HeadingSource, yaw_rad: f64, sigma_deg: f64) -> Self {
         HeadingCandidate {
             source,
@@ -102,7 +112,68 @@ impl HeadingCandidate {
 pub struct Combined {
     pub yaw_rad: f64,
     pub sigma_deg: f64,
-    pub disagreements: Vec<String>,
+    pub disagreements: Vec<HeadingDisagreement>,
+}
+
+/// A heading a source gave, as a disagreement names it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SourceHeading {
+    pub source: HeadingSource,
+    /// Degrees from north, in [0, 360).
+    pub heading_deg: f64,
+    pub sigma_deg: f64,
+}
+
+/// Two headings of the start that do not agree.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "between", rename_all = "snake_case")]
+pub enum HeadingDisagreement {
+    /// Two sources farther apart than 3 sigmas of the two (`allowed_deg`).
+    Sources {
+        first: SourceHeading,
+        second: SourceHeading,
+        apart_deg: f64,
+        allowed_deg: f64,
+    },
+    /// The in-motion alignment contradicted the start's heading, and was used instead.
+    StartAndInMotion {
+        start: SourceHeading,
+        in_motion: SourceHeading,
+    },
+}
+
+impl fmt::Display for HeadingDisagreement {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            HeadingDisagreement::Sources {
+                first: a,
+                second: b,
+                apart_deg,
+                allowed_deg,
+            } => write!(
+                f,
+                "heading sources disagree: {} {:.1} deg (1-sigma {:.1}) and {} {:.1} deg \
+                 (1-sigma {:.1}) are {apart_deg:.1} deg apart, beyond 3 sigma ({allowed_deg:.1} \
+                 deg)",
+                a.source.name(),
+                a.heading_deg,
+                a.sigma_deg,
+                b.source.name(),
+                b.heading_deg,
+                b.sigma_deg
+            ),
+            HeadingDisagreement::StartAndInMotion { start, in_motion } => write!(
+                f,
+                "the initial heading {:.1} deg ({}, 1-sigma {:.1}) is contradicted by the log: \
+                 the in-motion alignment found {:.1} deg (1-sigma {:.2}), used instead",
+                start.heading_deg,
+                start.source.name(),
+                start.sigma_deg,
+                in_motion.heading_deg,
+                in_motion.sigma_deg
+            ),
+        }
+    }
 }
 
 /// Combines the candidates marked `used` (inverse-variance, about the most precise one, so
@@ -127,16 +198,12 @@ pub fn combine(candidates: &[HeadingCandidate]) -> Option<Combined> {
             let apart = wrap_pi(a.yaw_rad() - b.yaw_rad()).to_degrees().abs();
             let allowed = 3.0 * a.sigma_deg.hypot(b.sigma_deg);
             if apart > allowed {
-                disagreements.push(format!(
-                    "heading sources disagree: {} {:.1} deg (1-sigma {:.1}) and {} {:.1} deg \
-                     (1-sigma {:.1}) are {apart:.1} deg apart, beyond 3 sigma ({allowed:.1} deg)",
-                    a.source.name(),
-                    a.heading_deg,
-                    a.sigma_deg,
-                    b.source.name(),
-                    b.heading_deg,
-                    b.sigma_deg
-                ));
+                disagreements.push(HeadingDisagreement::Sources {
+                    first: a.named(),
+                    second: b.named(),
+                    apart_deg: apart,
+                    allowed_deg: allowed,
+                });
             }
         }
     }
@@ -192,9 +259,13 @@ mod tests {
         ])
         .unwrap();
         assert_eq!(c.disagreements.len(), 1);
-        assert!(
-            c.disagreements[0].contains("magnetometer") && c.disagreements[0].contains("mission")
-        );
+        let HeadingDisagreement::Sources { first, second, .. } = c.disagreements[0] else {
+            panic!("{:?}", c.disagreements);
+        };
+        assert_eq!(first.source, HeadingSource::Magnetometer);
+        assert_eq!(second.source, HeadingSource::Mission);
+        let text = c.disagreements[0].to_string();
+        assert!(text.contains("magnetometer 10.0 deg (1-sigma 2.0) and mission 60.0 deg"));
         // The sigma covers the spread.
         assert!(c.sigma_deg > 40.0, "{}", c.sigma_deg);
         assert!(combine(&[given]).is_none());

@@ -107,7 +107,7 @@ pub struct Initialisation {
     /// Why the other sources gave no heading.
     pub heading_unavailable: Vec<String>,
     /// Sources that disagree beyond their sigmas (warnings).
-    pub heading_disagreements: Vec<String>,
+    pub heading_disagreements: Vec<crate::recon::heading::HeadingDisagreement>,
     /// Seed 002's in-run alignment, when it set the roll and pitch.
     pub in_run: Option<super::in_run::InRun>,
     /// The in-motion alignment's bank, when it ran.
@@ -794,7 +794,7 @@ struct Headings {
     sigma_deg: f64,
     candidates: Vec<HeadingCandidate>,
     unavailable: Vec<String>,
-    disagreements: Vec<String>,
+    disagreements: Vec<crate::recon::heading::HeadingDisagreement>,
 }
 
 /// Every heading source, then the combination (`auto`) or the one forced. Without any source

@@ -158,12 +158,13 @@ pub struct ForwardPass {
 #[derive(Debug, Clone, PartialEq)]
 pub struct AidNote {
     pub sensor: Sensor,
-    pub text: String,
+    /// Why it could not be used.
+    pub why: String,
 }
 
 impl std::fmt::Display for AidNote {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.text)
+        write!(f, "{}: not used: {}", self.sensor, self.why)
     }
 }
 
@@ -295,11 +296,11 @@ pub fn forward_pass(
         let sensor = aid.sensor();
         aid.notes()
             .into_iter()
-            .map(move |text| AidNote { sensor, text })
+            .map(move |why| AidNote { sensor, why })
     }));
-    aid_notes.extend(model_note.map(|text| AidNote {
+    aid_notes.extend(model_note.map(|why| AidNote {
         sensor: Sensor::ModelVelocity,
-        text,
+        why,
     }));
     // The table borrows the magnetometer's readings. Readings prepared here are a copy of
     // the log's: freed. Readings handed in are kept (the log no longer has them).
@@ -356,7 +357,7 @@ fn with_model(
         Ok(model) => Ok(Ok(Some(model))),
         Err(why) => Ok(Err(AidNote {
             sensor: Sensor::ModelVelocity,
-            text: format!("model_velocity: not used: {why}"),
+            why: why.to_string(),
         })),
     }
 }
@@ -579,15 +580,19 @@ fn align_in_motion(
     if let Some((yaw, sigma_deg)) = found.as_ref().and_then(|f| f.found) {
         if known {
             let (_, _, before) = init.estimate.nav.ned_from_body.euler_angles();
-            init.heading_disagreements.push(format!(
-                "the initial heading {:.1} deg ({}, 1-sigma {:.1}) is contradicted by the log: \
-                 the in-motion alignment found {:.1} deg (1-sigma {:.2}), used instead",
-                before.to_degrees().rem_euclid(360.0),
-                init.heading.name(),
-                init.heading_sigma_deg,
-                yaw.to_degrees().rem_euclid(360.0),
-                sigma_deg
-            ));
+            init.heading_disagreements
+                .push(heading::HeadingDisagreement::StartAndInMotion {
+                    start: heading::SourceHeading {
+                        source: init.heading,
+                        heading_deg: before.to_degrees().rem_euclid(360.0),
+                        sigma_deg: init.heading_sigma_deg,
+                    },
+                    in_motion: heading::SourceHeading {
+                        source: heading::HeadingSource::InMotion,
+                        heading_deg: yaw.to_degrees().rem_euclid(360.0),
+                        sigma_deg,
+                    },
+                });
         }
         init.estimate = init.estimate_with_heading(yaw, sigma_deg);
         init.heading = heading::HeadingSource::InMotion;
@@ -620,36 +625,6 @@ fn rpm_speed(mission: &Mission, config: &Config) -> Option<Box<dyn Fn(f64) -> f6
         let n = rpm * std::f64::consts::TAU / 60.0;
         crate::vehicle::six_dof::properties::steady_speed(&model, n).unwrap_or(0.0)
     }))
-}
-
-/// What a user should know of the magnetometer's readings: saturated spans left out, and a
-/// deviation that could not be calibrated.
-pub fn magnetometer_warnings(
-    mag: &magnetometer::PreparedMag,
-    cfg: &config::MagConfig,
-) -> Vec<String> {
-    let saturated = mag.saturated.iter().map(|s| {
-        format!(
-            "mag: saturated from {} to {} ({} readings: an axis stuck at its extreme), left out",
-            crate::time::format_utc(s.from_ns),
-            crate::time::format_utc(s.to_ns),
-            s.readings
-        )
-    });
-    let deviation = mag.deviation_unknown.then(|| {
-        format!(
-            "mag: not calibrated ({}), and the field magnitude varies by {:.1} % over the \
-             headings flown: the heading carries a deviation of a few degrees that changes \
-             with the heading, so its updates are taken as correlated over {:.0} s (a full \
-             circle in the dive would let it be calibrated)",
-            mag.calibration_skipped
-                .as_deref()
-                .unwrap_or("no reason recorded"),
-            mag.magnitude_variation * 100.0,
-            cfg.uncalibrated_correlation_s
-        )
-    });
-    saturated.chain(deviation).collect()
 }
 
 /// Exactly the configuration given, without a plan or tuning: initialisation, forward

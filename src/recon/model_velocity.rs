@@ -183,10 +183,10 @@ pub fn run_model(
         ..*filter
     };
     let run = model_aided::run_handing_on(&settings, model, &inputs, hand_on)
-        .map_err(|why| format!("model_velocity: not used: {why}"))?;
+        .map_err(|why| why.to_string())?;
     if let Some(why) = misfit(&run, config.max_nis) {
         return Err(format!(
-            "model_velocity: not used: the vehicle model `{}` does not fit this vehicle: {why}; \
+            "the vehicle model `{}` does not fit this vehicle: {why}; \
              the navigation runs without it",
             model.vehicle.name
         ));

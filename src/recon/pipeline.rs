@@ -84,7 +84,11 @@ pub struct Options<'a> {
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Warning {
     /// A part the configuration switched on cannot run on this log.
-    ForcedOnRefused { part: &'static str, why: String },
+    ForcedOnRefused {
+        part: &'static str,
+        #[serde(flatten)]
+        why: super::plan::Why,
+    },
     /// An aid refused itself when it ran.
     AidRefused { sensor: Sensor, why: String },
     /// The checked start heading moved from the one tuning started from: tuned again.
@@ -98,11 +102,22 @@ pub enum Warning {
         suggestion: Option<OffsetSuggestion>,
     },
     /// From self-tuning.
-    Tuning { text: String },
+    Tuning(tune::TuningWarning),
     /// From the forward pass's statistics and the initialisation.
     Run(stats::RunWarning),
-    /// From the magnetometer's preparation.
-    Magnetometer { text: String },
+    /// Magnetometer readings with an axis stuck at its extreme, left out.
+    MagSaturated {
+        from_ns: i64,
+        to_ns: i64,
+        readings: usize,
+    },
+    /// The magnetometer could not be calibrated (`why`) and its field magnitude varies over
+    /// the headings flown: its heading updates are taken as correlated over `correlation_s`.
+    MagNotCalibrated {
+        why: String,
+        magnitude_variation: f64,
+        correlation_s: f64,
+    },
 }
 
 impl fmt::Display for Warning {
@@ -111,7 +126,7 @@ impl fmt::Display for Warning {
             Warning::ForcedOnRefused { part, why } => {
                 write!(f, "{part}: switched on, but not used: {why}")
             }
-            Warning::AidRefused { why, .. } => f.write_str(why),
+            Warning::AidRefused { sensor, why } => write!(f, "{sensor}: not used: {why}"),
             Warning::Retuned {
                 tuned_from_deg,
                 checked_deg,
@@ -141,7 +156,30 @@ impl fmt::Display for Warning {
                 clock::COARSE_SPAN_S
             ),
             Warning::Run(w) => write!(f, "{w}"),
-            Warning::Tuning { text } | Warning::Magnetometer { text } => f.write_str(text),
+            Warning::Tuning(w) => write!(f, "{w}"),
+            Warning::MagSaturated {
+                from_ns,
+                to_ns,
+                readings,
+            } => write!(
+                f,
+                "mag: saturated from {} to {} ({readings} readings: an axis stuck at its \
+                 extreme), left out",
+                crate::time::format_utc(*from_ns),
+                crate::time::format_utc(*to_ns),
+            ),
+            Warning::MagNotCalibrated {
+                why,
+                magnitude_variation,
+                correlation_s,
+            } => write!(
+                f,
+                "mag: not calibrated ({why}), and the field magnitude varies by {:.1} % over \
+                 the headings flown: the heading carries a deviation of a few degrees that \
+                 changes with the heading, so its updates are taken as correlated over \
+                 {correlation_s:.0} s (a full circle in the dive would let it be calibrated)",
+                magnitude_variation * 100.0
+            ),
         }
     }
 }
@@ -251,7 +289,7 @@ pub fn forward(
         .overruled()
         .map(|d| Warning::ForcedOnRefused {
             part: d.name,
-            why: d.why.to_string(),
+            why: d.why.clone(),
         })
         .collect();
     times.plan_s = stages.start(Stage::Magnetometer);
@@ -283,7 +321,7 @@ pub fn forward(
     )?;
     times.forward_s = stages.lap();
     for note in &pass.aid_notes {
-        plan.refuse(Part::Aid(note.sensor), note.text.clone());
+        plan.refuse(Part::Aid(note.sensor), note.to_string());
     }
     let sensors = stats::sensor_stats(&pass.run.residuals);
     warnings.extend(pass_warnings(&pass, &sensors, &config, tuning.as_ref()));
@@ -378,19 +416,36 @@ fn pass_warnings(
 ) -> Vec<Warning> {
     let refused = pass.aid_notes.iter().map(|note| Warning::AidRefused {
         sensor: note.sensor,
-        why: note.text.clone(),
+        why: note.why.clone(),
     });
     let run = stats::warnings(&pass.run, &pass.init, sensors)
         .into_iter()
         .map(Warning::Run);
-    let mag = super::magnetometer_warnings(&pass.mag, &config.mag)
-        .into_iter()
-        .map(|text| Warning::Magnetometer { text });
+    let mag = magnetometer_warnings(&pass.mag, &config.mag);
     let tuned = tuning
         .into_iter()
         .flat_map(|t| t.warnings.iter())
-        .map(|text| Warning::Tuning { text: text.clone() });
+        .cloned()
+        .map(Warning::Tuning);
     refused.chain(run).chain(mag).chain(tuned).collect()
+}
+
+/// What a user should know of the magnetometer's readings: saturated spans left out, and a
+/// deviation that could not be calibrated.
+fn magnetometer_warnings(mag: &PreparedMag, cfg: &super::config::MagConfig) -> Vec<Warning> {
+    let saturated = mag.saturated.iter().map(|s| Warning::MagSaturated {
+        from_ns: s.from_ns,
+        to_ns: s.to_ns,
+        readings: s.readings,
+    });
+    let deviation = mag.deviation_unknown.then(|| Warning::MagNotCalibrated {
+        why: (mag.calibration_skipped.as_deref())
+            .unwrap_or("no reason recorded")
+            .to_string(),
+        magnitude_variation: mag.magnitude_variation,
+        correlation_s: cfg.uncalibrated_correlation_s,
+    });
+    saturated.chain(deviation).collect()
 }
 
 /// The DVL's readings stamped when they were measured (`None`: no delay to take out).

@@ -137,7 +137,7 @@ pub enum RunWarning {
     /// No declination for the log's date: 0 with a 20 deg sigma.
     DeclinationUnknown,
     /// Heading sources (or the alignment) that disagree.
-    HeadingDisagreement { text: String },
+    HeadingDisagreement(crate::recon::heading::HeadingDisagreement),
     /// Magnetometer readings left out as a disturbed field.
     MagDisturbed { readings: usize },
     /// A long stretch with no velocity measurement taken (none in range, or all rejected):
@@ -215,7 +215,7 @@ impl std::fmt::Display for RunWarning {
                 "magnetic declination unknown (no geomagnetic model covers the log's date: \
                  IGRF-14 covers 1900-2030), taken as 0 with a 20 deg sigma"
             ),
-            RunWarning::HeadingDisagreement { text } => f.write_str(text),
+            RunWarning::HeadingDisagreement(d) => write!(f, "{d}"),
             RunWarning::MagDisturbed { readings } => write!(
                 f,
                 "mag: {readings} readings left out, their field magnitude off the log's median \
@@ -349,7 +349,8 @@ pub fn warnings(
     out.extend(
         init.heading_disagreements
             .iter()
-            .map(|text| RunWarning::HeadingDisagreement { text: text.clone() }),
+            .copied()
+            .map(RunWarning::HeadingDisagreement),
     );
     if run.disturbed[Sensor::Magnetometer] > 0 {
         out.push(RunWarning::MagDisturbed {

@@ -385,7 +385,7 @@ impl Aid for RpmVelocityAid {
     }
     fn notes(&self) -> Vec<String> {
         match &self.run {
-            Err(why) => vec![format!("rpm_velocity: not used: {why}")],
+            Err(why) => vec![why.to_string()],
             Ok(_) => Vec::new(),
         }
     }

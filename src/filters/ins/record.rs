@@ -258,20 +258,6 @@ impl From<&Estimate> for NavPoint {
     }
 }
 
-impl NavPoint {
-    pub fn with_cov(&self, cov: ErrorMatrix) -> Estimate {
-        Estimate {
-            nav: self.nav,
-            gyro_bias: self.gyro_bias,
-            accel_bias: self.accel_bias,
-            dvl: self.dvl,
-            water: self.water,
-            gyro_scale_z: self.gyro_scale_z,
-            cov,
-        }
-    }
-}
-
 /// A solution at one epoch as the outputs need it: the state, the one-sigma of every
 /// error-state element and the full position covariance (for the NEES), without the rest of
 /// the covariance (a 5.5-hour mission has 200 000 of these, twice).

@@ -4,6 +4,18 @@
 
 use super::msg::Dialect;
 
+/// One writer method per primitive type, named as the type: its little-endian bytes, aligned.
+macro_rules! primitives {
+    ($($t:ident),*) => {
+        $(
+            #[doc = concat!("A `", stringify!($t), "`.")]
+            pub fn $t(&mut self, v: $t) -> &mut Self {
+                self.put(v.to_le_bytes())
+            }
+        )*
+    };
+}
+
 /// A ROS message's bytes: little-endian plain CDR (XCDR1), the encapsulation ROS 2 writes,
 /// each primitive aligned to its size from the first byte after the 4-byte header; or ROS 1's
 /// serialisation (no header, no alignment, strings without a NUL).
@@ -62,27 +74,8 @@ impl WireWriter {
         self
     }
 
-    pub fn u8(&mut self, v: u8) -> &mut Self {
-        self.put(v.to_le_bytes())
-    }
-    pub fn i8(&mut self, v: i8) -> &mut Self {
-        self.put(v.to_le_bytes())
-    }
-    pub fn u16(&mut self, v: u16) -> &mut Self {
-        self.put(v.to_le_bytes())
-    }
-    pub fn i32(&mut self, v: i32) -> &mut Self {
-        self.put(v.to_le_bytes())
-    }
-    pub fn u32(&mut self, v: u32) -> &mut Self {
-        self.put(v.to_le_bytes())
-    }
-    pub fn f32(&mut self, v: f32) -> &mut Self {
-        self.put(v.to_le_bytes())
-    }
-    pub fn f64(&mut self, v: f64) -> &mut Self {
-        self.put(v.to_le_bytes())
-    }
+    primitives!(u8, i8, u16, i32, u32, f32, f64);
+
     pub fn f64s(&mut self, v: &[f64]) -> &mut Self {
         for &x in v {
             self.f64(x);

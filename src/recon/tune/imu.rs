@@ -184,7 +184,7 @@ pub struct Search {
     pub tried: Vec<Scored>,
     /// The ladder's rungs left out, and why ([`loud_rungs_left_out`]).
     pub left_out: Option<String>,
-    pub warning: Option<String>,
+    pub warning: Option<super::TuningWarning>,
 }
 
 /// The DVL bias walks tried, m/s/sqrt(h): a 1 cm/s error correlated over a minute is about
@@ -719,11 +719,7 @@ pub fn search(
             tried,
             dvl_bias_walk: None,
             left_out: loud_left_out,
-            warning: Some(
-                "imu: no candidate noise model could run over the tuning span; the \
-                 configuration's figures are used"
-                    .into(),
-            ),
+            warning: Some(super::TuningWarning::NoNoiseModelRan),
         };
     };
     // The fine grades with a walk start where their grade's ladder pass started.
@@ -764,12 +760,9 @@ pub fn search(
         .map(|d| with_dvl_walk(config, d.walk_m_s_rt_h, d.correlation_s));
     let config = walked.as_ref().unwrap_or(config);
     let settled = climb(scorer, config, (&mut best, &mut best_ll), &mut tried);
-    let warning = (!settled).then(|| {
-        format!(
-            "imu: the noise estimate was still rising after {MAX_ROUNDS} refinement rounds; \
-             the most likely model found ({}) is used",
-            best.label()
-        )
+    let warning = (!settled).then(|| super::TuningWarning::NoiseStillRising {
+        rounds: MAX_ROUNDS,
+        model: best.label(),
     });
     Search {
         best: Some(best),

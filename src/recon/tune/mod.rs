@@ -125,7 +125,59 @@ pub struct Tuning {
     /// The DVL's lever arm the plan estimated and used, body FRD, m (given back with the
     /// tuned figures).
     pub dvl_lever_arm_m: Option<[f64; 3]>,
-    pub warnings: Vec<String>,
+    pub warnings: Vec<TuningWarning>,
+}
+
+/// What a user should know of self-tuning.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum TuningWarning {
+    /// No candidate noise model could run over the tuning span: the configuration's figures
+    /// are used.
+    NoNoiseModelRan,
+    /// The likelihood still rose after the last refinement round: the most likely model found
+    /// is used.
+    NoiseStillRising { rounds: usize, model: String },
+    /// A tuned bias instability lets the bias wander faster than a still stretch's Allan
+    /// deviation allows.
+    InstabilityBeyondStill {
+        sensor: &'static str,
+        tuned: f64,
+        bound: f64,
+        unit: &'static str,
+        correlation_s: f64,
+        still_s: f64,
+    },
+}
+
+impl fmt::Display for TuningWarning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TuningWarning::NoNoiseModelRan => f.write_str(
+                "imu: no candidate noise model could run over the tuning span; the \
+                 configuration's figures are used",
+            ),
+            TuningWarning::NoiseStillRising { rounds, model } => write!(
+                f,
+                "imu: the noise estimate was still rising after {rounds} refinement rounds; \
+                 the most likely model found ({model}) is used"
+            ),
+            TuningWarning::InstabilityBeyondStill {
+                sensor,
+                tuned,
+                bound,
+                unit,
+                correlation_s,
+                still_s,
+            } => write!(
+                f,
+                "the tuned {sensor} bias instability {tuned:.3} {unit} (correlation \
+                 {correlation_s:.0} s) lets the bias wander faster than the {still_s:.0} s \
+                 still stretch's Allan deviation allows (at most {bound:.3} {unit}): the \
+                 likelihood may have given the IMU errors of the aiding sensors"
+            ),
+        }
+    }
 }
 
 /// The streams cut to their first `span_s` seconds from the first IMU sample.
@@ -291,7 +343,7 @@ fn tune_sensor_noise(
 struct TunedImu {
     imu: ImuNoiseTuning,
     dvl_walk: Vec<SensorNoise>,
-    warning: Option<String>,
+    warning: Option<TuningWarning>,
 }
 
 /// The IMU's noise by the likelihood of the filter's innovations over the first span (its
@@ -378,7 +430,7 @@ fn chosen_dvl_drift(tuned: &mut Config, drift: &imu::DvlDrift) -> Vec<SensorNois
 
 /// A warning when the tuned bias instabilities let the biases wander faster than a still
 /// stretch's Allan deviation allows: the likelihood gave the IMU errors that are elsewhere.
-fn instability_beyond_bound(imu: &ImuNoiseTuning) -> Vec<String> {
+fn instability_beyond_bound(imu: &ImuNoiseTuning) -> Vec<TuningWarning> {
     let (Some(still), Source::Estimated) = (&imu.still, imu.source) else {
         return Vec::new();
     };
@@ -400,15 +452,16 @@ fn instability_beyond_bound(imu: &ImuNoiseTuning) -> Vec<String> {
     ];
     checks
         .into_iter()
-        .filter_map(|(what, tuned, bound, unit)| {
+        .filter_map(|(sensor, tuned, bound, unit)| {
             let bound = bound.filter(|b| tuned > *b)?;
-            Some(format!(
-                "the tuned {what} bias instability {tuned:.3} {unit} (correlation {t:.0} s) lets \
-                 the bias wander faster than the {:.0} s still stretch's Allan deviation allows \
-                 (at most {bound:.3} {unit}): the likelihood may have given the IMU errors of \
-                 the aiding sensors",
-                still.duration_s()
-            ))
+            Some(TuningWarning::InstabilityBeyondStill {
+                sensor,
+                tuned,
+                bound,
+                unit,
+                correlation_s: t,
+                still_s: still.duration_s(),
+            })
         })
         .collect()
 }
@@ -596,11 +649,23 @@ mod bound_tests {
     fn a_tuned_instability_beyond_the_still_bound_is_reported() {
         let warned = instability_beyond_bound(&tuning(30.0, Source::Estimated));
         assert_eq!(warned.len(), 1, "{warned:?}");
+        let TuningWarning::InstabilityBeyondStill {
+            sensor,
+            tuned,
+            bound,
+            ..
+        } = warned[0]
+        else {
+            panic!("{warned:?}");
+        };
+        assert_eq!((sensor, tuned), ("gyro", 30.0));
+        assert!((bound - 10.0).abs() < 1e-9, "{bound}");
+        let text = warned[0].to_string();
         assert!(
-            warned[0].contains("gyro bias instability 30.000 deg/h"),
-            "{warned:?}"
+            text.contains("gyro bias instability 30.000 deg/h"),
+            "{text}"
         );
-        assert!(warned[0].contains("at most 10.000 deg/h"), "{warned:?}");
+        assert!(text.contains("at most 10.000 deg/h"), "{text}");
         assert!(instability_beyond_bound(&tuning(3.0, Source::Estimated)).is_empty());
         assert!(instability_beyond_bound(&tuning(30.0, Source::Configured)).is_empty());
     }
