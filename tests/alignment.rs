@@ -6,8 +6,8 @@ use crate::common;
 use hindsight::config::Section;
 use hindsight::contract::Truth;
 use hindsight::ingest::Log;
+use hindsight::recon::alignment::heading::HeadingSource;
 use hindsight::recon::config::{Config, HeadingChoice};
-use hindsight::recon::heading::HeadingSource;
 use hindsight::recon::score::{scores, Scores};
 use hindsight::recon::{run_configured as reconstruct, Reconstruction, Streams};
 use hindsight::sim::scenario::Scenario;
@@ -134,7 +134,7 @@ fn drop_entry(seed: u64) -> (f64, f64, f64, f64) {
 /// the truth.
 #[test]
 fn a_2016_log_without_a_declination_takes_igrfs() {
-    use hindsight::recon::heading::DeclinationSource;
+    use hindsight::recon::alignment::heading::DeclinationSource;
     let mut scenario = Scenario::built_in("survey-short").unwrap();
     let day = hindsight::time::days_from_civil(2016, 6, 15);
     scenario.start_stamp_ns = day * 86_400 * 1_000_000_000;

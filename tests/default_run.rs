@@ -4,13 +4,13 @@
 
 use crate::common;
 use hindsight::config::Section;
-use hindsight::filters::ins::aiding::Sensor;
+use hindsight::filters::ins::aid_table::Sensor;
 use hindsight::filters::ins::error_state::idx;
 use hindsight::recon::config::{Config, HeadingChoice};
+use hindsight::recon::on_off_auto::Switch;
 use hindsight::recon::pipeline::{self, Outcome, Warning};
 use hindsight::recon::plan::{Part, Why};
 use hindsight::recon::score::{scores, Scores};
-use hindsight::recon::switch::Switch;
 use hindsight::recon::Streams;
 use hindsight::sim::scenario::Scenario;
 use hindsight::sim::sensors::dvl::DvlSensor;

@@ -20,7 +20,7 @@ fn survey_config() -> Config {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/survey.toml"))
         .unwrap();
     let mut c = Config::from_toml(&text).unwrap();
-    c.dvl.scale_misalignment = hindsight::recon::switch::Switch::On;
+    c.dvl.scale_misalignment = hindsight::recon::on_off_auto::Switch::On;
     c.dvl.scale_sigma = 0.005;
     c.dvl.misalignment_sigma_deg = 1.0;
     c.dvl.bias_sigma_m_s = 0.002;

@@ -11,7 +11,7 @@ use hindsight::sim::dynamic::{from_scenario, DynamicTruth};
 use hindsight::sim::inertial::perfect_imu;
 use hindsight::sim::scenario::Scenario;
 use hindsight::sim::truth::{TruthSample, TruthSource};
-use hindsight::vehicle::six_dof::plan::Phase;
+use hindsight::vehicle::six_dof::flight_plan::Phase;
 use nalgebra::UnitQuaternion;
 
 const DT: f64 = 0.01;

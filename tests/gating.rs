@@ -5,7 +5,7 @@
 
 use crate::common;
 use hindsight::contract::Dvl;
-use hindsight::filters::ins::aiding::Sensor;
+use hindsight::filters::ins::aid_table::Sensor;
 use hindsight::filters::ins::driver::Residual;
 use hindsight::ingest::Log;
 use hindsight::recon::config::Config;

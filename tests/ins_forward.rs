@@ -7,7 +7,7 @@
 
 use crate::common;
 use hindsight::contract::{Depth, Imu, Streams, Truth};
-use hindsight::filters::ins::aiding::{Aiding, Sensor};
+use hindsight::filters::ins::aid_table::{Aiding, Sensor};
 use hindsight::filters::ins::driver::{run_forward, Inputs, Propagation, Settings};
 use hindsight::filters::ins::error_state::{ErrorMatrix, N};
 use hindsight::filters::ins::forward::{DvlMounting, Estimate, Filter, ImuNoise};
@@ -311,7 +311,7 @@ struct NotPositiveDefinite {
     stamps_ns: Vec<i64>,
 }
 
-impl hindsight::filters::ins::aiding::Aid for NotPositiveDefinite {
+impl hindsight::filters::ins::aid_table::Aid for NotPositiveDefinite {
     fn sensor(&self) -> Sensor {
         Sensor::Depth
     }
@@ -324,12 +324,12 @@ impl hindsight::filters::ins::aiding::Aid for NotPositiveDefinite {
     fn measure(
         &self,
         _: usize,
-        _: &hindsight::filters::ins::aiding::Epoch<'_>,
-    ) -> Option<hindsight::filters::ins::aiding::Update> {
+        _: &hindsight::filters::ins::aid_table::Epoch<'_>,
+    ) -> Option<hindsight::filters::ins::aid_table::Update> {
         let mut h = nalgebra::SMatrix::<f64, 1, N>::zeros();
         h[(0, 2)] = 1.0;
-        Some(hindsight::filters::ins::aiding::Update::One(
-            hindsight::filters::ins::aiding::Measurement {
+        Some(hindsight::filters::ins::aid_table::Update::One(
+            hindsight::filters::ins::aid_table::Measurement {
                 y: nalgebra::SVector::<f64, 1>::new(0.1),
                 h,
                 r: nalgebra::SMatrix::<f64, 1, 1>::new(-1e6),

@@ -150,7 +150,7 @@ fn a_wrong_vehicle_is_noticed_and_left_out() {
     let mut wrong = right.clone();
     wrong.model_velocity.vehicle = "remus-100".into();
     let mut without = right.clone();
-    without.model_velocity.enabled = hindsight::recon::switch::Switch::Off;
+    without.model_velocity.enabled = hindsight::recon::on_off_auto::Switch::Off;
     let (rms_right, notes_right) = forward_rms(&log, &right);
     let (rms_wrong, notes_wrong) = forward_rms(&log, &wrong);
     let (rms_without, _) = forward_rms(&log, &without);
@@ -173,7 +173,7 @@ fn a_wrong_vehicle_is_noticed_and_left_out() {
 fn without_fins_the_model_aid_is_left_out() {
     let log = common::simulated_log(&Scenario::built_in("trench-eml").unwrap(), 1);
     let mut config = Config::default();
-    config.model_velocity.enabled = hindsight::recon::switch::Switch::On;
+    config.model_velocity.enabled = hindsight::recon::on_off_auto::Switch::On;
     config.model_velocity.vehicle = "nps-auv-ii".into();
     let (rms, notes) = forward_rms(&log, &config);
     assert!(rms.is_finite());

@@ -5,11 +5,11 @@
 use crate::common;
 use hindsight::config::Section;
 use hindsight::contract::{Dvl, GnssFix, Imu, Truth};
-use hindsight::filters::ins::aiding::Sensor;
+use hindsight::filters::ins::aid_table::Sensor;
 use hindsight::ingest::Log;
+use hindsight::recon::alignment::start::{HeadingSource, PositionSource};
 use hindsight::recon::clock::suggest_dvl_offset;
 use hindsight::recon::config::Config;
-use hindsight::recon::init::{HeadingSource, PositionSource};
 use hindsight::recon::score::{scores, Scores};
 use hindsight::recon::stats::{sensor_stats, warnings, RunWarning};
 use hindsight::recon::{run_configured as reconstruct, Reconstruction, Streams};

@@ -30,7 +30,7 @@ fn truth_length_m(log: &Log) -> f64 {
 /// The smoothed track's length over the truth's, and the fraction of the DVL's readings
 /// rejected.
 fn length_and_dvl_rejected(r: &hindsight::recon::Reconstruction, truth_m: f64) -> (f64, f64) {
-    use hindsight::filters::ins::aiding::Sensor;
+    use hindsight::filters::ins::aid_table::Sensor;
     use hindsight::recon::stats::distance_travelled_m;
     let dvl: Vec<bool> = r
         .run

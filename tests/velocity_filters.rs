@@ -4,7 +4,7 @@
 
 use crate::common;
 use hindsight::contract::Propeller;
-use hindsight::filters::ins::aiding::Sensor;
+use hindsight::filters::ins::aid_table::Sensor;
 use hindsight::ingest::Log;
 use hindsight::recon::config::Config;
 use hindsight::recon::score::{scores, Scores};
@@ -15,7 +15,7 @@ use common::output_errors as errors;
 
 fn with_rpm_velocity(used: bool) -> Config {
     let mut c = Config::default();
-    c.rpm_velocity.enabled = hindsight::recon::switch::Switch::from_bool(used);
+    c.rpm_velocity.enabled = hindsight::recon::on_off_auto::Switch::from_bool(used);
     c
 }
 

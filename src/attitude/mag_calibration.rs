@@ -412,8 +412,8 @@ mod tests {
         );
         let heading_error = |m: &Vector3<f64>, r: &Rotation3<f64>| {
             let (roll, pitch, _) = r.euler_angles();
-            let got = crate::filters::ins::alignment::magnetic_heading(m, roll, pitch, 0.0);
-            let true_heading = crate::filters::ins::alignment::magnetic_heading(
+            let got = crate::recon::alignment::at_rest::magnetic_heading(m, roll, pitch, 0.0);
+            let true_heading = crate::recon::alignment::at_rest::magnetic_heading(
                 &(r.inverse() * field),
                 roll,
                 pitch,

@@ -253,7 +253,7 @@ fn start_estimate(
     let field0 = inputs.mag_at(first.stamp_ns).unwrap_or_default();
     let q0 = if inputs.mag.is_empty() {
         let (roll, pitch) =
-            crate::filters::ins::alignment::level(&Vector3::from(first.specific_force));
+            crate::recon::alignment::at_rest::level(&Vector3::from(first.specific_force));
         UnitQuaternion::from_euler_angles(roll, pitch, inputs.initial_yaw_rad.unwrap_or(0.0))
     } else {
         from_gravity_and_field(

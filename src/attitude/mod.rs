@@ -64,8 +64,12 @@ pub fn from_gravity_and_field(
     field_body: &Vector3<f64>,
     declination_rad: f64,
 ) -> UnitQuaternion<f64> {
-    let (roll, pitch) = crate::filters::ins::alignment::level(specific_force_body);
-    let yaw =
-        crate::filters::ins::alignment::magnetic_heading(field_body, roll, pitch, declination_rad);
+    let (roll, pitch) = crate::recon::alignment::at_rest::level(specific_force_body);
+    let yaw = crate::recon::alignment::at_rest::magnetic_heading(
+        field_body,
+        roll,
+        pitch,
+        declination_rad,
+    );
     UnitQuaternion::from_euler_angles(roll, pitch, yaw)
 }

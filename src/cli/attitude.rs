@@ -1,7 +1,7 @@
 //! `hindsight attitude LOG --out DIR`: seed 001's attitude-method comparison on any log.
 
 use super::choices::{self, Preset};
-use super::config::SectionChoice;
+use super::config_command::{self, SectionChoice};
 use super::console::{self, out, say};
 use super::{OutputFailed, PolicyArgs};
 use anyhow::{Context, Result};
@@ -119,14 +119,16 @@ pub enum MagCalibration {
 
 pub fn run(args: AttitudeArgs) -> Result<()> {
     if args.print_config {
-        print!("{}", super::config::default_toml(SectionChoice::Attitude));
+        print!("{}", config_command::default_toml(SectionChoice::Attitude));
         return Ok(());
     }
     let (Some(log_path), Some(out)) = (args.log.clone(), args.out.clone()) else {
         anyhow::bail!("a LOG and --out DIR are needed");
     };
     let config = match &args.config {
-        Some(path) => super::config::read(path, Some(&AttitudeConfig::preset(args.preset.into())))?,
+        Some(path) => {
+            config_command::read(path, Some(&AttitudeConfig::preset(args.preset.into())))?
+        }
         None => AttitudeConfig::preset(args.preset.into()),
     };
     let filters = config.filters()?;

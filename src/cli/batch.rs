@@ -279,7 +279,7 @@ fn batch_config(path: Option<&Path>) -> Result<Config> {
     let Some(c) = path else {
         return Ok(Config::default());
     };
-    let mut config: Config = super::config::read(c, None)?;
+    let mut config: Config = super::config_command::read(c, None)?;
     super::reconstruct::read_vehicle_file(&mut config)
         .with_context(|| format!("configuration {}", c.display()))?;
     Ok(config)

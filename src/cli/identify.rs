@@ -1,6 +1,6 @@
 //! `hindsight identify LOG... --out DIR`: hydrodynamic coefficients from sea-trial logs.
 
-use super::config::SectionChoice;
+use super::config_command::SectionChoice;
 use super::console::{out, say};
 use super::{OutputFailed, PolicyArgs};
 use anyhow::{bail, Context, Result};
@@ -203,7 +203,10 @@ fn start_values(args: &IdentifyArgs) -> Result<Coefficients> {
 
 pub fn run(args: IdentifyArgs) -> Result<()> {
     if args.print_config {
-        print!("{}", super::config::default_toml(SectionChoice::Identify));
+        print!(
+            "{}",
+            super::config_command::default_toml(SectionChoice::Identify)
+        );
         return Ok(());
     }
     let Some(out_dir) = args.out.clone() else {
@@ -211,7 +214,7 @@ pub fn run(args: IdentifyArgs) -> Result<()> {
     };
     let started = Instant::now();
     let config = match &args.config {
-        Some(path) => super::config::read::<IdentifyConfig>(path, None)?,
+        Some(path) => super::config_command::read::<IdentifyConfig>(path, None)?,
         None => IdentifyConfig::default(),
     };
     let mut settings = config.settings()?;

@@ -11,7 +11,7 @@ mod bench_identify;
 mod bench_reconstruct;
 mod bench_simulate;
 mod choices;
-mod config;
+mod config_command;
 mod console;
 mod export;
 mod identify;
@@ -74,7 +74,7 @@ pub enum Command {
     Attitude(attitude::AttitudeArgs),
     Identify(identify::IdentifyArgs),
     Vehicle(vehicle::VehicleArgs),
-    Config(config::ConfigArgs),
+    Config(config_command::ConfigArgs),
     Info(info::InfoArgs),
     Export(export::ExportArgs),
     Import(import::ImportArgs),
@@ -121,7 +121,7 @@ pub fn run(args: Args) -> Result<()> {
         Command::Attitude(a) => attitude::run(a),
         Command::Identify(a) => identify::run(a),
         Command::Vehicle(a) => vehicle::run(a),
-        Command::Config(a) => config::run(a),
+        Command::Config(a) => config_command::run(a),
         Command::Info(a) => info::run(a),
         Command::Export(a) => export::run(a),
         Command::Simulate(a) => simulate::run(a),
@@ -136,7 +136,7 @@ pub fn run(args: Args) -> Result<()> {
 /// wrong, this says which flag helps.
 pub fn hint(err: &anyhow::Error) -> Option<&'static str> {
     use hindsight::identify::record::RecordError;
-    use hindsight::recon::init::InitError;
+    use hindsight::recon::alignment::start::InitError;
     use hindsight::reconstruction::Error as ReconstructionError;
     use hindsight::sim::scenario::ScenarioError;
     err.chain().find_map(|cause| {
@@ -164,7 +164,7 @@ pub fn hint(err: &anyhow::Error) -> Option<&'static str> {
         } else if let Some(hindsight::config::ConfigError::Toml { section, .. }) =
             cause.downcast_ref()
         {
-            Some(config::every_key_hint(section))
+            Some(config_command::every_key_hint(section))
         } else if let Some(RecordError::NoDvl { .. }) = cause.downcast_ref() {
             Some("give the speed with --speed M_S")
         } else {

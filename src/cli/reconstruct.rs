@@ -152,7 +152,7 @@ pub enum Toggle {
 impl ReconstructArgs {
     fn config(&self) -> Result<Config> {
         let mut config = match &self.config {
-            Some(path) => super::config::read(path, None)?,
+            Some(path) => super::config_command::read(path, None)?,
             None => Config::default(),
         };
         if let Some(g) = self.imu_grade {
@@ -170,9 +170,9 @@ impl ReconstructArgs {
         }
         if let Some(v) = &self.vehicle {
             config.model_velocity.vehicle = v.clone();
-            config.model_velocity.enabled = hindsight::recon::switch::Switch::On;
+            config.model_velocity.enabled = hindsight::recon::on_off_auto::Switch::On;
             read_vehicle_file(&mut config).context("--vehicle")?;
-        } else if config.model_velocity.enabled != hindsight::recon::switch::Switch::Off {
+        } else if config.model_velocity.enabled != hindsight::recon::on_off_auto::Switch::Off {
             read_vehicle_file(&mut config).context("[model_velocity] vehicle")?;
         }
         if let Some(d) = self.declination {

@@ -106,7 +106,7 @@ fn parse_solution(text: &str) -> Result<(String, PathBuf), String> {
 }
 
 fn read_config(path: &std::path::Path) -> Result<Config> {
-    let mut config: Config = super::config::read(path, None)?;
+    let mut config: Config = super::config_command::read(path, None)?;
     super::reconstruct::read_vehicle_file(&mut config)
         .with_context(|| format!("configuration {}", path.display()))?;
     Ok(config)

@@ -9,7 +9,7 @@
 //!
 //! Pure functions: an estimate goes in, an estimate (and a record of the step) comes out.
 
-use crate::dense;
+use crate::small_matrix;
 use nalgebra::{SMatrix, SVector};
 
 /// A Gaussian estimate: mean and covariance.
@@ -106,8 +106,8 @@ pub fn correct_considering<const N: usize, const M: usize>(
     gate: Option<f64>,
     considered: Option<&[bool; N]>,
 ) -> Result<(Option<SVector<f64, N>>, UpdateRecord<M>), KalmanError> {
-    let pht = dense::mul_transpose(cov, h);
-    let s = symmetrised(&(dense::mul(h, &pht) + r));
+    let pht = small_matrix::mul_transpose(cov, h);
+    let s = symmetrised(&(small_matrix::mul(h, &pht) + r));
     let chol = s
         .cholesky()
         .ok_or(KalmanError::InnovationNotPositiveDefinite)?;
@@ -163,7 +163,7 @@ fn joseph_in_place<const N: usize, const M: usize>(
             }
         }
     }
-    dense::symmetrise(cov);
+    small_matrix::symmetrise(cov);
 }
 
 fn symmetrised<const N: usize>(m: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {

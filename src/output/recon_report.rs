@@ -2,7 +2,7 @@
 //! the solutions, the residuals and what the log said (fixes, DVL outages, truth).
 
 use crate::contract::{GnssFix, PositionFix, Truth};
-use crate::filters::ins::aiding::Sensor;
+use crate::filters::ins::aid_table::Sensor;
 use crate::filters::ins::driver::Residual;
 use crate::filters::ins::record::Solution;
 use crate::geodesy::local_north_east_m;

@@ -5,7 +5,7 @@
 use super::config::Config;
 use super::{forward_pass, Prepared, Streams};
 use crate::contract::{Dvl, Imu};
-use crate::filters::ins::aiding::Sensor;
+use crate::filters::ins::aid_table::Sensor;
 use crate::ingest::Mission;
 
 /// Seconds of the mission searched (from the first IMU sample).

@@ -7,7 +7,7 @@
 //! of which a key overrides.
 
 use crate::config::{all, check_ranges, ConfigError, Range, Section};
-use crate::filters::ins::aiding::{Aiding, RpmVelocity, Sensor};
+use crate::filters::ins::aid_table::{Aiding, RpmVelocity, Sensor};
 use crate::filters::ins::driver::{Propagation, Settings};
 use crate::filters::ins::forward::{DvlMounting, Filter, ImuNoise};
 use crate::filters::velocity::rpm::RpmFilter;
@@ -441,7 +441,7 @@ pub struct DvlConfig {
     /// How late the DVL stamps a reading after it measured it, s.
     pub stamp_delay_s: f64,
     /// Whether the scale and misalignment are estimated (else held at zero).
-    pub scale_misalignment: crate::recon::switch::Switch,
+    pub scale_misalignment: crate::recon::on_off_auto::Switch,
     pub scale_sigma: f64,
     pub misalignment_sigma_deg: f64,
     /// 1-sigma of a held heading misalignment, deg: with `scale_sigma`, what a held scale and
@@ -477,7 +477,7 @@ impl Default for DvlConfig {
             lever_arm_m: [0.0; 3],
             rotation_deg: [0.0; 3],
             stamp_delay_s: 0.0,
-            scale_misalignment: crate::recon::switch::Switch::Auto,
+            scale_misalignment: crate::recon::on_off_auto::Switch::Auto,
             scale_sigma: 0.005,
             misalignment_sigma_deg: 1.0,
             held_misalignment_sigma_deg: 0.3,
@@ -641,7 +641,7 @@ impl Default for UseConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct RpmVelocityConfig {
     #[serde(rename = "use")]
-    pub enabled: crate::recon::switch::Switch,
+    pub enabled: crate::recon::on_off_auto::Switch,
     pub speed_sigma_floor_m_s: f64,
     pub max_speed_sigma_m_s: f64,
     pub lateral_sigma_m_s: f64,
@@ -654,7 +654,7 @@ impl Default for RpmVelocityConfig {
     fn default() -> Self {
         let f = RpmFilter::default();
         RpmVelocityConfig {
-            enabled: crate::recon::switch::Switch::Auto,
+            enabled: crate::recon::on_off_auto::Switch::Auto,
             speed_sigma_floor_m_s: f.speed_sigma_floor_m_s,
             max_speed_sigma_m_s: f.max_speed_sigma_m_s,
             lateral_sigma_m_s: 0.1,
@@ -833,7 +833,7 @@ pub struct TuneConfig {
     /// first `settle_s` (at most a third of the span) are left out of each candidate's score.
     pub settle_s: f64,
     /// Whether the DVL bias's random walk is chosen by the likelihood (when not given).
-    pub dvl_bias_walk: crate::recon::switch::Switch,
+    pub dvl_bias_walk: crate::recon::on_off_auto::Switch,
     /// Whether the walk's correlation time is also chosen by the likelihood (when not given).
     pub dvl_bias_correlation: bool,
 }
@@ -844,7 +844,7 @@ impl Default for TuneConfig {
             enabled: true,
             span_s: 1800.0,
             settle_s: 300.0,
-            dvl_bias_walk: crate::recon::switch::Switch::Auto,
+            dvl_bias_walk: crate::recon::on_off_auto::Switch::Auto,
             dvl_bias_correlation: false,
         }
     }
@@ -921,7 +921,7 @@ impl Config {
 #[serde(deny_unknown_fields, default)]
 pub struct ModelVelocityConfig {
     #[serde(rename = "use")]
-    pub enabled: crate::recon::switch::Switch,
+    pub enabled: crate::recon::on_off_auto::Switch,
     pub method: ModelMethod,
     pub vehicle: String,
     /// The vehicle file `vehicle` names, read by the caller: the library reads no files.
@@ -945,7 +945,7 @@ pub enum ModelMethod {
 impl Default for ModelVelocityConfig {
     fn default() -> Self {
         ModelVelocityConfig {
-            enabled: crate::recon::switch::Switch::Auto,
+            enabled: crate::recon::on_off_auto::Switch::Auto,
             method: ModelMethod::Proposed,
             vehicle: String::new(),
             vehicle_file: None,

@@ -8,7 +8,7 @@
 //!   correlated in time and a finite run leave less); otherwise over-confident when more lie
 //!   above the upper bound than below the lower one, else conservative.
 
-use crate::filters::ins::aiding::Sensor;
+use crate::filters::ins::aid_table::Sensor;
 use crate::recon::score::Scores;
 use crate::recon::stats::SensorStats;
 use serde::Serialize;

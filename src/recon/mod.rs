@@ -6,29 +6,25 @@
 //! `filters::ins::driver` (forward pass) -> `smooth::rts` -> `stats` (NIS per sensor,
 //! distance) and, when the log carries `/truth`, `score`.
 
+pub mod alignment;
 pub mod calibration;
-pub mod carry;
 pub mod clock;
 pub mod config;
 pub mod consistency;
 pub mod dvl_delay;
-pub mod heading;
 pub mod held_dvl;
-pub mod in_motion;
-pub mod in_run;
-pub mod init;
 pub mod magnetometer;
 pub mod model_velocity;
+pub mod on_off_auto;
 pub mod pipeline;
 pub mod plan;
 pub mod sanity;
 pub mod score;
 pub mod stats;
-pub mod switch;
 pub mod tune;
 
 use crate::contract::Imu;
-use crate::filters::ins::aiding::{MagAiding, Sensor};
+use crate::filters::ins::aid_table::{MagAiding, Sensor};
 use crate::filters::ins::driver::{run_forward, ForwardRun, Inputs, Keep};
 use crate::filters::ins::record::Solution;
 use crate::filters::ins::solutions::Solutions;
@@ -36,8 +32,9 @@ use crate::filters::velocity::model_aided::{AttitudeAt, ModelAidedFilter};
 use crate::ingest::Mission;
 use crate::progress::Progress;
 use crate::smooth::rts::{smooth_each, SmoothError};
+use alignment::start::{InitError, InitSettings, Initialisation};
+use alignment::{heading, in_motion, start as init};
 use config::Config;
-use init::{InitError, InitSettings, Initialisation};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 

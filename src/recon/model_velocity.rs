@@ -2,15 +2,14 @@
 //! first forward pass that drives the model, the filter's run, and the check that the model
 //! fits the vehicle before its velocities are trusted.
 
+use super::alignment::start::Initialisation;
 use super::config::{ModelMethod, ModelVelocityConfig};
-use super::init::Initialisation;
 use super::AttitudeTrack;
 use super::Streams;
-use crate::feed::{Closer, Feed};
-use crate::filters::ins::aiding::{Aid, AidTable};
-use crate::filters::ins::aids::{
+use crate::filters::ins::aid_sources::{
     Borrowed, ModelVelocityAid, ModelVelocitySelection, ModelVelocityUse,
 };
+use crate::filters::ins::aid_table::{Aid, AidTable};
 use crate::filters::ins::driver::{
     run_forward, ForwardRun, Inputs, Keep, NavAt, Running, Settings,
 };
@@ -18,6 +17,7 @@ use crate::filters::velocity::model_aided::{
     self, AttitudeAt, AttitudeSource, BodyVelocityReading, Mode, ModelAidedFilter, ModelRun,
     ModelVelocity,
 };
+use crate::growing_series::{Closer, Feed};
 use crate::ingest::Mission;
 use crate::vehicle::six_dof::description::{Vehicle, BUILT_IN};
 use crate::vehicle::six_dof::model::SixDof;

@@ -8,10 +8,10 @@
 //! [`Forward::smooth`]. The CLI's `reconstruct` and `batch`, `study` and the library's
 //! [`super::reconstruct`] all go through here.
 
+use super::alignment::heading::HeadingSource;
+use super::alignment::start::Initialisation;
 use super::clock::{self, OffsetSuggestion};
 use super::config::Config;
-use super::heading::HeadingSource;
-use super::init::Initialisation;
 use super::magnetometer::{self, PreparedMag};
 use super::plan::{LogFacts, Part, Plan};
 use super::stats::{self, SensorStats};
@@ -22,7 +22,7 @@ use super::{
 };
 use crate::angle::wrap_pi;
 use crate::contract::{Dvl, MagneticField};
-use crate::filters::ins::aiding::Sensor;
+use crate::filters::ins::aid_table::Sensor;
 use crate::ingest::Mission;
 use crate::progress::Progress;
 use serde::Serialize;
@@ -517,7 +517,7 @@ fn settle_and_tune(
     // The candidates are scored without the model aid: it would cost each a pass more, and
     // the IMU's noise is to be learnt from the sensors, not from the model's errors.
     let mut scoring = config.clone();
-    scoring.model_velocity.enabled = super::switch::Switch::Off;
+    scoring.model_velocity.enabled = super::on_off_auto::Switch::Off;
     let tune_from = |start: Option<&Initialisation>| {
         let from = Prepared {
             start,

@@ -10,9 +10,9 @@
 
 use super::config::Config;
 use super::dvl_delay::{self, StampDelay};
-use super::switch::Switch;
+use super::on_off_auto::Switch;
 use super::Streams;
-use crate::filters::ins::aiding::Sensor;
+use crate::filters::ins::aid_table::Sensor;
 use crate::ingest::Mission;
 use serde::Serialize;
 use std::fmt;

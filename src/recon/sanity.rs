@@ -6,7 +6,7 @@
 
 use super::Reconstruction;
 use crate::contract::Dvl;
-use crate::filters::ins::aiding::Sensor;
+use crate::filters::ins::aid_table::Sensor;
 use serde::Serialize;
 
 /// The longest interval between two valid DVL readings over which their path is summed, s.

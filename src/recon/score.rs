@@ -5,11 +5,11 @@
 use crate::align::interpolate;
 use crate::angle::wrap_pi;
 use crate::contract::Truth;
+use crate::disk_backed::{Decoder, Encoder, Fixed};
 use crate::filters::ins::record::Solution;
 use crate::filters::ins::solutions::Solutions;
 use crate::filters::kalman::chi_square_quantile;
 use crate::geodesy;
-use crate::spill::{Decoder, Encoder, Fixed};
 use nalgebra::{Matrix2, Vector2, Vector3};
 use serde::Serialize;
 

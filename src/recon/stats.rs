@@ -1,11 +1,11 @@
 //! Statistics of a run: per-sensor innovation statistics, distance travelled.
 
-use crate::filters::ins::aiding::Sensor;
+use crate::filters::ins::aid_table::Sensor;
 use crate::filters::ins::driver::ForwardRun;
 use crate::filters::ins::driver::Residual;
 use crate::filters::ins::record::Solution;
 use crate::geodesy;
-use crate::recon::init::Initialisation;
+use crate::recon::alignment::start::Initialisation;
 use serde::Serialize;
 
 /// Stretches without a usable DVL reading (no bottom lock, or no reading at all) longer than
@@ -137,7 +137,7 @@ pub enum RunWarning {
     /// No declination for the log's date: 0 with a 20 deg sigma.
     DeclinationUnknown,
     /// Heading sources (or the alignment) that disagree.
-    HeadingDisagreement(crate::recon::heading::HeadingDisagreement),
+    HeadingDisagreement(crate::recon::alignment::heading::HeadingDisagreement),
     /// Magnetometer readings left out as a disturbed field.
     MagDisturbed { readings: usize },
     /// A long stretch with no velocity measurement taken (none in range, or all rejected):
@@ -342,7 +342,7 @@ pub fn warnings(
         from_ns: g.from_ns,
         seconds: (g.to_ns - g.from_ns) as f64 * 1e-9,
     }));
-    let unknown = crate::recon::heading::DeclinationSource::Unknown;
+    let unknown = crate::recon::alignment::heading::DeclinationSource::Unknown;
     if init.declination.is_some_and(|d| d.source == unknown) {
         out.push(RunWarning::DeclinationUnknown);
     }

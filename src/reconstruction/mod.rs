@@ -11,6 +11,7 @@ pub mod warning;
 
 use crate::align::{AlignError, ClockOffset};
 use crate::contract::{MagneticField, Truth};
+use crate::disk_backed::Spilled;
 use crate::ingest::{IngestError, IngestOptions, Log, Mission, MissionDefaults, MissionError};
 use crate::output::recon_blocks::{self, Scored};
 use crate::output::recon_report::FromLog;
@@ -18,7 +19,6 @@ use crate::progress::Progress;
 use crate::recon::config::Config;
 use crate::recon::pipeline::{self, Stage};
 use crate::recon::{AttitudeTrack, ReconError, Reconstruction as Solved, Streams};
-use crate::spill::Spilled;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;

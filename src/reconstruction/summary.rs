@@ -3,7 +3,7 @@
 //! truth's scores, the consistency verdict and the warnings.
 
 use super::warning::Warning;
-use crate::filters::ins::aiding::Sensor;
+use crate::filters::ins::aid_table::Sensor;
 use crate::filters::ins::record::Solution;
 use crate::recon::calibration::{self, DvlCalibrationReport, WaterReport};
 use crate::recon::config::Config;
@@ -89,10 +89,10 @@ pub struct InitSummary {
     pub pitch_deg: f64,
     pub yaw_deg: f64,
     /// Every heading source: value, sigma, whether it was used.
-    pub heading_sources: Vec<crate::recon::heading::HeadingCandidate>,
+    pub heading_sources: Vec<crate::recon::alignment::heading::HeadingCandidate>,
     pub heading_unavailable: Vec<String>,
-    pub declination: Option<crate::recon::heading::DeclinationUsed>,
-    pub in_motion_alignment: Option<crate::recon::in_motion::InMotion>,
+    pub declination: Option<crate::recon::alignment::heading::DeclinationUsed>,
+    pub in_motion_alignment: Option<crate::recon::alignment::in_motion::InMotion>,
 }
 
 /// What was done with the magnetometer's readings.
@@ -167,7 +167,7 @@ pub(crate) fn final_sigma(s: Option<&Solution>) -> Option<Sigma> {
 }
 
 /// The initial state as summary.json has it.
-pub(crate) fn init_summary(init: &crate::recon::init::Initialisation) -> InitSummary {
+pub(crate) fn init_summary(init: &crate::recon::alignment::start::Initialisation) -> InitSummary {
     let nav = init.estimate.nav;
     let (roll, pitch, yaw) = nav.ned_from_body.euler_angles();
     InitSummary {

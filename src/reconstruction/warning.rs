@@ -93,10 +93,10 @@ impl Serialize for Warning {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::filters::ins::aiding::Sensor;
+    use crate::filters::ins::aid_table::Sensor;
+    use crate::recon::alignment::heading::{HeadingDisagreement, HeadingSource, SourceHeading};
     use crate::recon::clock::OffsetSuggestion;
     use crate::recon::consistency::Verdict;
-    use crate::recon::heading::{HeadingDisagreement, HeadingSource, SourceHeading};
     use crate::recon::plan::Why;
     use crate::recon::stats::{Flagged, RunWarning};
     use crate::recon::tune::TuningWarning;
@@ -104,19 +104,15 @@ mod tests {
     /// One warning of every kind, with its code. A kind added to the enums and left out here
     /// is caught by the exhaustive match in `every_kind_is_listed`.
     fn one_of_each() -> Vec<(Warning, &'static str)> {
-        let dvl = Flagged {
-            sensor: Sensor::Dvl,
-            mean_nis: 9.0,
-            dims: 3,
-            rejected_pct: 12.0,
-        };
-        let heading = |source, heading_deg| SourceHeading {
-            source,
-            heading_deg,
-            sigma_deg: 2.0,
-        };
-        let pipeline = |w| Warning::Pipeline(w);
-        let run = |w| Warning::Pipeline(pipeline::Warning::Run(w));
+        let mut all = of_the_plan_and_tuning();
+        all.extend(of_the_forward_pass());
+        all
+    }
+
+    /// The plan's, the start's, the magnetometer's, self-tuning's, the NEES verdict's and
+    /// the outputs'.
+    fn of_the_plan_and_tuning() -> Vec<(Warning, &'static str)> {
+        let pipeline = Warning::Pipeline;
         use pipeline::Warning as P;
         vec![
             (
@@ -197,9 +193,40 @@ mod tests {
                 "mag_not_calibrated",
             ),
             (
-                run(RunWarning::ImuNoisier {
-                    sensors: vec![dvl.clone()],
+                Warning::OverConfident(NeesCheck {
+                    solution: "forward",
+                    horizontal_inside_95: 0.4,
+                    horizontal_above_95: 0.5,
+                    verdict: Verdict::OverConfident,
                 }),
+                "over_confident",
+            ),
+            (
+                Warning::HeldInMemory {
+                    why: "disk full".into(),
+                },
+                "held_in_memory",
+            ),
+        ]
+    }
+
+    /// The forward pass's.
+    fn of_the_forward_pass() -> Vec<(Warning, &'static str)> {
+        let dvl = Flagged {
+            sensor: Sensor::Dvl,
+            mean_nis: 9.0,
+            dims: 3,
+            rejected_pct: 12.0,
+        };
+        let heading = |source, heading_deg| SourceHeading {
+            source,
+            heading_deg,
+            sigma_deg: 2.0,
+        };
+        let run = |w| Warning::Pipeline(pipeline::Warning::Run(w));
+        vec![
+            (
+                run(RunWarning::ImuNoisier { sensors: vec![dvl] }),
                 "imu_noisier",
             ),
             (
@@ -276,21 +303,6 @@ mod tests {
                 }),
                 "unaided_velocity",
             ),
-            (
-                Warning::OverConfident(NeesCheck {
-                    solution: "forward",
-                    horizontal_inside_95: 0.4,
-                    horizontal_above_95: 0.5,
-                    verdict: Verdict::OverConfident,
-                }),
-                "over_confident",
-            ),
-            (
-                Warning::HeldInMemory {
-                    why: "disk full".into(),
-                },
-                "held_in_memory",
-            ),
         ]
     }
 
@@ -347,10 +359,17 @@ mod tests {
                 "{code} is not in the guide"
             );
         }
-        let rejected = serde_json::to_value(&one_of_each()[12].0).unwrap();
+        let of = |code: &str| {
+            let (w, _) = one_of_each().into_iter().find(|(_, c)| *c == code).unwrap();
+            serde_json::to_value(&w).unwrap()
+        };
+        let rejected = of("rejected");
         assert_eq!(rejected["sensor"], "dvl");
         assert_eq!(rejected["rejected"], 3);
-        let tuning = serde_json::to_value(&one_of_each()[7].0).unwrap();
-        assert_eq!(tuning["tuned"], 3.0);
+        assert_eq!(of("instability_beyond_still")["tuned"], 3.0);
+        assert_eq!(
+            of("heading_disagreement")["first"]["source"],
+            "magnetometer"
+        );
     }
 }

@@ -10,11 +10,11 @@ use super::scenario::{Scenario, ScenarioError};
 use super::truth::{TruthSample, TruthSource};
 use crate::geodesy;
 use crate::vehicle::six_dof::description::{Vehicle, BUILT_IN};
+use crate::vehicle::six_dof::flight_plan::{start_state, Plan, PlanError, PlanPilot, Reference};
 use crate::vehicle::six_dof::model::SixDof;
 use crate::vehicle::six_dof::motion::{
     actuator_rates, rates, step_from, Actuators, MotionState, Rates,
 };
-use crate::vehicle::six_dof::plan::{start_state, Plan, PlanError, PlanPilot, Reference};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 

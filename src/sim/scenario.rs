@@ -8,7 +8,7 @@ use super::sensors::mag::MagSpec;
 use super::sensors::scalar::{PropellerSpec, ScalarSpec};
 use super::trajectory::{SegmentError, Trajectory, TrajectoryBuilder};
 use crate::geodesy;
-use crate::vehicle::six_dof::plan::Phase;
+use crate::vehicle::six_dof::flight_plan::Phase;
 use serde::{Deserialize, Serialize};
 
 /// The scenarios shipped in the binary: (name, TOML text).

@@ -6,7 +6,7 @@
 //! `dx` into its own nominal state.
 
 use super::rts::SmoothError;
-use crate::dense;
+use crate::small_matrix;
 use nalgebra::{SMatrix, SVector};
 use std::borrow::Borrow;
 
@@ -62,7 +62,7 @@ fn held_states_unit<const N: usize>(c: &mut SMatrix<f64, N, N>) {
 /// The RTS gain `C = P Phi^T Pp^-1` in place of `P Phi^T` (`gain`), given the lower Cholesky
 /// factor `L` of `Pp` (only its lower triangle is read): divided by `L L^T` from the right.
 fn rts_gain<const N: usize>(gain: &mut SMatrix<f64, N, N>, l: &SMatrix<f64, N, N>) {
-    dense::right_divide_by_factor(gain, l);
+    small_matrix::right_divide_by_factor(gain, l);
 }
 
 /// Runs the backward pass, calling `emit(k, dx_k|N, P_k|N)` for k from the last epoch down
@@ -174,7 +174,7 @@ impl<const N: usize> Link<N> {
         let factor = &mut scratch.factor;
         factor.copy_from(&self.prior_cov);
         held_states_unit(factor);
-        if !dense::cholesky_in_place(factor) {
+        if !small_matrix::cholesky_in_place(factor) {
             return Err(SmoothError::SingularPrior { epoch: k_after });
         }
         rts_gain(&mut self.gain, factor);
@@ -297,10 +297,10 @@ fn recursion<const N: usize, E: ForwardEpoch<N>, B: Borrow<E>>(
                 after.to_prior_coordinates(&mut dx_after, &mut p_next);
                 let dx = gain * (dx_after + after.correction());
                 p_next -= &link.prior_cov;
-                let spread = dense::mul(gain, &p_next);
-                p_next = dense::mul_transpose(&spread, gain);
+                let spread = small_matrix::mul(gain, &p_next);
+                p_next = small_matrix::mul_transpose(&spread, gain);
                 p_next += &link.posterior_cov;
-                dense::symmetrise(&mut p_next);
+                small_matrix::symmetrise(&mut p_next);
                 dx
             }
             _ => {

@@ -28,9 +28,9 @@
 //! and hands each compact solution on as it is made.
 
 use super::error_rts::{backward_from_last, ForwardEpoch};
+use crate::disk_backed::Spilled;
 use crate::filters::ins::error_state::{self, idx, ErrorMatrix, ErrorState};
 use crate::filters::ins::record::{EpochRecord, NavPoint, Solution};
-use crate::spill::Spilled;
 
 /// Why smoothing failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

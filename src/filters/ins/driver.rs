@@ -13,13 +13,13 @@
 //!   covariance grows with extra noise for the motion nobody measured; measurements inside
 //!   the gap are applied at their times.
 //!
-//! - The aiding sources are the rows of one table ([`super::aiding`]): at each epoch every
+//! - The aiding sources are the rows of one table ([`super::aid_table`]): at each epoch every
 //!   row's readings due are applied, row by row in the table's order, through one Kalman
 //!   update with gating, rejection counts and the innovations' log-likelihood.
 //!
 //! Takes the IMU's time-sorted messages and the aiding table, so it imports no I/O.
 
-use super::aiding::{
+use super::aid_table::{
     first_after, Aid, Aiding, Epoch, Measurement, PerSensor, Sensor, SensorReading, Update,
 };
 use super::error_state::{ErrorMatrix, ErrorState};
@@ -29,10 +29,10 @@ use super::mechanization::{ImuSample, NavState};
 use super::record::{EpochRecord, NavPoint};
 use super::reopen::{RecentRejections, Rejected};
 use crate::contract::Imu;
+use crate::disk_backed::Spilled;
 use crate::filters::ins::record::PackedTransition;
 use crate::filters::kalman::{chi_square_quantile, KalmanError, UpdateRecord};
 use crate::geodesy;
-use crate::spill::Spilled;
 use nalgebra::Vector3;
 
 /// How the covariance is carried between epochs and across IMU gaps.

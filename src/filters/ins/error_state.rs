@@ -33,8 +33,8 @@
 //! dvl' = 0, water' = 0 (the current a random walk through Q)
 
 use super::mechanization::NavState;
-use crate::dense;
 use crate::geodesy;
+use crate::small_matrix;
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Size of the error state.
@@ -271,11 +271,14 @@ pub fn transition_rows(f_top: &TransitionRows, dt_s: f64) -> TransitionRows {
     let a: Square = f_top.fixed_view::<NAV_ROWS, NAV_ROWS>(0, 0) * dt_s;
     let b = SMatrix::<f64, NAV_ROWS, B_MOVED>::from_fn(|r, k| f_top[(r, b_columns[k])] * dt_s);
     let i = Square::identity();
-    let t = i + dense::mul(&a, &(i + dense::mul(&a, &(i + a * 0.25)) * (1.0 / 3.0))) * 0.5;
+    let t = i + small_matrix::mul(
+        &a,
+        &(i + small_matrix::mul(&a, &(i + a * 0.25)) * (1.0 / 3.0)),
+    ) * 0.5;
     let mut top = TransitionRows::zeros();
     top.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
-        .copy_from(&(i + dense::mul(&a, &t)));
-    let t_b = dense::mul(&t, &b);
+        .copy_from(&(i + small_matrix::mul(&a, &t)));
+    let t_b = small_matrix::mul(&t, &b);
     for (k, &c) in b_columns.iter().enumerate() {
         top.column_mut(c).copy_from(&t_b.column(k));
     }
@@ -290,7 +293,7 @@ pub fn transition_times(phi_top: &TransitionRows, p: &ErrorMatrix) -> ErrorMatri
 /// `[T M] P`, given the [`TRANSITION_COLUMNS`] of `[T M]` (the others are zero); `P` is
 /// symmetric, so its rows are its columns.
 fn top_rows_times(moved: &MovedColumns, p: &ErrorMatrix) -> TransitionRows {
-    dense::mul_transpose(&moved_columns(p), moved).transpose()
+    small_matrix::mul_transpose(&moved_columns(p), moved).transpose()
 }
 
 /// The [`TRANSITION_COLUMNS`] of a transition's top rows.
@@ -382,7 +385,7 @@ fn predict_from_top_rows(
     p: &mut ErrorMatrix,
     q: &ErrorState,
 ) {
-    let top_left = dense::mul_transpose(&moved_columns(x), moved);
+    let top_left = small_matrix::mul_transpose(&moved_columns(x), moved);
     p.fixed_view_mut::<NAV_ROWS, NAV_ROWS>(0, 0)
         .copy_from(&((top_left + top_left.transpose()) * 0.5));
     let top_right = x.fixed_view::<NAV_ROWS, HELD_ROWS>(0, NAV_ROWS);

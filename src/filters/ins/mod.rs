@@ -1,9 +1,8 @@
 //! Inertial navigation: strapdown mechanization, the 25-state error model, the forward
 //! filter and its driver over a mission, coarse alignment, and the records the smoother reads.
 
-pub mod aiding;
-pub mod aids;
-pub mod alignment;
+pub mod aid_sources;
+pub mod aid_table;
 pub mod driver;
 pub mod error_state;
 pub mod forward;

@@ -16,7 +16,7 @@ use super::error_state::{
 };
 use super::forward::Estimate;
 use super::mechanization::NavState;
-use crate::spill::{Decoder, Encoder, Fixed};
+use crate::disk_backed::{Decoder, Encoder, Fixed};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 
 /// Number of numbers in the upper triangle of an N x N matrix.

@@ -3,7 +3,7 @@
 //! memory. The smoother makes them last first; they are read in time order.
 
 use super::record::Solution;
-use crate::spill::Spilled;
+use crate::disk_backed::Spilled;
 use std::io;
 use std::ops::Range;
 

@@ -24,9 +24,9 @@
 //! is not modelled (the EM log's speed through water is taken as the body speed).
 
 use crate::contract::{ControlSurfaces, Depth, Imu, Propeller, SpeedLog};
-use crate::feed::Feed;
 use crate::filters::kalman::{self, chi_square_quantile, Gaussian};
 use crate::geodesy;
+use crate::growing_series::Feed;
 use crate::vehicle::six_dof::model::{Attitude, SixDof};
 use crate::vehicle::six_dof::terms::{Inputs as Actuation, Nu};
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};

@@ -18,11 +18,11 @@
 //! IMU's own noise decides; where they can, they outweigh it.
 
 use super::ImuWhite;
-use crate::filters::ins::aiding::Sensor;
+use crate::filters::ins::aid_table::Sensor;
 use crate::ingest::Mission;
+use crate::recon::alignment::heading::HeadingSource;
+use crate::recon::alignment::start::{InitError, Initialisation};
 use crate::recon::config::{Config, ImuConfig, ImuGrade, ImuSpec};
-use crate::recon::heading::HeadingSource;
-use crate::recon::init::{InitError, Initialisation};
 use crate::recon::{forward_pass, Prepared, ReconError, Streams};
 use rayon::prelude::*;
 use serde::Serialize;

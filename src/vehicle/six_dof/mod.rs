@@ -6,8 +6,8 @@
 
 pub mod autopilot;
 pub mod description;
+pub mod flight_plan;
 pub mod model;
 pub mod motion;
-pub mod plan;
 pub mod properties;
 pub mod terms;

@@ -1,13 +1,13 @@
 //! The aiding sources as one table. Each source gives its readings' stamps and, for one
 //! reading, the update (innovation `y`, its row `H` in the error state, its noise `R`), or
 //! nothing when the reading is not used; the driver walks the table at every epoch, in the
-//! table's order. The sources themselves are in [`super::aids`].
+//! table's order. The sources themselves are in [`super::aid_sources`].
 //!
 //! A new aiding sensor: its source (stamps and `(y, H, R)`), a [`Sensor`] name here, and its
 //! row in [`Aiding::table`] with its settings in [`Aiding`]; the log's stream comes from
 //! [`Streams`].
 
-use super::aids;
+use super::aid_sources;
 use super::error_state::N;
 use super::forward::{DvlMounting, Estimate};
 use crate::contract::{
@@ -335,8 +335,8 @@ pub struct RpmVelocity {
 
 impl Aiding {
     /// The DVL's row over `streams`.
-    pub fn dvl<'a>(&self, streams: &Streams<'a>) -> aids::DvlAid<'a> {
-        aids::DvlAid {
+    pub fn dvl<'a>(&self, streams: &Streams<'a>) -> aid_sources::DvlAid<'a> {
+        aid_sources::DvlAid {
             readings: streams.dvl,
             altimeter: streams.altimeter,
             sigma_m_s: self.dvl_sigma_m_s,
@@ -355,27 +355,27 @@ impl Aiding {
         let rpm_velocity = self
             .rpm_velocity
             .filter(|_| !streams.rpm.is_empty())
-            .map(|r| aids::RpmVelocityAid::new(streams.rpm, &dvl, &r));
+            .map(|r| aid_sources::RpmVelocityAid::new(streams.rpm, &dvl, &r));
         let mut table: AidTable<'a> = vec![
             Box::new(dvl),
-            Box::new(aids::DepthAid::new(
+            Box::new(aid_sources::DepthAid::new(
                 streams.depth,
                 self.depth_sigma_m,
                 self.depth_min_interval_s,
             )),
-            Box::new(aids::GnssAid {
+            Box::new(aid_sources::GnssAid {
                 readings: streams.gnss,
             }),
-            Box::new(aids::FixAid::new(streams.fixes, origin_rad)),
+            Box::new(aid_sources::FixAid::new(streams.fixes, origin_rad)),
         ];
         if let Some(sigma_m_s) = self.eml_sigma_m_s {
-            table.push(Box::new(aids::SpeedLogAid {
+            table.push(Box::new(aid_sources::SpeedLogAid {
                 readings: streams.eml,
                 sigma_m_s,
             }));
         }
         if let Some(mag) = self.mag {
-            table.push(Box::new(aids::MagAid::new(streams.mag, &mag)));
+            table.push(Box::new(aid_sources::MagAid::new(streams.mag, &mag)));
         }
         if let Some(r) = rpm_velocity {
             table.push(Box::new(r));

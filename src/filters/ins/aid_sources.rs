@@ -1,8 +1,8 @@
-//! The aiding sources, one row each of the table in [`super::aiding`]: the readings, the
+//! The aiding sources, one row each of the table in [`super::aid_table`]: the readings, the
 //! settings, and the update of one reading from the measurement models of
 //! [`super::forward::measure`].
 
-use super::aiding::{
+use super::aid_table::{
     Aid, Epoch, LeftOut, MagAiding, Measurement, RpmVelocity, Sensor, SensorReading, Update,
 };
 use super::forward::{measure, DvlMounting};

@@ -7,7 +7,7 @@
 //!   data, each sample carried to the start's body axes by the gyro, less the acceleration
 //!   the DVL saw (carried the same way), levelled. A vehicle that rolls or turns during the
 //!   window (a drop) is levelled as it was at the start.
-//! - Heading (`recon::heading`): every source, combined by sigma (`auto`) or the one forced:
+//! - Heading (`recon::alignment::heading`): every source, combined by sigma (`auto`) or the one forced:
 //!   gyrocompassing when the IMU's predicted gyrocompass error is below
 //!   `gyrocompass_max_sigma_deg`, the vehicle is not turning and its level axes held still
 //!   (moving base: the transport rate from the DVL velocity is removed); the magnetometer
@@ -19,17 +19,17 @@
 //! - Biases: zero, with the IMU grade's turn-on sigma.
 //!
 use super::carry::Carry;
-use super::config::{HeadingChoice, ImuSpec, InitialConfig};
 use super::heading::combine;
 pub use super::heading::{DeclinationSource, DeclinationUsed, HeadingCandidate, HeadingSource};
-use super::Streams;
 use crate::contract::{GnssFix, Truth};
-use crate::filters::ins::alignment;
 use crate::filters::ins::error_state::{idx, ErrorMatrix, ErrorState};
 use crate::filters::ins::forward::{DvlMounting, Estimate};
 use crate::filters::ins::mechanization::NavState;
 use crate::geodesy;
 use crate::ingest::Mission;
+use crate::recon::alignment::at_rest;
+use crate::recon::config::{HeadingChoice, ImuSpec, InitialConfig};
+use crate::recon::Streams;
 use nalgebra::{UnitQuaternion, Vector3};
 use std::fmt;
 
@@ -107,7 +107,7 @@ pub struct Initialisation {
     /// Why the other sources gave no heading.
     pub heading_unavailable: Vec<String>,
     /// Sources that disagree beyond their sigmas (warnings).
-    pub heading_disagreements: Vec<crate::recon::heading::HeadingDisagreement>,
+    pub heading_disagreements: Vec<crate::recon::alignment::heading::HeadingDisagreement>,
     /// Seed 002's in-run alignment, when it set the roll and pitch.
     pub in_run: Option<super::in_run::InRun>,
     /// The in-motion alignment's bank, when it ran.
@@ -239,7 +239,7 @@ fn carried_level(w: &ImuWindow<'_>, dvl: &[(i64, Vector3<f64>)]) -> (f64, f64) {
         }
         _ => Vector3::zeros(),
     };
-    alignment::level(&(f_carried - carried_accel))
+    at_rest::level(&(f_carried - carried_accel))
 }
 
 /// How fast the level axes turned during the window, rad/s, and the noise of that figure: the
@@ -272,7 +272,7 @@ fn level_rate(
         (Vector3::zeros(), 0.0)
     };
     let tilt = |p: &[crate::contract::Imu], less: Vector3<f64>| {
-        mean3(p.iter().map(|m| m.specific_force)).map(|f| alignment::level(&(f - less)))
+        mean3(p.iter().map(|m| m.specific_force)).map(|f| at_rest::level(&(f - less)))
     };
     let rate = match (tilt(a, Vector3::zeros()), tilt(b, accel_change)) {
         (Some(x), Some(y)) if third > 0 && span_s > 0.0 => (y.0 - x.0).hypot(y.1 - x.1) / span_s,
@@ -794,7 +794,7 @@ struct Headings {
     sigma_deg: f64,
     candidates: Vec<HeadingCandidate>,
     unavailable: Vec<String>,
-    disagreements: Vec<crate::recon::heading::HeadingDisagreement>,
+    disagreements: Vec<crate::recon::alignment::heading::HeadingDisagreement>,
 }
 
 /// Every heading source, then the combination (`auto`) or the one forced. Without any source
@@ -880,7 +880,7 @@ fn headings(
 /// window, relative to the horizontal Earth rate; (yaw rad, sigma deg).
 fn gyrocompass(set: &InitSettings<'_>, h: &HeadingInputs<'_>) -> Result<(f64, f64), String> {
     let cfg = set.initial;
-    let horizontal = alignment::horizontal_earth_rate(h.lat);
+    let horizontal = at_rest::horizontal_earth_rate(h.lat);
     let noise = set.imu.noise().gyro_noise_density / h.window_s.max(1e-3).sqrt();
     // An unknown velocity leaves an unknown transport rate, v / R, in the gyro mean.
     let transport = h.v_sigma_m_s / geodesy::prime_vertical_radius_m(h.lat);
@@ -920,11 +920,11 @@ fn gyrocompass(set: &InitSettings<'_>, h: &HeadingInputs<'_>) -> Result<(f64, f6
     }
     // Moving base: remove the transport rate of the velocity at the current heading (twice:
     // the heading changes the velocity's direction).
-    let mut yaw = alignment::gyrocompass(&h.w_mean, h.roll, h.pitch);
+    let mut yaw = at_rest::gyrocompass(&h.w_mean, h.roll, h.pitch);
     for _ in 0..2 {
         let c = UnitQuaternion::from_euler_angles(h.roll, h.pitch, yaw);
         let w_en = geodesy::transport_rate_ned(h.lat, h.height_m, &(c * h.v_body));
-        yaw = alignment::gyrocompass(&(h.w_mean - c.inverse() * w_en), h.roll, h.pitch);
+        yaw = at_rest::gyrocompass(&(h.w_mean - c.inverse() * w_en), h.roll, h.pitch);
     }
     Ok((yaw, sigma_deg))
 }
@@ -948,7 +948,7 @@ fn magnetometer(
     let d = h
         .declination
         .ok_or_else(|| "magnetometer: no /mag data".to_string())?;
-    let yaw = alignment::magnetic_heading(&m, h.roll, h.pitch, d.declination_deg.to_radians());
+    let yaw = at_rest::magnetic_heading(&m, h.roll, h.pitch, d.declination_deg.to_radians());
     // A tilt error turns the field's vertical part into the horizontal one: up to tilt error
     // x tan(inclination) of heading.
     let levelled = UnitQuaternion::from_euler_angles(h.roll, h.pitch, 0.0) * m;

@@ -20,13 +20,13 @@
 //! start (the heading was found later in the log), which is what a post-processor wants and
 //! what commercial ones do (forward and backward passes, or the log processed several times).
 
-use super::config::AlignmentConfig;
 use super::heading::HeadingSource;
-use super::init::Initialisation;
+use super::start::Initialisation;
 use crate::angle::wrap_pi;
 use crate::filters::ins::driver::{run_forward, Inputs, Keep, Residual, Settings};
 use crate::filters::ins::error_state::idx;
 use crate::filters::kalman::chi_square_quantile;
+use crate::recon::config::AlignmentConfig;
 use crate::smooth::rts::smooth;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -268,7 +268,7 @@ const EARTH_RATE_HEADING_DEG: f64 = 1.0;
 fn sees_earth_rate(init: &Initialisation) -> bool {
     let bias_rad_s = init.estimate.cov[(idx::GYRO_BIAS, idx::GYRO_BIAS)].sqrt();
     let horizontal =
-        crate::filters::ins::alignment::horizontal_earth_rate(init.estimate.nav.lat_rad);
+        crate::recon::alignment::at_rest::horizontal_earth_rate(init.estimate.nav.lat_rad);
     (bias_rad_s / horizontal).to_degrees() <= EARTH_RATE_HEADING_DEG
 }
 
