@@ -857,13 +857,9 @@ impl Findings {
             );
         }
         warnings.extend(id.fit_warnings(settings));
-        warnings.extend(
-            id.assessment
-                .iter()
-                .filter(|d| d.poorly_determined)
-                .map(|d| d.to_string()),
-        );
-        let notes = id.assessment.iter().filter_map(|d| d.note()).collect();
+        let (poorly_determined, notes) =
+            hindsight::identify::identifiability::Determination::warnings_and_notes(&id.assessment);
+        warnings.extend(poorly_determined);
         Findings {
             coefficients,
             fit,

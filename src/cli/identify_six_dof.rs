@@ -220,13 +220,9 @@ impl Findings {
             })
             .collect();
         let mut warnings = id.fit_warnings(&settings.thresholds);
-        warnings.extend(
-            id.assessment
-                .iter()
-                .filter(|d| d.poorly_determined)
-                .map(|d| d.to_string()),
-        );
-        let notes = id.assessment.iter().filter_map(|d| d.note()).collect();
+        let (poorly_determined, notes) =
+            hindsight::identify::identifiability::Determination::warnings_and_notes(&id.assessment);
+        warnings.extend(poorly_determined);
         Findings {
             model: "six-dof",
             vehicle: vehicle.to_string(),

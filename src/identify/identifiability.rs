@@ -86,6 +86,14 @@ pub fn assess_named(
 }
 
 impl Determination {
+    /// A warning for each of `assessment`'s poorly determined coefficients, and the notes of
+    /// those determined only together with another.
+    pub fn warnings_and_notes(assessment: &[Determination]) -> (Vec<String>, Vec<String>) {
+        let warnings = assessment.iter().filter(|d| d.poorly_determined);
+        let notes = assessment.iter().filter_map(|d| d.note());
+        (warnings.map(|d| d.to_string()).collect(), notes.collect())
+    }
+
     /// For a coefficient determined only together with another: says so (`None` otherwise,
     /// and for a poorly determined one, whose warning names the correlation).
     pub fn note(&self) -> Option<String> {

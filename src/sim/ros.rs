@@ -12,10 +12,6 @@ use crate::ingest::ros::map::{ned_from_frd, Convention, RosSettings};
 use crate::ingest::ros::msg::Dialect;
 use crate::ingest::ros::standard::definition as standard_definition;
 
-/// The definition of a type the simulator writes (every one is known).
-fn standard(ty: RosType, dialect: Dialect) -> String {
-    standard_definition(ty, dialect).expect("a standard type the simulator writes")
-}
 use crate::ingest::{Log, Stream};
 use nalgebra::UnitQuaternion;
 use std::io::{Seek, Write};
@@ -24,18 +20,22 @@ pub use crate::ingest::ros::wire::WireWriter;
 
 /// A contract message's standard ROS type: name, definition and bytes.
 pub trait ToRos {
-    /// Full ROS 2 type name, `pkg/msg/Type`.
-    const TYPE_NAME: &'static str;
-    /// The definition with its dependencies, in the given ROS.
-    fn definition_in(dialect: Dialect) -> String;
+    /// The standard type the message is written as.
+    const ROS_TYPE: RosType;
     /// The message in `convention`'s frames, serialised for the given ROS.
     fn encode(&self, dialect: Dialect, convention: Convention, settings: &RosSettings) -> Vec<u8>;
     /// The type's name in the given ROS: `pkg/msg/Type` (ROS 2) or `pkg/Type` (ROS 1).
     fn type_name(dialect: Dialect) -> String {
+        let name = Self::ROS_TYPE.name();
         match dialect {
-            Dialect::Ros1 => Self::TYPE_NAME.replacen("/msg/", "/", 1),
-            Dialect::Ros2 => Self::TYPE_NAME.to_string(),
+            Dialect::Ros1 => name.to_string(),
+            Dialect::Ros2 => name.replacen('/', "/msg/", 1),
         }
+    }
+    /// The definition with its dependencies, in the given ROS (every type the simulator
+    /// writes is a standard one).
+    fn definition_in(dialect: Dialect) -> String {
+        standard_definition(Self::ROS_TYPE, dialect).expect("a standard type the simulator writes")
     }
     /// The ROS 2 definition.
     fn definition() -> String {
@@ -64,10 +64,7 @@ fn frame(name: &str, c: Convention, native_suffix: &str) -> String {
 }
 
 impl ToRos for Imu {
-    const TYPE_NAME: &'static str = "sensor_msgs/msg/Imu";
-    fn definition_in(d: Dialect) -> String {
-        standard(RosType::Imu, d)
-    }
+    const ROS_TYPE: RosType = RosType::Imu;
     fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
         let mut w = WireWriter::of(d);
         let mut unknown = [0.0; 9];
@@ -84,10 +81,7 @@ impl ToRos for Imu {
 }
 
 impl ToRos for MagneticField {
-    const TYPE_NAME: &'static str = "sensor_msgs/msg/MagneticField";
-    fn definition_in(d: Dialect) -> String {
-        standard(RosType::MagneticField, d)
-    }
+    const ROS_TYPE: RosType = RosType::MagneticField;
     fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
         let mut w = WireWriter::of(d);
         w.header(self.stamp_ns, &frame("base_link", c, "_frd"))
@@ -98,10 +92,7 @@ impl ToRos for MagneticField {
 }
 
 impl ToRos for Dvl {
-    const TYPE_NAME: &'static str = "geometry_msgs/msg/TwistWithCovarianceStamped";
-    fn definition_in(d: Dialect) -> String {
-        standard(RosType::TwistWithCovarianceStamped, d)
-    }
+    const ROS_TYPE: RosType = RosType::TwistWithCovarianceStamped;
     /// No bottom lock: covariance[0] = -1. The altitude has no place (the altimeter's).
     fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
         let mut w = WireWriter::of(d);
@@ -119,10 +110,7 @@ impl ToRos for Dvl {
 }
 
 impl ToRos for Depth {
-    const TYPE_NAME: &'static str = "sensor_msgs/msg/FluidPressure";
-    fn definition_in(d: Dialect) -> String {
-        standard(RosType::FluidPressure, d)
-    }
+    const ROS_TYPE: RosType = RosType::FluidPressure;
     fn encode(&self, d: Dialect, _: Convention, s: &RosSettings) -> Vec<u8> {
         let pressure =
             s.atmospheric_pressure_pa + self.depth * s.water_density_kg_m3 * s.gravity_m_s2;
@@ -135,10 +123,7 @@ impl ToRos for Depth {
 }
 
 impl ToRos for Altimeter {
-    const TYPE_NAME: &'static str = "sensor_msgs/msg/Range";
-    fn definition_in(d: Dialect) -> String {
-        standard(RosType::Range, d)
-    }
+    const ROS_TYPE: RosType = RosType::Range;
     fn encode(&self, d: Dialect, _: Convention, _: &RosSettings) -> Vec<u8> {
         let mut w = WireWriter::of(d);
         w.header(self.stamp_ns, "altimeter_link")
@@ -152,10 +137,7 @@ impl ToRos for Altimeter {
 }
 
 impl ToRos for GnssFix {
-    const TYPE_NAME: &'static str = "sensor_msgs/msg/NavSatFix";
-    fn definition_in(d: Dialect) -> String {
-        standard(RosType::NavSatFix, d)
-    }
+    const ROS_TYPE: RosType = RosType::NavSatFix;
     fn encode(&self, d: Dialect, _: Convention, _: &RosSettings) -> Vec<u8> {
         let var = self.horizontal_sigma_m * self.horizontal_sigma_m;
         let mut w = WireWriter::of(d);
@@ -170,10 +152,7 @@ impl ToRos for GnssFix {
 }
 
 impl ToRos for Attitude {
-    const TYPE_NAME: &'static str = "geometry_msgs/msg/QuaternionStamped";
-    fn definition_in(d: Dialect) -> String {
-        standard(RosType::QuaternionStamped, d)
-    }
+    const ROS_TYPE: RosType = RosType::QuaternionStamped;
     fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
         let ned_from_body = UnitQuaternion::from_euler_angles(self.roll, self.pitch, self.yaw);
         // The change of axes (NED-ENU, FRD-FLU) is its own inverse: the same map both ways.
@@ -189,10 +168,7 @@ impl ToRos for Attitude {
 }
 
 impl ToRos for PositionFix {
-    const TYPE_NAME: &'static str = "geometry_msgs/msg/PointStamped";
-    fn definition_in(d: Dialect) -> String {
-        standard(RosType::PointStamped, d)
-    }
+    const ROS_TYPE: RosType = RosType::PointStamped;
     /// A horizontal-only fix has a NaN z (ROS's "unknown").
     fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
         let down = self.down_m.unwrap_or(f64::NAN);
@@ -418,7 +394,7 @@ mod tests {
                 .unwrap();
             out.as_slice::<T>().unwrap()[0].clone()
         });
-        assert_eq!(ros1, ros2, "{}", T::TYPE_NAME);
+        assert_eq!(ros1, ros2, "{}", T::ROS_TYPE.name());
         ros2
     }
 

@@ -519,39 +519,42 @@ mod tests {
         }
     }
 
+    /// Checks each column of `h` against the finite difference of `innovation` (y = z -
+    /// predicted, so the predicted measurement moves by `y0 - y1`) under a correction `eps`
+    /// of that error state.
+    fn check_columns<const M: usize>(
+        what: &str,
+        h: &SMatrix<f64, M, N>,
+        eps: f64,
+        innovation: impl Fn(&ErrorState) -> SVector<f64, M>,
+    ) {
+        let y0 = innovation(&ErrorState::zeros());
+        for i in 0..N {
+            let mut dx = ErrorState::zeros();
+            dx[i] = eps;
+            let numeric = (y0 - innovation(&dx)) / eps;
+            assert!(
+                (numeric - h.column(i)).amax() < 1e-6,
+                "{what} column {i}: {numeric} vs {}",
+                h.column(i)
+            );
+        }
+    }
+
     /// The measurement matrices are the Jacobians of the predicted measurement with respect
     /// to the error state, checked by injecting small corrections.
     #[test]
     fn measurement_jacobians_match_finite_differences() {
         let est = estimate();
         let v_body = Vector3::new(1.0, -0.3, 0.2);
-        let (y0, h) = measure::body_velocity(&est, &v_body);
-        for i in 0..N {
-            let eps = 1e-6;
-            let mut dx = ErrorState::zeros();
-            dx[i] = eps;
-            let moved = est.corrected_by(&dx);
-            let (y1, _) = measure::body_velocity(&moved, &v_body);
-            // y = z - predicted, so the predicted measurement moves by y0 - y1.
-            let numeric = (y0 - y1) / eps;
-            assert!(
-                (numeric - h.column(i)).amax() < 1e-6,
-                "DVL column {i}: {numeric} vs {}",
-                h.column(i)
-            );
-        }
-        let (y0, h) = measure::body_velocity_uncalibrated(&est, &v_body);
-        for i in 0..N {
-            let mut dx = ErrorState::zeros();
-            dx[i] = 1e-6;
-            let (y1, _) = measure::body_velocity_uncalibrated(&est.corrected_by(&dx), &v_body);
-            let numeric = (y0 - y1) / 1e-6;
-            assert!(
-                (numeric - h.column(i)).amax() < 1e-6,
-                "uncalibrated body velocity column {i}: {numeric} vs {}",
-                h.column(i)
-            );
-        }
+        let (_, h) = measure::body_velocity(&est, &v_body);
+        check_columns("DVL", &h, 1e-6, |dx| {
+            measure::body_velocity(&est.corrected_by(dx), &v_body).0
+        });
+        let (_, h) = measure::body_velocity_uncalibrated(&est, &v_body);
+        check_columns("uncalibrated body velocity", &h, 1e-6, |dx| {
+            measure::body_velocity_uncalibrated(&est.corrected_by(dx), &v_body).0
+        });
     }
 
     /// The mounted DVL's matrix, with the lever arm's rate term: a gyro-bias or scale
@@ -565,28 +568,17 @@ mod tests {
             lever_arm_body_m: Vector3::new(0.8, -0.1, 0.3),
         };
         let w_nb = Vector3::new(0.02, -0.01, 0.05);
-        let (y0, h) = measure::dvl_velocity(&est, &v_body, &mounting, &w_nb);
-        for i in 0..N {
-            let eps = 1e-6;
-            let mut dx = ErrorState::zeros();
-            dx[i] = eps;
-            let moved = est.corrected_by(&dx);
-            // A gyro-bias correction changes the true body rate by -dbg.
+        let (_, h) = measure::dvl_velocity(&est, &v_body, &mounting, &w_nb);
+        let eps = 1e-6;
+        check_columns("mounted DVL", &h, eps, |dx| {
+            // A gyro-bias or z-scale correction changes the true body rate too.
             let mut w_moved = w_nb;
-            if (idx::GYRO_BIAS..idx::GYRO_BIAS + 3).contains(&i) {
-                w_moved[i - idx::GYRO_BIAS] -= eps;
+            for axis in 0..3 {
+                w_moved[axis] -= dx[idx::GYRO_BIAS + axis];
             }
-            if i == idx::GYRO_SCALE_Z {
-                w_moved.z -= eps * w_nb.z;
-            }
-            let (y1, _) = measure::dvl_velocity(&moved, &v_body, &mounting, &w_moved);
-            let numeric = (y0 - y1) / eps;
-            assert!(
-                (numeric - h.column(i)).amax() < 1e-6,
-                "mounted DVL column {i}: {numeric} vs {}",
-                h.column(i)
-            );
-        }
+            w_moved.z -= dx[idx::GYRO_SCALE_Z] * w_nb.z;
+            measure::dvl_velocity(&est.corrected_by(dx), &v_body, &mounting, &w_moved).0
+        });
     }
 
     /// The EM log's row: velocity columns as the finite differences; the attitude's, left out
@@ -630,17 +622,12 @@ mod tests {
     fn heading_depth_and_position_jacobians_match_finite_differences() {
         let est = estimate();
         let field = Vector3::new(2.1e-5, 0.3e-5, 3.9e-5);
-        let (m0, hm) = measure::magnetic_heading(&est, &field, -0.13).unwrap();
-        for i in 0..N {
-            let mut dx = ErrorState::zeros();
-            dx[i] = 1e-7;
-            let moved = est.corrected_by(&dx);
-            let (m1, _) = measure::magnetic_heading(&moved, &field, -0.13).unwrap();
-            assert!(
-                ((m0 - m1)[0] / 1e-7 - hm[(0, i)]).abs() < 1e-6,
-                "magnetic heading column {i}"
-            );
-        }
+        let (_, hm) = measure::magnetic_heading(&est, &field, -0.13).unwrap();
+        check_columns("magnetic heading", &hm, 1e-7, |dx| {
+            measure::magnetic_heading(&est.corrected_by(dx), &field, -0.13)
+                .unwrap()
+                .0
+        });
         let (d0, hd) = measure::depth(&est, 21.0);
         let mut dx = ErrorState::zeros();
         dx[idx::POS + 2] = 0.5;
