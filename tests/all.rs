@@ -48,3 +48,4 @@ mod tuning;
 mod vehicle_manoeuvres;
 mod vehicle_model;
 mod velocity_filters;
+mod warning_codes;
