@@ -9,7 +9,7 @@ use hindsight::filters::velocity::model_aided::{self, AttitudeAt, Mode, ModelAid
 use hindsight::ingest::{read_log, IngestOptions};
 use hindsight::recon::config::Config;
 use hindsight::recon::score::scores;
-use hindsight::recon::{finish, forward_pass, PassOptions, Streams};
+use hindsight::recon::{run_configured, Streams};
 use hindsight::sim::scenario::Scenario;
 
 use common::output_errors as errors;
@@ -119,15 +119,8 @@ fn seed000_config() -> Config {
 /// Forward horizontal RMS against `/truth`, and what the aids said.
 fn forward_rms(log: &hindsight::ingest::Log, config: &Config) -> (f64, Vec<String>) {
     let streams = Streams::of(log);
-    let pass = forward_pass(
-        &streams,
-        &log.mission().unwrap(),
-        config,
-        PassOptions::default(),
-    )
-    .unwrap();
-    let notes = pass.aid_notes.iter().map(|n| n.to_string()).collect();
-    let r = finish(pass, config, true, None).unwrap();
+    let r = run_configured(&streams, &log.mission().unwrap(), config).unwrap();
+    let notes = r.aid_notes.iter().map(|n| n.to_string()).collect();
     (
         scores(&errors(streams.truth, &r).0)
             .unwrap()

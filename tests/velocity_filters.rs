@@ -8,7 +8,7 @@ use hindsight::filters::ins::aid_table::Sensor;
 use hindsight::ingest::Log;
 use hindsight::recon::config::Config;
 use hindsight::recon::score::{scores, Scores};
-use hindsight::recon::{forward_pass, run_configured as reconstruct, PassOptions, Streams};
+use hindsight::recon::{run_configured as reconstruct, Streams};
 use hindsight::sim::scenario::Scenario;
 
 use common::output_errors as errors;
@@ -70,13 +70,7 @@ fn a_stuck_propeller_is_refused_and_the_rest_runs() {
         rpm: &stuck,
         ..streams
     };
-    let pass = forward_pass(
-        &streams,
-        &log.mission().unwrap(),
-        &with_rpm_velocity(true),
-        PassOptions::default(),
-    )
-    .unwrap();
+    let pass = reconstruct(&streams, &log.mission().unwrap(), &with_rpm_velocity(true)).unwrap();
     assert!(
         pass.aid_notes
             .iter()

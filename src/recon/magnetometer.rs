@@ -58,12 +58,12 @@ impl PreparedMag {
 
 /// Saturation check, then the calibration (when asked and the turns allow), then the
 /// reference magnitude and the deviation check.
-pub fn prepare(mag: &[MagneticField], cfg: &MagConfig) -> PreparedMag {
+pub(crate) fn prepare(mag: &[MagneticField], cfg: &MagConfig) -> PreparedMag {
     prepare_owned(mag.to_vec(), cfg)
 }
 
 /// [`prepare`], the readings moved in and prepared in place (a day at 50 Hz is 160 MB).
-pub fn prepare_owned(mag: Vec<MagneticField>, cfg: &MagConfig) -> PreparedMag {
+pub(crate) fn prepare_owned(mag: Vec<MagneticField>, cfg: &MagConfig) -> PreparedMag {
     if mag.is_empty() {
         return PreparedMag::default();
     }

@@ -71,6 +71,8 @@ pub struct Reconstruction {
     /// Residuals, counts and gaps of the forward pass (its records are turned into
     /// `forward` once smoothed, to free their memory).
     pub run: ForwardRun,
+    /// What the aiding sources said (a source that could not be used, and why).
+    pub aid_notes: Vec<AidNote>,
     /// One per filter epoch, on temporary files beyond a block (a long mission's would not
     /// fit in memory).
     pub forward: Solutions,
@@ -105,7 +107,7 @@ pub fn output_stamps(imu: &[Imu], rate_hz: f64) -> Vec<i64> {
 /// is the only vertical reference), to the depth uncertainty of a solution: a Schmidt
 /// "consider" term. The estimate itself is unchanged; the offset's error is the same at
 /// every epoch, so it adds `sigma^2` to the down variance.
-pub fn consider_depth_bias(s: &mut Solution, bias_sigma_m: f64) {
+pub(crate) fn consider_depth_bias(s: &mut Solution, bias_sigma_m: f64) {
     s.position_cov[(2, 2)] += bias_sigma_m * bias_sigma_m;
     s.sigma[2] = s.position_cov[(2, 2)].sqrt();
 }
@@ -172,7 +174,7 @@ pub type AttitudeTrack = Arc<Vec<AttitudeAt>>;
 
 /// The magnetometer's readings a pass uses.
 #[derive(Default)]
-pub enum MagInput<'a> {
+pub(crate) enum MagInput<'a> {
     /// Prepared by the pass from `streams.mag` (and freed after it).
     #[default]
     FromStreams,
@@ -185,7 +187,7 @@ pub enum MagInput<'a> {
 
 /// How a forward pass is made, beyond its log and configuration.
 #[derive(Default)]
-pub struct PassOptions<'a> {
+pub(crate) struct PassOptions<'a> {
     /// The attitude the model-aided velocity is driven by: the [`ForwardPass::model_attitude`]
     /// of a pass over the same log whose settings differ only in `[model_velocity]`, instead
     /// of a pass of its own.
@@ -211,7 +213,7 @@ pub struct Prepared<'a> {
 
 impl<'a> Prepared<'a> {
     /// The options of a pass that is only scored, from what is prepared.
-    pub fn scored(self) -> PassOptions<'a> {
+    pub(crate) fn scored(self) -> PassOptions<'a> {
         PassOptions {
             scored_only: true,
             start: self.start,
@@ -222,7 +224,7 @@ impl<'a> Prepared<'a> {
 }
 
 /// Initialises from the log and runs the forward filter as `options` say.
-pub fn forward_pass(
+pub(crate) fn forward_pass(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
@@ -450,7 +452,7 @@ fn settle_heading(
 
 /// The initial estimate with its heading settled (sources, then the in-motion alignment when
 /// it is on), as a forward pass with this configuration would start: the pipeline's start.
-pub fn settled_start(
+pub(crate) fn settled_start(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
@@ -463,7 +465,7 @@ pub fn settled_start(
 
 /// [`settled_start`] when the log gives the heading a source, else `None` without settling
 /// it (the in-motion alignment would then find it from nothing, on figures not yet tuned).
-pub fn settled_start_from_sources(
+pub(crate) fn settled_start_from_sources(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
@@ -640,7 +642,7 @@ pub fn run_configured(
 /// Smooths a forward run and turns its records into solutions (freeing the records), telling
 /// `progress` how far the smoother has come. `depth_used`: the run had depth updates (their
 /// offset is then added to the depth sigma).
-pub fn finish(
+pub(crate) fn finish(
     pass: ForwardPass,
     config: &Config,
     depth_used: bool,
@@ -650,7 +652,7 @@ pub fn finish(
         init,
         mut mag,
         mut run,
-        aid_notes: _,
+        aid_notes,
         time: forward_time,
         model_attitude: _,
     } = pass;
@@ -680,6 +682,7 @@ pub fn finish(
         init,
         mag,
         run,
+        aid_notes,
         forward,
         smoothed,
         output,

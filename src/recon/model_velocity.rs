@@ -69,7 +69,7 @@ pub fn vehicle_model(name: &str, file: Option<&Vehicle>) -> Result<SixDof, Vehic
 
 /// The model for the aid: the configuration's vehicle (an error when it cannot be read), else
 /// the mission's when built in, else `Ok(Err(why))`.
-pub fn model_for(
+pub(crate) fn model_for(
     config: &ModelVelocityConfig,
     mission: &Mission,
 ) -> Result<Result<SixDof, String>, VehicleError> {
@@ -88,7 +88,7 @@ pub fn model_for(
 }
 
 /// The attitude of a forward pass's epochs.
-pub fn attitude_track(navigation: &[NavAt]) -> Vec<AttitudeAt> {
+pub(crate) fn attitude_track(navigation: &[NavAt]) -> Vec<AttitudeAt> {
     navigation
         .iter()
         .map(|n| AttitudeAt {
@@ -106,7 +106,7 @@ const STRETCH_NS: i64 = 10_000_000_000;
 /// The model's aid and the attitude that drove it: the track handed in, else the attitude of a
 /// forward pass without the aid, run on a thread beside the model's filter (which waits for
 /// the attitude it needs) rather than before it.
-pub fn aid_beside_attitude<A>(
+pub(crate) fn aid_beside_attitude<A>(
     shared: Option<AttitudeTrack>,
     settings: &Settings,
     inputs: &Inputs<'_>,
@@ -157,7 +157,7 @@ fn use_of(config: &ModelVelocityConfig) -> ModelVelocityUse {
 /// The model's filter run over the log with `attitude` driving the model, its velocities
 /// handed on as they are made; refused (the reason, as the aid's note) when the model cannot
 /// run or does not fit the vehicle.
-pub fn run_model(
+pub(crate) fn run_model(
     model: &SixDof,
     streams: &Streams<'_>,
     attitude: &dyn AttitudeSource,
@@ -212,7 +212,7 @@ pub struct BesideModel {
 /// a pass that took any of its velocities runs again without them.
 ///
 /// `inputs` hold the other aids; `run_model` runs the model's filter ([`run_model`]).
-pub fn pass_beside_model(
+pub(crate) fn pass_beside_model(
     shared: Option<AttitudeTrack>,
     settings: &Settings,
     inputs: &Inputs<'_>,

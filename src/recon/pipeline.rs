@@ -261,7 +261,7 @@ impl Stages<'_> {
 }
 
 /// The pipeline up to and including the forward pass.
-pub fn forward(
+pub(crate) fn forward(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
@@ -358,7 +358,7 @@ pub fn forward(
 
 impl Forward {
     /// Smooths the forward pass (its records are turned into solutions and freed).
-    pub fn smooth(
+    pub(crate) fn smooth(
         self,
         progress: Progress<'_>,
         on_stage: Option<&dyn Fn(Stage)>,

@@ -181,7 +181,7 @@ impl fmt::Display for TuningWarning {
 }
 
 /// The streams cut to their first `span_s` seconds from the first IMU sample.
-pub fn first_span<'a>(streams: &Streams<'a>, span_s: f64) -> Streams<'a> {
+pub(crate) fn first_span<'a>(streams: &Streams<'a>, span_s: f64) -> Streams<'a> {
     let Some(t0) = streams.imu.first().map(|m| m.stamp_ns) else {
         return *streams;
     };
@@ -256,7 +256,7 @@ pub fn tune(streams: &Streams<'_>, mission: &Mission, config: &Config) -> (Confi
 
 /// [`tune`], the IMU's candidates started as `from` says (the pipeline's settled heading and
 /// prepared magnetometer).
-pub fn tune_from(
+pub(crate) fn tune_from(
     streams: &Streams<'_>,
     mission: &Mission,
     config: &Config,
