@@ -286,9 +286,7 @@ fn the_same_missions_in_every_container_reconstruct_within_a_millimetre() {
             let log = read_log(&fixture(name), &IngestOptions::default()).unwrap();
             let mission = log.mission_or(&defaults).unwrap();
             let r = reconstruct(&Streams::of(&log), &mission, &config).unwrap();
-            let d = common::largest_difference(&reference, &r);
-            println!("{name}: largest position difference {d:.2e} m");
-            assert!(d < 1e-3, "{name}: {d} m");
+            common::assert_within_a_millimetre(name, &reference, &r);
         }
     }
 }

@@ -15,19 +15,25 @@ use hindsight::sim::scenario::Scenario;
 use hindsight::sim::writer::{to_bytes, WriterOptions};
 use hindsight::vehicle::six_dof::description::Vehicle;
 
+/// NPS AUV II, the default settings and the true values of their free coefficients (NPS AUV II's).
+fn vehicle_settings_and_truth() -> (Vehicle, SixDofSettings, Vec<f64>) {
+    let vehicle = Vehicle::built_in("nps-auv-ii").unwrap().unwrap();
+    let settings = SixDofSettings::default();
+    let truth = settings
+        .free
+        .iter()
+        .map(|n| vehicle.coefficient(n))
+        .collect();
+    (vehicle, settings, truth)
+}
+
 #[test]
 fn rudder_zigzag_gives_the_horizontal_plane_coefficients() {
     let scenario = Scenario::built_in("zigzag-rudder-20-20").unwrap();
     let log = common::simulated_log(&scenario, 1);
     let record = SixDofRecord::from_log("zigzag-rudder-20-20", &log).unwrap();
     assert_eq!(record.manoeuvre.0, "rudder");
-    let vehicle = Vehicle::built_in("nps-auv-ii").unwrap().unwrap();
-    let settings = SixDofSettings::default();
-    let truth: Vec<f64> = settings
-        .free
-        .iter()
-        .map(|n| vehicle.coefficient(n))
-        .collect();
+    let (vehicle, settings, truth) = vehicle_settings_and_truth();
     let start: Vec<f64> = truth
         .iter()
         .enumerate()
@@ -200,13 +206,7 @@ fn the_command_line_identifies_and_refuses() {
 fn monte_carlo_spread_against_reported_sigma() {
     use rayon::prelude::*;
     let scenario = Scenario::built_in("zigzag-rudder-20-20").unwrap();
-    let vehicle = Vehicle::built_in("nps-auv-ii").unwrap().unwrap();
-    let settings = SixDofSettings::default();
-    let truth: Vec<f64> = settings
-        .free
-        .iter()
-        .map(|n| vehicle.coefficient(n))
-        .collect();
+    let (vehicle, settings, truth) = vehicle_settings_and_truth();
     let runs: Vec<(Vec<f64>, Vec<f64>)> = (1..=20u64)
         .into_par_iter()
         .map(|seed| {

@@ -210,9 +210,7 @@ fn the_survey_as_csv_files_imports_and_reconstructs_within_a_millimetre() {
     )
     .unwrap();
     assert!(reference.smoothed.len() > 1000);
-    let d = common::largest_difference(&reference, &from_csv);
-    println!("largest position difference {d:.2e} m");
-    assert!(d < 1e-3, "{d} m");
+    common::assert_within_a_millimetre("csv", &reference, &from_csv);
 }
 
 #[test]

@@ -171,9 +171,7 @@ fn the_same_mission_in_json_and_in_ros2_reconstructs_within_a_millimetre() {
             &config,
         )
         .unwrap();
-        let d = common::largest_difference(&reference, &r);
-        println!("{name}: largest position difference {d:.2e} m");
-        assert!(d < 1e-3, "{name}: {d} m");
+        common::assert_within_a_millimetre(name, &reference, &r);
     }
 }
 

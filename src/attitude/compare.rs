@@ -328,12 +328,7 @@ fn truth_errors(
             yaw_rms_deg: rms(sums[2]),
             yaw_max_deg: max[2].to_degrees(),
         }),
-        Some(AttitudeRms {
-            samples: n,
-            total_deg: rms(sums[3]),
-            heading_deg: rms(sums[4]),
-            inclination_deg: rms(sums[5]),
-        }),
+        Some(AttitudeRms::of(n, [sums[3], sums[4], sums[5]])),
     )
 }
 

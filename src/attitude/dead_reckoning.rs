@@ -122,6 +122,17 @@ pub fn dead_reckon(
 mod tests {
     use super::*;
 
+    /// Dead reckoning from the origin with the DVL mounted on the body's axes.
+    fn from_origin(attitude: &[AttitudeSample], dvl: &[Dvl], max_gap_s: f64) -> Vec<TrackPoint> {
+        dead_reckon(
+            attitude,
+            dvl,
+            &DvlMounting::default(),
+            Vector3::zeros(),
+            max_gap_s,
+        )
+    }
+
     /// A DVL reading 1 m/s forward while the attitude turns at a constant rate traces the
     /// circle the kinematics say.
     #[test]
@@ -145,13 +156,7 @@ mod tests {
                 altitude: Some(5.0),
             })
             .collect();
-        let track = dead_reckon(
-            &attitude,
-            &dvl,
-            &DvlMounting::default(),
-            Vector3::zeros(),
-            5.0,
-        );
+        let track = from_origin(&attitude, &dvl, 5.0);
         // Radius 1 / 0.1 = 10 m: north sin(w t) / w, east (1 - cos(w t)) / w.
         let worst = track
             .iter()
@@ -200,13 +205,7 @@ mod tests {
                 to_ns: 70_000_000_000
             }]
         );
-        let track = dead_reckon(
-            &attitude,
-            &dvl,
-            &DvlMounting::default(),
-            Vector3::zeros(),
-            5.0,
-        );
+        let track = from_origin(&attitude, &dvl, 5.0);
         let north = |t: i64| {
             track
                 .iter()
@@ -219,13 +218,7 @@ mod tests {
         assert!((north(70) - 20.0).abs() < 1e-9, "{}", north(70)); // the 50 s gap held
         assert!((north(80) - 30.0).abs() < 1e-9, "{}", north(80));
         // Without a limit, the held velocity invents the 50 m.
-        let held = dead_reckon(
-            &attitude,
-            &dvl,
-            &DvlMounting::default(),
-            Vector3::zeros(),
-            1e9,
-        );
+        let held = from_origin(&attitude, &dvl, 1e9);
         assert!((held.last().unwrap().ned_m.x - 80.0).abs() < 1e-9);
         // A lock lost to the end of the log is a gap too.
         let trailing: Vec<Dvl> = (0..=30).map(|k| reading(k as f64, 1.0, k <= 10)).collect();

@@ -53,6 +53,19 @@ pub struct AttitudeRms {
     pub inclination_deg: f64,
 }
 
+impl AttitudeRms {
+    /// From `n` samples' sums of squared errors (total, heading, inclination), rad^2.
+    pub fn of(n: usize, sums: [f64; 3]) -> AttitudeRms {
+        let rms = |s: f64| (s / n as f64).sqrt().to_degrees();
+        AttitudeRms {
+            samples: n,
+            total_deg: rms(sums[0]),
+            heading_deg: rms(sums[1]),
+            inclination_deg: rms(sums[2]),
+        }
+    }
+}
+
 /// RMS errors of `estimates` against `reference` at the stamps they share (both sorted by
 /// stamp) and that `scored` accepts; `None` when no stamp is scored.
 pub fn rms(
@@ -78,13 +91,7 @@ pub fn rms(
         sums[2] += err.inclination.powi(2);
         n += 1;
     }
-    let rms = |s: f64| (s / n as f64).sqrt().to_degrees();
-    (n > 0).then(|| AttitudeRms {
-        samples: n,
-        total_deg: rms(sums[0]),
-        heading_deg: rms(sums[1]),
-        inclination_deg: rms(sums[2]),
-    })
+    (n > 0).then(|| AttitudeRms::of(n, sums))
 }
 
 #[cfg(test)]

@@ -16,17 +16,19 @@ fn add_columns<Row>(c: &mut Columns, rows: &[Row], columns: &[Column<Row>]) {
     }
 }
 
-/// Each row's case label and solution name.
+/// Columns that start with each row's case label and solution name (`of_row`: each row's
+/// case and solution).
 fn case_and_solution(
-    c: &mut Columns,
     cases: &[Case],
     solutions: &[String],
     of_row: impl Iterator<Item = (usize, usize)> + Clone,
-) {
+) -> Columns {
+    let mut c = Columns::default();
     let labels = of_row.clone().map(|(case, _)| cases[case].label.as_str());
     c.text("case", labels.collect());
     let names = of_row.map(|(_, solution)| solutions[solution].as_str());
     c.text("solution", names.collect());
+    c
 }
 
 /// One row per run and solution: case, solution, seed, error, alignment and scores.
@@ -35,13 +37,7 @@ pub fn runs_batch(
     solutions: &[String],
     runs: &[RunResult],
 ) -> Result<RecordBatch, ArrowError> {
-    let mut c = Columns::default();
-    case_and_solution(
-        &mut c,
-        cases,
-        solutions,
-        runs.iter().map(|r| (r.case, r.solution)),
-    );
+    let mut c = case_and_solution(cases, solutions, runs.iter().map(|r| (r.case, r.solution)));
     c.count("seed", runs.iter().map(|r| r.seed).collect());
     c.optional_text("error", runs.iter().map(|r| r.error.as_deref()).collect());
     add_columns(
@@ -78,13 +74,7 @@ pub fn error_vs_time_batch(
     solutions: &[String],
     rows: &[TimeRow],
 ) -> Result<RecordBatch, ArrowError> {
-    let mut c = Columns::default();
-    case_and_solution(
-        &mut c,
-        cases,
-        solutions,
-        rows.iter().map(|r| (r.case, r.solution)),
-    );
+    let mut c = case_and_solution(cases, solutions, rows.iter().map(|r| (r.case, r.solution)));
     c.number("t_s", "s", rows.iter().map(|r| r.t_s).collect());
     c.count("runs", rows.iter().map(|r| r.runs as u64).collect());
     add_columns(

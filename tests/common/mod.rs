@@ -128,6 +128,13 @@ pub fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// Asserts that a command was refused for bad input (exit 2) with a message containing
+/// `words`.
+pub fn assert_refused(o: &std::process::Output, words: &str) {
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(o));
+    assert!(stderr(o).contains(words), "{words:?} not in {}", stderr(o));
+}
+
 /// The shipped sample log.
 pub const SAMPLE: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -209,6 +216,18 @@ pub fn largest_difference(
     };
     let all = |s: &hindsight::filters::ins::solutions::Solutions| s.to_vec().unwrap();
     pairs(&all(&a.forward), &all(&b.forward)).max(pairs(&all(&a.smoothed), &all(&b.smoothed)))
+}
+
+/// Asserts that two reconstructions of the same mission (`name`: how the second was read)
+/// agree within a millimetre everywhere, forward and smoothed.
+pub fn assert_within_a_millimetre(
+    name: &str,
+    a: &hindsight::recon::Reconstruction,
+    b: &hindsight::recon::Reconstruction,
+) {
+    let d = largest_difference(a, b);
+    println!("{name}: largest position difference {d:.2e} m");
+    assert!(d < 1e-3, "{name}: {d} m");
 }
 
 /// The float columns of a Parquet file, concatenated over its batches.

@@ -16,6 +16,18 @@ use crate::geodesy;
 use nalgebra::{SMatrix, Vector3};
 use std::sync::Mutex;
 
+/// An aid's `len` and `stamp_ns` from its list of readings (each with a `stamp_ns`).
+macro_rules! stamped_by {
+    ($readings:ident) => {
+        fn len(&self) -> usize {
+            self.$readings.len()
+        }
+        fn stamp_ns(&self, i: usize) -> i64 {
+            self.$readings[i].stamp_ns
+        }
+    };
+}
+
 /// Readings at least `min_interval_s` apart, the first one kept.
 fn thinned<T: Clone>(readings: &[T], min_interval_s: f64, stamp: impl Fn(&T) -> i64) -> Vec<T> {
     let min_ns = (min_interval_s * 1e9) as i64;
@@ -76,12 +88,7 @@ impl Aid for DvlAid<'_> {
     fn sensor(&self) -> Sensor {
         Sensor::Dvl
     }
-    fn len(&self) -> usize {
-        self.readings.len()
-    }
-    fn stamp_ns(&self, i: usize) -> i64 {
-        self.readings[i].stamp_ns
-    }
+    stamped_by!(readings);
     fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
         let d = &self.readings[i];
         if !self.in_range(d) {
@@ -133,12 +140,7 @@ impl Aid for DepthAid {
     fn sensor(&self) -> Sensor {
         Sensor::Depth
     }
-    fn len(&self) -> usize {
-        self.readings.len()
-    }
-    fn stamp_ns(&self, i: usize) -> i64 {
-        self.readings[i].stamp_ns
-    }
+    stamped_by!(readings);
     fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
         let (y, h) = measure::depth(at.est, self.readings[i].depth);
         let r = SMatrix::<f64, 1, 1>::new(self.sigma_m.powi(2));
@@ -161,12 +163,7 @@ impl Aid for GnssAid<'_> {
     fn sensor(&self) -> Sensor {
         Sensor::Gnss
     }
-    fn len(&self) -> usize {
-        self.readings.len()
-    }
-    fn stamp_ns(&self, i: usize) -> i64 {
-        self.readings[i].stamp_ns
-    }
+    stamped_by!(readings);
     fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
         let g = &self.readings[i];
         let (y, h) = measure::horizontal_position(
@@ -205,12 +202,7 @@ impl Aid for FixAid<'_> {
     fn sensor(&self) -> Sensor {
         Sensor::PositionFix
     }
-    fn len(&self) -> usize {
-        self.readings.len()
-    }
-    fn stamp_ns(&self, i: usize) -> i64 {
-        self.readings[i].stamp_ns
-    }
+    stamped_by!(readings);
     fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
         let f = &self.readings[i];
         let (lat0, lon0) = self.origin_rad;
@@ -234,12 +226,7 @@ impl Aid for SpeedLogAid<'_> {
     fn sensor(&self) -> Sensor {
         Sensor::SpeedLog
     }
-    fn len(&self) -> usize {
-        self.readings.len()
-    }
-    fn stamp_ns(&self, i: usize) -> i64 {
-        self.readings[i].stamp_ns
-    }
+    stamped_by!(readings);
     fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
         let (y, h, attitude_variance) = measure::speed(at.est, self.readings[i].speed)?;
         let r = SMatrix::<f64, 1, 1>::new(self.sigma_m_s.powi(2) + attitude_variance);
@@ -292,12 +279,7 @@ impl Aid for MagAid {
     fn sensor(&self) -> Sensor {
         Sensor::Magnetometer
     }
-    fn len(&self) -> usize {
-        self.readings.len()
-    }
-    fn stamp_ns(&self, i: usize) -> i64 {
-        self.readings[i].stamp_ns
-    }
+    stamped_by!(readings);
     fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
         let field = Vector3::from(self.readings[i].magnetic_field);
         let (y, h) = measure::magnetic_heading(at.est, &field, self.declination_rad)?;
@@ -363,12 +345,7 @@ impl Aid for RpmVelocityAid {
     fn sensor(&self) -> Sensor {
         Sensor::RpmVelocity
     }
-    fn len(&self) -> usize {
-        self.speeds.len()
-    }
-    fn stamp_ns(&self, i: usize) -> i64 {
-        self.speeds[i].stamp_ns
-    }
+    stamped_by!(speeds);
     fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
         let s = &self.speeds[i];
         let (y, h) = super::forward::measure::body_velocity_uncalibrated(
