@@ -1,4 +1,4 @@
-//! The default run (no configuration) through the library's pipeline: the plan switches on
+//! The default run (no configuration) through the library's one entry: the plan switches on
 //! what the log supports, in the order that does not hurt. Scored against the simulator's
 //! `/truth`.
 
@@ -8,7 +8,7 @@ use hindsight::filters::ins::aid_table::Sensor;
 use hindsight::filters::ins::error_state::idx;
 use hindsight::recon::config::{Config, HeadingChoice};
 use hindsight::recon::on_off_auto::Switch;
-use hindsight::recon::pipeline::{self, Outcome, Warning};
+use hindsight::recon::pipeline::Warning;
 use hindsight::recon::plan::{Part, Why};
 use hindsight::recon::score::{scores, Scores};
 use hindsight::recon::Streams;
@@ -16,12 +16,11 @@ use hindsight::sim::scenario::Scenario;
 use hindsight::sim::sensors::dvl::DvlSensor;
 use hindsight::sim::sensors::{rng_for, stream};
 
-fn run(log: &hindsight::ingest::Log, config: &Config) -> (Outcome, Scores, Scores) {
-    let streams = Streams::of(log);
-    let mission = log.mission().unwrap();
-    let outcome = pipeline::run(&streams, &mission, config, pipeline::Options::default()).unwrap();
-    let (fwd, smo) = common::output_errors(streams.truth, &outcome.reconstruction);
-    (outcome, scores(&fwd).unwrap(), scores(&smo).unwrap())
+/// The log through the library's one entry, and its scores against the log's truth.
+fn run(log: &common::Simulated, config: &Config) -> (hindsight::Reconstruction, Scores, Scores) {
+    let r = log.reconstruct(config);
+    let (fwd, smo) = common::output_errors(Streams::of(log).truth, &r.solved);
+    (r, scores(&fwd).unwrap(), scores(&smo).unwrap())
 }
 
 /// `survey-dvl-calibration` with its IMU made navigation grade (0.01 deg/h, 25 ug).
@@ -70,12 +69,13 @@ fn the_dvl_calibration_is_switched_on_by_the_fixes_and_a_wrong_start_does_not_hu
 
 fn calibrated_from_any_start(scenario: &Scenario) {
     let seed = 1;
-    let log = common::simulated_log(scenario, seed);
+    let log = common::simulated(scenario, seed);
     let spec = scenario.dvl.unwrap();
     let true_scale = DvlSensor::new(spec, rng_for(seed, stream::DVL)).scale;
     let true_heading_deg = spec.misalignment_deg[1];
     let (outcome, fwd, smo) = run(&log, &Config::default());
     let decision = outcome
+        .summary
         .plan
         .decisions
         .iter()
@@ -83,13 +83,13 @@ fn calibrated_from_any_start(scenario: &Scenario) {
         .unwrap();
     assert!(decision.used, "{:?}", decision.why);
     assert!(matches!(decision.why, Why::Observable { .. }));
-    let last = outcome.reconstruction.forward.last().unwrap().unwrap();
+    let last = outcome.solved.forward.last().unwrap().unwrap();
     let (scale, scale_sigma) = (last.point.dvl[0], last.sigma[idx::DVL_SCALE]);
     let (heading, heading_sigma) = (
         last.point.dvl[2].to_degrees(),
         last.sigma[idx::DVL_MISALIGNMENT + 1].to_degrees(),
     );
-    let imu = |o: &Outcome| o.tuning.as_ref().unwrap().imu.model.clone();
+    let imu = |o: &hindsight::Reconstruction| o.summary.tuning.as_ref().unwrap().imu.model.clone();
     eprintln!(
         "default run, IMU tuned as {}: scale error {:.4} % +- {:.4} (truth {:.4} %); heading \
          {heading:.3} +- {heading_sigma:.3} deg (truth {true_heading_deg}); NEES inside \
@@ -113,7 +113,7 @@ fn calibrated_from_any_start(scenario: &Scenario) {
     wrong.initial.yaw_deg = Some(scenario.start.yaw_deg + 180.0);
     let (outcome_wrong, fwd_wrong, smo_wrong) = run(&log, &wrong);
     let found = outcome_wrong
-        .reconstruction
+        .solved
         .init
         .estimate
         .nav
@@ -124,7 +124,7 @@ fn calibrated_from_any_start(scenario: &Scenario) {
         "start 180 deg off: heading found {:.2} deg ({}); RMS {:.2} / {:.2} m against {:.2} / \
          {:.2} m from the right start; IMU tuned as {}",
         found.to_degrees(),
-        outcome_wrong.reconstruction.init.heading.name(),
+        outcome_wrong.solved.init.heading.name(),
         fwd_wrong.horizontal_rms_m,
         smo_wrong.horizontal_rms_m,
         fwd.horizontal_rms_m,
@@ -135,8 +135,8 @@ fn calibrated_from_any_start(scenario: &Scenario) {
     // (a 180 deg wrong start tuned before it was a MEMS model for this IMU). Seed 1's
     // "tactical" and "tactical, gyro x3" are 0.3-0.7 of a log-likelihood unit apart in
     // both runs: the data cannot tell them apart, and either start may land on either.
-    let tuned = |o: &Outcome| {
-        let t = o.tuning.as_ref().unwrap();
+    let tuned = |o: &hindsight::Reconstruction| {
+        let t = o.summary.tuning.as_ref().unwrap();
         let grade = t
             .imu
             .model
@@ -161,12 +161,13 @@ fn calibrated_from_any_start(scenario: &Scenario) {
 /// with the reason, a warning says so, and the rest runs.
 #[test]
 fn what_the_log_cannot_support_is_held_or_refused_with_the_reason() {
-    let log = common::simulated_log(&Scenario::built_in("survey-short").unwrap(), 1);
+    let log = common::simulated(&Scenario::built_in("survey-short").unwrap(), 1);
     let mut config = Config::default();
     config.model_velocity.enabled = Switch::On;
     let (outcome, fwd, _) = run(&log, &config);
     let why = |part: Part| {
         let d = outcome
+            .summary
             .plan
             .decisions
             .iter()
@@ -182,12 +183,11 @@ fn what_the_log_cannot_support_is_held_or_refused_with_the_reason() {
     let (used, refused) = why(Part::Aid(Sensor::ModelVelocity));
     assert!(!used);
     assert!(refused.to_string().contains("/fins"), "{refused}");
-    assert!(outcome
-        .warnings
-        .iter()
+    assert!(common::pipeline_warnings(&outcome)
+        .into_iter()
         .any(|w| matches!(w, Warning::ForcedOnRefused { .. }) && w.to_string().contains("/fins")));
     assert!(outcome
-        .reconstruction
+        .solved
         .run
         .residuals
         .iter()
@@ -201,9 +201,10 @@ fn what_the_log_cannot_support_is_held_or_refused_with_the_reason() {
 /// against 27.9 m (seed 1); the 3 m bar is not met on this log (README).
 #[test]
 fn the_propeller_bridges_an_outage_with_a_turn_in_it() {
-    let log = common::simulated_log(&Scenario::built_in("trench-turn").unwrap(), 1);
+    let log = common::simulated(&Scenario::built_in("trench-turn").unwrap(), 1);
     let (outcome, fwd, _) = run(&log, &Config::default());
     let filter = outcome
+        .summary
         .plan
         .decisions
         .iter()
@@ -248,13 +249,14 @@ fn the_propeller_bridges_an_outage_with_a_turn_in_it() {
 /// max 1.01 m, inside 100 %).
 #[test]
 fn a_mems_pool_run_with_a_magnetometer_start_is_scored_whole() {
-    let log = common::simulated_log(&Scenario::built_in("pool-rectangle").unwrap(), 1);
+    let log = common::simulated(&Scenario::built_in("pool-rectangle").unwrap(), 1);
     let (outcome, fwd, _) = run(&log, &Config::default());
     println!(
         "pool-rectangle seed 1: forward max {:.2} m, NEES inside {:.3}, IMU tuned as {}",
         fwd.horizontal_max_m,
         fwd.nees_horizontal_inside_95,
         outcome
+            .summary
             .tuning
             .as_ref()
             .map_or("-".into(), |t| t.imu.model.clone())
@@ -278,7 +280,7 @@ fn a_late_dvl_clock_is_found_before_anything_runs() {
     for (delay_s, seed) in [(2.0, 1), (0.0, 1), (0.0, 3)] {
         let mut scenario = Scenario::built_in("zigzag-rudder-20-20").unwrap();
         scenario.dvl.as_mut().unwrap().stamp_delay_s = delay_s;
-        let log = common::simulated_log(&scenario, seed);
+        let log = common::simulated(&scenario, seed);
         let streams = Streams::of(&log);
         let config = Config::default();
         let facts = LogFacts::of(&streams, &log.mission().unwrap(), &config);
@@ -295,7 +297,7 @@ fn a_late_dvl_clock_is_found_before_anything_runs() {
             assert!((plan.dvl_stamp_delay_s() - delay_s).abs() < 0.1);
             // tuned.toml gives the delay back, and a rerun with it keeps it as given.
             let (outcome, _, _) = run(&log, &config);
-            let toml = outcome.tuning.as_ref().unwrap().as_toml();
+            let toml = outcome.summary.tuning.as_ref().unwrap().as_toml();
             let reused = Config::from_toml(&toml).unwrap();
             assert_eq!(reused.dvl.stamp_delay_s, plan.dvl_stamp_delay_s(), "{toml}");
         } else {
@@ -323,7 +325,7 @@ fn a_dvl_lever_arm_is_found_and_used() {
     let truth = [0.8, 0.0, 0.2];
     let mut scenario = Scenario::built_in("zigzag-rudder-20-20").unwrap();
     scenario.dvl.as_mut().unwrap().lever_arm_m = truth;
-    let log = common::simulated_log(&scenario, 1);
+    let log = common::simulated(&scenario, 1);
     let config = Config::default();
     let facts = LogFacts::of(&Streams::of(&log), &log.mission().unwrap(), &config);
     let l = facts.dvl_delay.expect("an estimate").lever_arm;
@@ -338,7 +340,7 @@ fn a_dvl_lever_arm_is_found_and_used() {
     let used = plan.dvl_lever_arm_m().expect("the arm is used");
     assert!((used[0] - truth[0]).abs() <= 3.0 * l.sigma_m[0], "{used:?}");
     let (outcome, _, default_smo) = run(&log, &config);
-    let toml = outcome.tuning.as_ref().unwrap().as_toml();
+    let toml = outcome.summary.tuning.as_ref().unwrap().as_toml();
     assert_eq!(
         Config::from_toml(&toml).unwrap().dvl.lever_arm_m,
         used,

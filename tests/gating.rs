@@ -7,60 +7,54 @@ use crate::common;
 use hindsight::contract::Dvl;
 use hindsight::filters::ins::aid_table::Sensor;
 use hindsight::filters::ins::driver::Residual;
-use hindsight::ingest::Log;
 use hindsight::recon::config::Config;
-use hindsight::recon::pipeline::{self, Outcome, Warning};
+use hindsight::recon::pipeline::Warning;
 use hindsight::recon::score::{scores, Scores};
 use hindsight::recon::stats::RunWarning;
 use hindsight::recon::Streams;
 use hindsight::sim::scenario::Scenario;
+use hindsight::Reconstruction;
 
 /// The 10 minutes the DVL misbehaves, from the log's first IMU sample, s.
 const FAULT_FROM_S: f64 = 1200.0;
 const FAULT_TO_S: f64 = 1800.0;
 
-fn survey() -> Log {
-    common::simulated_log(&Scenario::built_in("survey").unwrap(), 1)
+fn survey() -> common::Simulated {
+    common::simulated(&Scenario::built_in("survey").unwrap(), 1)
 }
 
-/// The log's DVL readings with those in the fault window changed by `fault` (`None`: the
-/// reading is not there).
-fn with_fault(streams: &Streams<'_>, fault: impl Fn(&Dvl) -> Option<Dvl>) -> (Vec<Dvl>, i64, i64) {
-    let t0 = streams.imu[0].stamp_ns;
+/// The log with its DVL readings in the fault window changed by `fault` (`None`: the
+/// reading is not there), and the window.
+fn with_fault(
+    log: &common::Simulated,
+    fault: impl Fn(&Dvl) -> Option<Dvl>,
+) -> (common::Simulated, i64, i64) {
+    let t0 = Streams::of(log).imu[0].stamp_ns;
     let (from, to) = (
         t0 + (FAULT_FROM_S * 1e9) as i64,
         t0 + (FAULT_TO_S * 1e9) as i64,
     );
-    let dvl = streams
-        .dvl
-        .iter()
-        .filter_map(|d| {
-            if (from..to).contains(&d.stamp_ns) {
-                fault(d)
-            } else {
-                Some(d.clone())
-            }
-        })
-        .collect();
-    (dvl, from, to)
+    let changed = log.with_changed("/dvl", |d: &Dvl| {
+        if (from..to).contains(&d.stamp_ns) {
+            fault(d)
+        } else {
+            Some(d.clone())
+        }
+    });
+    (changed, from, to)
 }
 
-fn run(streams: &Streams<'_>, log: &Log) -> (Outcome, Scores) {
-    let outcome = pipeline::run(
-        streams,
-        &log.mission().unwrap(),
-        &Config::default(),
-        pipeline::Options::default(),
-    )
-    .unwrap();
-    let (forward, _) = common::output_errors(streams.truth, &outcome.reconstruction);
-    (outcome, scores(&forward).unwrap())
+/// The log through the library's one entry, and its forward scores against the truth.
+fn run(log: &common::Simulated) -> (Reconstruction, Scores) {
+    let r = log.reconstruct(&Config::default());
+    let (forward, _) = common::output_errors(Streams::of(log).truth, &r.solved);
+    (r, scores(&forward).unwrap())
 }
 
 /// DVL residuals in `[from, to)`.
-fn dvl_within(outcome: &Outcome, from: i64, to: i64) -> Vec<&Residual> {
+fn dvl_within(outcome: &Reconstruction, from: i64, to: i64) -> Vec<&Residual> {
     outcome
-        .reconstruction
+        .solved
         .run
         .residuals
         .iter()
@@ -69,15 +63,15 @@ fn dvl_within(outcome: &Outcome, from: i64, to: i64) -> Vec<&Residual> {
 }
 
 /// DVL residuals in `[from, to)`: (count, accepted).
-fn dvl_residuals(outcome: &Outcome, from: i64, to: i64) -> (usize, usize) {
+fn dvl_residuals(outcome: &Reconstruction, from: i64, to: i64) -> (usize, usize) {
     let within = dvl_within(outcome, from, to);
     (within.len(), within.iter().filter(|r| r.accepted).count())
 }
 
 /// Seconds from `to` to the first DVL reading applied.
-fn back_after(outcome: &Outcome, to: i64) -> Option<f64> {
+fn back_after(outcome: &Reconstruction, to: i64) -> Option<f64> {
     outcome
-        .reconstruction
+        .solved
         .run
         .residuals
         .iter()
@@ -93,36 +87,27 @@ fn back_after(outcome: &Outcome, to: i64) -> Option<f64> {
 #[test]
 fn a_stuck_dvl_is_never_applied_and_a_returning_one_is_back_within_30_s() {
     let log = survey();
-    let streams = Streams::of(&log);
     let stuck_at = [0.9, 0.4, 0.05];
-    let (stuck, from, to) = with_fault(&streams, |d| {
+    let (stuck, from, to) = with_fault(&log, |d| {
         Some(Dvl {
             velocity: stuck_at,
             valid: true,
             ..d.clone()
         })
     });
-    let (silent, _, _) = with_fault(&streams, |_| None);
-    let (outcome, stuck_scores) = run(
-        &Streams {
-            dvl: &stuck,
-            ..streams
-        },
-        &log,
-    );
+    let (silent, _, _) = with_fault(&log, |_| None);
+    let (outcome, stuck_scores) = run(&stuck);
     let (count, accepted) = dvl_residuals(&outcome, from, to);
-    let stuck_warning = outcome.warnings.iter().find_map(|w| match w {
-        Warning::Run(RunWarning::StuckReadings { sensor, readings }) => Some((*sensor, *readings)),
-        _ => None,
-    });
+    let stuck_warning = common::pipeline_warnings(&outcome)
+        .into_iter()
+        .find_map(|w| match w {
+            Warning::Run(RunWarning::StuckReadings { sensor, readings }) => {
+                Some((*sensor, *readings))
+            }
+            _ => None,
+        });
 
-    let (returned, outage_scores) = run(
-        &Streams {
-            dvl: &silent,
-            ..streams
-        },
-        &log,
-    );
+    let (returned, outage_scores) = run(&silent);
     let back_after_s = back_after(&returned, to);
     let unstuck_after_s = back_after(&outcome, to);
     eprintln!(
@@ -141,7 +126,7 @@ fn a_stuck_dvl_is_never_applied_and_a_returning_one_is_back_within_30_s() {
     assert_eq!(accepted, 0, "stuck readings applied");
     // The repeats are warned of on their own: they do not make the DVL's noise or clock
     // look wrong.
-    let misread = outcome.warnings.iter().find(|w| {
+    let misread = common::pipeline_warnings(&outcome).into_iter().find(|w| {
         matches!(w, Warning::DvlClock { .. })
             || matches!(w, Warning::Run(RunWarning::InnovationsTooLarge(f)) if f.sensor == Sensor::Dvl)
     });
@@ -171,9 +156,8 @@ fn a_stuck_dvl_is_never_applied_and_a_returning_one_is_back_within_30_s() {
 fn an_erratic_dvl_never_reopens_its_gate() {
     use rand::{Rng, SeedableRng};
     let log = survey();
-    let streams = Streams::of(&log);
     let rng = std::cell::RefCell::new(rand_chacha::ChaCha8Rng::seed_from_u64(39));
-    let (erratic, from, to) = with_fault(&streams, |d| {
+    let (erratic, from, to) = with_fault(&log, |d| {
         let mut rng = rng.borrow_mut();
         let mut velocity = d.velocity;
         for v in &mut velocity {
@@ -184,22 +168,10 @@ fn an_erratic_dvl_never_reopens_its_gate() {
             ..d.clone()
         })
     });
-    let (silent, _, _) = with_fault(&streams, |_| None);
-    let (outcome, erratic_scores) = run(
-        &Streams {
-            dvl: &erratic,
-            ..streams
-        },
-        &log,
-    );
+    let (silent, _, _) = with_fault(&log, |_| None);
+    let (outcome, erratic_scores) = run(&erratic);
     let (count, accepted) = dvl_residuals(&outcome, from, to);
-    let (_, outage_scores) = run(
-        &Streams {
-            dvl: &silent,
-            ..streams
-        },
-        &log,
-    );
+    let (_, outage_scores) = run(&silent);
     // A reading applied though its NIS is beyond the gate's bound went in by a reopened gate.
     let bound = hindsight::filters::kalman::chi_square_quantile(3, 0.999);
     let reopened = dvl_within(&outcome, from, to)

@@ -19,7 +19,7 @@
 use crate::common;
 use hindsight::ingest::{read_log, IngestOptions};
 use hindsight::recon::config::Config;
-use hindsight::recon::{pipeline, sanity, Streams};
+use hindsight::recon::{sanity, Streams};
 use std::path::PathBuf;
 
 /// The pool runs, and whether each is lifted out of the water.
@@ -73,13 +73,14 @@ fn the_real_pool_runs_hold_the_bars_and_get_no_worse() {
     for (name, out_of_water) in POOL_RUNS {
         let log = read_log(&dir.join(name), &IngestOptions::default()).unwrap();
         let streams = Streams::of(&log);
-        let mission = log.mission().unwrap();
-        let outcome =
-            pipeline::run(&streams, &mission, &Config::default(), Default::default()).unwrap();
-        let s = sanity::of(&outcome.reconstruction, streams.dvl).unwrap();
+        // As `hindsight reconstruct LOG` runs it: the library's one entry, no settings.
+        let job = hindsight::Job::new(&dir.join(name), Config::default());
+        let outcome = hindsight::reconstruct(&job, hindsight::Observer::default()).unwrap();
+        let s = sanity::of(&outcome.solved, streams.dvl).unwrap();
         let ratio = s.track_over_dvl_path().unwrap();
         let rejected = s.dvl_rejected_share();
         let model = outcome
+            .summary
             .tuning
             .as_ref()
             .map_or("-".to_string(), |t| t.imu.model.clone());

@@ -6,7 +6,6 @@ use crate::common;
 use hindsight::config::Section;
 use hindsight::ingest::Log;
 use hindsight::recon::config::{Config, ImuGrade};
-use hindsight::recon::pipeline;
 use hindsight::recon::score::{scores, Scores};
 use hindsight::recon::stats::RunWarning;
 use hindsight::recon::tune::{self, Source, Tuning};
@@ -53,14 +52,12 @@ fn run(log: &Log, config: &Config) -> (Scores, Scores) {
 
 /// The default run as the library's entry makes it (the pipeline: plan, settled start,
 /// self-tuning, passes): its tuning and its forward and smoothed scores.
-fn default_pipeline(log: &hindsight::ingest::Log) -> (Tuning, Scores, Scores) {
+fn default_pipeline(log: &common::Simulated) -> (Tuning, Scores, Scores) {
     let streams = Streams::of(log);
-    let mission = log.mission().unwrap();
-    let outcome =
-        pipeline::run(&streams, &mission, &Config::default(), Default::default()).unwrap();
-    let (f, s) = errors(streams.truth, &outcome.reconstruction);
+    let outcome = log.reconstruct(&Config::default());
+    let (f, s) = errors(streams.truth, &outcome.solved);
     (
-        outcome.tuning.unwrap(),
+        outcome.summary.tuning.unwrap(),
         scores(&f).unwrap(),
         scores(&s).unwrap(),
     )
@@ -116,7 +113,7 @@ fn every_imu_grade_is_learnt_from_the_log() {
         ImuGrade::Tactical,
         ImuGrade::Mems,
     ] {
-        let log = common::simulated_log(&survey_with(grade), 1);
+        let log = common::simulated(&survey_with(grade), 1);
         let (tuning, fwd_t, smo_t) = default_pipeline(&log);
         let (fwd_c, smo_c) = run(&log, &configured(grade));
         let (fwd_d, smo_d) = run(&log, &Config::default());
@@ -157,7 +154,7 @@ fn every_imu_grade_is_learnt_from_the_log() {
 /// false` nothing is estimated.
 #[test]
 fn given_figures_are_kept() {
-    let log = common::simulated_log(&Scenario::built_in("survey-short").unwrap(), 2);
+    let log = common::simulated(&Scenario::built_in("survey-short").unwrap(), 2);
     let streams = Streams::of(&log);
     let mission = log.mission().unwrap();
     let config =
@@ -211,7 +208,7 @@ fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
             vrw_ug_rt_hz: 100.0 * m.accel_vrw_ug_rt_hz,
             ..scenario.imu.accel
         };
-        let log = common::simulated_log(&scenario, 1);
+        let log = common::simulated(&scenario, 1);
         let streams = Streams::of(&log);
         let mission = log.mission().unwrap();
         let truth_m = truth_length_m(&log);
@@ -227,9 +224,8 @@ fn a_mems_vehicle_100_times_worse_than_the_grade_does_not_diverge() {
                 .ok()
                 .map(|r| judge(&r))
         };
-        let default_run =
-            pipeline::run(&streams, &mission, &Config::default(), Default::default()).unwrap();
-        let (length, rejected, blamed) = judge(&default_run.reconstruction);
+        let default_run = log.reconstruct(&Config::default());
+        let (length, rejected, blamed) = judge(&default_run.solved);
         assert!(!blamed);
         eprintln!(
             "{name}: tuned length ratio {length:.3}, DVL rejected {:.1} %",
@@ -264,7 +260,7 @@ fn a_still_start_gives_the_random_walks() {
         scenario
             .segments
             .insert(0, Segment::Cruise { duration_s: 300.0 });
-        let log = common::simulated_log(&scenario, 2);
+        let log = common::simulated(&scenario, 2);
         let streams = Streams::of(&log);
         let (tuned, tuning) = tune::tune(&streams, &log.mission().unwrap(), &Config::default());
         let tuning = tuning.unwrap();
@@ -289,7 +285,7 @@ fn a_still_start_gives_the_random_walks() {
         assert!(fwd_t.horizontal_rms_m <= 1.15 * fwd_c.horizontal_rms_m);
         assert!(smo_t.horizontal_rms_m <= 1.15 * smo_c.horizontal_rms_m);
     }
-    let log = common::simulated_log(&survey_with(ImuGrade::Tactical), 2);
+    let log = common::simulated(&survey_with(ImuGrade::Tactical), 2);
     let streams = Streams::of(&log);
     let (_, tuning) = tune::tune(&streams, &log.mission().unwrap(), &Config::default());
     assert_eq!(tuning.unwrap().imu.still, None);
@@ -301,7 +297,7 @@ fn a_still_start_gives_the_random_walks() {
 #[test]
 fn no_still_stretch_and_no_fixes() {
     for name in ["dive-27min", "drop-no-dvl"] {
-        let log = common::simulated_log(&Scenario::built_in(name).unwrap(), 1);
+        let log = common::simulated(&Scenario::built_in(name).unwrap(), 1);
         let streams = Streams::of(&log);
         assert!(
             streams.gnss.is_empty() && streams.fixes.is_empty(),
@@ -431,7 +427,7 @@ fn a_fibre_optic_imu_on_a_vibrating_hull_is_not_graded_by_its_vibration() {
     let truth_config = at_sea_true_figures(&scenario);
     let (mut default_rms, mut true_rms) = (0.0, 0.0);
     for seed in 1..=3 {
-        let log = common::simulated_log(&scenario, seed);
+        let log = common::simulated(&scenario, seed);
         let (tuning, _, smoothed) = default_pipeline(&log);
         let white = tuning.imu.white.expect("white noise measured");
         let (_, given) = run(&log, &truth_config);
@@ -495,19 +491,17 @@ fn a_straight_transit_grades_a_fibre_optic_gyro_and_gyrocompasses_in_motion() {
     let truth_config = at_sea_true_figures(&scenario);
     let (mut default_rms, mut true_rms) = (0.0, 0.0);
     for seed in 1..=3 {
-        let log = common::simulated_log(&scenario, seed);
+        let log = common::simulated(&scenario, seed);
         let streams = Streams::of(&log);
-        let mission = log.mission().unwrap();
-        let outcome =
-            pipeline::run(&streams, &mission, &Config::default(), Default::default()).unwrap();
-        let tuning = outcome.tuning.as_ref().unwrap();
-        let (forward, smoothed) = errors(streams.truth, &outcome.reconstruction);
+        let outcome = log.reconstruct(&Config::default());
+        let tuning = outcome.summary.tuning.as_ref().unwrap();
+        let (forward, smoothed) = errors(streams.truth, &outcome.solved);
         let (yaw_error, yaw_sigma) = yaw_after(&forward, 300.0);
         let smoothed = scores(&smoothed).unwrap();
         // As the command line runs it with these figures given: the alignment and the plan
         // as in the default run (only the tuning keeps the given figures).
-        let given = pipeline::run(&streams, &mission, &truth_config, Default::default()).unwrap();
-        let given = scores(&errors(streams.truth, &given.reconstruction).1).unwrap();
+        let given = log.reconstruct(&truth_config);
+        let given = scores(&errors(streams.truth, &given.solved).1).unwrap();
         eprintln!(
             "seed {seed}: {} (gyro {:.3} deg/h); yaw at 300 s {yaw_error:+.2} deg (1-sigma \
              {yaw_sigma:.2}); smoothed RMS {:.2} m, given the true figures {:.2} m",
@@ -546,7 +540,7 @@ fn a_mems_pool_run_with_host_stamps_and_steel_does_not_diverge() {
     use hindsight::recon::plan::Part;
     let scenario = Scenario::built_in("pool-mems-host").unwrap();
     for seed in 1..=5 {
-        let log = common::simulated_log(&scenario, seed);
+        let log = common::simulated(&scenario, seed);
         let streams = Streams::of(&log);
         let bursts = streams
             .imu
@@ -554,10 +548,8 @@ fn a_mems_pool_run_with_host_stamps_and_steel_does_not_diverge() {
             .map(|w| w[1].stamp_ns - w[0].stamp_ns);
         assert!(bursts.clone().min().unwrap() <= 2_000, "host bursts");
         assert!(bursts.max().unwrap() > 50_000_000, "host bursts");
-        let mission = log.mission().unwrap();
-        let outcome =
-            pipeline::run(&streams, &mission, &Config::default(), Default::default()).unwrap();
-        let r = &outcome.reconstruction;
+        let outcome = log.reconstruct(&Config::default());
+        let r = &outcome.solved;
         let (length, rejected) = length_and_dvl_rejected(r, truth_length_m(&log));
         let (_, smoothed) = errors(streams.truth, r);
         let smoothed = scores(&smoothed).unwrap();
@@ -567,6 +559,7 @@ fn a_mems_pool_run_with_host_stamps_and_steel_does_not_diverge() {
             100.0 * rejected,
             smoothed.horizontal_max_m,
             outcome
+                .summary
                 .tuning
                 .as_ref()
                 .map_or("-".into(), |t| t.imu.model.clone())
@@ -579,7 +572,7 @@ fn a_mems_pool_run_with_host_stamps_and_steel_does_not_diverge() {
         // same on this log). Every other seed must take none.
         let known_false_delay = seed == 3;
         assert_eq!(
-            outcome.plan.uses(Part::DvlStampDelay),
+            outcome.summary.plan.uses(Part::DvlStampDelay),
             known_false_delay,
             "seed {seed}"
         );
@@ -617,7 +610,7 @@ fn a_gauss_markov_dvl_error_beats_a_walk_when_it_is_the_truth() {
     );
     let (mut fwd, mut smo) = ([0.0; 2], [0.0; 2]);
     for seed in 1..=5 {
-        let log = common::simulated_log(&scenario, seed);
+        let log = common::simulated(&scenario, seed);
         for (k, config) in [&walk, &markov].into_iter().enumerate() {
             let (f, s) = run(&log, config);
             fwd[k] += f.horizontal_rms_m / 5.0;
@@ -638,18 +631,11 @@ fn a_gauss_markov_dvl_error_beats_a_walk_when_it_is_the_truth() {
 #[test]
 fn the_dvl_error_correlation_time_is_chosen_when_asked() {
     let scenario = auv_at_sea_without_real_motion();
-    let log = common::simulated_log(&scenario, 2);
-    let streams = Streams::of(&log);
+    let log = common::simulated(&scenario, 2);
     let mut config = Config::default();
     config.tune.dvl_bias_correlation = true;
-    let outcome = pipeline::run(
-        &streams,
-        &log.mission().unwrap(),
-        &config,
-        Default::default(),
-    )
-    .unwrap();
-    let tuning = outcome.tuning.as_ref().unwrap();
+    let outcome = log.reconstruct(&config);
+    let tuning = outcome.summary.tuning.as_ref().unwrap();
     let chosen = tuning
         .sensors
         .iter()
@@ -660,14 +646,8 @@ fn the_dvl_error_correlation_time_is_chosen_when_asked() {
     let reused = Config::from_toml(&tuning.as_toml()).unwrap();
     assert_eq!(reused.dvl.bias_correlation_s, chosen.value);
     // By default the walk is kept plain.
-    let outcome = pipeline::run(
-        &streams,
-        &log.mission().unwrap(),
-        &Config::default(),
-        Default::default(),
-    )
-    .unwrap();
-    let plain = outcome.tuning.as_ref().unwrap();
+    let outcome = log.reconstruct(&Config::default());
+    let plain = outcome.summary.tuning.as_ref().unwrap();
     assert!(plain
         .sensors
         .iter()
@@ -693,9 +673,8 @@ fn a_heading_no_reading_can_tell_keeps_its_sigma() {
         arw_deg_rt_h: 0.05,
         ..scenario.imu.gyro
     };
-    let log = common::simulated_log(&scenario, 2);
+    let log = common::simulated(&scenario, 2);
     let streams = Streams::of(&log);
-    let mission = log.mission().unwrap();
     for (bias_deg_h, least_sigma_deg) in [(100.0, 4.8), (1.0, 3.2)] {
         let config = Config::from_toml(&format!(
             "[imu]\ngyro_bias_deg_h = {bias_deg_h}\ngyro_bias_instability_deg_h = 0.1\n\
@@ -705,8 +684,8 @@ fn a_heading_no_reading_can_tell_keeps_its_sigma() {
             scenario.start.yaw_deg
         ))
         .unwrap();
-        let outcome = pipeline::run(&streams, &mission, &config, Default::default()).unwrap();
-        let (forward, _) = errors(streams.truth, &outcome.reconstruction);
+        let outcome = log.reconstruct(&config);
+        let (forward, _) = errors(streams.truth, &outcome.solved);
         for after_s in [30.0, 100.0, 390.0] {
             let (error, sigma) = yaw_after(&forward, after_s);
             eprintln!("bias prior {bias_deg_h} deg/h, at {after_s} s: heading {error:+.2} deg, sigma {sigma:.2}");

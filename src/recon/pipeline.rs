@@ -63,11 +63,9 @@ impl Stage {
 
 /// How the pipeline reports and what it is handed beyond the log.
 #[derive(Default)]
-pub struct Options<'a> {
+pub(crate) struct Options<'a> {
     /// Told how far the forward pass has come.
     pub forward_progress: Progress<'a>,
-    /// Told how far the smoother has come.
-    pub smoother_progress: Progress<'a>,
     /// Told as each stage starts.
     pub on_stage: Option<&'a dyn Fn(Stage)>,
     /// The magnetometer's readings moved out of the log (a day's would be held twice),
@@ -213,8 +211,7 @@ pub struct Forward {
 
 /// A whole reconstruction and how it was made.
 #[derive(Debug)]
-pub struct Outcome {
-    pub facts: LogFacts,
+pub(crate) struct Outcome {
     pub plan: Plan,
     pub config: Config,
     pub tuning: Option<Tuning>,
@@ -224,18 +221,6 @@ pub struct Outcome {
     pub sensors: Vec<SensorStats>,
     pub warnings: Vec<Warning>,
     pub times: StageTimes,
-}
-
-/// The whole pipeline: plan, start, tuning, forward pass, smoother.
-pub fn run(
-    streams: &Streams<'_>,
-    mission: &Mission,
-    config: &Config,
-    options: Options<'_>,
-) -> Result<Outcome, ReconError> {
-    let smoother_progress = options.smoother_progress;
-    let on_stage = options.on_stage;
-    forward(streams, mission, config, options)?.smooth(smoother_progress, on_stage)
 }
 
 /// A timer of stages that tells the caller as each starts.
@@ -373,7 +358,6 @@ impl Forward {
         let mut times = self.times;
         times.smoother_s = started.elapsed().as_secs_f64();
         Ok(Outcome {
-            facts: self.facts,
             plan: self.plan,
             config: self.config,
             tuning: self.tuning,

@@ -110,6 +110,101 @@ pub fn simulated_bytes(scenario: &hindsight::sim::scenario::Scenario, seed: u64)
     bytes
 }
 
+/// A simulated log: its bytes, for the library's entry, and the log read back, for its truth
+/// (the log's members through `Deref`).
+pub struct Simulated {
+    pub bytes: std::sync::Arc<[u8]>,
+    pub log: Log,
+}
+
+impl std::ops::Deref for Simulated {
+    type Target = Log;
+    fn deref(&self) -> &Log {
+        &self.log
+    }
+}
+
+impl Simulated {
+    /// The log through the library's one entry, as `hindsight reconstruct` runs it (no CLI).
+    pub fn reconstruct(
+        &self,
+        config: &hindsight::recon::config::Config,
+    ) -> hindsight::Reconstruction {
+        let job = hindsight::Job::in_memory("simulated.mcap", self.bytes.clone(), config.clone());
+        hindsight::reconstruct(&job, hindsight::Observer::default()).unwrap()
+    }
+}
+
+/// A scenario simulated with `seed`, as bytes and read back.
+pub fn simulated(scenario: &hindsight::sim::scenario::Scenario, seed: u64) -> Simulated {
+    let bytes = simulated_bytes(scenario, seed);
+    let log = read(&bytes);
+    Simulated {
+        bytes: bytes.into(),
+        log,
+    }
+}
+
+impl Simulated {
+    /// The same log with each `T` reading on `topic` changed by `change` (`None`: left out);
+    /// every other message and the mission record as they were.
+    pub fn with_changed<T: hindsight::contract::Message>(
+        &self,
+        topic: &str,
+        change: impl Fn(&T) -> Option<T>,
+    ) -> Simulated {
+        let bytes = to_bytes(WriterOptions::default(), |w| {
+            if let Ok(mission) = self.log.mission() {
+                w.write_mission(&mission)?;
+            }
+            for m in mcap::MessageStream::new(&self.bytes).expect("an MCAP log") {
+                let m = m.expect("a whole message");
+                let c = &m.channel;
+                let schema = c.schema.as_ref().expect("a schema");
+                let data = if c.topic == topic {
+                    let reading: T = serde_json::from_slice(&m.data).expect("a json message");
+                    match change(&reading) {
+                        Some(changed) => serde_json::to_vec(&changed).expect("json"),
+                        None => continue,
+                    }
+                } else {
+                    m.data.to_vec()
+                };
+                let text = std::str::from_utf8(&schema.data).expect("a text schema");
+                w.write_raw(
+                    &c.topic,
+                    &schema.name,
+                    text,
+                    &c.message_encoding,
+                    &data,
+                    m.log_time,
+                )?;
+            }
+            Ok(())
+        })
+        .expect("in-memory write");
+        let log = read(&bytes);
+        Simulated {
+            bytes: bytes.into(),
+            log,
+        }
+    }
+}
+
+/// The warnings of the plan, the start, the tuning and the forward pass.
+pub fn pipeline_warnings(
+    r: &hindsight::Reconstruction,
+) -> Vec<&hindsight::recon::pipeline::Warning> {
+    r.summary
+        .warnings
+        .iter()
+        .filter_map(|w| match w {
+            hindsight::reconstruction::Warning::Pipeline(p) => Some(p),
+            _ => None,
+        })
+        .collect()
+}
+
 /// A scenario simulated with `seed`, read back.
 pub fn simulated_log(scenario: &hindsight::sim::scenario::Scenario, seed: u64) -> Log {
     read(&simulated_bytes(scenario, seed))
