@@ -62,7 +62,6 @@ impl Stage {
 }
 
 /// How the pipeline reports and what it is handed beyond the log.
-#[derive(Default)]
 pub(crate) struct Options<'a> {
     /// Told how far the forward pass has come.
     pub forward_progress: Progress<'a>,

@@ -346,7 +346,6 @@ fn solve(
         on_stage: observer.on_stage,
         mag,
         shared_attitude: job.shared_attitude.clone(),
-        ..pipeline::Options::default()
     };
     let failed = |source| Error::Reconstruct {
         path: job.log.name(),
