@@ -164,7 +164,6 @@ pub struct Spilled<T> {
     store: Mutex<Store>,
     /// Records per block.
     block: usize,
-    spill: bool,
     record_type: PhantomData<fn() -> T>,
 }
 
@@ -296,21 +295,12 @@ impl<T: Fixed> Spilled<T> {
         Self::with_block(BLOCK_BYTES / T::BYTES.max(1))
     }
 
-    /// An empty sequence that never spills (short runs that are dropped at once).
-    pub fn in_memory() -> Self {
-        Spilled {
-            spill: false,
-            ..Self::new()
-        }
-    }
-
     /// An empty sequence that spills beyond `records` records (tests use small blocks).
     pub fn with_block(records: usize) -> Self {
         Spilled {
             tail: Aligned::default(),
             store: Mutex::default(),
             block: records.max(1),
-            spill: true,
             record_type: PhantomData,
         }
     }
@@ -371,7 +361,7 @@ impl<T: Fixed> Spilled<T> {
     fn hand_over_tail(&mut self) {
         let (block, stride) = (self.block, self.stride());
         let store = self.store.get_mut().unwrap_or_else(|e| e.into_inner());
-        let Some(writer) = self.spill.then(|| store.writer(block, stride)).flatten() else {
+        let Some(writer) = store.writer(block, stride) else {
             let full = std::mem::replace(&mut self.tail, Aligned::with_room(stride));
             store.kept.push(full);
             return;
@@ -449,26 +439,6 @@ impl<T: Fixed> Spilled<T> {
 
     pub fn last(&self) -> io::Result<Option<T>> {
         self.len().checked_sub(1).map(|k| self.get(k)).transpose()
-    }
-
-    /// The blocks of records from the first to the last: `(start, records)`.
-    pub fn blocks(&self) -> impl Iterator<Item = io::Result<(usize, Vec<T>)>> + '_ {
-        let n = self.len();
-        (0..n.div_ceil(self.block)).map(move |b| {
-            let start = b * self.block;
-            self.read(start..(start + self.block).min(n))
-                .map(|r| (start, r))
-        })
-    }
-
-    /// The blocks of records from the last to the first, each in order: `(start, records)`.
-    pub fn blocks_rev(&self) -> impl Iterator<Item = io::Result<(usize, Vec<T>)>> + '_ {
-        let n = self.len();
-        (0..n.div_ceil(self.block)).rev().map(move |b| {
-            let start = b * self.block;
-            self.read(start..(start + self.block).min(n))
-                .map(|r| (start, r))
-        })
     }
 
     /// Every record in order, read a block at a time; a failed read ends it with its error.
@@ -829,8 +799,6 @@ mod tests {
         assert_eq!(seen, pairs(50));
         let backwards: Vec<Pair> = s.iter_rev().map(Result::unwrap).collect();
         assert_eq!(backwards, pairs(50).into_iter().rev().collect::<Vec<_>>());
-        let starts: Vec<usize> = s.blocks_rev().map(|b| b.unwrap().0).collect();
-        assert_eq!(starts, [49, 42, 35, 28, 21, 14, 7, 0]);
     }
 
     /// Dropping an iteration part way stops its reading thread (the drop joins it).
@@ -856,19 +824,14 @@ mod tests {
     }
 
     #[test]
-    fn short_and_in_memory_sequences_never_touch_the_disk() {
+    fn short_sequences_never_touch_the_disk() {
         let mut short = Spilled::<Pair>::new();
-        let mut kept = Spilled::in_memory();
         for p in pairs(1000) {
             short.push(p);
         }
-        for p in pairs(100) {
-            kept.push(p);
-        }
-        assert_eq!((short.on_file(), kept.on_file()), (0, 0));
-        assert_eq!(kept.to_vec().unwrap(), pairs(100));
+        assert_eq!(short.on_file(), 0);
+        assert_eq!(short.to_vec().unwrap(), pairs(1000));
         assert!(Spilled::<Pair>::new().last().unwrap().is_none());
-        assert_eq!(Spilled::<Pair>::new().blocks_rev().count(), 0);
     }
 
     #[cfg(unix)]

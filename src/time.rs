@@ -16,11 +16,6 @@ pub fn stamp_in_range(stamp_ns: i64) -> bool {
     (MIN_STAMP_NS..END_STAMP_NS).contains(&stamp_ns)
 }
 
-/// Seconds as `f64` from a nanosecond duration.
-pub fn ns_to_s(ns: i64) -> f64 {
-    ns as f64 * 1e-9
-}
-
 /// Nanoseconds from seconds, rounded to the nearest nanosecond; `None` if not representable.
 pub fn s_to_ns(seconds: f64) -> Option<i64> {
     let ns = (seconds * 1e9).round();
@@ -109,6 +104,5 @@ mod tests {
     fn seconds_round_trip() {
         assert_eq!(s_to_ns(-0.120), Some(-120_000_000));
         assert_eq!(s_to_ns(f64::NAN), None);
-        assert!((ns_to_s(1_500_000_000) - 1.5).abs() < 1e-15);
     }
 }

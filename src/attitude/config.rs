@@ -12,7 +12,7 @@ use super::ekf::{matrix, Ekf, EkfSettings};
 use super::euler::positive_definite;
 use super::mekf::MekfSettings;
 use super::ukf::{Ukf, UkfSettings};
-use crate::config::{check_ranges, load_over, ConfigError, Range, Section};
+use crate::config::{check_ranges, ConfigError, Range, Section};
 use crate::filters::ins::forward::DvlMounting;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
@@ -194,11 +194,6 @@ impl AttitudeConfig {
         }
     }
 
-    /// Parses a file's text over a preset: the keys it gives replace the preset's.
-    pub fn from_toml_over(preset: Preset, text: &str) -> Result<AttitudeConfig, ConfigError> {
-        load_over(&AttitudeConfig::preset(preset), text)
-    }
-
     /// The filters, every covariance made positive definite (reported in `adjustments`).
     pub fn filters(&self) -> Result<Filters, ConfigError> {
         self.check_scalars()?;
@@ -306,6 +301,7 @@ impl Section for AttitudeConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::load_over;
 
     /// The defaults need no adjustment.
     #[test]
@@ -317,8 +313,9 @@ mod tests {
     /// A file laid over the seed 001 preset keeps the preset's other keys.
     #[test]
     fn a_file_is_laid_over_the_preset() {
-        let c = AttitudeConfig::from_toml_over(
-            Preset::Seed001,
+        let seed001 = AttitudeConfig::preset(Preset::Seed001);
+        let c = load_over(
+            &seed001,
             "[ekf]\nprocess_noise = \
             [[0.2, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 0.2]]\n[dvl]\nmax_gap_s = 1.0",
         )
@@ -330,8 +327,7 @@ mod tests {
         );
         assert_eq!(c.ukf, UkfSettings::seed001());
         assert_eq!(c.dvl.max_gap_s, 1.0);
-        let e =
-            AttitudeConfig::from_toml_over(Preset::Seed001, "[dvl]\nmax_gap = 1.0").unwrap_err();
+        let e = load_over(&seed001, "[dvl]\nmax_gap = 1.0").unwrap_err();
         assert!(e.to_string().contains("max_gap"), "{e}");
     }
 

@@ -44,12 +44,6 @@ impl Field {
     }
 }
 
-/// The years the model covers.
-pub fn years() -> Result<(f64, f64), String> {
-    let m = model()?;
-    Ok((m.epochs[0], m.epochs[m.epochs.len() - 1]))
-}
-
 /// The field at a geodetic latitude/longitude (degrees) and height above the WGS-84
 /// ellipsoid (km), at a decimal year, in the geodetic north/east/down axes.
 pub fn field_geodetic(
@@ -322,7 +316,11 @@ mod tests {
     fn outside_its_years_is_an_error_that_names_them() {
         let e = field_geocentric(1899.0, 6371.2, 45.0, 0.0).unwrap_err();
         assert!(e.contains("1900-2030"), "{e}");
-        assert_eq!(years().unwrap(), (1900.0, 2030.0));
+        let m = model().unwrap();
+        assert_eq!(
+            (m.epochs[0], m.epochs[m.epochs.len() - 1]),
+            (1900.0, 2030.0)
+        );
     }
 
     #[test]

@@ -174,14 +174,9 @@ pub struct ForwardRun {
 }
 
 impl ForwardRun {
-    /// The log-likelihood of the innovations from `from_ns` on: a score that leaves out the
-    /// start's transient (there the start's uncertainty, not the noise, shapes the
-    /// innovations).
-    pub fn log_likelihood_after(&self, from_ns: i64) -> f64 {
-        self.log_likelihood_of(from_ns, |_| true)
-    }
-
-    /// [`ForwardRun::log_likelihood_after`] over the sensors `counted` takes.
+    /// The log-likelihood of the innovations of the sensors `counted` takes, from `from_ns`
+    /// on: a score that leaves out the start's transient (there the start's uncertainty, not
+    /// the noise, shapes the innovations).
     pub fn log_likelihood_of(&self, from_ns: i64, counted: impl Fn(Sensor) -> bool) -> f64 {
         self.residuals
             .iter()
@@ -787,8 +782,10 @@ mod tests {
             log_likelihood: -7.0,
             ..ForwardRun::default()
         };
-        assert_eq!(run.log_likelihood_after(i64::MIN), run.log_likelihood);
-        assert_eq!(run.log_likelihood_after(20), -6.0);
-        assert_eq!(run.log_likelihood_after(31), 0.0);
+        let all = |_| true;
+        assert_eq!(run.log_likelihood_of(i64::MIN, all), run.log_likelihood);
+        assert_eq!(run.log_likelihood_of(20, all), -6.0);
+        assert_eq!(run.log_likelihood_of(31, all), 0.0);
+        assert_eq!(run.log_likelihood_of(0, |s| s != Sensor::Dvl), 0.0);
     }
 }

@@ -19,15 +19,6 @@ impl Solutions {
         Self::default()
     }
 
-    /// Solutions given in time order (short runs, tests).
-    pub fn from_time_order(solutions: &[Solution]) -> Self {
-        let mut s = Self::new();
-        for x in solutions.iter().rev() {
-            s.push_earlier(*x);
-        }
-        s
-    }
-
     /// Adds the solution just before the earliest one held.
     pub fn push_earlier(&mut self, s: Solution) {
         self.last_first.push(s);
@@ -61,13 +52,6 @@ impl Solutions {
         Ok(out)
     }
 
-    /// Solution `k` (time order).
-    pub fn get(&self, k: usize) -> io::Result<Solution> {
-        let flipped = self.len().checked_sub(k + 1);
-        self.last_first
-            .get(flipped.ok_or(io::ErrorKind::InvalidInput)?)
-    }
-
     pub fn first(&self) -> io::Result<Option<Solution>> {
         self.last_first.last()
     }
@@ -81,24 +65,6 @@ impl Solutions {
     /// Every solution in time order, a block read at a time.
     pub fn iter(&self) -> impl Iterator<Item = io::Result<Solution>> + '_ {
         self.last_first.iter_rev()
-    }
-
-    /// The solutions at `ks` (ascending), read a block at a time over the span they cover.
-    pub fn pick(&self, ks: &[usize]) -> io::Result<Vec<Solution>> {
-        const READ: usize = 1 << 16;
-        let mut out = Vec::with_capacity(ks.len());
-        let mut rest = ks;
-        while let Some(&first) = rest.first() {
-            let end = (first + READ).min(self.len());
-            let block = self.read(first..end)?;
-            let taken = rest.partition_point(|&k| k < end).max(1);
-            for &k in &rest[..taken] {
-                let at = k.checked_sub(first).and_then(|i| block.get(i));
-                out.push(*at.ok_or(io::ErrorKind::InvalidInput)?);
-            }
-            rest = &rest[taken..];
-        }
-        Ok(out)
     }
 
     /// Every solution in memory (short runs, tests).
@@ -146,17 +112,11 @@ mod tests {
         assert_eq!(s.len(), 40);
         assert_eq!(s.to_vec().unwrap(), all);
         assert_eq!(s.read(3..17).unwrap(), all[3..17]);
-        assert_eq!(s.get(0).unwrap(), all[0]);
-        assert_eq!(s.get(39).unwrap(), all[39]);
         assert_eq!(s.first().unwrap(), Some(all[0]));
         assert_eq!(s.last().unwrap(), Some(all[39]));
         let iterated: Vec<Solution> = s.iter().map(Result::unwrap).collect();
         assert_eq!(iterated, all);
-        let ks = [0, 5, 5, 11, 38, 39];
-        let picked = s.pick(&ks).unwrap();
-        assert_eq!(picked, ks.map(|k| all[k]));
-        assert_eq!(Solutions::from_time_order(&all).to_vec().unwrap(), all);
         assert_eq!(Solutions::new().last().unwrap(), None);
-        assert!(s.get(40).is_err() && s.read(30..41).is_err());
+        assert!(s.read(30..41).is_err());
     }
 }

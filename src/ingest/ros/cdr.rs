@@ -22,8 +22,6 @@ pub const MAX_STRINGS: usize = 4;
 pub enum PlanError {
     #[error("more than {MAX_VALUES} values or {MAX_STRINGS} strings asked of one message")]
     TooMany,
-    #[error("`{0}` is not a number or a string in the message")]
-    NotAValue(String),
 }
 
 /// Why a message could not be read.

@@ -1,7 +1,7 @@
 //! The IMU's noise by maximum likelihood of the filter's innovations.
 //!
 //! Each candidate noise model runs the forward filter over the same span of the log; its
-//! score is the log-likelihood of the innovations (`ForwardRun::log_likelihood_after`: from
+//! score is the log-likelihood of the innovations (`ForwardRun::log_likelihood_of`: from
 //! `[tune] settle_s` into the span when the start heading was found in motion). The
 //! candidates are first the grades (navigation to MEMS, and MEMS 10 and 100 times worse
 //! unless the MEMS grade fell far below the best: [`loud_rungs_left_out`]), then, from the
