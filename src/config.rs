@@ -229,10 +229,20 @@ pub fn check_ranges(
     Ok(())
 }
 
+/// `[("section.key", section.key), ...]`: each value with its dotted key, the key spelled
+/// from the value's own path (`keyed!(self.dvl => dvl; sigma_m_s, max_altitude_m)`), so
+/// that the two cannot disagree.
+#[macro_export]
+macro_rules! keyed {
+    ($values:expr => $section:ident; $($key:ident),+ $(,)?) => {
+        [$((concat!(stringify!($section), ".", stringify!($key)), $values.$key)),+]
+    };
+}
+
 /// Every key given the same range.
-pub fn all<const N: usize>(
+pub fn all(
     range: Range,
-    keys: [(&'static str, f64); N],
+    keys: impl IntoIterator<Item = (&'static str, f64)>,
 ) -> impl Iterator<Item = (&'static str, f64, Range)> {
     keys.into_iter()
         .map(move |(key, value)| (key, value, range))

@@ -12,8 +12,9 @@ use super::ekf::{matrix, Ekf, EkfSettings};
 use super::euler::positive_definite;
 use super::mekf::MekfSettings;
 use super::ukf::{Ukf, UkfSettings};
-use crate::config::{check_ranges, ConfigError, Range, Section};
+use crate::config::{all, check_ranges, ConfigError, Range, Section};
 use crate::filters::ins::forward::DvlMounting;
+use crate::keyed;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
@@ -240,52 +241,29 @@ impl AttitudeConfig {
 
     /// Every setting that is one number, against its range.
     fn check_scalars(&self) -> Result<(), ConfigError> {
-        use Range::{NonNegative as AtLeastZero, Positive};
-        let (m, kappa) = (&self.mekf, "must be a number above -3 (n + kappa > 0)");
+        let kappa = Range::Above(-3.0, "must be a number above -3 (n + kappa > 0)");
         let repeats = self.magnetometer.saturation_repeats as f64;
-        check_ranges([
-            (
-                "checks.covariance_floor_rad2",
-                self.checks.covariance_floor_rad2,
-                Positive,
-            ),
-            ("ukf.kappa", self.ukf.kappa, Range::Above(-3.0, kappa)),
-            ("cf.kp", self.cf.kp, AtLeastZero),
-            ("cf.ki", self.cf.ki, AtLeastZero),
-            (
-                "mekf.gyro_noise_rad_s_rt_hz",
-                m.gyro_noise_rad_s_rt_hz,
-                Positive,
-            ),
-            (
-                "mekf.gyro_bias_sigma_rad_s",
-                m.gyro_bias_sigma_rad_s,
-                Positive,
-            ),
-            (
-                "mekf.accel_noise_m_s2_rt_s",
-                m.accel_noise_m_s2_rt_s,
-                Positive,
-            ),
-            (
-                "mekf.heading_noise_rad_rt_s",
-                m.heading_noise_rad_rt_s,
-                Positive,
-            ),
-            ("mekf.max_field_change", m.max_field_change, Positive),
-            ("mekf.max_dip_change_rad", m.max_dip_change_rad, Positive),
-            (
-                "mekf.gate_probability",
-                m.gate_probability,
+        let at_least_two = Range::AtLeast(2.0, "must be 2 or more");
+        check_ranges(
+            all(
+                Range::Positive,
+                keyed!(self.checks => checks; covariance_floor_rad2),
+            )
+            .chain(all(kappa, keyed!(self.ukf => ukf; kappa)))
+            .chain(all(Range::NonNegative, keyed!(self.cf => cf; kp, ki)))
+            .chain(all(
+                Range::Positive,
+                keyed!(self.mekf => mekf;
+                    gyro_noise_rad_s_rt_hz, gyro_bias_sigma_rad_s, accel_noise_m_s2_rt_s,
+                    heading_noise_rad_rt_s, max_field_change, max_dip_change_rad),
+            ))
+            .chain(all(
                 Range::OpenProbability,
-            ),
-            ("dvl.max_gap_s", self.dvl.max_gap_s, AtLeastZero),
-            (
-                "magnetometer.saturation_repeats",
-                repeats,
-                Range::AtLeast(2.0, "must be 2 or more"),
-            ),
-        ])
+                keyed!(self.mekf => mekf; gate_probability),
+            ))
+            .chain(all(Range::NonNegative, keyed!(self.dvl => dvl; max_gap_s)))
+            .chain([("magnetometer.saturation_repeats", repeats, at_least_two)]),
+        )
     }
 }
 

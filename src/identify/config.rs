@@ -5,6 +5,7 @@
 use super::design::DesignSettings;
 use super::settings::{ProcessNoise, Settings, Sigmas, Thresholds};
 use crate::config::{all, check_ranges, ConfigError, Range, Section};
+use crate::keyed;
 use serde::{Deserialize, Serialize};
 
 /// The documented defaults (a test parses it back to [`IdentifyConfig::default`]).
@@ -149,26 +150,21 @@ impl IdentifyConfig {
         let (n, e, r, t) = (&self.noise, &self.ekf, &self.refinement, &self.thresholds);
         let positive = all(
             Range::Positive,
-            [
-                ("noise.q_deg_s", n.q_deg_s),
-                ("noise.theta_deg", n.theta_deg),
-                ("noise.w_m_s", n.w_m_s),
-                ("noise.depth_m", n.depth_m),
-                ("ekf.initial_coefficient_sigma", e.initial_coefficient_sigma),
-                ("ekf.history_interval_s", e.history_interval_s),
-                ("thresholds.max_relative_sigma", t.max_relative_sigma),
-                ("thresholds.max_correlation", t.max_correlation),
-                ("thresholds.max_residual_lag1", t.max_residual_lag1),
-                ("thresholds.max_noise_ratio", t.max_noise_ratio),
-                ("thresholds.max_normalised_rms", t.max_normalised_rms),
-            ],
-        );
+            keyed!(n => noise; q_deg_s, theta_deg, w_m_s, depth_m),
+        )
+        .chain(all(
+            Range::Positive,
+            keyed!(e => ekf; initial_coefficient_sigma, history_interval_s),
+        ))
+        .chain(all(
+            Range::Positive,
+            keyed!(t => thresholds;
+                max_relative_sigma, max_correlation, max_residual_lag1, max_noise_ratio,
+                max_normalised_rms),
+        ));
         let non_negative = all(
             Range::NonNegative,
-            [
-                ("ekf.w_accel_m_s2_rt_s", e.w_accel_m_s2_rt_s),
-                ("ekf.q_accel_rad_s2_rt_s", e.q_accel_rad_s2_rt_s),
-            ],
+            keyed!(e => ekf; w_accel_m_s2_rt_s, q_accel_rad_s2_rt_s),
         );
         let counts = all(
             Range::AtLeast(1.0, "must be at least 1"),
@@ -208,12 +204,7 @@ impl IdentifyConfig {
         let d = &self.design;
         check_ranges(all(
             Range::Positive,
-            [
-                ("design.plane_deg", d.plane_deg),
-                ("design.trigger_deg", d.trigger_deg),
-                ("design.duration_s", d.duration_s),
-                ("design.plane_rate_deg_s", d.plane_rate_deg_s),
-            ],
+            keyed!(d => design; plane_deg, trigger_deg, duration_s, plane_rate_deg_s),
         ))?;
         if let Some(f) = d
             .speed_factors

@@ -11,6 +11,7 @@ use crate::filters::ins::aid_table::{Aiding, RpmVelocity, Sensor};
 use crate::filters::ins::driver::{Propagation, Settings};
 use crate::filters::ins::forward::{DvlMounting, Filter, ImuNoise};
 use crate::filters::velocity::rpm::RpmFilter;
+use crate::keyed;
 use serde::{Deserialize, Serialize};
 
 /// The default configuration, with the documentation of every key.
@@ -983,125 +984,49 @@ impl Section for Config {
 
 impl Config {
     /// The keys that must be positive numbers.
-    fn positive(&self) -> [(&'static str, f64); 33] {
+    fn positive(&self) -> Vec<(&'static str, f64)> {
         let spec = self.imu.spec();
         [
-            ("alignment.first_span_s", self.alignment.first_span_s),
-            (
-                "alignment.found_sigma_floor_deg",
-                self.alignment.found_sigma_floor_deg,
-            ),
-            ("mag.sigma_deg", self.mag.sigma_deg),
-            ("mag.correlation_s", self.mag.correlation_s),
-            (
-                "mag.uncalibrated_correlation_s",
-                self.mag.uncalibrated_correlation_s,
-            ),
-            ("mag.min_interval_s", self.mag.min_interval_s),
-            ("mag.max_field_deviation", self.mag.max_field_deviation),
-            (
-                "rpm_velocity.speed_sigma_floor_m_s",
-                self.rpm_velocity.speed_sigma_floor_m_s,
-            ),
-            (
-                "rpm_velocity.max_speed_sigma_m_s",
-                self.rpm_velocity.max_speed_sigma_m_s,
-            ),
-            (
-                "rpm_velocity.lateral_sigma_m_s",
-                self.rpm_velocity.lateral_sigma_m_s,
-            ),
-            (
-                "rpm_velocity.dvl_timeout_s",
-                self.rpm_velocity.dvl_timeout_s,
-            ),
-            (
-                "rpm_velocity.min_interval_s",
-                self.rpm_velocity.min_interval_s,
-            ),
-            (
-                "model_velocity.correlation_s",
-                self.model_velocity.correlation_s,
-            ),
-            (
-                "model_velocity.min_interval_s",
-                self.model_velocity.min_interval_s,
-            ),
-            (
-                "model_velocity.dvl_timeout_s",
-                self.model_velocity.dvl_timeout_s,
-            ),
-            ("model_velocity.max_nis", self.model_velocity.max_nis),
-            ("imu.gyro_bias_deg_h", spec.gyro_bias_deg_h),
-            ("imu.gyro_arw_deg_rt_h", spec.gyro_arw_deg_rt_h),
-            ("imu.accel_bias_ug", spec.accel_bias_ug),
-            ("imu.accel_vrw_ug_rt_hz", spec.accel_vrw_ug_rt_hz),
-            ("imu.bias_correlation_s", spec.bias_correlation_s),
-            ("dvl.sigma_m_s", self.dvl.sigma_m_s),
-            ("dvl.max_altitude_m", self.dvl.max_altitude_m),
-            ("depth.sigma_m", self.depth.sigma_m),
-            ("eml.sigma_m_s", self.eml.sigma_m_s),
-            (
-                "propagation.covariance_interval_s",
-                self.propagation.covariance_interval_s,
-            ),
-            ("propagation.imu_gap_s", self.propagation.imu_gap_s),
-            ("initial.window_s", self.initial.window_s),
-            (
-                "initial.magnetometer_sigma_deg",
-                self.initial.magnetometer_sigma_deg,
-            ),
-            (
-                "initial.given_yaw_sigma_deg",
-                self.initial.given_yaw_sigma_deg,
-            ),
-            ("initial.origin_sigma_m", self.initial.origin_sigma_m),
-            ("output.rate_hz", self.output.rate_hz),
-            ("tune.span_s", self.tune.span_s),
+            &keyed!(self.alignment => alignment; first_span_s, found_sigma_floor_deg)[..],
+            &keyed!(self.mag => mag;
+                sigma_deg, correlation_s, uncalibrated_correlation_s, min_interval_s,
+                max_field_deviation),
+            &keyed!(self.rpm_velocity => rpm_velocity;
+                speed_sigma_floor_m_s, max_speed_sigma_m_s, lateral_sigma_m_s, dvl_timeout_s,
+                min_interval_s),
+            &keyed!(self.model_velocity => model_velocity;
+                correlation_s, min_interval_s, dvl_timeout_s, max_nis),
+            &keyed!(spec => imu;
+                gyro_bias_deg_h, gyro_arw_deg_rt_h, accel_bias_ug, accel_vrw_ug_rt_hz,
+                bias_correlation_s),
+            &keyed!(self.dvl => dvl; sigma_m_s, max_altitude_m),
+            &keyed!(self.depth => depth; sigma_m),
+            &keyed!(self.eml => eml; sigma_m_s),
+            &keyed!(self.propagation => propagation; covariance_interval_s, imu_gap_s),
+            &keyed!(self.initial => initial;
+                window_s, magnetometer_sigma_deg, given_yaw_sigma_deg, origin_sigma_m),
+            &keyed!(self.output => output; rate_hz),
+            &keyed!(self.tune => tune; span_s),
         ]
+        .concat()
     }
 
     /// The keys that must be zero or positive.
-    fn non_negative(&self) -> [(&'static str, f64); 18] {
+    fn non_negative(&self) -> Vec<(&'static str, f64)> {
         let spec = self.imu.spec();
         [
-            ("imu.gyro_scale_ppm", spec.gyro_scale_ppm),
-            ("tune.settle_s", self.tune.settle_s),
-            ("eml.scale_sigma", self.eml.scale_sigma),
-            ("eml.current_sigma_m_s", self.eml.current_sigma_m_s),
-            ("eml.current_walk_m_s_rt_h", self.eml.current_walk_m_s_rt_h),
-            ("dvl.altimeter_max_age_s", self.dvl.altimeter_max_age_s),
-            ("dvl.scale_sigma", self.dvl.scale_sigma),
-            (
-                "dvl.misalignment_sigma_deg",
-                self.dvl.misalignment_sigma_deg,
-            ),
-            (
-                "dvl.held_misalignment_sigma_deg",
-                self.dvl.held_misalignment_sigma_deg,
-            ),
-            ("dvl.bias_sigma_m_s", self.dvl.bias_sigma_m_s),
-            ("dvl.bias_walk_m_s_rt_h", self.dvl.bias_walk_m_s_rt_h),
-            ("dvl.bias_correlation_s", self.dvl.bias_correlation_s),
-            (
-                "imu.gyro_bias_instability_deg_h",
-                spec.gyro_bias_instability_deg_h,
-            ),
-            (
-                "imu.accel_bias_instability_ug",
-                spec.accel_bias_instability_ug,
-            ),
-            ("depth.min_interval_s", self.depth.min_interval_s),
-            ("depth.bias_sigma_m", self.depth.bias_sigma_m),
-            (
-                "propagation.gap_accel_m_s2_rt_hz",
-                self.propagation.gap_accel_m_s2_rt_hz,
-            ),
-            (
-                "propagation.gap_gyro_deg_s_rt_hz",
-                self.propagation.gap_gyro_deg_s_rt_hz,
-            ),
+            &keyed!(spec => imu; gyro_scale_ppm)[..],
+            &keyed!(self.tune => tune; settle_s),
+            &keyed!(self.eml => eml; scale_sigma, current_sigma_m_s, current_walk_m_s_rt_h),
+            &keyed!(self.dvl => dvl;
+                altimeter_max_age_s, scale_sigma, misalignment_sigma_deg,
+                held_misalignment_sigma_deg, bias_sigma_m_s, bias_walk_m_s_rt_h,
+                bias_correlation_s),
+            &keyed!(spec => imu; gyro_bias_instability_deg_h, accel_bias_instability_ug),
+            &keyed!(self.depth => depth; min_interval_s, bias_sigma_m),
+            &keyed!(self.propagation => propagation; gap_accel_m_s2_rt_hz, gap_gyro_deg_s_rt_hz),
         ]
+        .concat()
     }
 
     /// The keys with a range of their own.
@@ -1233,6 +1158,21 @@ mod tests {
             crate::ingest::ros::map::Convention::Native
         );
         assert_eq!(c.mission.origin_longitude_deg, Some(129.05));
+    }
+
+    /// Every key a range names is a key of the file, and a value out of the range is
+    /// refused naming it.
+    #[test]
+    fn every_range_names_its_own_key() {
+        let c = Config::default();
+        for (key, _) in c.positive().into_iter().chain(c.non_negative()) {
+            let (section, name) = key.split_once('.').unwrap();
+            let e = Config::from_toml(&format!("[{section}]\n{name} = -1.0\n")).unwrap_err();
+            assert!(
+                e.to_string().contains(&format!("`{key}` = -1")),
+                "{key}: {e}"
+            );
+        }
     }
 
     #[test]
