@@ -317,8 +317,8 @@ fn a_late_dvl_clock_is_found_before_anything_runs() {
 /// Known regression, left open: since the moving white noise is an upper bound, the tuning
 /// grades this log's IMU tactical (its simulated grade) where it took "tactical, gyro x3"
 /// before, and with it the heading error on this log swamps the arm's effect: smoothed RMS
-/// default 4.44 m, held at zero 2.65 m, given the truth 4.26 m (at `51ef927`: 0.99, 7.4 and
-/// 0.58 m). The arm held at zero is no longer the worst, so that comparison is not asserted.
+/// default 4.44 m, held at zero 2.65 m, given the truth 4.26 m (with the white noise searched instead:
+/// 0.99, 7.4 and 0.58 m). The arm held at zero is no longer the worst, so that comparison is not asserted.
 #[test]
 fn a_dvl_lever_arm_is_found_and_used() {
     use hindsight::recon::plan::{LogFacts, Plan};

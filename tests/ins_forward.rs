@@ -2,8 +2,8 @@
 //! throughout, depth, GNSS at the surface at both ends), scored against `/truth`.
 //!
 //! The initial state is the truth's first sample with set errors (3 m north, 0.2 deg roll and
-//! pitch, 2 deg heading): initialisation from the log itself is a later step of issue #4;
-//! this test exercises propagation, updates and smoothing.
+//! pitch, 2 deg heading): initialisation from the log itself is tested elsewhere
+//! (`alignment`, `default_run`); this test exercises propagation, updates and smoothing.
 
 use crate::common;
 use hindsight::contract::{Depth, Imu, Streams, Truth};

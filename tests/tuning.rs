@@ -375,7 +375,7 @@ fn an_uncalibrated_hard_iron_neither_misleads_nor_hurts() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `auv-at-sea` as it was before the hull's motion was simulated (commit `51ef927`): no
+/// `auv-at-sea` as it was before the hull's motion was simulated: no
 /// vibration or sea, unquantised gyro, a DVL without scale error or misalignment whose error
 /// is correlated over 60 s at 1 cm/s, at 43 N. The tests of the DVL error's model keep to it.
 fn auv_at_sea_without_real_motion() -> Scenario {
