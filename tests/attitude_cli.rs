@@ -19,18 +19,8 @@ const POOL: &str = concat!(
 fn summary_column(dir: &Path, column: &str) -> Vec<(String, Option<f64>)> {
     let batches = read_parquet(&dir.join("attitude_summary.parquet"));
     let b = &batches[0];
-    let methods = b
-        .column_by_name("method")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<StringArray>()
-        .unwrap();
-    let values = b
-        .column_by_name(column)
-        .unwrap()
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .unwrap();
+    let methods = common::column::<StringArray>(b, "method");
+    let values = common::column::<Float64Array>(b, column);
     (0..b.num_rows())
         .map(|i| {
             (
@@ -42,14 +32,7 @@ fn summary_column(dir: &Path, column: &str) -> Vec<(String, Option<f64>)> {
 }
 
 fn run(log: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
-    let mut args = vec![
-        "attitude",
-        log.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    hindsight(&args)
+    common::run_on("attitude", log, out, extra)
 }
 
 #[test]
@@ -109,12 +92,7 @@ fn pool_log_gives_every_output() {
         "{paths:?}"
     );
     let b = &read_parquet(&out.join("attitude_summary.parquet"))[0];
-    let repairs = b
-        .column_by_name("covariance_repairs")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<UInt64Array>()
-        .unwrap();
+    let repairs = common::column::<UInt64Array>(b, "covariance_repairs");
     assert!(repairs.iter().all(|r| r == Some(0)));
     for png in [
         "tracks_xy.png",
@@ -327,12 +305,7 @@ fn without_marks_or_truth_the_methods_are_compared() {
     assert!(!console.contains("against /truth"), "{console}");
     assert!(console.contains("closest return"), "{console}");
     let b = &read_parquet(&out.join("attitude_summary.parquet"))[0];
-    let against = b
-        .column_by_name("angles_against")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<StringArray>()
-        .unwrap();
+    let against = common::column::<StringArray>(b, "angles_against");
     assert!(against.iter().all(|a| a == Some("mekf-smoothed")));
     // The differences are numbers, zero only for the reference itself, and the raw
     // (sample-by-sample) attitude is the farthest from it.

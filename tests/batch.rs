@@ -21,24 +21,14 @@ fn archive(name: &str) -> (PathBuf, PathBuf) {
 }
 
 fn text(b: &RecordBatch, name: &str) -> Vec<Option<String>> {
-    let a = b
-        .column_by_name(name)
-        .unwrap()
-        .as_any()
-        .downcast_ref::<StringArray>()
-        .unwrap();
+    let a = common::column::<StringArray>(b, name);
     (0..a.len())
         .map(|i| a.is_valid(i).then(|| a.value(i).to_string()))
         .collect()
 }
 
 fn number(b: &RecordBatch, name: &str) -> Vec<Option<f64>> {
-    let a = b
-        .column_by_name(name)
-        .unwrap()
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .unwrap();
+    let a = common::column::<Float64Array>(b, name);
     (0..a.len())
         .map(|i| a.is_valid(i).then(|| a.value(i)))
         .collect()
@@ -81,13 +71,7 @@ fn an_archive_with_a_corrupt_log_is_reconstructed_and_summarised() {
     let distance = number(&b, "distance_travelled_m");
     let sigma = number(&b, "final_horizontal_sigma_smoothed_m");
     let rms = number(&b, "smoothed_horizontal_rms_m");
-    let consistent = b
-        .column_by_name("consistent")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<BooleanArray>()
-        .unwrap()
-        .clone();
+    let consistent = common::column::<BooleanArray>(&b, "consistent").clone();
     for k in 1..4 {
         assert_eq!(status[k].as_deref(), Some("done"));
         assert_eq!(errors[k], None);

@@ -78,34 +78,14 @@ fn export_writes_typed_parquet_and_a_correct_aligned_table() {
             .metadata()["unit"],
         "m/s^2"
     );
-    let sz = imu
-        .column_by_name("specific_force_z")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .unwrap();
+    let sz = common::column::<Float64Array>(&imu, "specific_force_z");
     assert_eq!(sz.value(123), msgs[123].specific_force[2]);
 
     // aligned.parquet: every row holds each stream's latest value at or before its time.
     let aligned = read_parquet(&out.join("aligned.parquet"));
-    let clock = aligned
-        .column_by_name("stamp_ns")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<TimestampNanosecondArray>()
-        .unwrap();
-    let age = aligned
-        .column_by_name("imu_age_s")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .unwrap();
-    let wz = aligned
-        .column_by_name("imu_angular_velocity_z")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .unwrap();
+    let clock = common::column::<TimestampNanosecondArray>(&aligned, "stamp_ns");
+    let age = common::column::<Float64Array>(&aligned, "imu_age_s");
+    let wz = common::column::<Float64Array>(&aligned, "imu_angular_velocity_z");
     assert!(aligned.num_rows() > 1000);
     for row in (0..aligned.num_rows()).step_by(37) {
         let t = clock.value(row);
@@ -137,12 +117,7 @@ fn clock_offset_shifts_one_topic() {
     assert!(o.status.success(), "{}", stderr(&o));
     let stamp = |dir: &Path, f: &str| {
         let t = read_parquet(&dir.join(f));
-        t.column_by_name("stamp_ns")
-            .unwrap()
-            .as_any()
-            .downcast_ref::<TimestampNanosecondArray>()
-            .unwrap()
-            .value(3)
+        common::column::<TimestampNanosecondArray>(&t, "stamp_ns").value(3)
     };
     assert_eq!(
         stamp(&a, "dvl.parquet") - stamp(&b, "dvl.parquet"),
@@ -310,15 +285,8 @@ fn bad_input_gets_one_line_error_exit_code_and_no_output() {
             "out-{}",
             path.file_name().unwrap().to_string_lossy()
         ));
-        let mut args = vec![
-            "export",
-            path.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        args.extend(extra);
         let before = std::fs::read(&path).ok();
-        let o = hindsight(&args);
+        let o = common::run_on("export", &path, &out, &extra);
         let err = stderr(&o);
         assert_eq!(o.status.code(), Some(code), "{}: {err}", path.display());
         if code == 3 {

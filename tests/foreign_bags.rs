@@ -173,12 +173,9 @@ fn every_container_holds_the_json_values() {
     assert_eq!(log.streams[0].message_encoding, "ros1");
 }
 
-/// `hindsight COMMAND LOG EXTRA... --out OUT`, which must succeed; what it said on stderr.
+/// `hindsight COMMAND LOG --out OUT EXTRA...`, which must succeed; what it said on stderr.
 fn run_cli(command: &str, log: &Path, out: &Path, extra: &[&str]) -> String {
-    let mut args = vec![command, log.to_str().unwrap()];
-    args.extend(extra);
-    args.extend(["--out", out.to_str().unwrap()]);
-    let o = common::hindsight(&args);
+    let o = common::run_on(command, log, out, extra);
     assert!(o.status.success(), "{}", common::stderr(&o));
     common::stderr(&o)
 }

@@ -2,7 +2,7 @@
 //! /fins, no manoeuvre, too short, a bad option).
 
 use crate::common;
-use arrow_array::{Array, Float64Array, RecordBatch, StringArray};
+use arrow_array::{Float64Array, RecordBatch, StringArray};
 use common::{hindsight, read_parquet, stderr};
 use hindsight::contract::{Attitude, ControlSurfaces, Depth, Dvl, Imu};
 use hindsight::sim::writer::{to_bytes, WriterOptions};
@@ -82,25 +82,10 @@ fn both_runs_give_every_output() {
     // coefficients.parquet: ten rows, estimate and sigma, the flag.
     let c = &read_parquet(&out.join("coefficients.parquet"))[0];
     assert_eq!(c.num_rows(), 10);
-    let names = c
-        .column_by_name("name")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<StringArray>()
-        .unwrap();
+    let names = common::column::<StringArray>(c, "name");
     assert_eq!(names.value(8), "M_qdot");
-    let estimate = c
-        .column_by_name("estimate")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .unwrap();
-    let sigma = c
-        .column_by_name("sigma")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .unwrap();
+    let estimate = common::column::<Float64Array>(c, "estimate");
+    let sigma = common::column::<Float64Array>(c, "sigma");
     // M_qdot, the one coefficient these runs determine: within 3 sigma of seed 004's truth.
     assert!((estimate.value(8) - -0.005198).abs() < 3.0 * sigma.value(8));
     for name in [
@@ -199,12 +184,7 @@ fn own_attitude_and_a_start_file() {
         stderr(&o)
     );
     let c = &read_parquet(&out.join("coefficients.parquet"))[0];
-    let initial = c
-        .column_by_name("initial")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<Float64Array>()
-        .unwrap();
+    let initial = common::column::<Float64Array>(c, "initial");
     assert_eq!((initial.value(0), initial.value(8)), (-0.025, -0.006));
     // The model still explains the motion (measured: theta fit 99.8 %; the own pitch is
     // smoothed, so its residuals are below the /attitude sensor's sigma).
@@ -344,14 +324,7 @@ fn a_suggestion_is_printed_and_followed() {
     // Each coefficient's estimate and 1-sigma.
     let table = |out: &Path| -> Vec<(f64, f64)> {
         let c = &read_parquet(&out.join("coefficients.parquet"))[0];
-        let column = |name: &str| {
-            c.column_by_name(name)
-                .unwrap()
-                .as_any()
-                .downcast_ref::<Float64Array>()
-                .unwrap()
-                .clone()
-        };
+        let column = |name: &str| common::column::<Float64Array>(c, name).clone();
         let (e, s) = (column("estimate"), column("sigma"));
         (0..10).map(|i| (e.value(i), s.value(i))).collect()
     };

@@ -131,16 +131,7 @@ fn without_rpm_is_refused() {
 fn the_command_line_identifies_and_refuses() {
     let dir = common::scratch_dir("identify-six-dof-cli");
     let log = dir.join("zzr.mcap");
-    let o = common::hindsight(&[
-        "simulate",
-        "--scenario",
-        "zigzag-rudder-20-20",
-        "--seed",
-        "7",
-        "--out",
-        log.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", common::stderr(&o));
+    common::simulate_to(&log, "zigzag-rudder-20-20", 7);
     let out = dir.join("out");
     let o = common::hindsight(&[
         "identify",

@@ -12,21 +12,11 @@ use hindsight::sim::writer::{to_bytes, WriterOptions};
 
 /// A float column of one solution's rows of trajectory.parquet.
 fn trajectory_column(batches: &[RecordBatch], name: &str, solution: &str) -> Vec<f64> {
-    use arrow_array::{Array, Float64Array, StringArray};
+    use arrow_array::{Float64Array, StringArray};
     let mut out = Vec::new();
     for b in batches {
-        let solutions = b
-            .column_by_name("solution")
-            .unwrap()
-            .as_any()
-            .downcast_ref::<StringArray>()
-            .unwrap();
-        let values = b
-            .column_by_name(name)
-            .unwrap()
-            .as_any()
-            .downcast_ref::<Float64Array>()
-            .unwrap();
+        let solutions = common::column::<StringArray>(b, "solution");
+        let values = common::column::<Float64Array>(b, name);
         out.extend(
             (0..b.num_rows())
                 .filter(|&i| solutions.value(i) == solution)

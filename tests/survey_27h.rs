@@ -20,16 +20,7 @@ fn a_27_hour_survey_reports_honest_uncertainty() {
     let log = dir.join("survey-27h.mcap");
     let out = dir.join("run");
     let log_s = log.to_str().unwrap();
-    let sim = common::hindsight(&[
-        "simulate",
-        "--scenario",
-        "survey-27h",
-        "--seed",
-        "1",
-        "--out",
-        log_s,
-    ]);
-    assert!(sim.status.success(), "{}", common::stderr(&sim));
+    common::simulate_to(&log, "survey-27h", 1);
     let run = common::hindsight(&["reconstruct", log_s, "--out", out.to_str().unwrap()]);
     assert!(run.status.success(), "{}", common::stderr(&run));
     eprintln!("{}", String::from_utf8_lossy(&run.stdout));

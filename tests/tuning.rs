@@ -314,14 +314,7 @@ fn no_still_stretch_and_no_fixes() {
 /// Reconstructs `log` with no configuration (plus `extra` flags) and returns its
 /// `summary.json` and the console's stderr.
 fn default_run(log: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> (Value, String) {
-    let mut args = vec![
-        "reconstruct",
-        log.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    let run = common::hindsight(&args);
+    let run = common::run_on("reconstruct", log, out, extra);
     assert!(run.status.success(), "{}", common::stderr(&run));
     let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
     (serde_json::from_str(&text).unwrap(), common::stderr(&run))
@@ -336,16 +329,7 @@ fn default_run(log: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> 
 fn an_uncalibrated_hard_iron_neither_misleads_nor_hurts() {
     let dir = common::scratch_dir("survey-hard-iron");
     let log = dir.join("log.mcap");
-    let sim = common::hindsight(&[
-        "simulate",
-        "--scenario",
-        "survey-hard-iron",
-        "--seed",
-        "7",
-        "--out",
-        log.to_str().unwrap(),
-    ]);
-    assert!(sim.status.success(), "{}", common::stderr(&sim));
+    common::simulate_to(&log, "survey-hard-iron", 7);
     let (with_mag, console) = default_run(&log, &dir.join("default"), &[]);
     let (without, _) = default_run(&log, &dir.join("no-mag"), &["--no-mag"]);
     let figure = |s: &Value, key: &str| s["truth"]["forward"][key].as_f64().unwrap();

@@ -223,6 +223,30 @@ pub fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// `hindsight COMMAND LOG --out OUT EXTRA...`.
+pub fn run_on(
+    command: &str,
+    log: &std::path::Path,
+    out: &std::path::Path,
+    extra: &[&str],
+) -> std::process::Output {
+    let args = [
+        command,
+        log.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    hindsight(&[&args[..], extra].concat())
+}
+
+/// `hindsight simulate --scenario SCENARIO --seed SEED --out LOG`, which must succeed.
+pub fn simulate_to(log: &std::path::Path, scenario: &str, seed: u64) {
+    let seed = seed.to_string();
+    let args = ["simulate", "--scenario", scenario, "--seed", &seed, "--out"];
+    let o = hindsight(&[&args[..], &[log.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 /// Asserts that a command was refused for bad input (exit 2) with a message containing
 /// `words`.
 pub fn assert_refused(o: &std::process::Output, words: &str) {
@@ -323,6 +347,16 @@ pub fn assert_within_a_millimetre(
     let d = largest_difference(a, b);
     println!("{name}: largest position difference {d:.2e} m");
     assert!(d < 1e-3, "{name}: {d} m");
+}
+
+/// A batch's column `name` as the array type `T` it must have.
+pub fn column<'a, T: 'static>(batch: &'a arrow_array::RecordBatch, name: &str) -> &'a T {
+    batch
+        .column_by_name(name)
+        .unwrap_or_else(|| panic!("no column {name}"))
+        .as_any()
+        .downcast_ref::<T>()
+        .unwrap_or_else(|| panic!("column {name} of another type"))
 }
 
 /// The float columns of a Parquet file, concatenated over its batches.
