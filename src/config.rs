@@ -239,6 +239,29 @@ macro_rules! keyed {
     };
 }
 
+/// A struct whose every field gives its default beside it (`name: Type = default,`), and
+/// `Default` made of them. Attributes and derives are given as for any struct.
+#[macro_export]
+macro_rules! with_defaults {
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $name:ident {
+            $($(#[$field_meta:meta])* $field_vis:vis $field:ident: $ty:ty = $default:expr),* $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        $vis struct $name {
+            $($(#[$field_meta])* $field_vis $field: $ty),*
+        }
+
+        impl Default for $name {
+            fn default() -> Self {
+                $name { $($field: $default),* }
+            }
+        }
+    };
+}
+
 /// Every key given the same range.
 pub fn all(
     range: Range,

@@ -88,36 +88,22 @@ pub struct AttitudeConfig {
     pub magnetometer: MagnetometerChecks,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Checks {
-    pub covariance_floor_rad2: f64,
-}
-
-impl Default for Checks {
-    fn default() -> Self {
-        Checks {
-            covariance_floor_rad2: 1e-4,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct Checks {
+        pub covariance_floor_rad2: f64 = 1e-4,
     }
 }
 
-/// The DVL's mounting and how long a stretch without it the dead reckoning bridges.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DvlSettings {
-    pub lever_arm_m: [f64; 3],
-    pub rotation_deg: [f64; 3],
-    pub max_gap_s: f64,
-}
-
-impl Default for DvlSettings {
-    fn default() -> Self {
-        DvlSettings {
-            lever_arm_m: [0.0; 3],
-            rotation_deg: [0.0; 3],
-            max_gap_s: 5.0,
-        }
+crate::with_defaults! {
+    /// The DVL's mounting and how long a stretch without it the dead reckoning bridges.
+    #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct DvlSettings {
+        pub lever_arm_m: [f64; 3] = [0.0; 3],
+        pub rotation_deg: [f64; 3] = [0.0; 3],
+        pub max_gap_s: f64 = 5.0,
     }
 }
 
@@ -138,17 +124,11 @@ pub enum Preset {
     Seed001,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct MagnetometerChecks {
-    pub saturation_repeats: usize,
-}
-
-impl Default for MagnetometerChecks {
-    fn default() -> Self {
-        MagnetometerChecks {
-            saturation_repeats: 3,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct MagnetometerChecks {
+        pub saturation_repeats: usize = 3,
     }
 }
 

@@ -32,46 +32,32 @@ use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 type State = SVector<f64, 6>;
 type Cov = SMatrix<f64, 6, 6>;
 
-/// Noise and gating of the filter (continuous-time densities, one sigma).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct MekfSettings {
-    /// Gyro white noise (plus what scale errors add), rad/s/sqrt(Hz).
-    pub gyro_noise_rad_s_rt_hz: f64,
-    /// Gyro bias random walk, rad/s/sqrt(s).
-    pub gyro_bias_walk_rad_s_rt_s: f64,
-    /// Initial gyro-bias sigma, rad/s.
-    pub gyro_bias_sigma_rad_s: f64,
-    /// Accelerometer noise as a gravity sensor at rest, as a density (the sigma of one
-    /// reading is this over the square root of the interval it stands for), m/s^2 sqrt(s).
-    /// Densities keep the filter's trust the same whatever the sample rate: a magnetometer's
-    /// and a moving accelerometer's errors are correlated, not white per sample.
-    pub accel_noise_m_s2_rt_s: f64,
-    /// Added to the accelerometer sigma per m/s^2 of `| |f| - g |`.
-    pub accel_sigma_growth: f64,
-    /// Magnetometer heading noise as a density, rad sqrt(s).
-    pub heading_noise_rad_rt_s: f64,
-    /// Magnetometer readings whose magnitude departs by more than this fraction from the
-    /// reference, or whose dip departs by more than `max_dip_change_rad`, are skipped.
-    pub max_field_change: f64,
-    pub max_dip_change_rad: f64,
-    /// Chi-square gate probability of each update.
-    pub gate_probability: f64,
-}
-
-impl Default for MekfSettings {
-    fn default() -> Self {
-        MekfSettings {
-            gyro_noise_rad_s_rt_hz: 0.002,
-            gyro_bias_walk_rad_s_rt_s: 1e-5,
-            gyro_bias_sigma_rad_s: 0.01,
-            accel_noise_m_s2_rt_s: 0.003,
-            accel_sigma_growth: 2.0,
-            heading_noise_rad_rt_s: 0.03,
-            max_field_change: 0.1,
-            max_dip_change_rad: 0.1,
-            gate_probability: 0.9999,
-        }
+crate::with_defaults! {
+    /// Noise and gating of the filter (continuous-time densities, one sigma).
+    #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct MekfSettings {
+        /// Gyro white noise (plus what scale errors add), rad/s/sqrt(Hz).
+        pub gyro_noise_rad_s_rt_hz: f64 = 0.002,
+        /// Gyro bias random walk, rad/s/sqrt(s).
+        pub gyro_bias_walk_rad_s_rt_s: f64 = 1e-5,
+        /// Initial gyro-bias sigma, rad/s.
+        pub gyro_bias_sigma_rad_s: f64 = 0.01,
+        /// Accelerometer noise as a gravity sensor at rest, as a density (the sigma of one
+        /// reading is this over the square root of the interval it stands for), m/s^2 sqrt(s).
+        /// Densities keep the filter's trust the same whatever the sample rate: a magnetometer's
+        /// and a moving accelerometer's errors are correlated, not white per sample.
+        pub accel_noise_m_s2_rt_s: f64 = 0.003,
+        /// Added to the accelerometer sigma per m/s^2 of `| |f| - g |`.
+        pub accel_sigma_growth: f64 = 2.0,
+        /// Magnetometer heading noise as a density, rad sqrt(s).
+        pub heading_noise_rad_rt_s: f64 = 0.03,
+        /// Magnetometer readings whose magnitude departs by more than this fraction from the
+        /// reference, or whose dip departs by more than `max_dip_change_rad`, are skipped.
+        pub max_field_change: f64 = 0.1,
+        pub max_dip_change_rad: f64 = 0.1,
+        /// Chi-square gate probability of each update.
+        pub gate_probability: f64 = 0.9999,
     }
 }
 

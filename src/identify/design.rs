@@ -27,34 +27,23 @@ use crate::sim::zigzag::{fly, ZigzagNoise, ZigzagSpec};
 use crate::vehicle::heave_pitch::{Coefficients, State, NAMES};
 use nalgebra::{DMatrix, SMatrix};
 
-/// The candidate manoeuvres' shape and the vehicle's limits (`[design]` of identify's config).
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DesignSettings {
-    /// The zig-zag flown in each candidate: plane deflection, deg.
-    pub plane_deg: f64,
-    /// Pitch that triggers a reversal, deg.
-    pub trigger_deg: f64,
-    pub duration_s: f64,
-    /// Plane rate limit, deg/s.
-    pub plane_rate_deg_s: f64,
-    /// Other speeds to try, as multiples of the logs' mean speed.
-    pub speed_factors: Vec<f64>,
-    /// A known ballast change to try: weight minus buoyancy as a fraction of the weight
-    /// (positive: heavy).
-    pub ballast_fraction: f64,
-}
-
-impl Default for DesignSettings {
-    fn default() -> Self {
-        DesignSettings {
-            plane_deg: 10.0,
-            trigger_deg: 5.0,
-            duration_s: 200.0,
-            plane_rate_deg_s: 10.0,
-            speed_factors: vec![0.5, 1.5],
-            ballast_fraction: 5e-4,
-        }
+crate::with_defaults! {
+    /// The candidate manoeuvres' shape and the vehicle's limits (`[design]` of identify's config).
+    #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct DesignSettings {
+        /// The zig-zag flown in each candidate: plane deflection, deg.
+        pub plane_deg: f64 = 10.0,
+        /// Pitch that triggers a reversal, deg.
+        pub trigger_deg: f64 = 5.0,
+        pub duration_s: f64 = 200.0,
+        /// Plane rate limit, deg/s.
+        pub plane_rate_deg_s: f64 = 10.0,
+        /// Other speeds to try, as multiples of the logs' mean speed.
+        pub speed_factors: Vec<f64> = vec![0.5, 1.5],
+        /// A known ballast change to try: weight minus buoyancy as a fraction of the weight
+        /// (positive: heavy).
+        pub ballast_fraction: f64 = 5e-4,
     }
 }
 

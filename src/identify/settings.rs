@@ -58,56 +58,52 @@ pub struct ProcessNoise {
     pub q_accel_rad_s2_rt_s: f64,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Settings {
-    pub constants: Constants,
-    pub sigma: Sigmas,
-    pub process_noise: ProcessNoise,
-    /// Initial 1-sigma of each coefficient, as a fraction of its starting value.
-    pub initial_coefficient_sigma: f64,
-    /// Interval of the EKF's coefficient history, s.
-    pub history_interval_s: f64,
-    /// RK4 steps per sample interval in the output-error simulation.
-    pub substeps: usize,
-    /// Levenberg-Marquardt iterations at most.
-    pub max_iterations: usize,
-    /// Coefficients held at a given value (nondimensional) instead of estimated: known
-    /// from elsewhere, or forced (e.g. to zero, to test a model structure).
-    pub fixed: [Option<f64>; 10],
-    /// Learn each channel's noise from the refinement's residuals ([`crate::identify::learn_noise`]);
-    /// `sigma` is then where the learning starts and what the result is compared with.
-    pub learn_noise: bool,
-    /// Rounds of refinement and noise re-estimation at most.
-    pub noise_rounds: usize,
-    pub thresholds: Thresholds,
+crate::with_defaults! {
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct Settings {
+        pub constants: Constants = Constants::default(),
+        pub sigma: Sigmas = Sigmas::default(),
+        pub process_noise: ProcessNoise = ProcessNoise {
+            w_accel_m_s2_rt_s: 1e-5,
+            q_accel_rad_s2_rt_s: 1e-6,
+        },
+        /// Initial 1-sigma of each coefficient, as a fraction of its starting value.
+        pub initial_coefficient_sigma: f64 = 0.5,
+        /// Interval of the EKF's coefficient history, s.
+        pub history_interval_s: f64 = 0.1,
+        /// RK4 steps per sample interval in the output-error simulation.
+        pub substeps: usize = 1,
+        /// Levenberg-Marquardt iterations at most.
+        pub max_iterations: usize = 50,
+        /// Coefficients held at a given value (nondimensional) instead of estimated: known
+        /// from elsewhere, or forced (e.g. to zero, to test a model structure).
+        pub fixed: [Option<f64>; 10] = [None; 10],
+        /// Learn each channel's noise from the refinement's residuals
+        /// ([`crate::identify::learn_noise`]); `sigma` is then where the learning starts and
+        /// what the result is compared with.
+        pub learn_noise: bool = true,
+        /// Rounds of refinement and noise re-estimation at most.
+        pub noise_rounds: usize = 8,
+        pub thresholds: Thresholds = Thresholds::default(),
+    }
 }
 
-/// Where identify starts to warn (the `[thresholds]` section of its settings).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Thresholds {
-    /// Above this relative 1-sigma a coefficient is reported as poorly determined.
-    pub max_relative_sigma: f64,
-    /// Above this |correlation| with another, a coefficient is reported as poorly determined.
-    pub max_correlation: f64,
-    /// Above this lag-one correlation of a channel's residuals, the fit is poor: a slow
-    /// misfit, or noise that is not white (white noise gives about `2 / sqrt(samples)`).
-    pub max_residual_lag1: f64,
-    /// Learnt noise above this multiple of the given figure is reported.
-    pub max_noise_ratio: f64,
-    /// With the noise not learnt: a normalised residual RMS above this is a poor fit.
-    pub max_normalised_rms: f64,
-}
-
-impl Default for Thresholds {
-    fn default() -> Self {
-        Thresholds {
-            max_relative_sigma: 0.05,
-            max_correlation: 0.95,
-            max_residual_lag1: 0.3,
-            max_noise_ratio: 3.0,
-            max_normalised_rms: 2.0,
-        }
+crate::with_defaults! {
+    /// Where identify starts to warn (the `[thresholds]` section of its settings).
+    #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct Thresholds {
+        /// Above this relative 1-sigma a coefficient is reported as poorly determined.
+        pub max_relative_sigma: f64 = 0.05,
+        /// Above this |correlation| with another, a coefficient is reported as poorly determined.
+        pub max_correlation: f64 = 0.95,
+        /// Above this lag-one correlation of a channel's residuals, the fit is poor: a slow
+        /// misfit, or noise that is not white (white noise gives about `2 / sqrt(samples)`).
+        pub max_residual_lag1: f64 = 0.3,
+        /// Learnt noise above this multiple of the given figure is reported.
+        pub max_noise_ratio: f64 = 3.0,
+        /// With the noise not learnt: a normalised residual RMS above this is a poor fit.
+        pub max_normalised_rms: f64 = 2.0,
     }
 }
 
@@ -118,26 +114,5 @@ impl Settings {
         c: &crate::vehicle::heave_pitch::Coefficients,
     ) -> crate::vehicle::heave_pitch::Coefficients {
         crate::vehicle::heave_pitch::Coefficients::from_fn(|i, _| self.fixed[i].unwrap_or(c[i]))
-    }
-}
-
-impl Default for Settings {
-    fn default() -> Self {
-        Settings {
-            constants: Constants::default(),
-            sigma: Sigmas::default(),
-            process_noise: ProcessNoise {
-                w_accel_m_s2_rt_s: 1e-5,
-                q_accel_rad_s2_rt_s: 1e-6,
-            },
-            initial_coefficient_sigma: 0.5,
-            history_interval_s: 0.1,
-            substeps: 1,
-            max_iterations: 50,
-            fixed: [None; 10],
-            learn_noise: true,
-            noise_rounds: 8,
-            thresholds: Thresholds::default(),
-        }
     }
 }

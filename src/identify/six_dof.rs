@@ -249,31 +249,19 @@ impl SixDofRecord {
     }
 }
 
-/// Settings of a 6-DOF identification.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SixDofSettings {
-    /// The coefficients to identify (the vehicle file's names).
-    pub free: Vec<String>,
-    /// Starting noise, 1 sigma: gyro rad/s, DVL m/s.
-    pub gyro_rad_s: f64,
-    pub dvl_m_s: f64,
-    pub learn_noise: bool,
-    pub noise_rounds: usize,
-    pub max_iterations: usize,
-    pub thresholds: Thresholds,
-}
-
-impl Default for SixDofSettings {
-    fn default() -> Self {
-        SixDofSettings {
-            free: HORIZONTAL.iter().map(|s| s.to_string()).collect(),
-            gyro_rad_s: 0.01f64.to_radians(),
-            dvl_m_s: 0.01,
-            learn_noise: true,
-            noise_rounds: 8,
-            max_iterations: 50,
-            thresholds: Thresholds::default(),
-        }
+crate::with_defaults! {
+    /// Settings of a 6-DOF identification.
+    #[derive(Debug, Clone, PartialEq)]
+    pub struct SixDofSettings {
+        /// The coefficients to identify (the vehicle file's names).
+        pub free: Vec<String> = HORIZONTAL.iter().map(|s| s.to_string()).collect(),
+        /// Starting noise, 1 sigma: gyro rad/s, DVL m/s.
+        pub gyro_rad_s: f64 = 0.01f64.to_radians(),
+        pub dvl_m_s: f64 = 0.01,
+        pub learn_noise: bool = true,
+        pub noise_rounds: usize = 8,
+        pub max_iterations: usize = 50,
+        pub thresholds: Thresholds = Thresholds::default(),
     }
 }
 

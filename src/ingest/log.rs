@@ -7,54 +7,40 @@ use super::roles::{RoleChoice, RoleError};
 use super::samples::Samples;
 use super::stats;
 use crate::contract::{GnssFix, Message, Streams, Truth};
+use crate::ingest::ros::map::Convention;
 use std::collections::BTreeMap;
 
-/// What ingest tolerates.
-#[derive(Debug, Clone, PartialEq)]
-pub struct IngestOptions {
-    /// Topics whose schema/encoding has no decoder are counted and skipped instead of failing.
-    pub skip_unknown: bool,
-    /// Largest fraction of invalid messages per topic that is dropped with a warning; above it,
-    /// reading fails. `1.0` never fails (what `info` uses).
-    pub max_invalid_fraction: f64,
-    /// Keep the decoded messages. `false` still decodes and checks every message but keeps
-    /// only stamps and counts (what `info` needs): memory then stays at 8 bytes per message
-    /// and the streams hold no messages.
-    pub keep_messages: bool,
-    /// Keep each message's log time ([`Stream::log_time_ns`]; what `export` writes). `false`
-    /// saves 8 bytes per message (a reconstruction does not need them).
-    pub keep_log_times: bool,
-    /// Threads that decode messages beside the one reading the file (at most the machine's
-    /// cores; `1` decodes on the reading thread).
-    pub decode_threads: usize,
-    /// How ROS 2 messages are converted (pressure to depth, fixes without a covariance).
-    pub ros2: crate::ingest::ros::map::RosSettings,
-    /// A topic's frame convention, where its `frame_id` should not decide it.
-    pub frame_conventions: std::collections::BTreeMap<String, crate::ingest::ros::map::Convention>,
-    /// Walk the messages of cdr topics hindsight does not map through the layout of their
-    /// schema text, counting those that do not fit (what `info` does).
-    pub check_layouts: bool,
-    /// Topics named for roles (role -> topic), over the default topics and the types.
-    pub topics: BTreeMap<String, String>,
-    /// A role that cannot be resolved (ambiguous, or named for a topic that is not there)
-    /// fails the read. `false` keeps it as a warning (what `info` uses).
-    pub strict_roles: bool,
-}
-
-impl Default for IngestOptions {
-    fn default() -> Self {
-        IngestOptions {
-            skip_unknown: false,
-            max_invalid_fraction: 0.01,
-            keep_messages: true,
-            keep_log_times: true,
-            decode_threads: 2,
-            ros2: Default::default(),
-            frame_conventions: Default::default(),
-            check_layouts: false,
-            topics: BTreeMap::new(),
-            strict_roles: true,
-        }
+crate::with_defaults! {
+    /// What ingest tolerates.
+    #[derive(Debug, Clone, PartialEq)]
+    pub struct IngestOptions {
+        /// Topics whose schema/encoding has no decoder are counted and skipped instead of failing.
+        pub skip_unknown: bool = false,
+        /// Largest fraction of invalid messages per topic that is dropped with a warning; above it,
+        /// reading fails. `1.0` never fails (what `info` uses).
+        pub max_invalid_fraction: f64 = 0.01,
+        /// Keep the decoded messages. `false` still decodes and checks every message but keeps
+        /// only stamps and counts (what `info` needs): memory then stays at 8 bytes per message
+        /// and the streams hold no messages.
+        pub keep_messages: bool = true,
+        /// Keep each message's log time ([`Stream::log_time_ns`]; what `export` writes). `false`
+        /// saves 8 bytes per message (a reconstruction does not need them).
+        pub keep_log_times: bool = true,
+        /// Threads that decode messages beside the one reading the file (at most the machine's
+        /// cores; `1` decodes on the reading thread).
+        pub decode_threads: usize = 2,
+        /// How ROS 2 messages are converted (pressure to depth, fixes without a covariance).
+        pub ros2: crate::ingest::ros::map::RosSettings = Default::default(),
+        /// A topic's frame convention, where its `frame_id` should not decide it.
+        pub frame_conventions: BTreeMap<String, Convention> = BTreeMap::new(),
+        /// Walk the messages of cdr topics hindsight does not map through the layout of their
+        /// schema text, counting those that do not fit (what `info` does).
+        pub check_layouts: bool = false,
+        /// Topics named for roles (role -> topic), over the default topics and the types.
+        pub topics: BTreeMap<String, String> = BTreeMap::new(),
+        /// A role that cannot be resolved (ambiguous, or named for a topic that is not there)
+        /// fails the read. `false` keeps it as a warning (what `info` uses).
+        pub strict_roles: bool = true,
     }
 }
 

@@ -12,6 +12,7 @@ use crate::filters::ins::driver::{Propagation, Settings};
 use crate::filters::ins::forward::{DvlMounting, Filter, ImuNoise};
 use crate::filters::velocity::rpm::RpmFilter;
 use crate::keyed;
+use crate::recon::on_off_auto::Switch;
 use serde::{Deserialize, Serialize};
 
 /// The default configuration, with the documentation of every key.
@@ -373,37 +374,22 @@ impl ImuSpec {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ImuConfig {
-    pub grade: ImuGrade,
-    pub gyro_bias_deg_h: Option<f64>,
-    pub gyro_bias_instability_deg_h: Option<f64>,
-    pub gyro_arw_deg_rt_h: Option<f64>,
-    pub accel_bias_ug: Option<f64>,
-    pub accel_bias_instability_ug: Option<f64>,
-    pub accel_vrw_ug_rt_hz: Option<f64>,
-    pub bias_correlation_s: Option<f64>,
-    pub gyro_scale_ppm: Option<f64>,
-    /// False: the biases and the gyro's scale factor are consider states (in the covariance,
-    /// never estimated).
-    pub estimate_biases: bool,
-}
-
-impl Default for ImuConfig {
-    fn default() -> Self {
-        ImuConfig {
-            grade: ImuGrade::Tactical,
-            gyro_bias_deg_h: None,
-            gyro_bias_instability_deg_h: None,
-            gyro_arw_deg_rt_h: None,
-            accel_bias_ug: None,
-            accel_bias_instability_ug: None,
-            accel_vrw_ug_rt_hz: None,
-            bias_correlation_s: None,
-            gyro_scale_ppm: None,
-            estimate_biases: true,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct ImuConfig {
+        pub grade: ImuGrade = ImuGrade::Tactical,
+        pub gyro_bias_deg_h: Option<f64> = None,
+        pub gyro_bias_instability_deg_h: Option<f64> = None,
+        pub gyro_arw_deg_rt_h: Option<f64> = None,
+        pub accel_bias_ug: Option<f64> = None,
+        pub accel_bias_instability_ug: Option<f64> = None,
+        pub accel_vrw_ug_rt_hz: Option<f64> = None,
+        pub bias_correlation_s: Option<f64> = None,
+        pub gyro_scale_ppm: Option<f64> = None,
+        /// False: the biases and the gyro's scale factor are consider states (in the covariance,
+        /// never estimated).
+        pub estimate_biases: bool = true,
     }
 }
 
@@ -428,31 +414,33 @@ impl ImuConfig {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DvlConfig {
-    #[serde(rename = "use")]
-    pub enabled: bool,
-    pub sigma_m_s: f64,
-    pub max_altitude_m: f64,
-    pub altimeter_max_age_s: f64,
-    pub check_range: bool,
-    pub lever_arm_m: [f64; 3],
-    pub rotation_deg: [f64; 3],
-    /// How late the DVL stamps a reading after it measured it, s.
-    pub stamp_delay_s: f64,
-    /// Whether the scale and misalignment are estimated (else held at zero).
-    pub scale_misalignment: crate::recon::on_off_auto::Switch,
-    pub scale_sigma: f64,
-    pub misalignment_sigma_deg: f64,
-    /// 1-sigma of a held heading misalignment, deg: with `scale_sigma`, what a held scale and
-    /// misalignment add to the reported position sigma ([`crate::recon::held_dvl`]).
-    pub held_misalignment_sigma_deg: f64,
-    pub bias_sigma_m_s: f64,
-    pub bias_walk_m_s_rt_h: f64,
-    /// Correlation time of the bias, s (0: a random walk).
-    pub bias_correlation_s: f64,
-    pub calibration: CalibrationMode,
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct DvlConfig {
+        #[serde(rename = "use")]
+        pub enabled: bool = true,
+        pub sigma_m_s: f64 = 0.015,
+        pub max_altitude_m: f64 = 100.0,
+        pub altimeter_max_age_s: f64 = 2.0,
+        pub check_range: bool = true,
+        pub lever_arm_m: [f64; 3] = [0.0; 3],
+        pub rotation_deg: [f64; 3] = [0.0; 3],
+        /// How late the DVL stamps a reading after it measured it, s.
+        pub stamp_delay_s: f64 = 0.0,
+        /// Whether the scale and misalignment are estimated (else held at zero).
+        pub scale_misalignment: Switch = Switch::Auto,
+        pub scale_sigma: f64 = 0.005,
+        pub misalignment_sigma_deg: f64 = 1.0,
+        /// 1-sigma of a held heading misalignment, deg: with `scale_sigma`, what a held scale and
+        /// misalignment add to the reported position sigma ([`crate::recon::held_dvl`]).
+        pub held_misalignment_sigma_deg: f64 = 0.3,
+        pub bias_sigma_m_s: f64 = 0.001,
+        pub bias_walk_m_s_rt_h: f64 = 0.0,
+        /// Correlation time of the bias, s (0: a random walk).
+        pub bias_correlation_s: f64 = 0.0,
+        pub calibration: CalibrationMode = CalibrationMode::Estimate,
+    }
 }
 
 /// How the DVL's calibration states with a non-zero prior are used.
@@ -465,29 +453,6 @@ pub enum CalibrationMode {
     /// Consider states: carried in the covariance (the uncertainty they cause grows
     /// honestly) but never corrected by the forward filter.
     Consider,
-}
-
-impl Default for DvlConfig {
-    fn default() -> Self {
-        DvlConfig {
-            enabled: true,
-            sigma_m_s: 0.015,
-            max_altitude_m: 100.0,
-            altimeter_max_age_s: 2.0,
-            check_range: true,
-            lever_arm_m: [0.0; 3],
-            rotation_deg: [0.0; 3],
-            stamp_delay_s: 0.0,
-            scale_misalignment: crate::recon::on_off_auto::Switch::Auto,
-            scale_sigma: 0.005,
-            misalignment_sigma_deg: 1.0,
-            held_misalignment_sigma_deg: 0.3,
-            bias_sigma_m_s: 0.001,
-            bias_walk_m_s_rt_h: 0.0,
-            bias_correlation_s: 0.0,
-            calibration: CalibrationMode::Estimate,
-        }
-    }
 }
 
 impl DvlConfig {
@@ -535,55 +500,32 @@ impl DvlConfig {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DepthConfig {
-    #[serde(rename = "use")]
-    pub enabled: bool,
-    pub sigma_m: f64,
-    pub bias_sigma_m: f64,
-    pub min_interval_s: f64,
-}
-
-impl Default for DepthConfig {
-    fn default() -> Self {
-        DepthConfig {
-            enabled: true,
-            sigma_m: 0.1,
-            bias_sigma_m: 0.1,
-            min_interval_s: 0.1,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct DepthConfig {
+        #[serde(rename = "use")]
+        pub enabled: bool = true,
+        pub sigma_m: f64 = 0.1,
+        pub bias_sigma_m: f64 = 0.1,
+        pub min_interval_s: f64 = 0.1,
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct MagConfig {
-    #[serde(rename = "use")]
-    pub enabled: bool,
-    pub use_as_aid: bool,
-    pub sigma_deg: f64,
-    pub correlation_s: f64,
-    pub uncalibrated_correlation_s: f64,
-    pub min_interval_s: f64,
-    pub max_field_deviation: f64,
-    pub calibrate: bool,
-    pub saturation_repeats: usize,
-}
-
-impl Default for MagConfig {
-    fn default() -> Self {
-        MagConfig {
-            enabled: true,
-            use_as_aid: true,
-            sigma_deg: 2.0,
-            correlation_s: 60.0,
-            uncalibrated_correlation_s: 600.0,
-            min_interval_s: 1.0,
-            max_field_deviation: 0.15,
-            calibrate: true,
-            saturation_repeats: 3,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct MagConfig {
+        #[serde(rename = "use")]
+        pub enabled: bool = true,
+        pub use_as_aid: bool = true,
+        pub sigma_deg: f64 = 2.0,
+        pub correlation_s: f64 = 60.0,
+        pub uncalibrated_correlation_s: f64 = 600.0,
+        pub min_interval_s: f64 = 1.0,
+        pub max_field_deviation: f64 = 0.15,
+        pub calibrate: bool = true,
+        pub saturation_repeats: usize = 3,
     }
 }
 
@@ -601,68 +543,42 @@ impl MagConfig {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct EmlConfig {
-    #[serde(rename = "use")]
-    pub enabled: bool,
-    pub sigma_m_s: f64,
-    pub scale_sigma: f64,
-    pub current_sigma_m_s: f64,
-    pub current_walk_m_s_rt_h: f64,
-}
-
-impl Default for EmlConfig {
-    fn default() -> Self {
-        EmlConfig {
-            enabled: true,
-            sigma_m_s: 0.05,
-            scale_sigma: 0.02,
-            current_sigma_m_s: 0.2,
-            current_walk_m_s_rt_h: 0.05,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct EmlConfig {
+        #[serde(rename = "use")]
+        pub enabled: bool = true,
+        pub sigma_m_s: f64 = 0.05,
+        pub scale_sigma: f64 = 0.02,
+        pub current_sigma_m_s: f64 = 0.2,
+        pub current_walk_m_s_rt_h: f64 = 0.05,
     }
 }
 
-/// A sensor that is used or not.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct UseConfig {
-    #[serde(rename = "use")]
-    pub enabled: bool,
-}
-
-impl Default for UseConfig {
-    fn default() -> Self {
-        UseConfig { enabled: true }
+crate::with_defaults! {
+    /// A sensor that is used or not.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct UseConfig {
+        #[serde(rename = "use")]
+        pub enabled: bool = true,
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct RpmVelocityConfig {
-    #[serde(rename = "use")]
-    pub enabled: crate::recon::on_off_auto::Switch,
-    pub speed_sigma_floor_m_s: f64,
-    pub max_speed_sigma_m_s: f64,
-    pub lateral_sigma_m_s: f64,
-    pub dvl_timeout_s: f64,
-    pub min_interval_s: f64,
-    pub min_dvl_updates: usize,
-}
-
-impl Default for RpmVelocityConfig {
-    fn default() -> Self {
-        let f = RpmFilter::default();
-        RpmVelocityConfig {
-            enabled: crate::recon::on_off_auto::Switch::Auto,
-            speed_sigma_floor_m_s: f.speed_sigma_floor_m_s,
-            max_speed_sigma_m_s: f.max_speed_sigma_m_s,
-            lateral_sigma_m_s: 0.1,
-            dvl_timeout_s: f.dvl_timeout_s,
-            min_interval_s: f.min_interval_s,
-            min_dvl_updates: f.min_dvl_updates,
-        }
+crate::with_defaults! {
+    /// The propeller's velocity filter's settings; the defaults are the filter's own.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct RpmVelocityConfig {
+        #[serde(rename = "use")]
+        pub enabled: Switch = Switch::Auto,
+        pub speed_sigma_floor_m_s: f64 = RpmFilter::default().speed_sigma_floor_m_s,
+        pub max_speed_sigma_m_s: f64 = RpmFilter::default().max_speed_sigma_m_s,
+        pub lateral_sigma_m_s: f64 = 0.1,
+        pub dvl_timeout_s: f64 = RpmFilter::default().dvl_timeout_s,
+        pub min_interval_s: f64 = RpmFilter::default().min_interval_s,
+        pub min_dvl_updates: usize = RpmFilter::default().min_dvl_updates,
     }
 }
 
@@ -683,39 +599,23 @@ impl RpmVelocityConfig {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct GateConfig {
-    pub probability: f64,
-    pub reset_after: usize,
-}
-
-impl Default for GateConfig {
-    fn default() -> Self {
-        GateConfig {
-            probability: 0.999,
-            reset_after: 20,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct GateConfig {
+        pub probability: f64 = 0.999,
+        pub reset_after: usize = 20,
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct PropagationConfig {
-    pub covariance_interval_s: f64,
-    pub imu_gap_s: f64,
-    pub gap_accel_m_s2_rt_hz: f64,
-    pub gap_gyro_deg_s_rt_hz: f64,
-}
-
-impl Default for PropagationConfig {
-    fn default() -> Self {
-        PropagationConfig {
-            covariance_interval_s: 0.1,
-            imu_gap_s: 0.1,
-            gap_accel_m_s2_rt_hz: 0.05,
-            gap_gyro_deg_s_rt_hz: 0.3,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct PropagationConfig {
+        pub covariance_interval_s: f64 = 0.1,
+        pub imu_gap_s: f64 = 0.1,
+        pub gap_accel_m_s2_rt_hz: f64 = 0.05,
+        pub gap_gyro_deg_s_rt_hz: f64 = 0.3,
     }
 }
 
@@ -730,124 +630,72 @@ pub enum HeadingChoice {
     Given,
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct InitialConfig {
-    pub heading: HeadingChoice,
-    pub yaw_deg: Option<f64>,
-    pub declination_deg: Option<f64>,
-    pub window_s: f64,
-    pub gyrocompass_max_sigma_deg: f64,
-    pub magnetometer_sigma_deg: f64,
-    pub mission_yaw_sigma_deg: f64,
-    pub given_yaw_sigma_deg: f64,
-    pub in_run: bool,
-    pub set_depth_m: Option<f64>,
-    pub in_run_sigma_deg: f64,
-    pub rpm_speed_m_s_per_rpm: Option<f64>,
-    pub gnss_window_s: f64,
-    pub origin_sigma_m: f64,
-    /// Monte Carlo studies of simulated logs: start from `/truth` with errors drawn with
-    /// these sigmas (seed 000's Table 2), instead of from the sensors.
-    pub from_truth: bool,
-    pub truth_position_sigma_m: [f64; 3],
-    pub truth_velocity_sigma_m_s: f64,
-    pub truth_attitude_sigma_arcmin: [f64; 3],
-    /// Seed of the drawn start errors (a study sets it to the run's seed).
-    pub truth_seed: u64,
-}
-
-impl Default for InitialConfig {
-    fn default() -> Self {
-        InitialConfig {
-            heading: HeadingChoice::Auto,
-            yaw_deg: None,
-            declination_deg: None,
-            window_s: 30.0,
-            gyrocompass_max_sigma_deg: 1.0,
-            magnetometer_sigma_deg: 3.0,
-            mission_yaw_sigma_deg: 10.0,
-            given_yaw_sigma_deg: 5.0,
-            in_run: true,
-            set_depth_m: None,
-            in_run_sigma_deg: 0.2,
-            rpm_speed_m_s_per_rpm: None,
-            gnss_window_s: 10.0,
-            origin_sigma_m: 20.0,
-            from_truth: false,
-            truth_position_sigma_m: [10.0, 10.0, 1.0],
-            truth_velocity_sigma_m_s: 0.1,
-            truth_attitude_sigma_arcmin: [0.01, 0.01, 0.03],
-            truth_seed: 0,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct InitialConfig {
+        pub heading: HeadingChoice = HeadingChoice::Auto,
+        pub yaw_deg: Option<f64> = None,
+        pub declination_deg: Option<f64> = None,
+        pub window_s: f64 = 30.0,
+        pub gyrocompass_max_sigma_deg: f64 = 1.0,
+        pub magnetometer_sigma_deg: f64 = 3.0,
+        pub mission_yaw_sigma_deg: f64 = 10.0,
+        pub given_yaw_sigma_deg: f64 = 5.0,
+        pub in_run: bool = true,
+        pub set_depth_m: Option<f64> = None,
+        pub in_run_sigma_deg: f64 = 0.2,
+        pub rpm_speed_m_s_per_rpm: Option<f64> = None,
+        pub gnss_window_s: f64 = 10.0,
+        pub origin_sigma_m: f64 = 20.0,
+        /// Monte Carlo studies of simulated logs: start from `/truth` with errors drawn with
+        /// these sigmas (seed 000's Table 2), instead of from the sensors.
+        pub from_truth: bool = false,
+        pub truth_position_sigma_m: [f64; 3] = [10.0, 10.0, 1.0],
+        pub truth_velocity_sigma_m_s: f64 = 0.1,
+        pub truth_attitude_sigma_arcmin: [f64; 3] = [0.01, 0.01, 0.03],
+        /// Seed of the drawn start errors (a study sets it to the run's seed).
+        pub truth_seed: u64 = 0,
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct AlignmentConfig {
-    #[serde(rename = "use")]
-    pub enabled: bool,
-    pub hypotheses: usize,
-    pub first_span_s: f64,
-    pub hint_outlier_probability: f64,
-    pub decisive_weight: f64,
-    pub found_sigma_floor_deg: f64,
-}
-
-impl Default for AlignmentConfig {
-    fn default() -> Self {
-        AlignmentConfig {
-            enabled: true,
-            hypotheses: 12,
-            first_span_s: 300.0,
-            hint_outlier_probability: 0.01,
-            decisive_weight: 0.99,
-            found_sigma_floor_deg: 5.0,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct AlignmentConfig {
+        #[serde(rename = "use")]
+        pub enabled: bool = true,
+        pub hypotheses: usize = 12,
+        pub first_span_s: f64 = 300.0,
+        pub hint_outlier_probability: f64 = 0.01,
+        pub decisive_weight: f64 = 0.99,
+        pub found_sigma_floor_deg: f64 = 5.0,
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct OutputConfig {
-    pub rate_hz: f64,
-    pub aiding_epochs: bool,
-}
-
-impl Default for OutputConfig {
-    fn default() -> Self {
-        OutputConfig {
-            rate_hz: 10.0,
-            aiding_epochs: false,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct OutputConfig {
+        pub rate_hz: f64 = 10.0,
+        pub aiding_epochs: bool = false,
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct TuneConfig {
-    #[serde(rename = "use")]
-    pub enabled: bool,
-    pub span_s: f64,
-    /// With a start heading the in-motion alignment found, the innovations of the span's
-    /// first `settle_s` (at most a third of the span) are left out of each candidate's score.
-    pub settle_s: f64,
-    /// Whether the DVL bias's random walk is chosen by the likelihood (when not given).
-    pub dvl_bias_walk: crate::recon::on_off_auto::Switch,
-    /// Whether the walk's correlation time is also chosen by the likelihood (when not given).
-    pub dvl_bias_correlation: bool,
-}
-
-impl Default for TuneConfig {
-    fn default() -> Self {
-        TuneConfig {
-            enabled: true,
-            span_s: 1800.0,
-            settle_s: 300.0,
-            dvl_bias_walk: crate::recon::on_off_auto::Switch::Auto,
-            dvl_bias_correlation: false,
-        }
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct TuneConfig {
+        #[serde(rename = "use")]
+        pub enabled: bool = true,
+        pub span_s: f64 = 1800.0,
+        /// With a start heading the in-motion alignment found, the innovations of the span's
+        /// first `settle_s` (at most a third of the span) are left out of each candidate's score.
+        pub settle_s: f64 = 300.0,
+        /// Whether the DVL bias's random walk is chosen by the likelihood (when not given).
+        pub dvl_bias_walk: Switch = Switch::Auto,
+        /// Whether the walk's correlation time is also chosen by the likelihood (when not given).
+        pub dvl_bias_correlation: bool = false,
     }
 }
 
@@ -918,21 +766,23 @@ impl Config {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ModelVelocityConfig {
-    #[serde(rename = "use")]
-    pub enabled: crate::recon::on_off_auto::Switch,
-    pub method: ModelMethod,
-    pub vehicle: String,
-    /// The vehicle file `vehicle` names, read by the caller: the library reads no files.
-    /// `None` for a built-in vehicle.
-    #[serde(skip)]
-    pub vehicle_file: Option<crate::vehicle::six_dof::description::Vehicle>,
-    pub correlation_s: f64,
-    pub min_interval_s: f64,
-    pub dvl_timeout_s: f64,
-    pub max_nis: f64,
+crate::with_defaults! {
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct ModelVelocityConfig {
+        #[serde(rename = "use")]
+        pub enabled: Switch = Switch::Auto,
+        pub method: ModelMethod = ModelMethod::Proposed,
+        pub vehicle: String = String::new(),
+        /// The vehicle file `vehicle` names, read by the caller: the library reads no files.
+        /// `None` for a built-in vehicle.
+        #[serde(skip)]
+        pub vehicle_file: Option<crate::vehicle::six_dof::description::Vehicle> = None,
+        pub correlation_s: f64 = 30.0,
+        pub min_interval_s: f64 = 1.0,
+        pub dvl_timeout_s: f64 = 1.0,
+        pub max_nis: f64 = 3.0,
+    }
 }
 
 /// Which velocity the model aid hands on.
@@ -941,21 +791,6 @@ pub struct ModelVelocityConfig {
 pub enum ModelMethod {
     Proposed,
     VirtualSensor,
-}
-
-impl Default for ModelVelocityConfig {
-    fn default() -> Self {
-        ModelVelocityConfig {
-            enabled: crate::recon::on_off_auto::Switch::Auto,
-            method: ModelMethod::Proposed,
-            vehicle: String::new(),
-            vehicle_file: None,
-            correlation_s: 30.0,
-            min_interval_s: 1.0,
-            dvl_timeout_s: 1.0,
-            max_nis: 3.0,
-        }
-    }
 }
 
 impl Section for Config {

@@ -164,35 +164,21 @@ pub fn scores(errors: &[EpochError]) -> Option<Scores> {
     sums.scores()
 }
 
-/// The running sums [`Scores`] are made from, taken an epoch at a time: a day's mission
-/// need not hold its million errors to be scored.
-#[derive(Debug, Clone, Copy)]
-pub struct ScoreSums {
-    /// The two-sided 95 % bounds of the horizontal (2 dof) and 3-D (3 dof) NEES.
-    bounds: [(f64, f64); 2],
-    epochs: usize,
-    horizontal_squares_m2: f64,
-    horizontal_max_m: f64,
-    last_horizontal_m: f64,
-    nees_horizontal_inside: usize,
-    nees_horizontal_above: usize,
-    nees_position_inside: usize,
-    yaw_squares_rad2: f64,
-}
-
-impl Default for ScoreSums {
-    fn default() -> Self {
-        ScoreSums {
-            bounds: [bounds_95(2), bounds_95(3)],
-            epochs: 0,
-            horizontal_squares_m2: 0.0,
-            horizontal_max_m: 0.0,
-            last_horizontal_m: 0.0,
-            nees_horizontal_inside: 0,
-            nees_horizontal_above: 0,
-            nees_position_inside: 0,
-            yaw_squares_rad2: 0.0,
-        }
+crate::with_defaults! {
+    /// The running sums [`Scores`] are made from, taken an epoch at a time: a day's mission
+    /// need not hold its million errors to be scored.
+    #[derive(Debug, Clone, Copy)]
+    pub struct ScoreSums {
+        /// The two-sided 95 % bounds of the horizontal (2 dof) and 3-D (3 dof) NEES.
+        bounds: [(f64, f64); 2] = [bounds_95(2), bounds_95(3)],
+        epochs: usize = 0,
+        horizontal_squares_m2: f64 = 0.0,
+        horizontal_max_m: f64 = 0.0,
+        last_horizontal_m: f64 = 0.0,
+        nees_horizontal_inside: usize = 0,
+        nees_horizontal_above: usize = 0,
+        nees_position_inside: usize = 0,
+        yaw_squares_rad2: f64 = 0.0,
     }
 }
 

@@ -15,28 +15,18 @@ use rand_distr::{Distribution, Normal};
 use std::f64::consts::TAU;
 use std::io::{Seek, Write};
 
-/// What to generate.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SurveySpec {
-    pub duration_s: f64,
-    pub seed: u64,
-    /// Stamp of the first IMU sample.
-    pub start_stamp_ns: i64,
-    /// IMU rate; other streams run at fixed divisions of it.
-    pub imu_rate_hz: u32,
-    /// Write `/truth` (10 Hz).
-    pub truth: bool,
-}
-
-impl Default for SurveySpec {
-    fn default() -> Self {
-        SurveySpec {
-            duration_s: 60.0,
-            seed: 1,
-            start_stamp_ns: 1_700_000_000_000_000_000,
-            imu_rate_hz: 100,
-            truth: true,
-        }
+crate::with_defaults! {
+    /// What to generate.
+    #[derive(Debug, Clone, PartialEq)]
+    pub struct SurveySpec {
+        pub duration_s: f64 = 60.0,
+        pub seed: u64 = 1,
+        /// Stamp of the first IMU sample.
+        pub start_stamp_ns: i64 = 1_700_000_000_000_000_000,
+        /// IMU rate; other streams run at fixed divisions of it.
+        pub imu_rate_hz: u32 = 100,
+        /// Write `/truth` (10 Hz).
+        pub truth: bool = true,
     }
 }
 

@@ -18,27 +18,18 @@ pub enum Compression {
     Zstd,
 }
 
-/// Container layout of a written log.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct WriterOptions {
-    /// Messages in chunks (compressible, indexable) or directly in the data section.
-    pub chunked: bool,
-    /// Chunk compression (ignored when not chunked).
-    pub compression: Compression,
-    /// Write the summary section (schemas, channels, statistics, indexes).
-    pub summary: bool,
-    /// Target uncompressed chunk size in bytes.
-    pub chunk_size: u64,
-}
-
-impl Default for WriterOptions {
-    fn default() -> Self {
-        WriterOptions {
-            chunked: true,
-            compression: Compression::Zstd,
-            summary: true,
-            chunk_size: 1 << 20,
-        }
+crate::with_defaults! {
+    /// Container layout of a written log.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct WriterOptions {
+        /// Messages in chunks (compressible, indexable) or directly in the data section.
+        pub chunked: bool = true,
+        /// Chunk compression (ignored when not chunked).
+        pub compression: Compression = Compression::Zstd,
+        /// Write the summary section (schemas, channels, statistics, indexes).
+        pub summary: bool = true,
+        /// Target uncompressed chunk size in bytes.
+        pub chunk_size: u64 = 1 << 20,
     }
 }
 

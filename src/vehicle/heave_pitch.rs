@@ -54,35 +54,22 @@ pub const TRUE_COEFFICIENTS: [f64; 10] = [
     -0.003663,
 ];
 
-/// The model's constants (the spec's "State, input, constants").
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Constants {
-    /// Forward speed, m/s.
-    pub speed_m_s: f64,
-    pub length_m: f64,
-    pub water_density_kg_m3: f64,
-    pub gravity_m_s2: f64,
-    pub mass_kg: f64,
-    /// Weight minus buoyancy, N (0: neutral).
-    pub weight_minus_buoyancy_n: f64,
-    /// Nondimensional pitch inertia I_y'.
-    pub pitch_inertia_nd: f64,
-    /// Centre of gravity below the origin, m.
-    pub z_g_m: f64,
-}
-
-impl Default for Constants {
-    fn default() -> Self {
-        Constants {
-            speed_m_s: 3.084,
-            length_m: 63.955,
-            water_density_kg_m3: 1025.9,
-            gravity_m_s2: 9.8,
-            mass_kg: 293_160.0 * 9.8,
-            weight_minus_buoyancy_n: 0.0,
-            pitch_inertia_nd: 0.0006088,
-            z_g_m: 0.27414,
-        }
+crate::with_defaults! {
+    /// The model's constants (the spec's "State, input, constants").
+    #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+    pub struct Constants {
+        /// Forward speed, m/s.
+        pub speed_m_s: f64 = 3.084,
+        pub length_m: f64 = 63.955,
+        pub water_density_kg_m3: f64 = 1025.9,
+        pub gravity_m_s2: f64 = 9.8,
+        pub mass_kg: f64 = 293_160.0 * 9.8,
+        /// Weight minus buoyancy, N (0: neutral).
+        pub weight_minus_buoyancy_n: f64 = 0.0,
+        /// Nondimensional pitch inertia I_y'.
+        pub pitch_inertia_nd: f64 = 0.0006088,
+        /// Centre of gravity below the origin, m.
+        pub z_g_m: f64 = 0.27414,
     }
 }
 

@@ -16,39 +16,26 @@
 use crate::filters::kalman::{self, chi_square_quantile, Gaussian};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-/// Settings of the velocity filter.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RpmFilter {
-    /// Least scatter of the speed about the propeller's relation, m/s (`q_V`'s floor).
-    pub speed_sigma_floor_m_s: f64,
-    /// A larger learnt scatter means the propeller does not tell the speed: refused, m/s.
-    pub max_speed_sigma_m_s: f64,
-    /// Random walk of the scale, (m/s per rev/min) per sqrt(s).
-    pub scale_walk: f64,
-    /// Random walk of the bias, m/s per sqrt(s).
-    pub bias_walk_m_s: f64,
-    /// The DVL's forward-speed 1-sigma, m/s.
-    pub dvl_sigma_m_s: f64,
-    /// DVL readings in range the filter needs before its speed is used.
-    pub min_dvl_updates: usize,
-    /// Without a DVL reading in range for this long, the DVL is out, s.
-    pub dvl_timeout_s: f64,
-    /// At most one speed handed on per interval, s.
-    pub min_interval_s: f64,
-}
-
-impl Default for RpmFilter {
-    fn default() -> Self {
-        RpmFilter {
-            speed_sigma_floor_m_s: 0.02,
-            max_speed_sigma_m_s: 0.25,
-            scale_walk: 1e-7,
-            bias_walk_m_s: 1e-4,
-            dvl_sigma_m_s: 0.02,
-            min_dvl_updates: 50,
-            dvl_timeout_s: 1.0,
-            min_interval_s: 1.0,
-        }
+crate::with_defaults! {
+    /// Settings of the velocity filter.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct RpmFilter {
+        /// Least scatter of the speed about the propeller's relation, m/s (`q_V`'s floor).
+        pub speed_sigma_floor_m_s: f64 = 0.02,
+        /// A larger learnt scatter means the propeller does not tell the speed: refused, m/s.
+        pub max_speed_sigma_m_s: f64 = 0.25,
+        /// Random walk of the scale, (m/s per rev/min) per sqrt(s).
+        pub scale_walk: f64 = 1e-7,
+        /// Random walk of the bias, m/s per sqrt(s).
+        pub bias_walk_m_s: f64 = 1e-4,
+        /// The DVL's forward-speed 1-sigma, m/s.
+        pub dvl_sigma_m_s: f64 = 0.02,
+        /// DVL readings in range the filter needs before its speed is used.
+        pub min_dvl_updates: usize = 50,
+        /// Without a DVL reading in range for this long, the DVL is out, s.
+        pub dvl_timeout_s: f64 = 1.0,
+        /// At most one speed handed on per interval, s.
+        pub min_interval_s: f64 = 1.0,
     }
 }
 

@@ -38,31 +38,21 @@ impl std::str::FromStr for Convention {
     }
 }
 
-/// What the conversions need that a ROS 2 message does not say.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct RosSettings {
-    /// Sea water density for FluidPressure to depth, kg/m^3.
-    pub water_density_kg_m3: f64,
-    /// Pressure at the surface, Pa (FluidPressure is absolute).
-    pub atmospheric_pressure_pa: f64,
-    /// Gravity for FluidPressure to depth, m/s^2.
-    pub gravity_m_s2: f64,
-    /// 1-sigma of a NavSatFix without a covariance (type unknown), m.
-    pub gnss_sigma_unknown_m: f64,
-    /// 1-sigma of a PointStamped position fix (it carries none), m.
-    pub point_fix_sigma_m: f64,
-}
-
-impl Default for RosSettings {
-    fn default() -> Self {
-        RosSettings {
-            water_density_kg_m3: 1025.0,
-            atmospheric_pressure_pa: 101_325.0,
-            gravity_m_s2: 9.80665,
-            gnss_sigma_unknown_m: 5.0,
-            point_fix_sigma_m: 1.0,
-        }
+crate::with_defaults! {
+    /// What the conversions need that a ROS 2 message does not say.
+    #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct RosSettings {
+        /// Sea water density for FluidPressure to depth, kg/m^3.
+        pub water_density_kg_m3: f64 = 1025.0,
+        /// Pressure at the surface, Pa (FluidPressure is absolute).
+        pub atmospheric_pressure_pa: f64 = 101_325.0,
+        /// Gravity for FluidPressure to depth, m/s^2.
+        pub gravity_m_s2: f64 = 9.80665,
+        /// 1-sigma of a NavSatFix without a covariance (type unknown), m.
+        pub gnss_sigma_unknown_m: f64 = 5.0,
+        /// 1-sigma of a PointStamped position fix (it carries none), m.
+        pub point_fix_sigma_m: f64 = 1.0,
     }
 }
 

@@ -47,30 +47,19 @@ impl Command {
     }
 }
 
-/// Gains and limits.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Gains {
-    /// Heading loop bandwidth, rad/s, and damping ratio.
-    pub heading_omega: f64,
-    pub pitch_omega: f64,
-    pub zeta: f64,
-    /// Pitch command per metre of depth error, rad/m, and its limit, rad.
-    pub depth_gain: f64,
-    pub max_pitch_rad: f64,
-    /// Integral gain on the speed error, (rad/s) per (m/s) per s.
-    pub speed_integral: f64,
-}
-
-impl Default for Gains {
-    fn default() -> Self {
-        Gains {
-            heading_omega: 0.3,
-            pitch_omega: 0.5,
-            zeta: 0.9,
-            depth_gain: 0.05,
-            max_pitch_rad: 20f64.to_radians(),
-            speed_integral: 2.0,
-        }
+crate::with_defaults! {
+    /// Gains and limits.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    pub struct Gains {
+        /// Heading loop bandwidth, rad/s, and damping ratio.
+        pub heading_omega: f64 = 0.3,
+        pub pitch_omega: f64 = 0.5,
+        pub zeta: f64 = 0.9,
+        /// Pitch command per metre of depth error, rad/m, and its limit, rad.
+        pub depth_gain: f64 = 0.05,
+        pub max_pitch_rad: f64 = 20f64.to_radians(),
+        /// Integral gain on the speed error, (rad/s) per (m/s) per s.
+        pub speed_integral: f64 = 2.0,
     }
 }
 
