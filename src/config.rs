@@ -232,16 +232,15 @@ pub fn check_ranges(
 /// `[("section.key", section.key), ...]`: each value with its dotted key, the key spelled
 /// from the value's own path (`keyed!(self.dvl => dvl; sigma_m_s, max_altitude_m)`), so
 /// that the two cannot disagree.
-#[macro_export]
 macro_rules! keyed {
     ($values:expr => $section:ident; $($key:ident),+ $(,)?) => {
         [$((concat!(stringify!($section), ".", stringify!($key)), $values.$key)),+]
     };
 }
+pub(crate) use keyed;
 
 /// A struct whose every field gives its default beside it (`name: Type = default,`), and
 /// `Default` made of them. Attributes and derives are given as for any struct.
-#[macro_export]
 macro_rules! with_defaults {
     (
         $(#[$meta:meta])*
@@ -261,6 +260,7 @@ macro_rules! with_defaults {
         }
     };
 }
+pub(crate) use with_defaults;
 
 /// Every key given the same range.
 pub fn all(

@@ -12,9 +12,9 @@ use super::ekf::{matrix, Ekf, EkfSettings};
 use super::euler::positive_definite;
 use super::mekf::MekfSettings;
 use super::ukf::{Ukf, UkfSettings};
+use crate::config::keyed;
 use crate::config::{all, check_ranges, ConfigError, Range, Section};
 use crate::filters::ins::forward::DvlMounting;
-use crate::keyed;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
@@ -88,7 +88,7 @@ pub struct AttitudeConfig {
     pub magnetometer: MagnetometerChecks,
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct Checks {
@@ -96,7 +96,7 @@ crate::with_defaults! {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// The DVL's mounting and how long a stretch without it the dead reckoning bridges.
     #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
@@ -124,7 +124,7 @@ pub enum Preset {
     Seed001,
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct MagnetometerChecks {

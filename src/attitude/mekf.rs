@@ -32,7 +32,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 type State = SVector<f64, 6>;
 type Cov = SMatrix<f64, 6, 6>;
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// Noise and gating of the filter (continuous-time densities, one sigma).
     #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
     #[serde(deny_unknown_fields, default)]

@@ -4,8 +4,8 @@
 
 use super::design::DesignSettings;
 use super::settings::{ProcessNoise, Settings, Sigmas, Thresholds};
+use crate::config::keyed;
 use crate::config::{all, check_ranges, ConfigError, Range, Section};
-use crate::keyed;
 use serde::{Deserialize, Serialize};
 
 /// The documented defaults (a test parses it back to [`IdentifyConfig::default`]).

@@ -27,7 +27,7 @@ use crate::sim::zigzag::{fly, ZigzagNoise, ZigzagSpec};
 use crate::vehicle::heave_pitch::{Coefficients, State, NAMES};
 use nalgebra::{DMatrix, SMatrix};
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// The candidate manoeuvres' shape and the vehicle's limits (`[design]` of identify's config).
     #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
     #[serde(deny_unknown_fields, default)]

@@ -58,7 +58,7 @@ pub struct ProcessNoise {
     pub q_accel_rad_s2_rt_s: f64,
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, Copy, PartialEq)]
     pub struct Settings {
         pub constants: Constants = Constants::default(),
@@ -88,7 +88,7 @@ crate::with_defaults! {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// Where identify starts to warn (the `[thresholds]` section of its settings).
     #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
     #[serde(deny_unknown_fields, default)]

@@ -249,7 +249,7 @@ impl SixDofRecord {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// Settings of a 6-DOF identification.
     #[derive(Debug, Clone, PartialEq)]
     pub struct SixDofSettings {

@@ -10,7 +10,7 @@ use crate::contract::{GnssFix, Message, Streams, Truth};
 use crate::ingest::ros::map::Convention;
 use std::collections::BTreeMap;
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// What ingest tolerates.
     #[derive(Debug, Clone, PartialEq)]
     pub struct IngestOptions {

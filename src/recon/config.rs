@@ -6,12 +6,12 @@
 //! The IMU's noise comes from a grade (typical data-sheet figures of the class), any value
 //! of which a key overrides.
 
+use crate::config::keyed;
 use crate::config::{all, check_ranges, ConfigError, Range, Section};
 use crate::filters::ins::aid_table::{Aiding, RpmVelocity, Sensor};
 use crate::filters::ins::driver::{Propagation, Settings};
 use crate::filters::ins::forward::{DvlMounting, Filter, ImuNoise};
 use crate::filters::velocity::rpm::RpmFilter;
-use crate::keyed;
 use crate::recon::on_off_auto::Switch;
 use serde::{Deserialize, Serialize};
 
@@ -374,7 +374,7 @@ impl ImuSpec {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct ImuConfig {
@@ -414,7 +414,7 @@ impl ImuConfig {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct DvlConfig {
@@ -500,7 +500,7 @@ impl DvlConfig {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct DepthConfig {
@@ -512,7 +512,7 @@ crate::with_defaults! {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct MagConfig {
@@ -543,7 +543,7 @@ impl MagConfig {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct EmlConfig {
@@ -556,7 +556,7 @@ crate::with_defaults! {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// A sensor that is used or not.
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
@@ -566,7 +566,7 @@ crate::with_defaults! {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// The propeller's velocity filter's settings; the defaults are the filter's own.
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
@@ -599,7 +599,7 @@ impl RpmVelocityConfig {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct GateConfig {
@@ -608,7 +608,7 @@ crate::with_defaults! {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct PropagationConfig {
@@ -630,7 +630,7 @@ pub enum HeadingChoice {
     Given,
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct InitialConfig {
@@ -659,7 +659,7 @@ crate::with_defaults! {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct AlignmentConfig {
@@ -673,7 +673,7 @@ crate::with_defaults! {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct OutputConfig {
@@ -682,7 +682,7 @@ crate::with_defaults! {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct TuneConfig {
@@ -766,7 +766,7 @@ impl Config {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
     pub struct ModelVelocityConfig {

@@ -164,7 +164,7 @@ pub fn scores(errors: &[EpochError]) -> Option<Scores> {
     sums.scores()
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// The running sums [`Scores`] are made from, taken an epoch at a time: a day's mission
     /// need not hold its million errors to be scored.
     #[derive(Debug, Clone, Copy)]

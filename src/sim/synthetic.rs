@@ -15,7 +15,7 @@ use rand_distr::{Distribution, Normal};
 use std::f64::consts::TAU;
 use std::io::{Seek, Write};
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// What to generate.
     #[derive(Debug, Clone, PartialEq)]
     pub struct SurveySpec {

@@ -18,7 +18,7 @@ pub enum Compression {
     Zstd,
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// Container layout of a written log.
     #[derive(Debug, Clone, Copy, PartialEq, Eq)]
     pub struct WriterOptions {

@@ -54,7 +54,7 @@ pub const TRUE_COEFFICIENTS: [f64; 10] = [
     -0.003663,
 ];
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// The model's constants (the spec's "State, input, constants").
     #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
     pub struct Constants {

@@ -16,7 +16,7 @@
 use crate::filters::kalman::{self, chi_square_quantile, Gaussian};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// Settings of the velocity filter.
     #[derive(Debug, Clone, Copy, PartialEq)]
     pub struct RpmFilter {

@@ -38,7 +38,7 @@ impl std::str::FromStr for Convention {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// What the conversions need that a ROS 2 message does not say.
     #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
     #[serde(deny_unknown_fields, default)]

@@ -47,7 +47,7 @@ impl Command {
     }
 }
 
-crate::with_defaults! {
+crate::config::with_defaults! {
     /// Gains and limits.
     #[derive(Debug, Clone, Copy, PartialEq)]
     pub struct Gains {
