@@ -163,26 +163,6 @@ pub fn prime_vertical_radius_m(lat_rad: f64) -> f64 {
     Local::at(lat_rad, 0.0).prime_vertical_radius_m
 }
 
-/// Normal gravity magnitude at latitude and ellipsoidal height, m/s^2 ([`Local`]).
-pub fn normal_gravity_m_s2(lat_rad: f64, height_m: f64) -> f64 {
-    Local::at(lat_rad, height_m).normal_gravity_m_s2()
-}
-
-/// d R_N / d latitude, m/rad.
-pub fn meridian_radius_derivative(lat_rad: f64) -> f64 {
-    Local::at(lat_rad, 0.0).meridian_radius_derivative()
-}
-
-/// d R_E / d latitude, m/rad.
-pub fn prime_vertical_radius_derivative(lat_rad: f64) -> f64 {
-    Local::at(lat_rad, 0.0).prime_vertical_radius_derivative()
-}
-
-/// Partial derivatives of [`normal_gravity_m_s2`]: (d gamma / d lat per rad, d gamma / d h per m).
-pub fn normal_gravity_partials(lat_rad: f64, height_m: f64) -> (f64, f64) {
-    Local::at(lat_rad, height_m).normal_gravity_partials()
-}
-
 /// Gravity (gravitation plus centrifugal) in NED: `[0, 0, gamma]`, along the ellipsoid normal.
 pub fn gravity_ned_m_s2(lat_rad: f64, height_m: f64) -> Vector3<f64> {
     Local::at(lat_rad, height_m).gravity_ned_m_s2()
@@ -239,6 +219,10 @@ pub fn position_of_local_m(
 mod tests {
     use super::*;
 
+    fn normal_gravity_m_s2(lat_rad: f64, height_m: f64) -> f64 {
+        Local::at(lat_rad, height_m).normal_gravity_m_s2()
+    }
+
     #[test]
     fn local_offsets_and_positions_are_inverses() {
         let (lat0, lon0) = (35.1f64.to_radians(), 129.0f64.to_radians());
@@ -279,11 +263,13 @@ mod tests {
             let h = -300.0;
             let d = 1e-6;
             let fd = |f: &dyn Fn(f64) -> f64| (f(lat + d) - f(lat - d)) / (2.0 * d);
-            assert!((meridian_radius_derivative(lat) - fd(&meridian_radius_m)).abs() < 1e-3);
+            let local = Local::at(lat, h);
+            assert!((local.meridian_radius_derivative() - fd(&meridian_radius_m)).abs() < 1e-3);
             assert!(
-                (prime_vertical_radius_derivative(lat) - fd(&prime_vertical_radius_m)).abs() < 1e-3
+                (local.prime_vertical_radius_derivative() - fd(&prime_vertical_radius_m)).abs()
+                    < 1e-3
             );
-            let (dlat, dh) = normal_gravity_partials(lat, h);
+            let (dlat, dh) = local.normal_gravity_partials();
             let g_lat = fd(&|l| normal_gravity_m_s2(l, h));
             let g_h = (normal_gravity_m_s2(lat, h + 1.0) - normal_gravity_m_s2(lat, h - 1.0)) / 2.0;
             assert!((dlat - g_lat).abs() < 1e-8, "{dlat} {g_lat}");
