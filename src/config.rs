@@ -160,6 +160,26 @@ fn dotted_keys(table: &toml::Table, prefix: &str, keys: &mut BTreeSet<String>) {
     }
 }
 
+/// The key of the first number in `value` that is not finite, dotted as a TOML file writes
+/// it (`segment[3].lane_s`; arrays counted from 1): a file may write `nan` and `inf`.
+pub fn non_finite_key(value: &impl Serialize) -> Option<String> {
+    fn find(value: &toml::Value, at: String) -> Option<String> {
+        let within = |key: &dyn std::fmt::Display| match at.is_empty() {
+            true => key.to_string(),
+            false => format!("{at}.{key}"),
+        };
+        match value {
+            toml::Value::Float(x) => (!x.is_finite()).then_some(at),
+            toml::Value::Table(t) => t.iter().find_map(|(k, v)| find(v, within(k))),
+            toml::Value::Array(a) => {
+                (a.iter().enumerate()).find_map(|(i, v)| find(v, format!("{at}[{}]", i + 1)))
+            }
+            _ => None,
+        }
+    }
+    find(&toml::Value::try_from(value).ok()?, String::new())
+}
+
 /// Lays `given` over `base`, table by table.
 fn merge(base: &mut toml::Table, given: toml::Table) {
     for (key, value) in given {

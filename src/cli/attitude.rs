@@ -3,7 +3,7 @@
 use super::choices::{self, Preset};
 use super::config_command::{self, SectionChoice};
 use super::console::{self, out, say};
-use super::{OutputFailed, PolicyArgs};
+use super::PolicyArgs;
 use anyhow::{Context, Result};
 use hindsight::attitude::compare::{self, Method, MethodRun, MethodScore, Reference};
 use hindsight::attitude::config::AttitudeConfig;
@@ -13,7 +13,7 @@ use hindsight::attitude::mag_checks::without_saturation;
 use hindsight::attitude::score::reference_from_truth;
 use hindsight::attitude::{AhrsInputs, AttitudeSample};
 use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};
-use hindsight::output::atomic::Staging;
+use hindsight::output::files::Folder;
 use hindsight::output::attitude_tables;
 use hindsight::output::plots::{thin, Plot, Series};
 use hindsight::output::report::{Block, Report, Section};
@@ -339,12 +339,7 @@ fn write_outputs(
     page: &Page<'_>,
 ) -> Result<()> {
     let attitude_against = against.as_ref().map(|a| a.name);
-    std::fs::create_dir_all(out).with_context(|| OutputFailed {
-        path: out.to_path_buf(),
-    })?;
-    let mut staging = Staging::new();
-    let mut written = Vec::new();
-    let path = out.join("attitude.parquet");
+    let mut folder = Folder::create(out)?;
     let mut batches = runs.iter().zip(scores).flat_map(|(r, s)| {
         r.attitude
             .chunks(hindsight::output::parquet::ROWS_PER_BATCH)
@@ -353,21 +348,11 @@ fn write_outputs(
     let first = batches
         .next()
         .unwrap_or_else(|| attitude_tables::attitude_batch("raw", &[], &[]))?;
-    super::write_parquet(&mut staging, &path, first, || batches.next())?;
-    written.push(path);
-
-    let path = out.join("attitude_summary.parquet");
-    super::write_parquet(
-        &mut staging,
-        &path,
-        attitude_tables::summary_batch(runs, scores, attitude_against)?,
-        || None,
-    )?;
-    written.push(path);
-
-    let report = report_of(runs, scores, against.as_ref(), (start, end), page);
-    super::write_report(&mut staging, out, &report, &mut written)?;
-    super::commit_and_list(staging, &written, out)
+    folder.parquet("attitude.parquet", first, || batches.next())?;
+    let summary = attitude_tables::summary_batch(runs, scores, attitude_against)?;
+    folder.table("attitude_summary.parquet", summary)?;
+    folder.report(&report_of(runs, scores, against.as_ref(), (start, end), page))?;
+    super::commit_and_list(folder)
 }
 
 /// The page: the comparison, what was read, the tracks, the errors against the reference,

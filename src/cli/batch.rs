@@ -4,7 +4,7 @@
 use super::console;
 use super::OutputFailed;
 use anyhow::{Context, Result};
-use hindsight::output::atomic::Staging;
+use hindsight::output::files::Folder;
 use hindsight::output::batch_tables::{batch_summary, MissionRow};
 use hindsight::output::report::{Block, Report, Section};
 use hindsight::recon::config::Config;
@@ -323,18 +323,15 @@ fn write_batch_outputs(rows: &[MissionRow], args: &BatchArgs) -> Result<PathBuf>
         Some((i, n)) => format!("{stem}.shard-{i}-of-{n}.{ext}"),
         None => format!("{stem}.{ext}"),
     };
-    let path = args.out.join(shard("batch_summary", "parquet"));
-    let mut staging = Staging::new();
-    super::write_parquet(&mut staging, &path, batch_summary(rows)?, || None)?;
-    let page = args.out.join(shard("report", "html"));
-    let html = report(rows, &args.out)
-        .to_html()
-        .with_context(|| OutputFailed { path: page.clone() })?;
-    hindsight::output::files::write_text(&mut staging, &page, &html)?;
-    staging
-        .commit()
-        .with_context(|| OutputFailed { path: path.clone() })?;
-    Ok(path)
+    let (summary, page) = (shard("batch_summary", "parquet"), shard("report", "html"));
+    let mut folder = Folder::create(&args.out)?;
+    folder.table(&summary, batch_summary(rows)?)?;
+    let html = report(rows, &args.out).to_html().with_context(|| OutputFailed {
+        path: args.out.join(&page),
+    })?;
+    folder.text(&page, &html)?;
+    folder.commit()?;
+    Ok(args.out.join(summary))
 }
 
 /// The batch's page: every mission's outcome (each mission's own report.html is in its

@@ -2,14 +2,14 @@
 
 use super::config_command::SectionChoice;
 use super::console::{out, say};
-use super::{OutputFailed, PolicyArgs};
+use super::PolicyArgs;
 use anyhow::{bail, Context, Result};
 use hindsight::identify::config::IdentifyConfig;
 use hindsight::identify::design::{suggest, Addition, DesignSettings, Suggestion};
 use hindsight::identify::record::Record;
 use hindsight::identify::settings::Settings;
 use hindsight::identify::{identify, perturbed, Identification, CHANNELS};
-use hindsight::output::atomic::Staging;
+use hindsight::output::files::Folder;
 use hindsight::output::identify_tables;
 use hindsight::output::plots::{Plot, Series};
 use hindsight::output::report::{Block, Report, Section};
@@ -373,39 +373,16 @@ fn write_outputs(
     settings: &Settings,
     findings: &Findings,
 ) -> Result<()> {
-    std::fs::create_dir_all(out).with_context(|| OutputFailed {
-        path: out.to_path_buf(),
-    })?;
-    let mut staging = Staging::new();
-    let mut written = Vec::new();
-    let mut parquet = |name: &str, batch: arrow_array::RecordBatch| -> Result<()> {
-        let path = out.join(name);
-        super::write_parquet(&mut staging, &path, batch, || None)?;
-        written.push(path);
-        Ok(())
-    };
-    parquet(
-        "coefficients.parquet",
-        identify_tables::coefficients_batch(id, model, &settings.fixed)?,
-    )?;
-    parquet(
-        "correlation.parquet",
-        identify_tables::correlation_batch(id)?,
-    )?;
-    parquet(
-        "coefficient_history.parquet",
-        identify_tables::history_batch(id, records)?,
-    )?;
-    parquet("fit.parquet", identify_tables::fit_batch(id, records)?)?;
-
-    let figures = figures(id, records, settings);
-    super::write_report(&mut staging, out, &findings.report(figures), &mut written)?;
-
-    let summary = Summary::new(id, records, settings, findings);
-    let path = out.join("summary.json");
-    super::write_json(&mut staging, &path, &summary)?;
-    written.push(path);
-    super::commit_and_list(staging, &written, out)
+    let mut folder = Folder::create(out)?;
+    let coefficients = identify_tables::coefficients_batch(id, model, &settings.fixed)?;
+    folder.table("coefficients.parquet", coefficients)?;
+    folder.table("correlation.parquet", identify_tables::correlation_batch(id)?)?;
+    let history = identify_tables::history_batch(id, records)?;
+    folder.table("coefficient_history.parquet", history)?;
+    folder.table("fit.parquet", identify_tables::fit_batch(id, records)?)?;
+    folder.report(&findings.report(figures(id, records, settings)))?;
+    folder.json("summary.json", &Summary::new(id, records, settings, findings))?;
+    super::commit_and_list(folder)
 }
 
 impl<'a> Summary<'a> {

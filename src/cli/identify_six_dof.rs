@@ -3,7 +3,6 @@
 
 use super::console::{out, say};
 use super::identify::{CoefficientArgError, IdentifyArgs};
-use super::OutputFailed;
 use anyhow::{bail, Context, Result};
 use hindsight::identify::settings::Settings;
 use hindsight::identify::six_dof::{
@@ -11,7 +10,7 @@ use hindsight::identify::six_dof::{
     VERTICAL,
 };
 use hindsight::identify::ChannelFit;
-use hindsight::output::atomic::Staging;
+use hindsight::output::files::Folder;
 use hindsight::output::identify_tables;
 use hindsight::output::report::{Block, Report, Section};
 use hindsight::vehicle::six_dof::description::{Vehicle, BUILT_IN};
@@ -366,22 +365,10 @@ const HEADERS: [&str; 7] = [
 ];
 
 fn write_outputs(out: &Path, id: &SixDofIdentification, findings: &Findings) -> Result<()> {
-    std::fs::create_dir_all(out).with_context(|| OutputFailed {
-        path: out.to_path_buf(),
-    })?;
-    let mut staging = Staging::new();
-    let mut written = Vec::new();
-    let path = out.join("coefficients.parquet");
-    super::write_parquet(
-        &mut staging,
-        &path,
-        identify_tables::six_dof_coefficients_batch(id)?,
-        || None,
-    )?;
-    written.push(path);
-    super::write_report(&mut staging, out, &findings.report(), &mut written)?;
-    let path = out.join("summary.json");
-    super::write_json(&mut staging, &path, findings)?;
-    written.push(path);
-    super::commit_and_list(staging, &written, out)
+    let mut folder = Folder::create(out)?;
+    let coefficients = identify_tables::six_dof_coefficients_batch(id)?;
+    folder.table("coefficients.parquet", coefficients)?;
+    folder.report(&findings.report())?;
+    folder.json("summary.json", findings)?;
+    super::commit_and_list(folder)
 }

@@ -85,21 +85,10 @@ pub enum Command {
     Bench(bench::BenchArgs),
 }
 
-// The commands' files are staged by the library's writers (`output::files`); their errors
-// map to the output exit status.
-use hindsight::output::files::{write_json, write_parquet, write_report};
-
-/// Renames the staged outputs of a run into place, then lists them.
-fn commit_and_list(
-    staging: hindsight::output::atomic::Staging,
-    written: &[PathBuf],
-    out: &Path,
-) -> Result<()> {
-    use anyhow::Context;
-    staging.commit().with_context(|| OutputFailed {
-        path: out.to_path_buf(),
-    })?;
-    for p in written {
+/// Renames a command's staged outputs into place (the library's writers: their errors map
+/// to the output exit status), then lists them.
+fn commit_and_list(folder: hindsight::output::files::Folder) -> Result<()> {
+    for p in folder.commit()? {
         out!("wrote {}", p.display());
     }
     Ok(())

@@ -3,9 +3,9 @@
 //! time.
 
 use super::console::{out, say};
-use super::{commit_and_list, write_parquet};
+use super::commit_and_list;
 use anyhow::{Context, Result};
-use hindsight::output::atomic::Staging;
+use hindsight::output::files::Folder;
 use hindsight::output::plots::{Plot, Series};
 use hindsight::output::report::{Block, Report, Section};
 use hindsight::output::study_tables::{error_vs_time_batch, runs_batch, summary_batch};
@@ -141,17 +141,8 @@ pub fn run(args: StudyArgs) -> Result<()> {
     let summaries = summarise(&cases, &labels, &runs);
     let curves = error_vs_time(&runs, cases.len(), solutions.len());
 
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let mut staging = Staging::new();
-    let mut written = Vec::new();
-    write_tables(
-        &mut staging,
-        &mut written,
-        &args.out,
-        (&cases, &labels),
-        (&runs, &summaries, &curves),
-    )?;
+    let mut folder = Folder::create(&args.out)?;
+    write_tables(&mut folder, (&cases, &labels), (&runs, &summaries, &curves))?;
     let plot = error_plot(&cases, &labels, &curves);
     let failed = failures(&cases, &runs);
     let ran = format!(
@@ -166,8 +157,8 @@ pub fn run(args: StudyArgs) -> Result<()> {
         &summaries,
         (&plot, &ran, &failed),
     );
-    super::write_report(&mut staging, &args.out, &report, &mut written)?;
-    commit_and_list(staging, &written, &args.out)?;
+    folder.report(&report)?;
+    commit_and_list(folder)?;
 
     say!("{ran}");
     print_summary(&summary_rows(&summaries));
@@ -225,26 +216,14 @@ fn run_all(
 
 /// runs.parquet, summary.parquet and error_vs_time.parquet.
 fn write_tables(
-    staging: &mut Staging,
-    written: &mut Vec<PathBuf>,
-    out: &std::path::Path,
+    folder: &mut Folder,
     (cases, labels): (&[Case], &[String]),
     (runs, summaries, curves): (&[RunResult], &[CaseSummary], &[TimeRow]),
 ) -> Result<()> {
-    let path = out.join("runs.parquet");
-    write_parquet(staging, &path, runs_batch(cases, labels, runs)?, || None)?;
-    written.push(path);
-    let path = out.join("summary.parquet");
-    write_parquet(staging, &path, summary_batch(summaries)?, || None)?;
-    written.push(path);
-    let path = out.join("error_vs_time.parquet");
-    write_parquet(
-        staging,
-        &path,
-        error_vs_time_batch(cases, labels, curves)?,
-        || None,
-    )?;
-    written.push(path);
+    folder.table("runs.parquet", runs_batch(cases, labels, runs)?)?;
+    folder.table("summary.parquet", summary_batch(summaries)?)?;
+    let curves = error_vs_time_batch(cases, labels, curves)?;
+    folder.table("error_vs_time.parquet", curves)?;
     Ok(())
 }
 

@@ -1,67 +1,87 @@
-//! One staged output file of each kind: JSON, Parquet, a report with its pictures.
+//! An output folder: its files staged under temporary names, each kind written one way
+//! (JSON, Parquet, text, a report with its pictures), and renamed into place together.
 
 use super::atomic::Staging;
 use super::report::Report;
 use super::WriteError;
+use arrow_array::RecordBatch;
+use arrow_schema::ArrowError;
+use std::fs::File;
 use std::path::{Path, PathBuf};
 
-/// Writes `value` as pretty JSON (and a newline) to the staged file that becomes `path`.
-pub fn write_json(
-    staging: &mut Staging,
-    path: &Path,
-    value: &impl serde::Serialize,
-) -> Result<(), WriteError> {
-    let mut file = staging.create(path).map_err(WriteError::at(path))?;
-    serde_json::to_writer_pretty(&mut file, value)
-        .map_err(std::io::Error::from)
-        .and_then(|_| std::io::Write::write_all(&mut file, b"\n"))
-        .map_err(WriteError::at(path))
+/// The files of one output folder. [`Folder::commit`] renames them all into place; a folder
+/// dropped before that removes them, so a failed run leaves no half-written file behind.
+pub struct Folder {
+    dir: PathBuf,
+    staging: Staging,
 }
 
-/// Writes `first` and the batches `next` yields as Parquet to the staged file that becomes
-/// `path`.
-pub fn write_parquet(
-    staging: &mut Staging,
-    path: &Path,
-    first: arrow_array::RecordBatch,
-    next: impl FnMut() -> Option<Result<arrow_array::RecordBatch, arrow_schema::ArrowError>>,
-) -> Result<(), WriteError> {
-    let file = staging.create(path).map_err(WriteError::at(path))?;
-    super::parquet::write_batches(file, first, next).map_err(WriteError::at(path))?;
-    Ok(())
-}
-
-/// Writes `text` to the staged file that becomes `path`.
-pub fn write_text(staging: &mut Staging, path: &Path, text: &str) -> Result<(), WriteError> {
-    let mut file = staging.create(path).map_err(WriteError::at(path))?;
-    std::io::Write::write_all(&mut file, text.as_bytes()).map_err(WriteError::at(path))
-}
-
-/// Writes `report.html` and each of its figures as `<stem>.png` beside it (drawn in
-/// parallel) into the staged files of `out`, and lists them in `written`.
-pub fn write_report(
-    staging: &mut Staging,
-    out: &Path,
-    report: &Report,
-    written: &mut Vec<PathBuf>,
-) -> Result<(), WriteError> {
-    use rayon::prelude::*;
-    let path = out.join("report.html");
-    let html = report.to_html().map_err(WriteError::at(&path))?;
-    write_text(staging, &path, &html)?;
-    written.push(path);
-    let mut pngs = Vec::new();
-    for f in report.figures() {
-        let path = out.join(format!("{}.png", f.stem));
-        let file = staging.create(&path).map_err(WriteError::at(&path))?;
-        pngs.push((path, file, &f.plot));
-    }
-    pngs.par_iter()
-        .map(|(path, file, plot)| {
-            super::plots::write_png(plot, std::io::BufWriter::new(file))
-                .map_err(WriteError::at(path))
+impl Folder {
+    /// The folder `dir`, created if missing.
+    pub fn create(dir: &Path) -> Result<Folder, WriteError> {
+        std::fs::create_dir_all(dir).map_err(WriteError::at(dir))?;
+        Ok(Folder {
+            dir: dir.to_path_buf(),
+            staging: Staging::new(),
         })
-        .collect::<Result<Vec<()>, _>>()?;
-    written.extend(pngs.into_iter().map(|(path, ..)| path));
-    Ok(())
+    }
+
+    /// The staged file that becomes `name` in the folder, and that path.
+    pub fn staged(&mut self, name: &str) -> Result<(PathBuf, File), WriteError> {
+        let path = self.dir.join(name);
+        let file = self.staging.create(&path).map_err(WriteError::at(&path))?;
+        Ok((path, file))
+    }
+
+    /// `value` as pretty JSON and a newline.
+    pub fn json(&mut self, name: &str, value: &impl serde::Serialize) -> Result<(), WriteError> {
+        let (path, mut file) = self.staged(name)?;
+        serde_json::to_writer_pretty(&mut file, value)
+            .map_err(std::io::Error::from)
+            .and_then(|_| std::io::Write::write_all(&mut file, b"\n"))
+            .map_err(WriteError::at(&path))
+    }
+
+    /// Parquet of `first` and the batches `next` yields.
+    pub fn parquet(
+        &mut self,
+        name: &str,
+        first: RecordBatch,
+        next: impl FnMut() -> Option<Result<RecordBatch, ArrowError>>,
+    ) -> Result<(), WriteError> {
+        let (path, file) = self.staged(name)?;
+        super::parquet::write_batches(file, first, next).map_err(WriteError::at(&path))?;
+        Ok(())
+    }
+
+    /// Parquet of one batch.
+    pub fn table(&mut self, name: &str, batch: RecordBatch) -> Result<(), WriteError> {
+        self.parquet(name, batch, || None)
+    }
+
+    pub fn text(&mut self, name: &str, text: &str) -> Result<(), WriteError> {
+        let (path, mut file) = self.staged(name)?;
+        std::io::Write::write_all(&mut file, text.as_bytes()).map_err(WriteError::at(&path))
+    }
+
+    /// `report.html`, and each of its figures as `<stem>.png` beside it (drawn in parallel).
+    pub fn report(&mut self, report: &Report) -> Result<(), WriteError> {
+        use rayon::prelude::*;
+        let html = report
+            .to_html()
+            .map_err(WriteError::at(&self.dir.join("report.html")))?;
+        self.text("report.html", &html)?;
+        let pngs = (report.figures())
+            .map(|f| Ok((self.staged(&format!("{}.png", f.stem))?, &f.plot)))
+            .collect::<Result<Vec<_>, WriteError>>()?;
+        pngs.into_par_iter().try_for_each(|((path, file), plot)| {
+            super::plots::write_png(plot, std::io::BufWriter::new(file))
+                .map_err(WriteError::at(&path))
+        })
+    }
+
+    /// Renames every file into place; returns their paths in the order they were written.
+    pub fn commit(self) -> Result<Vec<PathBuf>, WriteError> {
+        self.staging.commit().map_err(WriteError::at(&self.dir))
+    }
 }

@@ -9,7 +9,7 @@
 //!   smoothed rows; then residuals.parquet), trajectory.mcap (both solutions' messages, row
 //!   by row) and errors.parquet (each block's errors, from a scorer that hands them on).
 
-use super::atomic::Staging;
+use super::files::Folder;
 use super::parquet::{write_batches, TableWriter, ROWS_PER_BATCH};
 use super::recon_report::{self as report, Samples};
 use super::recon_tables;
@@ -19,7 +19,7 @@ use crate::filters::ins::record::Solution;
 use crate::recon::score::{self, EpochError};
 use crate::recon::stats::Distance;
 use crate::recon::Reconstruction;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::{mpsc, Arc};
 
 /// Epochs read back at a time (two solutions of them are 35 MB).
@@ -257,30 +257,17 @@ pub struct Tables {
 }
 
 impl Tables {
-    pub fn create(staging: &mut Staging, out: &Path, with_errors: bool) -> Result<Tables> {
-        let mut create = |name: &str| -> Result<Staged> {
-            let path = out.join(name);
-            let file = staging.create(&path).map_err(WriteError::at(&path))?;
-            Ok((path, file))
-        };
+    pub fn create(folder: &mut Folder, with_errors: bool) -> Result<Tables> {
         Ok(Tables {
-            trajectory: create("trajectory.parquet")?,
-            foxglove: create("trajectory.mcap")?,
-            residuals: create("residuals.parquet")?,
+            trajectory: folder.staged("trajectory.parquet")?,
+            foxglove: folder.staged("trajectory.mcap")?,
+            residuals: folder.staged("residuals.parquet")?,
             errors: if with_errors {
-                Some(create("errors.parquet")?)
+                Some(folder.staged("errors.parquet")?)
             } else {
                 None
             },
         })
-    }
-
-    pub fn paths(&self) -> Vec<PathBuf> {
-        [&self.trajectory, &self.foxglove, &self.residuals]
-            .into_iter()
-            .chain(&self.errors)
-            .map(|(path, _)| path.clone())
-            .collect()
     }
 }
 

@@ -7,8 +7,7 @@
 //! rayon: the report, which does, is made on the calling thread (a rayon worker's, in a
 //! batch), so that no thread waits on the pool from outside it.
 
-use super::atomic::Staging;
-use super::files::{write_json, write_report, write_text};
+use super::files::Folder;
 use super::recon_blocks::{self, Tables};
 use super::recon_report;
 use super::recon_tables;
@@ -21,27 +20,19 @@ use std::time::Instant;
 /// paths, summary.json last.
 pub fn write(r: &mut Reconstruction, dir: &Path) -> Result<Vec<PathBuf>, Error> {
     let started = Instant::now();
-    std::fs::create_dir_all(dir).map_err(WriteError::at(dir))?;
-    let mut staging = Staging::new();
-    let tables = Tables::create(&mut staging, dir, !r.truth.is_empty())?;
-    let mut written = tables.paths();
-    write_tables(r, tables)?;
+    let mut folder = Folder::create(dir)?;
+    write_tables(r, Tables::create(&mut folder, !r.truth.is_empty())?)?;
     if let Some(t) = &r.summary.tuning {
-        let path = dir.join("tuned.toml");
-        write_text(&mut staging, &path, &t.as_toml())?;
-        written.push(path);
+        folder.text("tuned.toml", &t.as_toml())?;
     }
     let report_started = Instant::now();
     r.summary.run_time_s.total = r.started.elapsed().as_secs_f64();
-    write_report(&mut staging, dir, &report(r), &mut written)?;
+    folder.report(&report(r))?;
     r.summary.run_time_s.report = report_started.elapsed().as_secs_f64();
     r.summary.run_time_s.outputs = started.elapsed().as_secs_f64();
     r.summary.run_time_s.total = r.started.elapsed().as_secs_f64();
-    let path = dir.join("summary.json");
-    write_json(&mut staging, &path, &r.summary)?;
-    written.push(path);
-    staging.commit().map_err(WriteError::at(dir))?;
-    Ok(written)
+    folder.json("summary.json", &r.summary)?;
+    Ok(folder.commit()?)
 }
 
 /// The page, from the summary, the solutions and what the log said.

@@ -11,83 +11,36 @@ use crate::geodesy;
 use crate::vehicle::six_dof::flight_plan::Phase;
 use serde::{Deserialize, Serialize};
 
-/// The scenarios shipped in the binary: (name, TOML text).
-pub const BUILT_IN: &[(&str, &str)] = &[
-    ("survey", include_str!("../../scenarios/survey.toml")),
-    (
-        "survey-short",
-        include_str!("../../scenarios/survey-short.toml"),
-    ),
-    (
-        "pool-circle",
-        include_str!("../../scenarios/pool-circle.toml"),
-    ),
-    (
-        "pool-rectangle",
-        include_str!("../../scenarios/pool-rectangle.toml"),
-    ),
-    (
-        "pool-mems-host",
-        include_str!("../../scenarios/pool-mems-host.toml"),
-    ),
-    (
-        "dive-27min",
-        include_str!("../../scenarios/dive-27min.toml"),
-    ),
-    ("long-dive", include_str!("../../scenarios/long-dive.toml")),
-    (
-        "survey-dvl-calibration",
-        include_str!("../../scenarios/survey-dvl-calibration.toml"),
-    ),
-    (
-        "trench-eml",
-        include_str!("../../scenarios/trench-eml.toml"),
-    ),
-    (
-        "trench-turn",
-        include_str!("../../scenarios/trench-turn.toml"),
-    ),
-    (
-        "auv-at-sea",
-        include_str!("../../scenarios/auv-at-sea.toml"),
-    ),
-    (
-        "auv-at-sea-straight",
-        include_str!("../../scenarios/auv-at-sea-straight.toml"),
-    ),
-    (
-        "survey-27h",
-        include_str!("../../scenarios/survey-27h.toml"),
-    ),
-    (
-        "survey-hard-iron",
-        include_str!("../../scenarios/survey-hard-iron.toml"),
-    ),
-    // Flown by the 6-DOF vehicle model and its autopilot.
-    (
-        "long-dive-dynamic",
-        include_str!("../../scenarios/long-dive-dynamic.toml"),
-    ),
-    (
-        "zigzag-rudder-20-20",
-        include_str!("../../scenarios/zigzag-rudder-20-20.toml"),
-    ),
-    (
-        "zigzag-planes-10-10",
-        include_str!("../../scenarios/zigzag-planes-10-10.toml"),
-    ),
-    (
-        "turning-circle",
-        include_str!("../../scenarios/turning-circle.toml"),
-    ),
-    (
-        "drop-entry",
-        include_str!("../../scenarios/drop-entry.toml"),
-    ),
-    (
-        "drop-no-dvl",
-        include_str!("../../scenarios/drop-no-dvl.toml"),
-    ),
+/// `(name, text)` of each `scenarios/<name>.toml`.
+macro_rules! shipped {
+    ($($name:literal),* $(,)?) => {
+        &[$(($name, include_str!(concat!("../../scenarios/", $name, ".toml")))),*]
+    };
+}
+
+/// The scenarios shipped in the binary: (name, TOML text). The last five are flown by the
+/// 6-DOF vehicle model and its autopilot.
+pub const BUILT_IN: &[(&str, &str)] = shipped![
+    "survey",
+    "survey-short",
+    "pool-circle",
+    "pool-rectangle",
+    "pool-mems-host",
+    "dive-27min",
+    "long-dive",
+    "survey-dvl-calibration",
+    "trench-eml",
+    "trench-turn",
+    "auv-at-sea",
+    "auv-at-sea-straight",
+    "survey-27h",
+    "survey-hard-iron",
+    "long-dive-dynamic",
+    "zigzag-rudder-20-20",
+    "zigzag-planes-10-10",
+    "turning-circle",
+    "drop-entry",
+    "drop-no-dvl",
 ];
 
 /// Why a scenario cannot be used.
@@ -544,10 +497,8 @@ impl Scenario {
                 }
             }
         }
-        if let Some(v) = self.sensor_numbers().into_iter().find(|v| !v.is_finite()) {
-            return Err(bad(format!(
-                "a parameter is {v}: every number of the mission, start and sensors must be finite"
-            )));
+        if let Some(key) = crate::config::non_finite_key(self) {
+            return Err(bad(format!("{key} is not a finite number")));
         }
         if self.motion.numbers().iter().any(|&x| x < 0.0)
             || self.imu.gyro.quantum_rad_s < 0.0
@@ -651,99 +602,10 @@ impl Scenario {
         Ok(())
     }
 
-    /// Every number of the mission, start and sensor sections (segments check their own).
-    fn sensor_numbers(&self) -> Vec<f64> {
-        let g = &self.imu.gyro;
-        let a = &self.imu.accel;
-        let mut v = vec![
-            self.tail_s,
-            self.truth_rate_hz,
-            self.mission.origin_latitude_deg,
-            self.mission.origin_longitude_deg,
-            self.start.north_m,
-            self.start.east_m,
-            self.start.depth_m,
-            self.start.yaw_deg,
-            self.start.speed_m_s,
-            self.start.turn_rate_deg_s,
-            self.start.roll_deg,
-            self.start.pitch_deg,
-            self.imu.latency_s,
-            self.imu.host_burst_s,
-            g.bias_deg_h,
-            g.bias_instability_deg_h,
-            g.bias_correlation_s,
-            g.scale_ppm,
-            g.misalignment_mrad,
-            g.arw_deg_rt_h,
-            g.quantum_rad_s,
-            a.quantum_m_s2,
-            a.bias_ug,
-            a.bias_instability_ug,
-            a.bias_correlation_s,
-            a.scale_ppm,
-            a.misalignment_mrad,
-            a.vrw_ug_rt_hz,
-            self.seabed.bearing_deg,
-        ];
-        if let Some(m) = &self.mag {
-            v.extend(
-                m.field_ned_nt
-                    .iter()
-                    .chain(&m.hard_iron_nt)
-                    .chain(m.soft_iron.iter().flatten()),
-            );
-            v.push(m.noise_nt);
-            if let Some(steel) = &m.steel {
-                v.extend([steel.north_m, steel.east_m, steel.radius_m]);
-                v.extend(steel.field_ned_nt);
-            }
-        }
-        if let Some(d) = &self.dvl {
-            v.extend([
-                d.scale,
-                d.bias_m_s,
-                d.noise_m_s,
-                d.max_altitude_m,
-                d.out_of_range_noise_m_s,
-                d.latency_s,
-                d.stamp_delay_s,
-                d.correlated_m_s,
-                d.correlation_s,
-            ]);
-            v.extend(d.until_s);
-        }
-        for s in [&self.eml, &self.depth, &self.altimeter]
-            .into_iter()
-            .flatten()
-        {
-            v.extend([s.latency_s, s.errors.scale, s.errors.bias, s.errors.noise]);
-        }
-        if let Some(r) = &self.rpm {
-            v.extend([r.model.k_m_s_per_rpm, r.model.k_error, r.model.noise_m_s]);
-        }
-        if let Some(g) = &self.gnss {
-            v.extend([g.sigma_m, g.surface_depth_m]);
-        }
-        if let Some(f) = &self.fixes {
-            v.extend([f.mark_sigma_m, f.usbl_every_s, f.usbl_sigma_m]);
-        }
-        v.extend(self.seabed.profile.iter().flatten());
-        if let Some(d) = &self.dynamics {
-            v.extend([
-                d.speed_m_s,
-                d.max_vertical_rate_m_s,
-                d.max_turn_rate_deg_s,
-                d.coef_uncertainty,
-            ]);
-        }
-        v.extend(self.phases.iter().flat_map(Phase::numbers));
-        v.extend(self.fins.map(|f| f.rate_hz));
-        v
-    }
-
-    /// The truth trajectory of the segments (kinematic scenarios).
+    /// The truth trajectory of the segments (kinematic scenarios), checked first as a file
+    /// is (a scenario may be built in code).
     pub fn trajectory(&self) -> Result<Trajectory, ScenarioError> {
+        self.check()?;
         if self.dynamics.is_some() {
             return Err(ScenarioError::Invalid {
                 name: self.name.clone(),
@@ -773,57 +635,7 @@ impl Scenario {
     }
 }
 
-impl Segment {
-    /// Every number of the segment.
-    fn numbers(&self) -> Vec<f64> {
-        match *self {
-            Segment::Cruise { duration_s } => vec![duration_s],
-            Segment::Speed { to_m_s, ramp_s } => vec![to_m_s, ramp_s],
-            Segment::Turn {
-                angle_deg,
-                rate_deg_s,
-                ramp_s,
-            } => vec![angle_deg, rate_deg_s, ramp_s],
-            Segment::Depth {
-                to_m,
-                pitch_deg,
-                ramp_s,
-            } => vec![to_m, pitch_deg, ramp_s],
-            Segment::Surface { pitch_deg, ramp_s } => vec![pitch_deg, ramp_s],
-            Segment::Spiral {
-                angle_deg,
-                rate_deg_s,
-                to_m,
-                pitch_deg,
-                ramp_s,
-            } => {
-                vec![angle_deg, rate_deg_s, to_m, pitch_deg, ramp_s]
-            }
-            Segment::Zigzag {
-                angle_deg,
-                leg_s,
-                rate_deg_s,
-                ramp_s,
-                ..
-            } => vec![angle_deg, leg_s, rate_deg_s, ramp_s],
-            Segment::Lawnmower {
-                lane_s,
-                rate_deg_s,
-                ramp_s,
-                ..
-            } => vec![lane_s, rate_deg_s, ramp_s],
-            Segment::Hold { duration_s, ramp_s } => vec![duration_s, ramp_s],
-        }
-    }
-}
-
 fn apply(b: &mut TrajectoryBuilder, seg: &Segment) -> Result<(), SegmentError> {
-    if seg.numbers().iter().any(|v| !v.is_finite()) {
-        return Err(SegmentError::Impossible {
-            t_s: b.time_s(),
-            reason: format!("{seg:?} has a value that is not a finite number"),
-        });
-    }
     let r = f64::to_radians;
     match *seg {
         Segment::Cruise { duration_s } => {
@@ -985,7 +797,6 @@ mod tests {
                 "pitch_deg = 10.0\nramp_s = 8.0",
                 "pitch_deg = 0.0\nramp_s = 8.0",
             ),
-            ("lane_s = 60.0", "lane_s = nan"),
         ] {
             assert!(base.contains(from), "{from}");
             let s = Scenario::from_toml(&base.replacen(from, to, 1)).unwrap();
@@ -1004,11 +815,13 @@ mod tests {
             Scenario::from_toml(&bad),
             Err(ScenarioError::Invalid { .. })
         ));
-        let nan = text.replacen("noise_nt = 100.0", "noise_nt = nan", 1);
-        assert!(matches!(
-            Scenario::from_toml(&nan),
-            Err(ScenarioError::Invalid { .. })
-        ));
+        for (from, to, says) in [
+            ("noise_nt = 100.0", "noise_nt = nan", "mag.noise_nt is not"),
+            ("lane_s = 500.0", "lane_s = inf", "segment[4].lane_s is not"),
+        ] {
+            let err = Scenario::from_toml(&text.replacen(from, to, 1)).unwrap_err();
+            assert!(err.to_string().contains(says), "{err}");
+        }
         // Dynamic scenarios: phases checked, and no mixing with kinematic segments.
         let zigzag = Scenario::built_in("zigzag-rudder-20-20")
             .map(|_| {

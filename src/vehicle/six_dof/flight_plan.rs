@@ -118,31 +118,6 @@ impl Phase {
             _ => None,
         }
     }
-
-    /// Every number, for the scenario's finiteness check.
-    pub fn numbers(&self) -> Vec<f64> {
-        let mut v = vec![self.duration_s()];
-        match *self {
-            Phase::Cruise { heading_deg, .. } => v.extend(heading_deg),
-            Phase::Spiral { rate_deg_s, .. } => v.push(rate_deg_s),
-            Phase::HeadingZigzag {
-                angle_deg, leg_s, ..
-            } => v.extend([angle_deg, leg_s]),
-            Phase::RudderZigzag {
-                rudder_deg,
-                trigger_deg,
-                ..
-            } => v.extend([rudder_deg, trigger_deg]),
-            Phase::PlaneZigzag {
-                plane_deg,
-                trigger_deg,
-                ..
-            } => v.extend([plane_deg, trigger_deg]),
-            Phase::TurningCircle { rudder_deg, .. } => v.extend(rudder_deg),
-        }
-        v.extend(self.depth_target());
-        v
-    }
 }
 
 /// A plan: the phases, the commanded speed and the references' limits.
