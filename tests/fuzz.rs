@@ -343,7 +343,7 @@ fn short_log(options: WriterOptions) -> Vec<u8> {
         seed: 5,
         ..SurveySpec::default()
     };
-    to_bytes(options, |w| write_survey(w, &spec).map(|_| ())).expect("in-memory write")
+    to_bytes(options, |w| write_survey(w, &spec)).expect("in-memory write")
 }
 
 /// Where an MCAP file's records start (after the magic): `(offset, opcode, length)`.

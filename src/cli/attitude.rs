@@ -13,8 +13,8 @@ use hindsight::attitude::mag_checks::without_saturation;
 use hindsight::attitude::score::reference_from_truth;
 use hindsight::attitude::{AhrsInputs, AttitudeSample};
 use hindsight::contract::{Dvl, Imu, MagneticField, PositionFix, Truth};
-use hindsight::output::files::Folder;
 use hindsight::output::attitude_tables;
+use hindsight::output::files::Folder;
 use hindsight::output::plots::{thin, Plot, Series};
 use hindsight::output::report::{Block, Report, Section};
 use nalgebra::Vector3;
@@ -351,7 +351,13 @@ fn write_outputs(
     folder.parquet("attitude.parquet", first, || batches.next())?;
     let summary = attitude_tables::summary_batch(runs, scores, attitude_against)?;
     folder.table("attitude_summary.parquet", summary)?;
-    folder.report(&report_of(runs, scores, against.as_ref(), (start, end), page))?;
+    folder.report(&report_of(
+        runs,
+        scores,
+        against.as_ref(),
+        (start, end),
+        page,
+    ))?;
     super::commit_and_list(folder)
 }
 

@@ -4,8 +4,8 @@
 use super::console;
 use super::OutputFailed;
 use anyhow::{Context, Result};
-use hindsight::output::files::Folder;
 use hindsight::output::batch_tables::{batch_summary, MissionRow};
+use hindsight::output::files::Folder;
 use hindsight::output::report::{Block, Report, Section};
 use hindsight::recon::config::Config;
 use rayon::prelude::*;
@@ -326,9 +326,11 @@ fn write_batch_outputs(rows: &[MissionRow], args: &BatchArgs) -> Result<PathBuf>
     let (summary, page) = (shard("batch_summary", "parquet"), shard("report", "html"));
     let mut folder = Folder::create(&args.out)?;
     folder.table(&summary, batch_summary(rows)?)?;
-    let html = report(rows, &args.out).to_html().with_context(|| OutputFailed {
-        path: args.out.join(&page),
-    })?;
+    let html = report(rows, &args.out)
+        .to_html()
+        .with_context(|| OutputFailed {
+            path: args.out.join(&page),
+        })?;
     folder.text(&page, &html)?;
     folder.commit()?;
     Ok(args.out.join(summary))

@@ -172,7 +172,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if let Some(form) = form {
         return with_log_file(
             None,
-            |w| Ok(synthetic::write_survey(w, &spec).map(|_| ())?),
+            |w| Ok(synthetic::write_survey(w, &spec)?),
             |json| {
                 let log = ingest::read_log(json, &IngestOptions::default())?;
                 bench_as(&log, form, args.keep.as_deref(), args.repeat)
@@ -181,7 +181,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     with_log_file(
         args.keep.as_deref(),
-        |w| Ok(synthetic::write_survey(w, &spec).map(|_| ())?),
+        |w| Ok(synthetic::write_survey(w, &spec)?),
         |path| measure(path, args.repeat),
     )
 }

@@ -376,12 +376,18 @@ fn write_outputs(
     let mut folder = Folder::create(out)?;
     let coefficients = identify_tables::coefficients_batch(id, model, &settings.fixed)?;
     folder.table("coefficients.parquet", coefficients)?;
-    folder.table("correlation.parquet", identify_tables::correlation_batch(id)?)?;
+    folder.table(
+        "correlation.parquet",
+        identify_tables::correlation_batch(id)?,
+    )?;
     let history = identify_tables::history_batch(id, records)?;
     folder.table("coefficient_history.parquet", history)?;
     folder.table("fit.parquet", identify_tables::fit_batch(id, records)?)?;
     folder.report(&findings.report(figures(id, records, settings)))?;
-    folder.json("summary.json", &Summary::new(id, records, settings, findings))?;
+    folder.json(
+        "summary.json",
+        &Summary::new(id, records, settings, findings),
+    )?;
     super::commit_and_list(folder)
 }
 

@@ -2,8 +2,8 @@
 //! case, in parallel, with the runs' and the cases' tables and a plot of the error against
 //! time.
 
-use super::console::{out, say};
 use super::commit_and_list;
+use super::console::{out, say};
 use anyhow::{Context, Result};
 use hindsight::output::files::Folder;
 use hindsight::output::plots::{Plot, Series};

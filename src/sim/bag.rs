@@ -231,7 +231,7 @@ mod tests {
                 duration_s: 20.0,
                 ..Default::default()
             };
-            crate::sim::synthetic::write_survey(w, &spec).map(|_| ())
+            crate::sim::synthetic::write_survey(w, &spec)
         })
         .unwrap();
         let log = read_log_from(&json[..], &IngestOptions::default()).unwrap();

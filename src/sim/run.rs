@@ -142,7 +142,7 @@ pub fn run_with_progress<W: Write + Seek>(
     write_mission(scenario, seed, w)?;
     let mut sensors = Sensors::new(scenario, seed);
     let end_ns = secs_ns(truth.duration_s());
-    let (mut count, mut t_ns) = (0u64, 0i64);
+    let (written_before, mut t_ns) = (w.messages(), 0i64);
     let progress_every_ns = (end_ns / 100).max(1);
     let mut next_progress_ns = 0;
     loop {
@@ -156,14 +156,14 @@ pub fn run_with_progress<W: Write + Seek>(
             last: t_ns + dt_ns > end_ns,
             ..sensors.tick(scenario, truth, t_ns)
         };
-        count += sensors.write(scenario, &tick, w)?;
+        sensors.write(scenario, &tick, w)?;
         if tick.last {
             break;
         }
         t_ns += dt_ns;
     }
     Ok(RunSummary {
-        messages: count,
+        messages: w.messages() - written_before,
         duration_s: t_ns as f64 * 1e-9,
     })
 }
@@ -327,26 +327,26 @@ impl Sensors {
         }
     }
 
-    /// Every reading due at the tick, in the log's order; returns how many were written.
+    /// Every reading due at the tick, in the log's order.
     fn write<W: Write + Seek>(
         &mut self,
         scenario: &Scenario,
         tick: &Tick,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
-        let mut count = self.imu(scenario, tick, w)?;
-        count += self.mag(tick, w)?;
-        count += self.dvl(tick, w)?;
-        count += self.eml(scenario, tick, w)?;
+    ) -> Result<(), WriteError> {
+        self.imu(scenario, tick, w)?;
+        self.mag(tick, w)?;
+        self.dvl(tick, w)?;
+        self.eml(scenario, tick, w)?;
         self.previous_speed = Some((tick.t_ns, tick.sample.speed_m_s));
-        count += Self::scalar(&mut self.depth, "/depth", tick, tick.depth_m, w)?;
-        count += Self::scalar(&mut self.altimeter, "/altimeter", tick, tick.altitude_m, w)?;
-        count += self.rpm(tick, w)?;
-        count += self.fins(tick, w)?;
-        count += self.gnss(tick, w)?;
-        count += self.fixes(scenario, tick, w)?;
-        count += self.truth(tick, w)?;
-        Ok(count)
+        Self::scalar(&mut self.depth, "/depth", tick, tick.depth_m, w)?;
+        Self::scalar(&mut self.altimeter, "/altimeter", tick, tick.altitude_m, w)?;
+        self.rpm(tick, w)?;
+        self.fins(tick, w)?;
+        self.gnss(tick, w)?;
+        self.fixes(scenario, tick, w)?;
+        self.truth(tick, w)?;
+        Ok(())
     }
 
     fn imu<W: Write + Seek>(
@@ -354,7 +354,7 @@ impl Sensors {
         scenario: &Scenario,
         tick: &Tick,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
+    ) -> Result<(), WriteError> {
         let dt_s = tick.dt_ns as f64 * 1e-9;
         let s = &tick.sample;
         let ideal = perfect_imu(&s.motion, s.lat_rad, s.height_m);
@@ -365,20 +365,19 @@ impl Sensors {
             specific_force: self.accel.measure(&ideal.specific_force_body, dt_s).into(),
         };
         let log_ns = (host_ns + secs_ns(scenario.imu.latency_s)).max(0) as u64;
-        w.write("/imu", &imu, log_ns)?;
-        Ok(1)
+        w.write("/imu", &imu, log_ns)
     }
 
     fn mag<W: Write + Seek>(
         &mut self,
         tick: &Tick,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
+    ) -> Result<(), WriteError> {
         let Some((m, sched)) = self.mag.as_mut() else {
-            return Ok(0);
+            return Ok(());
         };
         if !sched.due(tick.t_ns) {
-            return Ok(0);
+            return Ok(());
         }
         let ned_from_body = &tick.sample.motion.ned_from_body;
         let msg = MagneticField {
@@ -387,20 +386,19 @@ impl Sensors {
                 .measure_at(ned_from_body, tick.north_m, tick.east_m)
                 .into(),
         };
-        w.write("/mag", &msg, tick.log_ns(0.0))?;
-        Ok(1)
+        w.write("/mag", &msg, tick.log_ns(0.0))
     }
 
     fn dvl<W: Write + Seek>(
         &mut self,
         tick: &Tick,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
+    ) -> Result<(), WriteError> {
         let Some((d, sched, latency)) = self.dvl.as_mut() else {
-            return Ok(0);
+            return Ok(());
         };
         if !(sched.due(tick.t_ns) && tick.t_ns <= self.dvl_until_ns) {
-            return Ok(0);
+            return Ok(());
         }
         let omega = &tick.sample.motion.omega_nb_body;
         let r = d.measure(&tick.vel_body, omega, tick.altitude_m);
@@ -415,8 +413,7 @@ impl Sensors {
             "/dvl",
             &msg,
             tick.log_ns(*latency) + self.dvl_delay_ns as u64,
-        )?;
-        Ok(1)
+        )
     }
 
     fn eml<W: Write + Seek>(
@@ -424,12 +421,12 @@ impl Sensors {
         scenario: &Scenario,
         tick: &Tick,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
+    ) -> Result<(), WriteError> {
         let Some((s, sched, latency)) = self.eml.as_mut() else {
-            return Ok(0);
+            return Ok(());
         };
         let Some(at_ns) = sched.due_at(tick.t_ns) else {
-            return Ok(0);
+            return Ok(());
         };
         let speed_now = tick.sample.speed_m_s;
         // On the sensor's own clock: the truth between the last tick and this one.
@@ -441,8 +438,7 @@ impl Sensors {
             _ => (tick.stamp_ns, speed_now),
         };
         let speed = s.measure(true_speed).max(0.0);
-        w.write("/eml", &SpeedLog { stamp_ns, speed }, tick.log_ns(*latency))?;
-        Ok(1)
+        w.write("/eml", &SpeedLog { stamp_ns, speed }, tick.log_ns(*latency))
     }
 
     /// A depth sensor's or an altimeter's reading of `value`, when due.
@@ -452,35 +448,34 @@ impl Sensors {
         tick: &Tick,
         value: f64,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
+    ) -> Result<(), WriteError> {
         let Some((s, sched, latency)) = sensor.as_mut() else {
-            return Ok(0);
+            return Ok(());
         };
         if !sched.due(tick.t_ns) {
-            return Ok(0);
+            return Ok(());
         }
         let stamp_ns = tick.stamp_ns;
         let log_ns = tick.log_ns(*latency);
         if topic == "/depth" {
             let depth = s.measure(value);
-            w.write(topic, &Depth { stamp_ns, depth }, log_ns)?;
+            w.write(topic, &Depth { stamp_ns, depth }, log_ns)
         } else {
             let altitude = s.measure(value).max(0.0);
-            w.write(topic, &Altimeter { stamp_ns, altitude }, log_ns)?;
+            w.write(topic, &Altimeter { stamp_ns, altitude }, log_ns)
         }
-        Ok(1)
     }
 
     fn rpm<W: Write + Seek>(
         &mut self,
         tick: &Tick,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
+    ) -> Result<(), WriteError> {
         let Some((prop, sched)) = self.rpm.as_mut() else {
-            return Ok(0);
+            return Ok(());
         };
         if !sched.due(tick.t_ns) {
-            return Ok(0);
+            return Ok(());
         }
         // Dynamic: the propeller's own speed; kinematic: from the speed (seed 002).
         let rpm = match tick.sample.actuators {
@@ -488,20 +483,19 @@ impl Sensors {
             None => prop.measure(tick.sample.speed_m_s),
         };
         let stamp_ns = tick.stamp_ns;
-        w.write("/rpm", &Propeller { stamp_ns, rpm }, tick.log_ns(0.0))?;
-        Ok(1)
+        w.write("/rpm", &Propeller { stamp_ns, rpm }, tick.log_ns(0.0))
     }
 
     fn fins<W: Write + Seek>(
         &mut self,
         tick: &Tick,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
+    ) -> Result<(), WriteError> {
         let (Some(sched), Some(a)) = (self.fins.as_mut(), tick.sample.actuators) else {
-            return Ok(0);
+            return Ok(());
         };
         if !sched.due(tick.t_ns) {
-            return Ok(0);
+            return Ok(());
         }
         let msg = ControlSurfaces {
             stamp_ns: tick.stamp_ns,
@@ -509,20 +503,19 @@ impl Sensors {
             bow_plane: a.bow_rad,
             stern_plane: a.stern_rad,
         };
-        w.write("/fins", &msg, tick.log_ns(0.0))?;
-        Ok(1)
+        w.write("/fins", &msg, tick.log_ns(0.0))
     }
 
     fn gnss<W: Write + Seek>(
         &mut self,
         tick: &Tick,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
+    ) -> Result<(), WriteError> {
         let Some((g, sched)) = self.gnss.as_mut() else {
-            return Ok(0);
+            return Ok(());
         };
         if !(sched.due(tick.t_ns) && tick.depth_m <= g.surface_depth_m) {
-            return Ok(0);
+            return Ok(());
         }
         let (lat, lon) = (tick.sample.lat_rad, tick.sample.lon_rad);
         let dn = g.sigma_m * normal(&mut self.gnss_rng);
@@ -534,8 +527,7 @@ impl Sensors {
             longitude_deg: (lon + de / east_radius).to_degrees(),
             horizontal_sigma_m: g.sigma_m,
         };
-        w.write("/gnss", &fix, tick.log_ns(0.1))?;
-        Ok(1)
+        w.write("/gnss", &fix, tick.log_ns(0.1))
     }
 
     /// The start and end marks, and the USBL-like fixes.
@@ -544,9 +536,9 @@ impl Sensors {
         scenario: &Scenario,
         tick: &Tick,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
+    ) -> Result<(), WriteError> {
         let Some(f) = scenario.fixes else {
-            return Ok(0);
+            return Ok(());
         };
         let rng = &mut self.fix_rng;
         let mut fix = |label: &str, sigma: f64, down: Option<f64>| {
@@ -560,30 +552,27 @@ impl Sensors {
             };
             w.write("/position_fix", &msg, tick.log_ns(0.5))
         };
-        let mut count = 0;
         if f.mark_sigma_m > 0.0 && (tick.t_ns == 0 || tick.last) {
             let label = if tick.t_ns == 0 { "start" } else { "end" };
             fix(label, f.mark_sigma_m, None)?;
-            count += 1;
         }
         if let Some(sched) = self.usbl.as_mut() {
             if tick.t_ns > 0 && sched.due(tick.t_ns) {
                 fix("usbl", f.usbl_sigma_m, Some(tick.depth_m))?;
-                count += 1;
             } else if tick.t_ns == 0 {
                 sched.due(0);
             }
         }
-        Ok(count)
+        Ok(())
     }
 
     fn truth<W: Write + Seek>(
         &mut self,
         tick: &Tick,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
+    ) -> Result<(), WriteError> {
         if !self.truth.due(tick.t_ns) {
-            return Ok(0);
+            return Ok(());
         }
         let s = &tick.sample;
         let truth = Truth {
@@ -598,7 +587,6 @@ impl Sensors {
             attitude: s.euler_rad,
             angular_velocity: s.motion.omega_nb_body.into(),
         };
-        w.write("/truth", &truth, tick.log_ns(0.0))?;
-        Ok(1)
+        w.write("/truth", &truth, tick.log_ns(0.0))
     }
 }

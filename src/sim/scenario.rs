@@ -438,31 +438,29 @@ impl Scenario {
     pub fn with_imu_rate(&self, rate_hz: f64) -> Result<Scenario, ScenarioError> {
         let mut s = self.clone();
         s.imu.rate_hz = rate_hz;
-        let cap = |r: &mut f64| *r = r.min(rate_hz);
-        if let Some(x) = s.mag.as_mut() {
-            cap(&mut x.rate_hz);
+        for (_, r) in s.rates_mut() {
+            *r = r.min(rate_hz);
         }
-        if let Some(x) = s.dvl.as_mut() {
-            cap(&mut x.rate_hz);
-        }
-        for x in [s.eml.as_mut(), s.depth.as_mut(), s.altimeter.as_mut()]
-            .into_iter()
-            .flatten()
-        {
-            cap(&mut x.rate_hz);
-        }
-        if let Some(x) = s.rpm.as_mut() {
-            cap(&mut x.rate_hz);
-        }
-        if let Some(x) = s.gnss.as_mut() {
-            cap(&mut x.rate_hz);
-        }
-        if let Some(x) = s.fins.as_mut() {
-            cap(&mut x.rate_hz);
-        }
-        cap(&mut s.truth_rate_hz);
         s.check()?;
         Ok(s)
+    }
+
+    /// Every sensor's rate but the IMU's, by section, Hz.
+    fn rates_mut(&mut self) -> Vec<(&'static str, &mut f64)> {
+        let mut rates = vec![("truth", &mut self.truth_rate_hz)];
+        rates.extend(self.mag.as_mut().map(|x| ("mag", &mut x.rate_hz)));
+        rates.extend(self.dvl.as_mut().map(|x| ("dvl", &mut x.rate_hz)));
+        rates.extend(self.eml.as_mut().map(|x| ("eml", &mut x.rate_hz)));
+        rates.extend(self.depth.as_mut().map(|x| ("depth", &mut x.rate_hz)));
+        rates.extend(
+            self.altimeter
+                .as_mut()
+                .map(|x| ("altimeter", &mut x.rate_hz)),
+        );
+        rates.extend(self.rpm.as_mut().map(|x| ("rpm", &mut x.rate_hz)));
+        rates.extend(self.gnss.as_mut().map(|x| ("gnss", &mut x.rate_hz)));
+        rates.extend(self.fins.as_mut().map(|x| ("fins", &mut x.rate_hz)));
+        rates
     }
 
     fn check(&self) -> Result<(), ScenarioError> {
@@ -477,24 +475,11 @@ impl Scenario {
                 self.imu.rate_hz
             )));
         }
-        let rates = [
-            ("mag", self.mag.map(|m| m.rate_hz)),
-            ("dvl", self.dvl.map(|d| d.rate_hz)),
-            ("eml", self.eml.map(|d| d.rate_hz)),
-            ("depth", self.depth.map(|d| d.rate_hz)),
-            ("altimeter", self.altimeter.map(|d| d.rate_hz)),
-            ("rpm", self.rpm.map(|d| d.rate_hz)),
-            ("gnss", self.gnss.map(|d| d.rate_hz)),
-            ("fins", self.fins.map(|d| d.rate_hz)),
-            ("truth", Some(self.truth_rate_hz)),
-        ];
-        for (name, rate) in rates {
-            if let Some(r) = rate {
-                if !rate_ok(r) {
-                    return Err(bad(format!(
-                        "{name}.rate_hz {r} must be above 0 and at most the IMU rate"
-                    )));
-                }
+        for (name, &mut r) in self.clone().rates_mut() {
+            if !rate_ok(r) {
+                return Err(bad(format!(
+                    "{name}.rate_hz {r} must be above 0 and at most the IMU rate"
+                )));
             }
         }
         if let Some(key) = crate::config::non_finite_key(self) {

@@ -156,11 +156,11 @@ fn survey_mission(spec: &SurveySpec) -> Mission {
     }
 }
 
-/// Writes the survey; returns the number of messages written.
+/// Writes the survey.
 pub fn write_survey<W: Write + Seek>(
     w: &mut LogWriter<W>,
     spec: &SurveySpec,
-) -> Result<u64, WriteError> {
+) -> Result<(), WriteError> {
     let mut noise = Noise::new(spec.seed);
     let mission = survey_mission(spec);
     w.write_mission(&mission)?;
@@ -169,7 +169,6 @@ pub fn write_survey<W: Write + Seek>(
     let ticks = (spec.duration_s * f64::from(rate)).round() as i64;
     let dt = 1.0 / f64::from(rate);
     let (mut north, mut east) = (0.0f64, 0.0f64);
-    let mut count = 0u64;
     for k in 0..=ticks {
         let t = k as f64 * dt;
         let tick = SurveyTick {
@@ -180,22 +179,22 @@ pub fn write_survey<W: Write + Seek>(
             north,
             east,
         };
-        count += write_imu(w, &tick, &mut noise)?;
-        count += write_aiding(w, spec, &tick, rate, &mut noise)?;
-        count += write_vehicle(w, &tick, rate)?;
-        count += write_references(w, spec, &tick, (rate, ticks), &mission)?;
+        write_imu(w, &tick, &mut noise)?;
+        write_aiding(w, spec, &tick, rate, &mut noise)?;
+        write_vehicle(w, &tick, rate)?;
+        write_references(w, spec, &tick, (rate, ticks), &mission)?;
         let v_ned = tick.v_ned();
         north += v_ned[0] * dt;
         east += v_ned[1] * dt;
     }
-    Ok(count)
+    Ok(())
 }
 
 fn write_imu<W: Write + Seek>(
     w: &mut LogWriter<W>,
     tick: &SurveyTick,
     noise: &mut Noise,
-) -> Result<u64, WriteError> {
+) -> Result<(), WriteError> {
     let kin = &tick.kin;
     let (sr, cr) = kin.roll.sin_cos();
     let (sp, cp) = kin.pitch.sin_cos();
@@ -212,8 +211,7 @@ fn write_imu<W: Write + Seek>(
         angular_velocity: std::array::from_fn(|i| kin.rates[i] + gyro_noise[i]),
         specific_force: std::array::from_fn(|i| -g_body[i] + acc_noise[i]),
     };
-    w.write("/imu", &imu, tick.log_ns(1))?;
-    Ok(1)
+    w.write("/imu", &imu, tick.log_ns(1))
 }
 
 /// The aiding sensors' readings due at the tick: magnetometer, DVL, EM log, depth,
@@ -224,10 +222,9 @@ fn write_aiding<W: Write + Seek>(
     tick: &SurveyTick,
     rate: u32,
     noise: &mut Noise,
-) -> Result<u64, WriteError> {
+) -> Result<(), WriteError> {
     let (kin, stamp_ns, k) = (&tick.kin, tick.stamp_ns, tick.k);
     let due = |hz: u32| k % i64::from(rate / hz) == 0;
-    let mut count = 0;
     if due(MAG_HZ) {
         // Earth field about 50 uT, dipping 50 deg, seen in the body (heading only).
         let (h, z) = (3.2e-5, 3.8e-5);
@@ -242,7 +239,6 @@ fn write_aiding<W: Write + Seek>(
             magnetic_field,
         };
         w.write("/mag", &m, tick.log_ns(1))?;
-        count += 1;
     }
     if due(DVL_HZ) {
         // DVL loses bottom lock over the middle tenth of the run.
@@ -259,17 +255,14 @@ fn write_aiding<W: Write + Seek>(
             altitude: locked.then_some(SEABED_M - kin.depth),
         };
         w.write("/dvl", &dvl, tick.log_ns(50))?;
-        count += 1;
     }
     if due(EML_HZ) {
         let speed = (SPEED_M_S + 0.1 + noise.draw(noise.speed)).max(0.0);
         w.write("/eml", &SpeedLog { stamp_ns, speed }, tick.log_ns(5))?;
-        count += 1;
     }
     if due(DEPTH_HZ) {
         let depth = kin.depth + noise.draw(noise.depth);
         w.write("/depth", &Depth { stamp_ns, depth }, tick.log_ns(5))?;
-        count += 1;
     }
     if due(ALTIMETER_HZ) {
         let altitude = SEABED_M - kin.depth + noise.draw(noise.depth);
@@ -278,14 +271,12 @@ fn write_aiding<W: Write + Seek>(
             &Altimeter { stamp_ns, altitude },
             tick.log_ns(20),
         )?;
-        count += 1;
     }
     if due(RPM_HZ) {
         let rpm = 1200.0 + 5.0 * noise.draw(noise.speed);
         w.write("/rpm", &Propeller { stamp_ns, rpm }, tick.log_ns(2))?;
-        count += 1;
     }
-    Ok(count)
+    Ok(())
 }
 
 /// The vehicle's own records due at the tick: fins and attitude.
@@ -293,10 +284,9 @@ fn write_vehicle<W: Write + Seek>(
     w: &mut LogWriter<W>,
     tick: &SurveyTick,
     rate: u32,
-) -> Result<u64, WriteError> {
+) -> Result<(), WriteError> {
     let (kin, stamp_ns) = (&tick.kin, tick.stamp_ns);
     let due = |hz: u32| tick.k % i64::from(rate / hz) == 0;
-    let mut count = 0;
     if due(FINS_HZ) {
         let fins = ControlSurfaces {
             stamp_ns,
@@ -305,7 +295,6 @@ fn write_vehicle<W: Write + Seek>(
             stern_plane: -2.0 * kin.rates[1],
         };
         w.write("/fins", &fins, tick.log_ns(2))?;
-        count += 1;
     }
     if due(ATTITUDE_HZ) {
         let att = Attitude {
@@ -315,9 +304,8 @@ fn write_vehicle<W: Write + Seek>(
             yaw: wrap_pi(kin.yaw),
         };
         w.write("/attitude", &att, tick.log_ns(3))?;
-        count += 1;
     }
-    Ok(count)
+    Ok(())
 }
 
 /// The surfaced fixes at the start and the end, and the truth.
@@ -327,10 +315,9 @@ fn write_references<W: Write + Seek>(
     tick: &SurveyTick,
     (rate, ticks): (u32, i64),
     mission: &Mission,
-) -> Result<u64, WriteError> {
+) -> Result<(), WriteError> {
     let stamp_ns = tick.stamp_ns;
     let (latitude_deg, longitude_deg) = tick.lat_lon_deg(mission);
-    let mut count = 0;
     let label = match tick.k {
         0 => Some("start"),
         k if k == ticks => Some("end"),
@@ -353,7 +340,6 @@ fn write_references<W: Write + Seek>(
             label: label.into(),
         };
         w.write("/position_fix", &fix, tick.log_ns(100))?;
-        count += 2;
     }
     if spec.truth && tick.k % i64::from(rate / TRUTH_HZ) == 0 {
         let kin = &tick.kin;
@@ -370,7 +356,6 @@ fn write_references<W: Write + Seek>(
             angular_velocity: kin.rates,
         };
         w.write("/truth", &truth, tick.log_ns(0))?;
-        count += 1;
     }
-    Ok(count)
+    Ok(())
 }

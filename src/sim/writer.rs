@@ -49,6 +49,7 @@ pub struct LogWriter<W: Write + Seek> {
     channels: HashMap<(String, String), u16>,
     schemas: HashMap<String, u16>,
     sequence: u32,
+    messages: u64,
 }
 
 impl<W: Write + Seek> LogWriter<W> {
@@ -73,6 +74,7 @@ impl<W: Write + Seek> LogWriter<W> {
             channels: HashMap::new(),
             schemas: HashMap::new(),
             sequence: 0,
+            messages: 0,
         })
     }
 
@@ -126,6 +128,7 @@ impl<W: Write + Seek> LogWriter<W> {
     ) -> Result<(), WriteError> {
         let channel_id = self.channel(topic, schema_name, schema_text, message_encoding)?;
         self.sequence = self.sequence.wrapping_add(1);
+        self.messages += 1;
         self.inner.write_to_known_channel(
             &MessageHeader {
                 channel_id,
@@ -173,6 +176,11 @@ impl<W: Write + Seek> LogWriter<W> {
         self.channels
             .insert((topic.to_string(), schema_name.to_string()), id);
         Ok(id)
+    }
+
+    /// The messages written so far.
+    pub fn messages(&self) -> u64 {
+        self.messages
     }
 
     /// Writes the summary and footer and returns the output.

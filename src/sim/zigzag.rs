@@ -185,13 +185,13 @@ pub fn run<W: Write + Seek>(
     let (truth, reversals_s) = fly(spec);
     write_records(spec, seed, w)?;
     let mut sensors = Sensors::new(spec, seed);
-    let mut messages = 0u64;
+    let written_before = w.messages();
     for (i, s) in truth.iter().enumerate() {
-        messages += sensors.write(spec, i, s, w)?;
+        sensors.write(spec, i, s, w)?;
     }
     Ok(ZigzagRun {
         reversals_s,
-        messages,
+        messages: w.messages() - written_before,
     })
 }
 
@@ -257,14 +257,14 @@ impl Sensors {
         }
     }
 
-    /// The readings of truth sample `i`; returns how many were written.
+    /// The readings of truth sample `i`.
     fn write<W: Write + Seek>(
         &mut self,
         spec: &ZigzagSpec,
         i: usize,
         s: &TruthSample,
         w: &mut LogWriter<W>,
-    ) -> Result<u64, WriteError> {
+    ) -> Result<(), WriteError> {
         let (n, k) = (&spec.noise, &spec.constants);
         let stamp_ns = START_STAMP_NS + (s.t_s * 1e9).round() as i64;
         let log_ns = stamp_ns as u64;
@@ -285,7 +285,6 @@ impl Sensors {
             yaw: 0.0,
         };
         w.write("/attitude", &attitude, log_ns)?;
-        let mut messages = 3;
         if i.is_multiple_of(self.dvl_every) {
             let mut noise = || n.dvl_m_s * normal(&mut self.dvl);
             let velocity = [u + noise(), noise(), w_m_s + noise()];
@@ -296,15 +295,12 @@ impl Sensors {
                 altitude: Some(50.0),
             };
             w.write("/dvl", &dvl, log_ns)?;
-            messages += 1;
         }
         if i.is_multiple_of(self.depth_every) {
             let depth = z + n.depth_m * normal(&mut self.depth);
             w.write("/depth", &Depth { stamp_ns, depth }, log_ns)?;
-            messages += 1;
         }
-        w.write("/truth", &truth_of(spec, s, stamp_ns), log_ns)?;
-        Ok(messages + 1)
+        w.write("/truth", &truth_of(spec, s, stamp_ns), log_ns)
     }
 
     fn imu(&mut self, spec: &ZigzagSpec, s: &TruthSample, stamp_ns: i64) -> Imu {

@@ -13,7 +13,7 @@ pub fn survey_bytes(options: WriterOptions, seconds: f64) -> Vec<u8> {
         seed: 7,
         ..SurveySpec::default()
     };
-    to_bytes(options, |w| write_survey(w, &spec).map(|_| ())).expect("in-memory write")
+    to_bytes(options, |w| write_survey(w, &spec)).expect("in-memory write")
 }
 
 /// Reads MCAP bytes with default options.

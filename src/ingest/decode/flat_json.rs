@@ -394,10 +394,7 @@ mod coverage {
             duration_s: 3.0,
             ..SurveySpec::default()
         };
-        let bytes = to_bytes(WriterOptions::default(), |w| {
-            write_survey(w, &spec).map(|_| ())
-        })
-        .unwrap();
+        let bytes = to_bytes(WriterOptions::default(), |w| write_survey(w, &spec)).unwrap();
         let mut checked = 0;
         for m in mcap::MessageStream::new(&bytes).unwrap() {
             let m = m.unwrap();
