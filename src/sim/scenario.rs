@@ -126,26 +126,19 @@ fn declination_in_log() -> bool {
     true
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// The start (every number 0 unless given).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct StartSpec {
-    #[serde(default)]
     pub north_m: f64,
-    #[serde(default)]
     pub east_m: f64,
-    #[serde(default)]
     pub depth_m: f64,
-    #[serde(default)]
     pub yaw_deg: f64,
-    #[serde(default)]
     pub speed_m_s: f64,
     /// Turn rate at the start, deg/s (a run that starts already turning, e.g. a circle).
-    #[serde(default)]
     pub turn_rate_deg_s: f64,
     /// Roll and pitch at the start, deg (a dropped vehicle's; dynamic scenarios only).
-    #[serde(default)]
     pub roll_deg: f64,
-    #[serde(default)]
     pub pitch_deg: f64,
 }
 
