@@ -175,14 +175,27 @@ fn ballast_by_log(args: &IdentifyArgs) -> Result<BTreeMap<String, f64>, Coeffici
         .collect()
 }
 
+/// A log's file name (its path when it has none): how its results and `LOG=` options name it.
+pub(super) fn log_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into(),
+    )
+}
+
+/// `--perturb`, checked.
+pub(super) fn perturbation(args: &IdentifyArgs) -> Result<Option<f64>, CoefficientArgError> {
+    match args.perturb {
+        Some(f) if !(f.is_finite() && f.abs() < 1.0) => Err(CoefficientArgError(format!(
+            "--perturb {f}: give a fraction between -1 and 1"
+        ))),
+        f => Ok(f),
+    }
+}
+
 fn start_values(args: &IdentifyArgs) -> Result<Coefficients> {
     let published = Coefficients::from(TRUE_COEFFICIENTS);
-    if let Some(f) = args.perturb {
-        if !(f.is_finite() && f.abs() < 1.0) {
-            bail!(CoefficientArgError(format!(
-                "--perturb {f}: give a fraction between -1 and 1"
-            )));
-        }
+    if let Some(f) = perturbation(args)? {
         return Ok(perturbed(&published, f));
     }
     let Some(path) = &args.initial else {
@@ -292,10 +305,7 @@ fn read_records(args: &IdentifyArgs) -> Result<(Vec<Record>, Vec<String>)> {
     let mut read_logs = Vec::new();
     for path in &args.logs {
         let log = super::load(path, &args.policy.ingest_options(&args.source), &[])?;
-        let name = path.file_name().map_or_else(
-            || path.display().to_string(),
-            |n| n.to_string_lossy().into_owned(),
-        );
+        let name = log_name(path);
         let mut record = Record::from_log(&name, &log, args.speed)
             .with_context(|| format!("identifying from {}", path.display()))?;
         record.weight_minus_buoyancy_n = ballast
@@ -424,13 +434,13 @@ impl<'a> Summary<'a> {
 /// The report's figures: the EKF's convergence (each coefficient over its final refined
 /// value) and the fit of pitch and heave velocity.
 fn figures(id: &Identification, records: &[Record], settings: &Settings) -> Vec<Block> {
-    // Plots: the EKF's convergence (each coefficient over its final refined value) and the fit.
-    let mut offset = 0.0;
-    let mut log_start = Vec::new();
-    for r in records {
-        log_start.push(offset);
-        offset += r.t_s.last().copied().unwrap_or(0.0);
-    }
+    let log_start: Vec<f64> = (records.iter())
+        .scan(0.0, |end, r| {
+            let start = *end;
+            *end += r.t_s.last().copied().unwrap_or(0.0);
+            Some(start)
+        })
+        .collect();
     let mut convergence = Plot::new(
         "EKF pass: coefficient / refined estimate (logs one after the other)",
         "time (s)",
@@ -439,44 +449,26 @@ fn figures(id: &Identification, records: &[Record], settings: &Settings) -> Vec<
     convergence.series = (0..10)
         .filter(|&i| settings.fixed[i].is_none())
         .map(|i| {
-            Series::line(
-                NAMES[i],
-                id.ekf
-                    .history
-                    .iter()
-                    .map(|p| {
-                        (
-                            log_start[p.log] + p.t_s,
-                            p.value[i] / id.refined.coefficients[i],
-                        )
-                    })
-                    .collect(),
-            )
+            let c = id.refined.coefficients[i];
+            let history = id.ekf.history.iter();
+            let ratios = history.map(|p| (log_start[p.log] + p.t_s, p.value[i] / c));
+            Series::line(NAMES[i], ratios.collect())
         })
-        .collect();
-    let labels: Vec<(String, String)> = records
-        .iter()
-        .map(|r| (format!("{} measured", r.name), format!("{} model", r.name)))
         .collect();
     let fit_plot = |title: &'static str,
                     y_label: &'static str,
                     measured: &dyn Fn(&Record) -> Vec<(f64, f64)>,
                     state: usize,
                     scale: f64| {
-        let mut series = Vec::new();
-        for ((r, fit), (measured_label, model_label)) in records.iter().zip(&id.fits).zip(&labels) {
-            series.push(Series::line(measured_label.as_str(), measured(r)));
-            series.push(Series::line(
-                model_label.as_str(),
-                r.t_s
-                    .iter()
-                    .zip(&fit.simulated)
-                    .map(|(t, s)| (*t, s[state] * scale))
-                    .collect(),
-            ));
-        }
         let mut plot = Plot::new(title, "time (s)", y_label);
-        plot.series = series;
+        for (r, fit) in records.iter().zip(&id.fits) {
+            let model = r.t_s.iter().zip(&fit.simulated);
+            let model = model.map(|(t, s)| (*t, s[state] * scale)).collect();
+            plot.series
+                .push(Series::line(format!("{} measured", r.name), measured(r)));
+            plot.series
+                .push(Series::line(format!("{} model", r.name), model));
+        }
         plot
     };
     let theta = fit_plot(
@@ -525,40 +517,26 @@ pub(super) fn notes_section(notes: &[String]) -> Option<Section> {
 
 /// The noise per channel the refinement used, with the given figures beside learnt ones.
 fn noise_line(id: &Identification, settings: &Settings) -> String {
-    let used = id.noise.sigma;
-    let given = settings.sigma;
+    let (used, given, deg) = (id.noise.sigma, settings.sigma, f64::to_degrees);
     let cells = [
-        (
-            "q",
-            used.q_rad_s.to_degrees(),
-            given.q_rad_s.to_degrees(),
-            "deg/s",
-        ),
-        (
-            "theta",
-            used.theta_rad.to_degrees(),
-            given.theta_rad.to_degrees(),
-            "deg",
-        ),
+        ("q", deg(used.q_rad_s), deg(given.q_rad_s), "deg/s"),
+        ("theta", deg(used.theta_rad), deg(given.theta_rad), "deg"),
         ("w", used.w_m_s, given.w_m_s, "m/s"),
         ("depth", used.depth_m, given.depth_m, "m"),
     ];
-    if id.noise.learnt {
-        let list: Vec<String> = cells
-            .iter()
-            .map(|(n, u, g, unit)| format!("{n} {u:.4} {unit} (given {g:.4})"))
-            .collect();
-        format!(
-            "sensor noise learnt from the residuals ({} refinements): {}",
-            id.noise.rounds,
-            list.join(", ")
-        )
-    } else {
-        let list: Vec<String> = cells
-            .iter()
-            .map(|(n, u, _, unit)| format!("{n} {u:.4} {unit}"))
-            .collect();
-        format!("sensor noise as given: {}", list.join(", "))
+    let learnt = id.noise.learnt;
+    let list = cells
+        .map(|(n, u, g, unit)| match learnt {
+            true => format!("{n} {u:.4} {unit} (given {g:.4})"),
+            false => format!("{n} {u:.4} {unit}"),
+        })
+        .join(", ");
+    match learnt {
+        true => format!(
+            "sensor noise learnt from the residuals ({} refinements): {list}",
+            id.noise.rounds
+        ),
+        false => format!("sensor noise as given: {list}"),
     }
 }
 

@@ -48,10 +48,7 @@ pub fn run(
         if mission_vehicle.is_none() {
             mission_vehicle = log.mission().ok().map(|m| m.vehicle);
         }
-        let name = path.file_name().map_or_else(
-            || path.display().to_string(),
-            |n| n.to_string_lossy().into_owned(),
-        );
+        let name = super::identify::log_name(path);
         let record = SixDofRecord::from_log(&name, &log)
             .with_context(|| format!("identifying from {}", path.display()))?;
         let read = format!(
@@ -68,10 +65,7 @@ pub fn run(
     let vehicle = vehicle(args.vehicle.as_deref().or(mission_vehicle.as_deref()))?;
     let free = free_coefficients(args.coefficients.as_deref(), &records);
     let file: Vec<f64> = free.iter().map(|n| vehicle.coefficient(n)).collect();
-    let start: Vec<f64> = match args.perturb {
-        Some(f) if !(f.is_finite() && f.abs() < 1.0) => bail!(CoefficientArgError(format!(
-            "--perturb {f}: give a fraction between -1 and 1"
-        ))),
+    let start: Vec<f64> = match super::identify::perturbation(args)? {
         Some(f) => file
             .iter()
             .enumerate()
