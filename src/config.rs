@@ -298,6 +298,30 @@ mod tests {
     use crate::identify::config::IdentifyConfig;
     use crate::recon::config::Config;
 
+    #[test]
+    fn a_non_finite_number_is_found_by_its_key() {
+        #[derive(Serialize)]
+        struct Inner {
+            profile: Vec<[f64; 2]>,
+        }
+        #[derive(Serialize)]
+        struct File {
+            rate_hz: f64,
+            seabed: Inner,
+        }
+        let file = |x: f64| File {
+            rate_hz: 1.0,
+            seabed: Inner {
+                profile: vec![[0.0, 1.0], [2.0, x]],
+            },
+        };
+        assert_eq!(non_finite_key(&file(3.0)), None);
+        for x in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let key = non_finite_key(&file(x));
+            assert_eq!(key.as_deref(), Some("seabed.profile[2][2]"), "{x}");
+        }
+    }
+
     /// Every section's documented text parses back to its defaults, and so does an empty
     /// file.
     fn documented_defaults_are_the_defaults<T: Section + PartialEq + std::fmt::Debug>() {
