@@ -121,8 +121,8 @@ pub struct LeverArm {
     pub rates_biased: bool,
 }
 
-/// What is integrated over time, summed.
-#[derive(Debug, Clone, Copy)]
+/// What is integrated over time, summed (zero by default).
+#[derive(Debug, Clone, Copy, Default)]
 struct Integrals {
     /// The specific force.
     f: Vector3<f64>,
@@ -151,17 +151,6 @@ struct Integrands {
 }
 
 impl Integrals {
-    fn zero() -> Integrals {
-        Integrals {
-            f: Vector3::zeros(),
-            c: Matrix3::zeros(),
-            w: Vector3::zeros(),
-            b: Matrix3::zeros(),
-            ww: Matrix3::zeros(),
-            r: Vector3::zeros(),
-        }
-    }
-
     /// `self + rate * dt`.
     fn plus(&self, rate: &Integrands, dt: f64) -> Integrals {
         let ww = rate.r.cross_matrix() * rate.r.cross_matrix();
@@ -226,7 +215,7 @@ impl Window {
     fn sums_before(&self, i: usize) -> Integrals {
         let (at, rest) = self.since_checkpoint(i);
         rest.iter()
-            .fold(at.copied().unwrap_or_else(Integrals::zero), |sum, s| {
+            .fold(at.copied().unwrap_or_else(Integrals::default), |sum, s| {
                 sum.plus(&s.integrands, s.end_s - s.start_s)
             })
     }
@@ -330,7 +319,7 @@ impl Window {
         let through_rhs = cholesky.solve(&rhs.fixed_rows::<UNKNOWNS>(0));
         // From the residuals themselves (not the normal equations, where the ridge would
         // add to them): each pair's residual is `e - G l`.
-        let mut reduced = Reduced::zero();
+        let mut reduced = Reduced::default();
         for (a, r) in &rows {
             let own_part = a.fixed_view::<3, UNKNOWNS>(0, 0);
             let e = r - own_part * through_rhs;
@@ -396,7 +385,7 @@ impl Window {
 
 /// A window's least squares with its own unknowns solved out, as a function of the lever
 /// arm `l` (global to the windows): its residual sum of squares is `ss - 2 l.s + l^T S l`.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 struct Reduced {
     ss: f64,
     s: Vector3<f64>,
@@ -406,14 +395,6 @@ struct Reduced {
 impl Reduced {
     fn at(&self, l: &Vector3<f64>) -> f64 {
         self.ss - 2.0 * l.dot(&self.s) + l.dot(&(self.big_s * l))
-    }
-
-    fn zero() -> Reduced {
-        Reduced {
-            ss: 0.0,
-            s: Vector3::zeros(),
-            big_s: Matrix3::zeros(),
-        }
     }
 
     fn add(&mut self, other: &Reduced) {
@@ -571,7 +552,7 @@ fn integrated_samples(
 
 /// The integrals from the slice's start to the end of every [`CHECKPOINT`]-th sample.
 fn checkpoints(samples: &[Sample]) -> Vec<Integrals> {
-    let mut running = Integrals::zero();
+    let mut running = Integrals::default();
     let mut out = Vec::with_capacity(samples.len() / CHECKPOINT);
     for (k, s) in samples.iter().enumerate() {
         running = running.plus(&s.integrands, s.end_s - s.start_s);
@@ -704,7 +685,7 @@ pub fn estimate(
     let delay_s = grid_minimum(&search.delays, &all);
     let draws = search.bootstrap(&grid);
     // At the delay found: the windows' sum, the lever arm and the residual variance.
-    let mut at_delay = Reduced::zero();
+    let mut at_delay = Reduced::default();
     for w in &windows {
         at_delay.add(&w.fit(delay_s)?.0);
     }
@@ -911,7 +892,7 @@ impl LeverFit<'_> {
 
 /// The windows' fits summed per delay.
 fn summed<'a>(rows: impl Iterator<Item = &'a Vec<Reduced>>, delays: usize) -> Vec<Reduced> {
-    let mut sums = vec![Reduced::zero(); delays];
+    let mut sums = vec![Reduced::default(); delays];
     for row in rows {
         sums.iter_mut().zip(row).for_each(|(s, r)| s.add(r));
     }
@@ -1045,7 +1026,7 @@ mod tests {
                 }
             })
             .collect();
-        let mut every = vec![Integrals::zero()];
+        let mut every = vec![Integrals::default()];
         for s in &samples {
             let last = every[every.len() - 1];
             every.push(last.plus(&s.integrands, s.end_s - s.start_s));
