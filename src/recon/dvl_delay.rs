@@ -1059,20 +1059,11 @@ mod tests {
     /// cruises straight at a constant speed: an exact IMU at 100 Hz and a DVL at 2 Hz with
     /// 5 mm/s of white noise, stamped `delay_s` late.
     fn log(delay_s: f64, manoeuvres: bool, seed: u64) -> (Vec<Imu>, Vec<BodyVelocityReading>) {
-        log_with_gyro_bias(delay_s, manoeuvres, seed, 0.0)
+        log_with(delay_s, manoeuvres, seed, 0.0, Vector3::zeros())
     }
 
-    /// [`log`] with a gyro bias on every axis, deg/h.
-    fn log_with_gyro_bias(
-        delay_s: f64,
-        manoeuvres: bool,
-        seed: u64,
-        gyro_bias_deg_h: f64,
-    ) -> (Vec<Imu>, Vec<BodyVelocityReading>) {
-        log_with(delay_s, manoeuvres, seed, gyro_bias_deg_h, Vector3::zeros())
-    }
-
-    /// [`log_with_gyro_bias`] with the DVL at `lever_arm_m` from the IMU (body FRD).
+    /// [`log`] with a gyro bias on every axis (deg/h) and the DVL at `lever_arm_m` from the
+    /// IMU (body FRD).
     fn log_with(
         delay_s: f64,
         manoeuvres: bool,
@@ -1162,10 +1153,10 @@ mod tests {
     #[test]
     fn a_mems_gyro_bias_does_not_fake_a_delay() {
         for seed in 1..=3 {
-            let (imu, dvl) = log_with_gyro_bias(0.0, true, seed, 1000.0);
+            let (imu, dvl) = log_with(0.0, true, seed, 1000.0, Vector3::zeros());
             let d = estimate(&imu, &dvl, &Vector3::zeros(), None).unwrap();
             assert!(d.delay_s.abs() < 3.0 * d.sigma_s, "{d:?}");
-            let (imu, dvl) = log_with_gyro_bias(0.4, true, seed, 1000.0);
+            let (imu, dvl) = log_with(0.4, true, seed, 1000.0, Vector3::zeros());
             let d = estimate(&imu, &dvl, &Vector3::zeros(), None).unwrap();
             assert!((d.delay_s - 0.4).abs() < 3.0 * d.sigma_s, "{d:?}");
         }
