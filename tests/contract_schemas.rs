@@ -171,7 +171,7 @@ fn schemas_and_rust_types_agree() {
     }
     hindsight::for_each_message!(check_all);
     // Every schema file belongs to a kind.
-    assert_eq!(all_kinds().len(), 12);
+    assert_eq!(all_kinds().len(), 16);
     let files: Vec<String> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/schemas"))
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -188,7 +188,7 @@ fn schemas_and_rust_types_agree() {
 fn every_written_log_embeds_the_schemas() {
     let bytes = common::survey_bytes(Default::default(), 2.0);
     let summary = mcap::Summary::read(&bytes).unwrap().expect("summary");
-    assert_eq!(summary.schemas.len(), 12);
+    assert_eq!(summary.schemas.len(), 16);
     for s in summary.schemas.values() {
         let kind = kind_by_schema(&s.name).expect("contract schema");
         assert_eq!(s.encoding, "jsonschema");

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 /// reconstruction (forward filter and smoother) on a simulated mission.
 ///
 /// The log is a synthetic survey (IMU 100 Hz, magnetometer 50 Hz, DVL 5 Hz, EM log, depth
-/// and altimeter 2 Hz, RPM 1 Hz, fins, attitude and truth 10 Hz).
+/// and altimeter 2 Hz, RPM 1 Hz, fins, attitude and truth 10 Hz, the acoustic messages 1 Hz).
 ///
 /// Stages, each timed over --repeat runs (median printed):
 ///   scan          container only: read, decompress chunks, walk records

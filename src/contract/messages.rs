@@ -162,3 +162,99 @@ message! {
         angular_velocity: [f64; 3] = vector3("rad/s", -MAX_RATE_RAD_S, MAX_RATE_RAD_S),
     }
 }
+
+// Acoustic positioning (additions to the contract: `docs/log-format.md`, "Acoustic
+// positioning"). A late stamp is said, not hidden: `stamp_is_validity` tells whether
+// `stamp_ns` is the time the observation was valid or only the time it was received.
+
+/// Longest plausible wait between an acoustic observation and its receipt, s.
+const MAX_ACOUSTIC_LATENCY_S: f64 = 600.0;
+/// Plausible speeds of sound in sea water, m/s.
+const SOUND_SPEED_M_S: (f64, f64) = (1300.0, 1800.0);
+
+message! {
+    /// `/acoustic_fix`: a positioned acoustic fix of the vehicle (USBL computed on the ship,
+    /// an LBL solution).
+    AcousticFix, schema = "hindsight.AcousticFix", topic = "/acoustic_fix" {
+        /// Whether `stamp_ns` is the fix's time of validity (else its time of receipt).
+        stamp_is_validity: bool = boolean(),
+        /// Time of receipt less the time of validity, s, where both are known.
+        received_after_s: Option<f64> = optional_number("s", 0.0, MAX_ACOUSTIC_LATENCY_S),
+        /// WGS-84 latitude, degrees.
+        latitude_deg: f64 = number("deg", -90.0, 90.0),
+        /// WGS-84 longitude, degrees.
+        longitude_deg: f64 = number("deg", -180.0, 360.0),
+        /// Depth, m, or null for a horizontal fix.
+        depth_m: Option<f64> = optional_number("m", MIN_DEPTH_M, MAX_RANGE_M),
+        /// Horizontal 1-sigma, m, or null (then from the slant range).
+        horizontal_sigma_m: Option<f64> = optional_number("m", 0.0, 1e5),
+        /// Depth 1-sigma, m, or null.
+        depth_sigma_m: Option<f64> = optional_number("m", 0.0, 1e5),
+        /// The transponder's id ("" when the vehicle carries one).
+        beacon_id: String = string(),
+    }
+}
+
+message! {
+    /// `/usbl`: a USBL observation relative to the ship's transducer, before positioning.
+    UsblObservation, schema = "hindsight.UsblObservation", topic = "/usbl" {
+        /// Whether `stamp_ns` is the observation's time of validity (else its time of receipt).
+        stamp_is_validity: bool = boolean(),
+        /// Time of receipt less the time of validity, s, where both are known.
+        received_after_s: Option<f64> = optional_number("s", 0.0, MAX_ACOUSTIC_LATENCY_S),
+        /// Slant range from the transducer, m.
+        range_m: f64 = number("m", 0.0, MAX_RANGE_M),
+        /// Azimuth in the transducer's frame, from its x axis towards its y axis, rad.
+        bearing_rad: f64 = angle(-TAU, TAU),
+        /// Angle below the transducer's x-y plane (towards its z axis), rad.
+        elevation_rad: f64 = angle(-PITCH_LIMIT_RAD, PITCH_LIMIT_RAD),
+        /// 1-sigma of the range, m, or null.
+        range_sigma_m: Option<f64> = optional_number("m", 0.0, 1e4),
+        /// 1-sigma of the bearing, rad, or null.
+        bearing_sigma_rad: Option<f64> = optional_number("rad", 0.0, TAU),
+        /// 1-sigma of the elevation, rad, or null.
+        elevation_sigma_rad: Option<f64> = optional_number("rad", 0.0, TAU),
+        /// The speed of sound the range was computed with, m/s, or null.
+        sound_speed_m_s: Option<f64> = optional_number("m/s", SOUND_SPEED_M_S.0, SOUND_SPEED_M_S.1),
+        /// The transponder's id ("" when the vehicle carries one).
+        beacon_id: String = string(),
+    }
+}
+
+message! {
+    /// `/ship_pose`: the support ship's position and attitude (Z-Y-X Euler, its body frame
+    /// FRD), for ship-relative USBL observations.
+    ShipPose, schema = "hindsight.ShipPose", topic = "/ship_pose" {
+        /// WGS-84 latitude, degrees.
+        latitude_deg: f64 = number("deg", -90.0, 90.0),
+        /// WGS-84 longitude, degrees.
+        longitude_deg: f64 = number("deg", -180.0, 360.0),
+        /// Roll phi, rad.
+        roll: f64 = angle(-TAU, TAU),
+        /// Pitch theta, rad.
+        pitch: f64 = angle(-PITCH_LIMIT_RAD, PITCH_LIMIT_RAD),
+        /// Yaw psi (heading), rad.
+        yaw: f64 = angle(-TAU, TAU),
+        /// Horizontal 1-sigma of the position, m, or null.
+        horizontal_sigma_m: Option<f64> = optional_number("m", 0.0, 1e5),
+        /// 1-sigma of the heading, rad, or null.
+        heading_sigma_rad: Option<f64> = optional_number("rad", 0.0, TAU),
+    }
+}
+
+message! {
+    /// `/lbl`: a range to a seabed beacon of a long-baseline network, stamped at the
+    /// interrogation.
+    LblRange, schema = "hindsight.LblRange", topic = "/lbl" {
+        /// The beacon's id in the beacon table.
+        beacon_id: String = string(),
+        /// Two-way travel time, s, or null when only the range is given.
+        two_way_travel_time_s: Option<f64> = optional_number("s", 0.0, 60.0),
+        /// Slant range, m, or null when only the travel time is given.
+        range_m: Option<f64> = optional_number("m", 0.0, MAX_RANGE_M),
+        /// The speed of sound the range was computed with, m/s, or null.
+        sound_speed_m_s: Option<f64> = optional_number("m/s", SOUND_SPEED_M_S.0, SOUND_SPEED_M_S.1),
+        /// 1-sigma of the range, m, or null.
+        range_sigma_m: Option<f64> = optional_number("m", 0.0, 1e4),
+    }
+}

@@ -38,7 +38,11 @@ macro_rules! for_each_message {
             Attitude,
             GnssFix,
             PositionFix,
-            Truth
+            Truth,
+            AcousticFix,
+            UsblObservation,
+            ShipPose,
+            LblRange
         }
     };
 }

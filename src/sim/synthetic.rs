@@ -1,7 +1,8 @@
 //! A plausible (not physically exact) survey log for tests, benchmarks and `sample-logs/`.
 //!
 //! The vehicle cruises at constant speed with slowly weaving heading, depth and attitude; every
-//! contract stream is written at its usual rate with seeded white noise. The IMU here is a
+//! contract stream is written at its usual rate with seeded white noise (the acoustic
+//! additions exact, at 1 Hz). The IMU here is a
 //! simple kinematic approximation (no Earth rate, no transport rate): logs for exact inertial
 //! work come from the mission simulator, not from this module.
 
@@ -40,6 +41,7 @@ const RPM_HZ: u32 = 1;
 const FINS_HZ: u32 = 10;
 const ATTITUDE_HZ: u32 = 10;
 const TRUTH_HZ: u32 = 10;
+const ACOUSTIC_HZ: u32 = 1;
 const SPEED_M_S: f64 = 1.5;
 const GRAVITY_M_S2: f64 = 9.81;
 const SEABED_M: f64 = 60.0;
@@ -183,6 +185,9 @@ pub fn write_survey<W: Write + Seek>(
         write_aiding(w, spec, &tick, rate, &mut noise)?;
         write_vehicle(w, &tick, rate)?;
         write_references(w, spec, &tick, (rate, ticks), &mission)?;
+        if tick.k % i64::from(rate / ACOUSTIC_HZ) == 0 {
+            write_acoustic(w, &tick, &mission)?;
+        }
         let v_ned = tick.v_ned();
         north += v_ned[0] * dt;
         east += v_ned[1] * dt;
@@ -358,4 +363,128 @@ fn write_references<W: Write + Seek>(
         w.write("/truth", &truth, tick.log_ns(0))?;
     }
     Ok(())
+}
+
+/// The ship's mean heading, rad, and an LBL beacon's place (north, east, down, m).
+const SHIP_YAW_RAD: f64 = 0.3;
+const BEACON_NED_M: [f64; 3] = [200.0, -100.0, 60.0];
+const SOUND_SPEED_M_S: f64 = 1500.0;
+
+/// The acoustic positioning of the tick: a USBL observation from a ship held at the origin
+/// (level, yawing 0.02 rad about [`SHIP_YAW_RAD`] over a minute) with the ship's pose, the fix positioned from it
+/// (stamped on receipt, 1.5 s late), and a range to one LBL beacon. Exact, without noise.
+fn write_acoustic<W: Write + Seek>(
+    w: &mut LogWriter<W>,
+    tick: &SurveyTick,
+    mission: &Mission,
+) -> Result<(), WriteError> {
+    let stamp_ns = tick.stamp_ns;
+    let depth_m = tick.kin.depth;
+    let ship_yaw_rad = SHIP_YAW_RAD + 0.02 * (TAU * tick.t / 60.0).sin();
+    let ship = ShipPose {
+        stamp_ns,
+        latitude_deg: mission.origin_latitude_deg,
+        longitude_deg: mission.origin_longitude_deg,
+        roll: 0.0,
+        pitch: 0.0,
+        yaw: ship_yaw_rad,
+        horizontal_sigma_m: Some(1.0),
+        heading_sigma_rad: Some(0.002),
+    };
+    w.write("/ship_pose", &ship, tick.log_ns(5))?;
+    let (sin, cos) = ship_yaw_rad.sin_cos();
+    let x = cos * tick.north + sin * tick.east;
+    let y = -sin * tick.north + cos * tick.east;
+    let usbl = UsblObservation {
+        stamp_ns,
+        stamp_is_validity: true,
+        received_after_s: Some(1.5),
+        range_m: (x * x + y * y + depth_m * depth_m).sqrt(),
+        bearing_rad: y.atan2(x),
+        elevation_rad: depth_m.atan2(x.hypot(y)),
+        range_sigma_m: Some(0.1),
+        bearing_sigma_rad: Some(0.005),
+        elevation_sigma_rad: Some(0.005),
+        sound_speed_m_s: Some(SOUND_SPEED_M_S),
+        beacon_id: String::new(),
+    };
+    w.write("/usbl", &usbl, tick.log_ns(1500))?;
+    let (latitude_deg, longitude_deg) = tick.lat_lon_deg(mission);
+    let fix = AcousticFix {
+        stamp_ns: stamp_ns + 1_500_000_000,
+        stamp_is_validity: false,
+        received_after_s: None,
+        latitude_deg,
+        longitude_deg,
+        depth_m: Some(depth_m),
+        horizontal_sigma_m: None,
+        depth_sigma_m: Some(0.2),
+        beacon_id: String::new(),
+    };
+    w.write("/acoustic_fix", &fix, tick.log_ns(1500))?;
+    let [n, e, d] = BEACON_NED_M;
+    let range_m =
+        ((tick.north - n).powi(2) + (tick.east - e).powi(2) + (depth_m - d).powi(2)).sqrt();
+    let lbl = LblRange {
+        stamp_ns,
+        beacon_id: "A".into(),
+        two_way_travel_time_s: Some(2.0 * range_m / SOUND_SPEED_M_S),
+        range_m: Some(range_m),
+        sound_speed_m_s: Some(SOUND_SPEED_M_S),
+        range_sigma_m: Some(0.3),
+    };
+    w.write("/lbl", &lbl, tick.log_ns(10))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::writer::{to_bytes, WriterOptions};
+
+    /// The USBL observation turned by the ship's heading, the LBL range and the positioned
+    /// fix each give back the truth: the contract's conventions as the additions state them.
+    #[test]
+    fn the_acoustic_messages_agree_with_the_truth() {
+        let spec = SurveySpec {
+            duration_s: 30.0,
+            ..SurveySpec::default()
+        };
+        let bytes = to_bytes(WriterOptions::default(), |w| write_survey(w, &spec)).unwrap();
+        let log = crate::ingest::read_log_from(&bytes[..], &Default::default()).unwrap();
+        let truth = |stamp_ns: i64| {
+            let all = log.messages::<Truth>("/truth").unwrap();
+            all.iter().find(|t| t.stamp_ns == stamp_ns).unwrap().clone()
+        };
+        let ships = log.messages::<ShipPose>("/ship_pose").unwrap();
+        let observations = log.messages::<UsblObservation>("/usbl").unwrap();
+        assert_eq!(observations.len(), 31);
+        for (u, ship) in observations.iter().zip(ships) {
+            let t = truth(u.stamp_ns);
+            let (b, e) = (u.bearing_rad, u.elevation_rad);
+            let [x, y, z] = [e.cos() * b.cos(), e.cos() * b.sin(), e.sin()].map(|c| c * u.range_m);
+            let (sin, cos) = ship.yaw.sin_cos();
+            let ned = [cos * x - sin * y, sin * x + cos * y, z];
+            for (got, want) in ned.iter().zip([t.north_m, t.east_m, t.down_m]) {
+                assert!((got - want).abs() < 1e-9, "{ned:?} vs {t:?}");
+            }
+        }
+        for r in log.messages::<LblRange>("/lbl").unwrap() {
+            let t = truth(r.stamp_ns);
+            let [n, e, d] = BEACON_NED_M;
+            let range =
+                ((t.north_m - n).powi(2) + (t.east_m - e).powi(2) + (t.down_m - d).powi(2)).sqrt();
+            assert!((r.range_m.unwrap() - range).abs() < 1e-9);
+            let from_time = r.two_way_travel_time_s.unwrap() * r.sound_speed_m_s.unwrap() / 2.0;
+            assert!((from_time - range).abs() < 1e-9);
+        }
+        for f in log.messages::<AcousticFix>("/acoustic_fix").unwrap() {
+            assert!(!f.stamp_is_validity, "stamped on receipt");
+            let t = truth(f.stamp_ns - 1_500_000_000);
+            assert_eq!(
+                (f.latitude_deg, f.longitude_deg),
+                (t.latitude_deg, t.longitude_deg)
+            );
+            assert_eq!(f.depth_m, Some(t.down_m));
+        }
+    }
 }

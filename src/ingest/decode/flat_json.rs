@@ -399,21 +399,15 @@ mod coverage {
         for m in mcap::MessageStream::new(&bytes).unwrap() {
             let m = m.unwrap();
             let d = &m.data[..];
-            let ok = match m.channel.schema.as_ref().unwrap().name.as_str() {
-                "hindsight.Imu" => parse::<Imu>(d).is_some(),
-                "hindsight.MagneticField" => parse::<MagneticField>(d).is_some(),
-                "hindsight.Dvl" => parse::<Dvl>(d).is_some(),
-                "hindsight.SpeedLog" => parse::<SpeedLog>(d).is_some(),
-                "hindsight.Depth" => parse::<Depth>(d).is_some(),
-                "hindsight.Altimeter" => parse::<Altimeter>(d).is_some(),
-                "hindsight.Propeller" => parse::<Propeller>(d).is_some(),
-                "hindsight.ControlSurfaces" => parse::<ControlSurfaces>(d).is_some(),
-                "hindsight.Attitude" => parse::<Attitude>(d).is_some(),
-                "hindsight.GnssFix" => parse::<GnssFix>(d).is_some(),
-                "hindsight.PositionFix" => parse::<PositionFix>(d).is_some(),
-                "hindsight.Truth" => parse::<Truth>(d).is_some(),
-                other => panic!("{other}"),
-            };
+            let schema = m.channel.schema.as_ref().unwrap().name.as_str();
+            macro_rules! parsed {
+                ($($t:ident),*) => {
+                    $( if schema == $t::SCHEMA_NAME { parse::<$t>(d).is_some() } else )* {
+                        panic!("{schema}")
+                    }
+                };
+            }
+            let ok = crate::for_each_message!(parsed);
             assert!(ok, "{}", String::from_utf8_lossy(d));
             checked += 1;
         }
