@@ -81,6 +81,7 @@ fn every_scenario_log_is_valid_and_reads_back_identically() {
         "zigzag-planes-10-10",
         "turning-circle",
         "drop-entry",
+        "usbl-survey",
     ] {
         let log = check_log(name, &simulate(name, 1));
         assert!(log.stream("/truth").is_some(), "{name}");

@@ -7,6 +7,7 @@ use super::sensors::dvl::DvlSensor;
 use super::sensors::imu::Triad;
 use super::sensors::mag::MagSensor;
 use super::sensors::scalar::{Propeller as PropellerModel, ScalarSensor};
+use super::sensors::usbl::Usbl;
 use super::sensors::{normal, rng_for, stream};
 use super::truth::{KinematicTruth, TruthSample, TruthSource};
 use super::vibration::RealMotion;
@@ -239,6 +240,8 @@ struct Sensors {
     gnss_rng: rand_chacha::ChaCha8Rng,
     fix_rng: rand_chacha::ChaCha8Rng,
     usbl: Option<Schedule>,
+    /// The ship's USBL (`/acoustic_fix`).
+    acoustic: Option<Usbl>,
     fins: Option<Schedule>,
     truth: Schedule,
 }
@@ -296,6 +299,7 @@ impl Sensors {
             usbl: (scenario.fixes)
                 .filter(|f| f.usbl_every_s > 0.0)
                 .map(|f| Schedule::new(1.0 / f.usbl_every_s)),
+            acoustic: (scenario.usbl).map(|u| Usbl::new(u, rng_for(seed, stream::USBL))),
             fins: scenario.fins.map(|f| Schedule::new(f.rate_hz)),
             truth: Schedule::new(scenario.truth_rate_hz),
         }
@@ -345,6 +349,7 @@ impl Sensors {
         self.fins(tick, w)?;
         self.gnss(tick, w)?;
         self.fixes(scenario, tick, w)?;
+        self.acoustic(tick, w)?;
         self.truth(tick, w)?;
         Ok(())
     }
@@ -564,6 +569,35 @@ impl Sensors {
             }
         }
         Ok(())
+    }
+
+    /// The ship's USBL fix, stamped and logged when the ship received it.
+    fn acoustic<W: Write + Seek>(
+        &mut self,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<(), WriteError> {
+        let t_s = tick.t_ns as f64 * 1e-9;
+        let ned_m = [tick.north_m, tick.east_m, tick.depth_m];
+        let Some(fix) = self.acoustic.as_mut().and_then(|u| u.fix(t_s, ned_m)) else {
+            return Ok(());
+        };
+        let lat = tick.sample.lat_rad;
+        let [dn, de, dd] = fix.error_ned_m;
+        let east_radius = geodesy::prime_vertical_radius_m(lat) * lat.cos();
+        let stamp_ns = tick.stamp_ns + secs_ns(fix.delay_s);
+        let msg = AcousticFix {
+            stamp_ns,
+            stamp_is_validity: false,
+            received_after_s: None,
+            latitude_deg: (lat + dn / geodesy::meridian_radius_m(lat)).to_degrees(),
+            longitude_deg: (tick.sample.lon_rad + de / east_radius).to_degrees(),
+            depth_m: Some(tick.depth_m + dd),
+            horizontal_sigma_m: Some(fix.sigma_m),
+            depth_sigma_m: Some(fix.sigma_m),
+            beacon_id: String::new(),
+        };
+        w.write("/acoustic_fix", &msg, stamp_ns.max(0) as u64)
     }
 
     fn truth<W: Write + Seek>(

@@ -18,8 +18,8 @@ macro_rules! shipped {
     };
 }
 
-/// The scenarios shipped in the binary: (name, TOML text). The last five are flown by the
-/// 6-DOF vehicle model and its autopilot.
+/// The scenarios shipped in the binary: (name, TOML text). `long-dive-dynamic` to
+/// `drop-no-dvl` are flown by the 6-DOF vehicle model and its autopilot.
 pub const BUILT_IN: &[(&str, &str)] = shipped![
     "survey",
     "survey-short",
@@ -41,6 +41,7 @@ pub const BUILT_IN: &[(&str, &str)] = shipped![
     "turning-circle",
     "drop-entry",
     "drop-no-dvl",
+    "usbl-survey",
 ];
 
 /// Why a scenario cannot be used.
@@ -96,6 +97,8 @@ pub struct Scenario {
     pub fins: Option<Rate>,
     pub gnss: Option<GnssSpec>,
     pub fixes: Option<FixSpec>,
+    /// A USBL on a support ship (`/acoustic_fix`).
+    pub usbl: Option<super::sensors::usbl::UsblSpec>,
     #[serde(default)]
     pub seabed: SeabedSpec,
     #[serde(default = "default_truth_rate")]
@@ -499,6 +502,9 @@ impl Scenario {
                     steel.radius_m
                 )));
             }
+        }
+        if let Some(problem) = self.usbl.and_then(|u| u.problem()) {
+            return Err(bad(problem));
         }
         if let Some(d) = &self.dvl {
             if d.stamp_delay_s < 0.0 || d.correlated_m_s < 0.0 || d.correlation_s <= 0.0 {

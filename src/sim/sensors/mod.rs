@@ -9,6 +9,7 @@ pub mod dvl;
 pub mod imu;
 pub mod mag;
 pub mod scalar;
+pub mod usbl;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -28,6 +29,7 @@ pub mod stream {
     pub const AHRS: u64 = 11;
     pub const HOST: u64 = 12;
     pub const MOTION: u64 = 13;
+    pub const USBL: u64 = 14;
 }
 
 /// The generator of one sensor in one run.
