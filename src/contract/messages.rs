@@ -243,8 +243,9 @@ message! {
 }
 
 message! {
-    /// `/lbl`: a range to a seabed beacon of a long-baseline network, stamped at the
-    /// interrogation.
+    /// `/lbl`: a range to a seabed beacon of a long-baseline network, stamped when the reply
+    /// was received (the interrogation plus the two-way travel time: the replies of one
+    /// interrogation then have stamps of their own).
     LblRange, schema = "hindsight.LblRange", topic = "/lbl" {
         /// The beacon's id in the beacon table.
         beacon_id: String = string(),

@@ -5,6 +5,7 @@ use super::inertial::perfect_imu;
 use super::scenario::{Scenario, ScenarioError};
 use super::sensors::dvl::DvlSensor;
 use super::sensors::imu::Triad;
+use super::sensors::lbl::Lbl;
 use super::sensors::mag::MagSensor;
 use super::sensors::scalar::{Propeller as PropellerModel, ScalarSensor};
 use super::sensors::usbl::Usbl;
@@ -141,6 +142,12 @@ pub fn run_with_progress<W: Write + Seek>(
         }
     };
     write_mission(scenario, seed, w)?;
+    if let Some(lbl) = &scenario.lbl {
+        let origin = &scenario.mission;
+        let origin_rad = (origin.origin_latitude_deg, origin.origin_longitude_deg);
+        let origin_rad = (origin_rad.0.to_radians(), origin_rad.1.to_radians());
+        w.write_metadata("beacons", lbl.record(origin_rad))?;
+    }
     let mut sensors = Sensors::new(scenario, seed);
     let end_ns = secs_ns(truth.duration_s());
     let (written_before, mut t_ns) = (w.messages(), 0i64);
@@ -242,6 +249,8 @@ struct Sensors {
     usbl: Option<Schedule>,
     /// The ship's USBL (`/acoustic_fix`).
     acoustic: Option<Usbl>,
+    /// The seabed beacons (`/lbl`).
+    lbl: Option<Lbl>,
     fins: Option<Schedule>,
     truth: Schedule,
 }
@@ -300,6 +309,7 @@ impl Sensors {
                 .filter(|f| f.usbl_every_s > 0.0)
                 .map(|f| Schedule::new(1.0 / f.usbl_every_s)),
             acoustic: (scenario.usbl).map(|u| Usbl::new(u, rng_for(seed, stream::USBL))),
+            lbl: (scenario.lbl.clone()).map(|l| Lbl::new(l, rng_for(seed, stream::LBL))),
             fins: scenario.fins.map(|f| Schedule::new(f.rate_hz)),
             truth: Schedule::new(scenario.truth_rate_hz),
         }
@@ -350,6 +360,7 @@ impl Sensors {
         self.gnss(tick, w)?;
         self.fixes(scenario, tick, w)?;
         self.acoustic(tick, w)?;
+        self.lbl(tick, w)?;
         self.truth(tick, w)?;
         Ok(())
     }
@@ -598,6 +609,38 @@ impl Sensors {
             beacon_id: String::new(),
         };
         w.write("/acoustic_fix", &msg, stamp_ns.max(0) as u64)
+    }
+
+    /// The beacons' replies to an interrogation, each stamped and logged when it was received.
+    fn lbl<W: Write + Seek>(
+        &mut self,
+        tick: &Tick,
+        w: &mut LogWriter<W>,
+    ) -> Result<(), WriteError> {
+        let Some(lbl) = self.lbl.as_mut() else {
+            return Ok(());
+        };
+        let (t_s, ned_m) = (
+            tick.t_ns as f64 * 1e-9,
+            [tick.north_m, tick.east_m, tick.depth_m],
+        );
+        let range_sigma_m = Some(lbl.spec().range_sigma_m);
+        let sound_speed_m_s = Some(lbl.spec().sound_speed_m_s);
+        let mut replies = lbl.replies(t_s, ned_m);
+        replies.sort_by(|a, b| a.two_way_travel_time_s.total_cmp(&b.two_way_travel_time_s));
+        for reply in replies {
+            let received_ns = tick.stamp_ns + secs_ns(reply.two_way_travel_time_s);
+            let msg = LblRange {
+                stamp_ns: received_ns,
+                beacon_id: reply.beacon.id.clone(),
+                two_way_travel_time_s: Some(reply.two_way_travel_time_s),
+                range_m: Some(reply.range_m),
+                sound_speed_m_s,
+                range_sigma_m,
+            };
+            w.write("/lbl", &msg, received_ns.max(0) as u64)?;
+        }
+        Ok(())
     }
 
     fn truth<W: Write + Seek>(

@@ -42,6 +42,7 @@ pub const BUILT_IN: &[(&str, &str)] = shipped![
     "drop-entry",
     "drop-no-dvl",
     "usbl-survey",
+    "lbl-box",
 ];
 
 /// Why a scenario cannot be used.
@@ -99,6 +100,8 @@ pub struct Scenario {
     pub fixes: Option<FixSpec>,
     /// A USBL on a support ship (`/acoustic_fix`).
     pub usbl: Option<super::sensors::usbl::UsblSpec>,
+    /// A long-baseline network of seabed beacons (`/lbl`, the `beacons` record).
+    pub lbl: Option<super::sensors::lbl::LblSpec>,
     #[serde(default)]
     pub seabed: SeabedSpec,
     #[serde(default = "default_truth_rate")]
@@ -503,7 +506,11 @@ impl Scenario {
                 )));
             }
         }
-        if let Some(problem) = self.usbl.and_then(|u| u.problem()) {
+        let acoustic = [
+            self.usbl.and_then(|u| u.problem()),
+            self.lbl.as_ref().and_then(|l| l.problem()),
+        ];
+        if let Some(problem) = acoustic.into_iter().flatten().next() {
             return Err(bad(problem));
         }
         if let Some(d) = &self.dvl {

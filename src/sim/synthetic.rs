@@ -425,10 +425,11 @@ fn write_acoustic<W: Write + Seek>(
     let [n, e, d] = BEACON_NED_M;
     let range_m =
         ((tick.north - n).powi(2) + (tick.east - e).powi(2) + (depth_m - d).powi(2)).sqrt();
+    let two_way_s = 2.0 * range_m / SOUND_SPEED_M_S;
     let lbl = LblRange {
-        stamp_ns,
+        stamp_ns: stamp_ns + (two_way_s * 1e9).round() as i64,
         beacon_id: "A".into(),
-        two_way_travel_time_s: Some(2.0 * range_m / SOUND_SPEED_M_S),
+        two_way_travel_time_s: Some(two_way_s),
         range_m: Some(range_m),
         sound_speed_m_s: Some(SOUND_SPEED_M_S),
         range_sigma_m: Some(0.3),
@@ -469,7 +470,9 @@ mod tests {
             }
         }
         for r in log.messages::<LblRange>("/lbl").unwrap() {
-            let t = truth(r.stamp_ns);
+            let interrogation_ns =
+                r.stamp_ns - (r.two_way_travel_time_s.unwrap() * 1e9).round() as i64;
+            let t = truth(interrogation_ns);
             let [n, e, d] = BEACON_NED_M;
             let range =
                 ((t.north_m - n).powi(2) + (t.east_m - e).powi(2) + (t.down_m - d).powi(2)).sqrt();

@@ -7,6 +7,7 @@
 
 pub mod dvl;
 pub mod imu;
+pub mod lbl;
 pub mod mag;
 pub mod scalar;
 pub mod usbl;
@@ -30,6 +31,7 @@ pub mod stream {
     pub const HOST: u64 = 12;
     pub const MOTION: u64 = 13;
     pub const USBL: u64 = 14;
+    pub const LBL: u64 = 15;
 }
 
 /// The generator of one sensor in one run.
