@@ -593,16 +593,16 @@ impl Sensors {
         let Some(fix) = self.acoustic.as_mut().and_then(|u| u.fix(t_s, ned_m)) else {
             return Ok(());
         };
-        let lat = tick.sample.lat_rad;
         let [dn, de, dd] = fix.error_ned_m;
-        let east_radius = geodesy::prime_vertical_radius_m(lat) * lat.cos();
+        let (lat, lon) =
+            geodesy::position_of_local_m(tick.sample.lat_rad, tick.sample.lon_rad, dn, de);
         let stamp_ns = tick.stamp_ns + secs_ns(fix.delay_s);
         let msg = AcousticFix {
             stamp_ns,
             stamp_is_validity: false,
             received_after_s: None,
-            latitude_deg: (lat + dn / geodesy::meridian_radius_m(lat)).to_degrees(),
-            longitude_deg: (tick.sample.lon_rad + de / east_radius).to_degrees(),
+            latitude_deg: lat.to_degrees(),
+            longitude_deg: lon.to_degrees(),
             depth_m: Some(tick.depth_m + dd),
             horizontal_sigma_m: Some(fix.sigma_m),
             depth_sigma_m: Some(fix.sigma_m),

@@ -53,19 +53,13 @@ impl LblSpec {
     }
 
     /// The `beacons` metadata record: each id's place as `latitude_deg,longitude_deg,depth_m`,
-    /// from the mission origin (rad) by the local radii.
-    pub fn record(&self, origin_rad: (f64, f64)) -> BTreeMap<String, String> {
-        let (lat, lon) = origin_rad;
-        let north_radius = crate::geodesy::meridian_radius_m(lat);
-        let east_radius = crate::geodesy::prime_vertical_radius_m(lat) * lat.cos();
+    /// from the mission origin (rad).
+    pub fn record(&self, (origin_lat, origin_lon): (f64, f64)) -> BTreeMap<String, String> {
         (self.beacons.iter())
             .map(|b| {
                 let [n, e, d] = b.ned_m;
-                let place = format!(
-                    "{:.9},{:.9},{d}",
-                    (lat + n / north_radius).to_degrees(),
-                    (lon + e / east_radius).to_degrees()
-                );
+                let (lat, lon) = crate::geodesy::position_of_local_m(origin_lat, origin_lon, n, e);
+                let place = format!("{:.9},{:.9},{d}", lat.to_degrees(), lon.to_degrees());
                 (b.id.clone(), place)
             })
             .collect()

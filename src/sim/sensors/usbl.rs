@@ -113,7 +113,7 @@ impl Usbl {
             return None;
         }
         let sigma_m = (self.spec.range_fraction * slant_m).max(self.spec.sigma_floor_m);
-        let mut error_ned_m = [0.0; 3].map(|_: f64| sigma_m * normal(&mut self.rng));
+        let mut error_ned_m: [f64; 3] = std::array::from_fn(|_| sigma_m * normal(&mut self.rng));
         let outlier = self.outlier_now();
         if outlier {
             let [lo, hi] = self.spec.outlier_m;
