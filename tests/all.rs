@@ -4,6 +4,7 @@
 
 mod common;
 
+mod acoustic;
 mod alignment;
 mod attitude_cli;
 mod bad_input;

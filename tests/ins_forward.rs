@@ -42,6 +42,7 @@ fn aiding(eml_sigma_m_s: Option<f64>) -> Aiding {
         eml_sigma_m_s,
         mag: None,
         rpm_velocity: None,
+        acoustic: None,
         gate_probability: Some(0.999),
         gate_reset_after: 0,
     }

@@ -2,8 +2,8 @@
 //! reconstruction, its initialisation and its aiding table read the log from.
 
 use super::{
-    Altimeter, ControlSurfaces, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix, Propeller,
-    SpeedLog, Truth,
+    AcousticFix, Altimeter, ControlSurfaces, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix,
+    Propeller, ShipPose, SpeedLog, Truth,
 };
 
 /// Time-sorted messages of each role (empty when the log has none).
@@ -20,4 +20,6 @@ pub struct Streams<'a> {
     pub rpm: &'a [Propeller],
     pub fins: &'a [ControlSurfaces],
     pub truth: &'a [Truth],
+    pub acoustic_fixes: &'a [AcousticFix],
+    pub ship: &'a [ShipPose],
 }

@@ -438,6 +438,8 @@ impl<'a> Streams<'a> {
             rpm: log.role(),
             fins: log.role(),
             truth: log.role(),
+            acoustic_fixes: log.role(),
+            ship: log.role(),
         }
     }
 }

@@ -168,6 +168,21 @@ use = true                 # sigma from each fix's horizontal_sigma_m
 [position_fix]
 use = true                 # sigma from each fix's sigma_m
 
+[acoustic_fix]
+# Positioned acoustic fixes (/acoustic_fix: a USBL's or an LBL system's latitude and
+# longitude), each applied at its time of validity: its stamp when the fix says so, else its
+# stamp less its received_after_s, else less receipt_delay_s. Gated; a run of refused fixes
+# reopens the gate only when the fixes follow one smooth track (see [gate]).
+use = true
+# receipt_delay_s = 2.0      # how long after its time of validity the ship received a fix
+                             # that carries no delay, s. Not given: estimated from the log
+                             # (the fixes against a forward pass without them; see the plan)
+slant_range_fraction = 0.01  # a fix without a sigma: this fraction of its slant range from the
+                             # ship (/ship_pose) ...
+sigma_floor_m = 0.5          # ... and at least this, m
+sigma_without_ship_m = 5.0   # a fix without a sigma and without the ship's position, m
+lever_arm_m = [0.0, 0.0, 0.0]  # the transponder on the vehicle from the IMU, body FRD, m
+
 [gate]
 # Chi-square innovation gate: a consistent measurement passes with this probability;
 # a rejected one is counted and recorded in residuals.parquet. 1.0 disables the gate.
@@ -567,6 +582,37 @@ crate::config::with_defaults! {
 }
 
 crate::config::with_defaults! {
+    /// Positioned acoustic fixes.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct AcousticFixConfig {
+        #[serde(rename = "use")]
+        pub enabled: bool = true,
+        /// Receipt less validity of the fixes stamped on receipt that carry no delay, s
+        /// (estimated unless given: [`Config::fixed`]).
+        pub receipt_delay_s: f64 = 0.0,
+        pub slant_range_fraction: f64 = 0.01,
+        pub sigma_floor_m: f64 = 0.5,
+        pub sigma_without_ship_m: f64 = 5.0,
+        pub lever_arm_m: [f64; 3] = [0.0; 3],
+    }
+}
+
+impl AcousticFixConfig {
+    /// The aid's settings, when it is used.
+    pub fn aid(&self) -> Option<crate::filters::ins::acoustic::AcousticAiding> {
+        self.enabled
+            .then_some(crate::filters::ins::acoustic::AcousticAiding {
+                receipt_delay_s: self.receipt_delay_s,
+                slant_range_fraction: self.slant_range_fraction,
+                sigma_floor_m: self.sigma_floor_m,
+                sigma_without_ship_m: self.sigma_without_ship_m,
+                lever_arm_body_m: self.lever_arm_m,
+            })
+    }
+}
+
+crate::config::with_defaults! {
     /// The propeller's velocity filter's settings; the defaults are the filter's own.
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
@@ -701,7 +747,7 @@ crate::config::with_defaults! {
 
 /// The settings estimated from the log (self-tuning, the plan), as dotted keys. A configuration that gives one keeps
 /// it (see [`Config::fixed`]).
-pub const TUNABLE_KEYS: [&str; 16] = [
+pub const TUNABLE_KEYS: [&str; 17] = [
     "imu.grade",
     "imu.gyro_bias_deg_h",
     "imu.gyro_bias_instability_deg_h",
@@ -718,6 +764,7 @@ pub const TUNABLE_KEYS: [&str; 16] = [
     "dvl.bias_correlation_s",
     "dvl.stamp_delay_s",
     "dvl.lever_arm_m",
+    "acoustic_fix.receipt_delay_s",
 ];
 
 /// Everything a reconstruction can be told.
@@ -733,6 +780,7 @@ pub struct Config {
     pub model_velocity: ModelVelocityConfig,
     pub gnss: UseConfig,
     pub position_fix: UseConfig,
+    pub acoustic_fix: AcousticFixConfig,
     pub gate: GateConfig,
     pub propagation: PropagationConfig,
     pub initial: InitialConfig,
@@ -759,6 +807,7 @@ impl Config {
             Sensor::Gnss => self.gnss.enabled,
             Sensor::SpeedLog => self.eml.enabled,
             Sensor::PositionFix => self.position_fix.enabled,
+            Sensor::AcousticFix => self.acoustic_fix.enabled,
             Sensor::Magnetometer => self.mag.enabled,
             Sensor::RpmVelocity => self.rpm_velocity.enabled.is_on(),
             Sensor::ModelVelocity => self.model_velocity.enabled.is_on(),
@@ -853,6 +902,8 @@ impl Config {
             &keyed!(spec => imu; gyro_scale_ppm)[..],
             &keyed!(self.tune => tune; settle_s),
             &keyed!(self.eml => eml; scale_sigma, current_sigma_m_s, current_walk_m_s_rt_h),
+            &keyed!(self.acoustic_fix => acoustic_fix;
+                slant_range_fraction, sigma_floor_m, sigma_without_ship_m),
             &keyed!(self.dvl => dvl;
                 altimeter_max_age_s, scale_sigma, misalignment_sigma_deg,
                 held_misalignment_sigma_deg, bias_sigma_m_s, bias_walk_m_s_rt_h,
@@ -866,11 +917,18 @@ impl Config {
 
     /// The keys with a range of their own.
     fn other_ranges(&self) -> Vec<(&'static str, f64, Range)> {
-        let mut out = vec![(
-            "dvl.stamp_delay_s",
-            self.dvl.stamp_delay_s,
-            Range::Within(-60.0, 60.0, "must be a delay in seconds, -60 to 60"),
-        )];
+        let mut out = vec![
+            (
+                "dvl.stamp_delay_s",
+                self.dvl.stamp_delay_s,
+                Range::Within(-60.0, 60.0, "must be a delay in seconds, -60 to 60"),
+            ),
+            (
+                "acoustic_fix.receipt_delay_s",
+                self.acoustic_fix.receipt_delay_s,
+                Range::Within(0.0, 60.0, "must be a delay in seconds, 0 to 60"),
+            ),
+        ];
         if let Some(d) = self.initial.declination_deg {
             out.push((
                 "initial.declination_deg",
@@ -961,6 +1019,7 @@ impl Config {
                 // Set by the reconstruction, which knows the declination and the field.
                 mag: None,
                 rpm_velocity: self.rpm_velocity.aid(),
+                acoustic: self.acoustic_fix.aid(),
                 gate_probability: (self.gate.probability < 1.0).then_some(self.gate.probability),
                 gate_reset_after: self.gate.reset_after,
             },

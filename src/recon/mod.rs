@@ -6,6 +6,7 @@
 //! `filters::ins::driver` (forward pass) -> `smooth::rts` -> `stats` (NIS per sensor,
 //! distance) and, when the log carries `/truth`, `score`.
 
+pub mod acoustic_delay;
 pub mod alignment;
 pub mod calibration;
 pub mod clock;
@@ -195,8 +196,9 @@ pub(crate) struct PassOptions<'a> {
     /// Told how far the final pass has come.
     pub progress: Progress<'a>,
     pub mag: MagInput<'a>,
-    /// Keep no epoch records (a pass that is only scored cannot be smoothed).
-    pub scored_only: bool,
+    /// What the pass keeps of its epochs: records for the smoother (the default), nothing (a
+    /// pass that is only scored), or the navigation states (a track to compare with).
+    pub keep: Keep,
     /// A start whose heading is already settled (the pipeline's alignment): its heading, its
     /// sources and its in-motion bank are taken instead of aligning again, unless the
     /// configuration's own sources give a sharper heading.
@@ -215,7 +217,7 @@ impl<'a> Prepared<'a> {
     /// The options of a pass that is only scored, from what is prepared.
     pub(crate) fn scored(self) -> PassOptions<'a> {
         PassOptions {
-            scored_only: true,
+            keep: Keep::Nothing,
             start: self.start,
             mag: self.mag.map_or(MagInput::FromStreams, MagInput::Shared),
             ..PassOptions::default()
@@ -234,7 +236,7 @@ pub(crate) fn forward_pass(
         shared_attitude,
         progress,
         mag: mag_input,
-        scored_only,
+        keep,
         start,
     } = options;
     let (mut owned, shared, keep_owned) = match mag_input {
@@ -257,11 +259,6 @@ pub(crate) fn forward_pass(
     let (settings, mut init) = initialise_for(&streams, mission, config, mag)?;
     let stamps = output_stamps(streams.imu, config.output.rate_hz);
     let aids = settings.aiding.table(&streams, mission_origin_rad(mission));
-    let keep = if scored_only {
-        Keep::Nothing
-    } else {
-        Keep::Records
-    };
     let inputs = Inputs {
         imu: streams.imu,
         aids: &aids,

@@ -23,6 +23,7 @@ use super::{
 use crate::angle::wrap_pi;
 use crate::contract::{Dvl, MagneticField};
 use crate::filters::ins::aid_table::Sensor;
+use crate::filters::ins::driver::Keep;
 use crate::ingest::Mission;
 use crate::progress::Progress;
 use serde::Serialize;
@@ -38,6 +39,7 @@ pub enum Stage {
     Tune,
     CheckAlignment,
     Retune,
+    AcousticDelay,
     Forward,
     ClockSearch,
     Smooth,
@@ -52,6 +54,9 @@ impl Stage {
             Stage::Tune => "self-tuning the noise figures",
             Stage::CheckAlignment => "checking the start heading with the tuned figures",
             Stage::Retune => "self-tuning again from the corrected heading",
+            Stage::AcousticDelay => {
+                "finding the acoustic fixes' receipt delay (a forward pass without them)"
+            }
             Stage::Forward => "forward filter",
             Stage::ClockSearch => {
                 "the DVL's innovations are too large: searching for a clock offset"
@@ -279,7 +284,8 @@ pub(crate) fn forward(
     times.plan_s = stages.start(Stage::Magnetometer);
     let mag = prepare_mag(streams, &planned, options.mag);
     times.magnetometer_s = stages.start(Stage::Align);
-    let settled = settle_and_tune(streams, mission, &planned, &mag, &mut stages, &mut times)?;
+    let ready = (streams, mission, &mag);
+    let settled = settle_and_place_fixes(ready, &planned, &mut plan, &mut stages, &mut times)?;
     warnings.extend(settled.warnings);
     let Settled {
         config,
@@ -299,8 +305,8 @@ pub(crate) fn forward(
             shared_attitude: options.shared_attitude,
             progress: options.forward_progress,
             mag: MagInput::Owned(Box::new(mag)),
-            scored_only: false,
             start: Some(&start),
+            keep: Keep::Records,
         },
     )?;
     times.forward_s = stages.lap();
@@ -374,6 +380,96 @@ impl Forward {
     }
 }
 
+/// [`settle_and_tune`], then the acoustic fixes' receipt delay when it is to be estimated
+/// (into the plan and the configuration). Fixes whose time of validity is still to be found
+/// would mislead the alignment and the tuning: those run without them.
+fn settle_and_place_fixes(
+    (streams, mission, mag): (&Streams<'_>, &Mission, &PreparedMag),
+    planned: &Config,
+    plan: &mut Plan,
+    stages: &mut Stages<'_>,
+    times: &mut StageTimes,
+) -> Result<Settled, ReconError> {
+    let delay_unknown = plan.acoustic_delay_to_estimate();
+    let settling = if delay_unknown {
+        Sensor::AcousticFix.left_out_of(*streams)
+    } else {
+        *streams
+    };
+    let mut settled = settle_and_tune(&settling, mission, planned, mag, stages, times)?;
+    if delay_unknown {
+        times.align_s += stages.start(Stage::AcousticDelay);
+        let estimate = acoustic_delay(
+            &settling,
+            streams,
+            mission,
+            &settled.config,
+            &settled.start,
+            mag,
+        )?;
+        plan.estimated_acoustic_delay(estimate.as_ref());
+    }
+    settled.config.acoustic_fix.receipt_delay_s = plan.acoustic_delay_s();
+    Ok(settled)
+}
+
+/// The receipt delay of the acoustic fixes that carry none: their positions against the
+/// track of a forward pass without them (`None`: no such track).
+fn acoustic_delay(
+    without_fixes: &Streams<'_>,
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+    start: &Initialisation,
+    mag: &PreparedMag,
+) -> Result<Option<super::acoustic_delay::ReceiptDelay>, ReconError> {
+    let mut unaided = config.clone();
+    unaided.model_velocity.enabled = super::on_off_auto::Switch::Off;
+    // Dead reckoning alone: an absolute position's update would jump the track, which no
+    // window's drift takes up.
+    let smooth = [Sensor::Gnss, Sensor::PositionFix]
+        .into_iter()
+        .fold(*without_fixes, |kept, s| s.left_out_of(kept));
+    let pass = forward_pass(
+        &smooth,
+        mission,
+        &unaided,
+        PassOptions {
+            mag: MagInput::Shared(mag),
+            start: Some(start),
+            keep: Keep::Navigation,
+            ..PassOptions::default()
+        },
+    )?;
+    let Some(aiding) = config.acoustic_fix.aid() else {
+        return Ok(None);
+    };
+    let Some(first) = super::acoustic_delay::estimate(
+        streams.acoustic_fixes,
+        streams.ship,
+        &aiding,
+        &pass.run.navigation,
+    ) else {
+        return Ok(None);
+    };
+    if !first.is_clear() {
+        return Ok(Some(first));
+    }
+    let from = Prepared {
+        start: Some(start),
+        mag: Some(mag),
+    };
+    let log_likelihood = |delay_s: f64| {
+        let mut trial = unaided.clone();
+        trial.acoustic_fix.receipt_delay_s = delay_s;
+        forward_pass(streams, mission, &trial, from.scored()).map_or(f64::NEG_INFINITY, |p| {
+            p.run
+                .log_likelihood_of(i64::MIN, |s| s == Sensor::AcousticFix)
+        })
+    };
+    Ok(Some(super::acoustic_delay::refine(&first, &log_likelihood)))
+}
+
 /// What the plan estimated from the log, given back with the tuned figures: a DVL stamp
 /// delay the plan took out (tuned.toml then corrects the stamps the same way on a rerun), and
 /// the DVL lever arm used.
@@ -387,6 +483,19 @@ fn add_plan_figures(tuning: &mut Tuning, plan: &Plan, config: &Config, stamp_del
         });
     }
     tuning.dvl_lever_arm_m = plan.dvl_lever_arm_m();
+    let estimated = plan.decisions.iter().any(|d| {
+        d.part == Part::AcousticFixDelay
+            && d.used
+            && matches!(d.why, super::plan::Why::EstimatedReceiptDelay { .. })
+    });
+    if estimated {
+        tuning.sensors.push(super::tune::SensorNoise {
+            key: super::plan::ACOUSTIC_DELAY_KEY,
+            value: config.acoustic_fix.receipt_delay_s,
+            source: super::tune::Source::Estimated,
+            differences: None,
+        });
+    }
 }
 
 /// The warnings of the final pass: aids that refused themselves, its statistics and start,

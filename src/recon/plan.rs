@@ -8,6 +8,7 @@
 //! running (a propeller that does not tell the speed, a vehicle model that does not fit) is
 //! marked afterwards with [`Plan::refuse`].
 
+use super::acoustic_delay::ReceiptDelay;
 use super::config::Config;
 use super::dvl_delay::{self, StampDelay};
 use super::on_off_auto::Switch;
@@ -25,6 +26,9 @@ pub const DVL_RANGE_KEY: &str = "dvl.max_altitude_m";
 
 /// The configuration key of the DVL's stamp delay.
 pub const DVL_DELAY_KEY: &str = "dvl.stamp_delay_s";
+
+/// The configuration key of the acoustic fixes' receipt delay.
+pub const ACOUSTIC_DELAY_KEY: &str = "acoustic_fix.receipt_delay_s";
 
 /// The configuration key of the DVL's lever arm.
 pub const DVL_LEVER_ARM_KEY: &str = "dvl.lever_arm_m";
@@ -68,6 +72,8 @@ pub struct LogFacts {
     /// The DVL's stamp delay estimated from the IMU and the DVL (when the configuration
     /// gives none and the DVL is used).
     pub dvl_delay: Option<StampDelay>,
+    /// Acoustic fixes stamped on receipt that carry no delay.
+    pub acoustic_fixes_without_delay: usize,
 }
 
 /// Two absolute positions and what lies between them.
@@ -133,8 +139,13 @@ impl LogFacts {
             dvl_gaps,
             dvl_longest_gap_s,
             vehicle: vehicle_of(config, mission),
-            farthest_positions: farthest_positions(streams, mission),
+            farthest_positions: farthest_positions(streams, mission, config),
             dvl_delay,
+            acoustic_fixes_without_delay: streams
+                .acoustic_fixes
+                .iter()
+                .filter(|f| crate::filters::ins::acoustic::needs_delay(f))
+                .count(),
         }
     }
 
@@ -175,14 +186,34 @@ fn vehicle_of(config: &Config, mission: &Mission) -> Result<String, String> {
     }
 }
 
-/// The farthest-apart pair of absolute positions (GNSS fixes and position fixes), thinned to
-/// the best-sigma position of each stretch.
-fn farthest_positions(streams: &Streams<'_>, mission: &Mission) -> Option<PositionPair> {
+/// The farthest-apart pair of absolute positions (GNSS fixes, position fixes and acoustic
+/// fixes), thinned to the best-sigma position of each stretch.
+fn farthest_positions(
+    streams: &Streams<'_>,
+    mission: &Mission,
+    config: &Config,
+) -> Option<PositionPair> {
     const EARTH_RADIUS_M: f64 = 6_371_000.0;
     let (lat0, lon0) = (
         mission.origin_latitude_deg.to_radians(),
         mission.origin_longitude_deg.to_radians(),
     );
+    let acoustic = config
+        .acoustic_fix
+        .aid()
+        .map(|a| {
+            crate::filters::ins::acoustic::valid_fixes(streams.acoustic_fixes, streams.ship, &a)
+        })
+        .unwrap_or_default()
+        .into_iter()
+        .map(|f| {
+            (
+                f.stamp_ns,
+                (f.lat_rad - lat0) * EARTH_RADIUS_M,
+                (f.lon_rad - lon0) * EARTH_RADIUS_M * lat0.cos(),
+                f.sigma_m,
+            )
+        });
     let mut all: Vec<(i64, f64, f64, f64)> = streams
         .gnss
         .iter()
@@ -200,6 +231,7 @@ fn farthest_positions(streams: &Streams<'_>, mission: &Mission) -> Option<Positi
                 .iter()
                 .map(|f| (f.stamp_ns, f.north_m, f.east_m, f.sigma_m)),
         )
+        .chain(acoustic)
         .filter(|p| p.3 > 0.0 && p.1.is_finite() && p.2.is_finite())
         .collect();
     all.sort_by_key(|p| p.0);
@@ -246,6 +278,8 @@ pub enum Part {
     Tuning,
     /// The in-motion heading alignment.
     InMotionAlignment,
+    /// The delay of acoustic fixes stamped on receipt, taken off their stamps.
+    AcousticFixDelay,
 }
 
 impl Part {
@@ -260,6 +294,7 @@ impl Part {
             Part::ImuBiases => "imu biases",
             Part::Tuning => "self-tuning",
             Part::InMotionAlignment => "in-motion alignment",
+            Part::AcousticFixDelay => "acoustic fix delay",
         }
     }
 }
@@ -322,6 +357,18 @@ pub enum Why {
     },
     /// The log's readings could not tell it.
     CannotTell { detail: String },
+    /// Each acoustic fix carries its time of validity (or its delay).
+    CarriedByFixes,
+    /// The acoustic fixes' receipt delay estimated from the log (used when the log tells it).
+    EstimatedReceiptDelay {
+        delay_s: f64,
+        sigma_s: f64,
+        /// Against the track alone, before the filter's likelihood refined it.
+        track_delay_s: f64,
+        fixes: usize,
+        windows: usize,
+        outliers: usize,
+    },
     /// The configuration gives the lever arm, body FRD, m.
     GivenLeverArm { lever_arm_m: [f64; 3] },
     /// The lever arm estimated from the log, clearly other than the configured one (used) or
@@ -402,6 +449,34 @@ impl fmt::Display for Why {
                 pairs,
             } => write_estimated_delay(f, *delay_s, *sigma_s, *chi_square_vs_zero, *pairs),
             Why::CannotTell { detail } => write!(f, "cannot tell: {detail}; 0 is used"),
+            Why::CarriedByFixes => {
+                write!(f, "each fix carries its time of validity or its delay")
+            }
+            Why::EstimatedReceiptDelay {
+                delay_s,
+                sigma_s,
+                track_delay_s,
+                fixes,
+                windows,
+                outliers,
+            } => {
+                write!(
+                    f,
+                    "{delay_s:.3} s (1-sigma {sigma_s:.3} s) by the likelihood of the fixes' \
+                     innovations, from {track_delay_s:.3} s found by {fixes} fixes in \
+                     {windows} windows against a pass without them ({outliers} off the \
+                     track, left out)"
+                )?;
+                if *sigma_s <= super::acoustic_delay::MAX_SIGMA_S {
+                    write!(f, ": taken off the stamps of the fixes received late")
+                } else {
+                    write!(
+                        f,
+                        ": not told clearly (the vehicle turns too little); 0 is used, give \
+                         acoustic_fix.receipt_delay_s"
+                    )
+                }
+            }
             Why::GivenLeverArm { lever_arm_m: [x, y, z] } => {
                 write!(f, "[{x:+.2}, {y:+.2}, {z:+.2}] m (body FRD), as given")
             }
@@ -576,9 +651,63 @@ impl Plan {
             };
             decisions.push(decision(part, on, why));
         }
+        if uses(&decisions, Sensor::AcousticFix) {
+            decisions.push(acoustic_fix_delay(facts, config));
+        }
         Plan {
             decisions,
             dvl_max_altitude_m: facts.dvl_max_altitude_m,
+        }
+    }
+
+    /// The acoustic fixes' receipt delay as the pipeline estimated it (`None`: no track to
+    /// estimate it from).
+    pub fn estimated_acoustic_delay(&mut self, estimate: Option<&ReceiptDelay>) {
+        let round = |x: f64| (x * 1000.0).round() / 1000.0;
+        let d = match estimate {
+            Some(e) => decision(
+                Part::AcousticFixDelay,
+                e.is_clear(),
+                Why::EstimatedReceiptDelay {
+                    delay_s: round(e.delay_s),
+                    sigma_s: round(e.sigma_s),
+                    track_delay_s: round(e.track_delay_s),
+                    fixes: e.fixes,
+                    windows: e.windows,
+                    outliers: e.outliers,
+                },
+            ),
+            None => decision(
+                Part::AcousticFixDelay,
+                false,
+                Why::CannotTell {
+                    detail: "too few fixes under a track without them".into(),
+                },
+            ),
+        };
+        match self.decisions.iter_mut().find(|x| x.part == d.part) {
+            Some(x) => *x = d,
+            None => self.decisions.push(d),
+        }
+    }
+
+    /// Whether the acoustic fixes' receipt delay is left for the pipeline to estimate.
+    pub fn acoustic_delay_to_estimate(&self) -> bool {
+        self.decisions.iter().any(|d| {
+            d.part == Part::AcousticFixDelay && matches!(d.why, Why::CannotTell { .. }) && !d.used
+        }) && self.uses(Part::Aid(Sensor::AcousticFix))
+    }
+
+    /// The acoustic fixes' receipt delay used, s.
+    pub fn acoustic_delay_s(&self) -> f64 {
+        let d = self
+            .decisions
+            .iter()
+            .find(|d| d.part == Part::AcousticFixDelay);
+        match d.map(|d| (d.used, &d.why)) {
+            Some((true, Why::Given { value })) => *value,
+            Some((true, Why::EstimatedReceiptDelay { delay_s, .. })) => *delay_s,
+            _ => 0.0,
         }
     }
 
@@ -729,6 +858,21 @@ fn without_dvl(part: Part) -> Decision {
         used: false,
     };
     decision(part, false, why)
+}
+
+/// The acoustic fixes' receipt delay: carried by each fix, given, or left for the pipeline
+/// to estimate (it needs a track: [`Plan::estimated_acoustic_delay`]).
+fn acoustic_fix_delay(facts: &LogFacts, config: &Config) -> Decision {
+    let part = Part::AcousticFixDelay;
+    if facts.acoustic_fixes_without_delay == 0 {
+        return decision(part, true, Why::CarriedByFixes);
+    }
+    if config.fixed.contains(ACOUSTIC_DELAY_KEY) {
+        let value = config.acoustic_fix.receipt_delay_s;
+        return decision(part, value != 0.0, Why::Given { value });
+    }
+    let detail = "not estimated yet".to_string();
+    decision(part, false, Why::CannotTell { detail })
 }
 
 /// The DVL's stamp delay: the configuration's, else the estimate when it is clear.
@@ -934,6 +1078,7 @@ mod tests {
             vehicle: Err("none".into()),
             farthest_positions: None,
             dvl_delay: None,
+            acoustic_fixes_without_delay: 0,
         }
     }
 

@@ -16,6 +16,7 @@ use super::writer::{LogWriter, WriteError};
 use crate::contract::*;
 use crate::geodesy;
 use crate::ingest::Mission;
+use std::collections::BTreeMap;
 use std::io::{Seek, Write};
 
 /// Error of a simulation run.
@@ -170,6 +171,9 @@ pub fn run_with_progress<W: Write + Seek>(
         }
         t_ns += dt_ns;
     }
+    if let Some(record) = sensors.usbl_truth() {
+        w.write_metadata("usbl_truth", record)?;
+    }
     Ok(RunSummary {
         messages: w.messages() - written_before,
         duration_s: t_ns as f64 * 1e-9,
@@ -249,6 +253,8 @@ struct Sensors {
     usbl: Option<Schedule>,
     /// The ship's USBL (`/acoustic_fix`).
     acoustic: Option<Usbl>,
+    /// The receipt stamps of the USBL's outliers, for the `usbl_truth` record.
+    acoustic_outliers_ns: Vec<i64>,
     /// The seabed beacons (`/lbl`).
     lbl: Option<Lbl>,
     fins: Option<Schedule>,
@@ -309,6 +315,7 @@ impl Sensors {
                 .filter(|f| f.usbl_every_s > 0.0)
                 .map(|f| Schedule::new(1.0 / f.usbl_every_s)),
             acoustic: (scenario.usbl).map(|u| Usbl::new(u, rng_for(seed, stream::USBL))),
+            acoustic_outliers_ns: Vec::new(),
             lbl: (scenario.lbl.clone()).map(|l| Lbl::new(l, rng_for(seed, stream::LBL))),
             fins: scenario.fins.map(|f| Schedule::new(f.rate_hz)),
             truth: Schedule::new(scenario.truth_rate_hz),
@@ -582,6 +589,25 @@ impl Sensors {
         Ok(())
     }
 
+    /// What the USBL did that its fixes do not say (a test's reference; the reconstruction
+    /// never reads it): the run's receipt delay, s, and the receipt stamps of its outliers,
+    /// ns, comma-separated.
+    fn usbl_truth(&self) -> Option<BTreeMap<String, String>> {
+        let usbl = self.acoustic.as_ref()?;
+        let stamps: Vec<String> = self
+            .acoustic_outliers_ns
+            .iter()
+            .map(i64::to_string)
+            .collect();
+        Some(BTreeMap::from([
+            (
+                "receipt_delay_s".to_string(),
+                format!("{}", usbl.receipt_delay_s()),
+            ),
+            ("outlier_receipt_stamps_ns".to_string(), stamps.join(",")),
+        ]))
+    }
+
     /// The ship's USBL fix, stamped and logged when the ship received it.
     fn acoustic<W: Write + Seek>(
         &mut self,
@@ -597,6 +623,9 @@ impl Sensors {
         let (lat, lon) =
             geodesy::position_of_local_m(tick.sample.lat_rad, tick.sample.lon_rad, dn, de);
         let stamp_ns = tick.stamp_ns + secs_ns(fix.delay_s);
+        if fix.outlier {
+            self.acoustic_outliers_ns.push(stamp_ns);
+        }
         let msg = AcousticFix {
             stamp_ns,
             stamp_is_validity: false,

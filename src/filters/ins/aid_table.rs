@@ -7,12 +7,13 @@
 //! row in [`Aiding::table`] with its settings in [`Aiding`]; the log's stream comes from
 //! [`Streams`].
 
+use super::acoustic::{AcousticAiding, AcousticFixAid};
 use super::aid_sources;
 use super::error_state::N;
 use super::forward::{DvlMounting, Estimate};
 use crate::contract::{
-    ControlSurfaces, Depth, Dvl, GnssFix, MagneticField, Message, PositionFix, Propeller, SpeedLog,
-    Streams,
+    AcousticFix, ControlSurfaces, Depth, Dvl, GnssFix, MagneticField, Message, PositionFix,
+    Propeller, SpeedLog, Streams,
 };
 use crate::filters::velocity::rpm::RpmFilter;
 use nalgebra::{SMatrix, SVector, Vector3};
@@ -30,6 +31,8 @@ pub enum Sensor {
     RpmVelocity,
     /// The vehicle model's velocity through seed 000's filter, while the DVL is out.
     ModelVelocity,
+    /// Positioned acoustic fixes (USBL, LBL systems) at their time of validity.
+    AcousticFix,
 }
 
 impl std::fmt::Display for Sensor {
@@ -45,7 +48,7 @@ impl serde::Serialize for Sensor {
 }
 
 impl Sensor {
-    pub const ALL: [Sensor; 8] = [
+    pub const ALL: [Sensor; 9] = [
         Sensor::Dvl,
         Sensor::Depth,
         Sensor::Gnss,
@@ -54,6 +57,7 @@ impl Sensor {
         Sensor::Magnetometer,
         Sensor::RpmVelocity,
         Sensor::ModelVelocity,
+        Sensor::AcousticFix,
     ];
 
     /// Whether it reads the velocity in the body's axes, where a heading error and a velocity
@@ -74,6 +78,7 @@ impl Sensor {
             Sensor::Magnetometer => "mag",
             Sensor::RpmVelocity => "rpm_velocity",
             Sensor::ModelVelocity => "model_velocity",
+            Sensor::AcousticFix => "acoustic_fix",
         }
     }
 
@@ -88,6 +93,7 @@ impl Sensor {
             Sensor::Magnetometer => MagneticField::DEFAULT_TOPIC,
             Sensor::RpmVelocity => Propeller::DEFAULT_TOPIC,
             Sensor::ModelVelocity => ControlSurfaces::DEFAULT_TOPIC,
+            Sensor::AcousticFix => AcousticFix::DEFAULT_TOPIC,
         }
     }
 
@@ -102,6 +108,7 @@ impl Sensor {
             Sensor::Magnetometer => streams.mag.len(),
             Sensor::RpmVelocity => streams.rpm.len(),
             Sensor::ModelVelocity => streams.fins.len(),
+            Sensor::AcousticFix => streams.acoustic_fixes.len(),
         }
     }
 
@@ -139,6 +146,10 @@ impl Sensor {
                 fins: &[],
                 ..streams
             },
+            Sensor::AcousticFix => Streams {
+                acoustic_fixes: &[],
+                ..streams
+            },
         }
     }
 
@@ -147,7 +158,7 @@ impl Sensor {
         match self {
             Sensor::Dvl | Sensor::RpmVelocity | Sensor::ModelVelocity => 3,
             Sensor::Depth | Sensor::SpeedLog | Sensor::Magnetometer => 1,
-            Sensor::Gnss | Sensor::PositionFix => 2,
+            Sensor::Gnss | Sensor::PositionFix | Sensor::AcousticFix => 2,
         }
     }
 }
@@ -300,6 +311,8 @@ pub struct Aiding {
     pub mag: Option<MagAiding>,
     /// The propeller's speed while the DVL is out (`None`: not used).
     pub rpm_velocity: Option<RpmVelocity>,
+    /// Positioned acoustic fixes (`None`: not used).
+    pub acoustic: Option<AcousticAiding>,
     /// Probability of the chi-square gate (a consistent measurement passes it with this
     /// probability); `None` disables gating.
     pub gate_probability: Option<f64>,
@@ -368,6 +381,13 @@ impl Aiding {
             }),
             Box::new(aid_sources::FixAid::new(streams.fixes, origin_rad)),
         ];
+        if let Some(acoustic) = self.acoustic.filter(|_| !streams.acoustic_fixes.is_empty()) {
+            table.push(Box::new(AcousticFixAid::new(
+                streams.acoustic_fixes,
+                streams.ship,
+                &acoustic,
+            )));
+        }
         if let Some(sigma_m_s) = self.eml_sigma_m_s {
             table.push(Box::new(aid_sources::SpeedLogAid {
                 readings: streams.eml,

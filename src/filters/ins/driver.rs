@@ -71,11 +71,12 @@ pub struct Inputs<'a> {
 }
 
 /// What a pass keeps of each epoch.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Keep {
     /// Nothing: a pass that is only scored (its residuals and likelihood).
     Nothing,
     /// The epoch records, for a smoother.
+    #[default]
     Records,
     /// The navigation state after each epoch's updates, and no covariance: the track that
     /// drives another filter (seed 000's model aid), at a small part of the records' cost.

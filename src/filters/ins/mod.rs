@@ -1,6 +1,7 @@
 //! Inertial navigation: strapdown mechanization, the 25-state error model, the forward
 //! filter and its driver over a mission, coarse alignment, and the records the smoother reads.
 
+pub mod acoustic;
 pub mod aid_sources;
 pub mod aid_table;
 pub mod driver;

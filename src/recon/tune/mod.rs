@@ -201,6 +201,8 @@ pub(crate) fn first_span<'a>(streams: &Streams<'a>, span_s: f64) -> Streams<'a> 
         rpm: cut(streams.rpm, end),
         fins: cut(streams.fins, end),
         truth: cut(streams.truth, end),
+        acoustic_fixes: cut(streams.acoustic_fixes, end),
+        ship: cut(streams.ship, end),
     }
 }
 

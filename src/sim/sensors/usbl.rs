@@ -1,6 +1,7 @@
 //! A USBL on a support ship that follows the vehicle: positioned fixes whose error grows with
 //! the slant range, stamped when the ship received them (late, by a delay the log does not
-//! tell), with runs of multipath outliers, and none beyond the system's range.
+//! tell: one per run, the system's processing, with a small jitter), with runs of multipath
+//! outliers, and none beyond the system's range.
 
 use super::normal;
 use rand::Rng;
@@ -19,9 +20,12 @@ crate::config::with_defaults! {
         pub range_fraction: f64 = 0.005,
         /// ... and at least this, m.
         pub sigma_floor_m: f64 = 0.1,
-        /// The ship receives a fix this long after it was valid, s, drawn evenly within
-        /// `[min, max]`; the fix is stamped on receipt.
+        /// The ship receives a fix this long after it was valid, s: drawn evenly within
+        /// `[min, max]` once per run (the system's processing time); the fix is stamped on
+        /// receipt ...
         pub receipt_delay_s: [f64; 2] = [1.0, 3.0],
+        /// ... with this 1-sigma jitter per fix, s (the serial link's and the clock's).
+        pub receipt_jitter_s: f64 = 0.02,
         /// Share of the fixes that are multipath outliers ...
         pub outlier_fraction: f64 = 0.0,
         /// ... their horizontal error, m, drawn evenly within `[min, max]` in a random
@@ -56,8 +60,12 @@ impl UsblSpec {
             );
         }
         let positive = [self.range_fraction, self.sigma_floor_m, self.max_range_m];
-        if positive.iter().any(|&x| x < 0.0) || self.ship_lag_s < 0.0 {
-            return Some("usbl sigmas, max_range_m and ship_lag_s must not be negative".into());
+        let lags = [self.ship_lag_s, self.receipt_jitter_s];
+        if positive.iter().chain(&lags).any(|&x| x < 0.0) {
+            return Some(
+                "usbl sigmas, max_range_m, ship_lag_s and receipt_jitter_s must not be negative"
+                    .into(),
+            );
         }
         None
     }
@@ -79,6 +87,8 @@ pub struct Fix {
 pub struct Usbl {
     spec: UsblSpec,
     rng: ChaCha8Rng,
+    /// The run's receipt delay, s.
+    delay_s: f64,
     next_s: f64,
     in_outlier_run: bool,
     /// The vehicle's horizontal track over the ship's lag: (s, north, east).
@@ -86,8 +96,11 @@ pub struct Usbl {
 }
 
 impl Usbl {
-    pub fn new(spec: UsblSpec, rng: ChaCha8Rng) -> Self {
+    /// The USBL; the run's receipt delay is the first draw of `rng`.
+    pub fn new(spec: UsblSpec, mut rng: ChaCha8Rng) -> Self {
+        let [lo, hi] = spec.receipt_delay_s;
         Usbl {
+            delay_s: rng.random_range(lo..=hi),
             next_s: spec.every_s[0],
             spec,
             rng,
@@ -122,13 +135,18 @@ impl Usbl {
             error_ned_m[0] += size * bearing.cos();
             error_ned_m[1] += size * bearing.sin();
         }
-        let [lo, hi] = self.spec.receipt_delay_s;
+        let jitter_s = self.spec.receipt_jitter_s * normal(&mut self.rng);
         Some(Fix {
             error_ned_m,
             sigma_m,
-            delay_s: self.rng.random_range(lo..=hi),
+            delay_s: (self.delay_s + jitter_s).max(0.0),
             outlier,
         })
+    }
+
+    /// The run's receipt delay, s (each fix's is this plus its jitter).
+    pub fn receipt_delay_s(&self) -> f64 {
+        self.delay_s
     }
 
     /// Whether this fix is an outlier: runs of mean length `outlier_run`, entered so that
@@ -189,8 +207,11 @@ mod tests {
         assert!((mean_run - 2.0).abs() < 0.2, "{mean_run}");
         let mut normalised_sq = 0.0;
         let mut good = 0;
+        let delay_s = Usbl::new(spec, rng_for(3, 99)).receipt_delay_s();
+        assert!((1.0..=3.0).contains(&delay_s), "{delay_s}");
+        let mut jitter_sq = 0.0;
         for (_, slant, f) in &all {
-            assert!((1.0..=3.0).contains(&f.delay_s));
+            jitter_sq += (f.delay_s - delay_s).powi(2);
             // The ship's place is the track's at a tick of the lag (a tick is 0.15 m here).
             let sigma = (0.005 * slant).max(0.1);
             assert!(
@@ -212,6 +233,8 @@ mod tests {
         }
         let normalised_sigma = (normalised_sq / good as f64).sqrt();
         assert!((normalised_sigma - 1.0).abs() < 0.02, "{normalised_sigma}");
+        let jitter_s = (jitter_sq / all.len() as f64).sqrt();
+        assert!((jitter_s - 0.02).abs() < 0.001, "{jitter_s}");
     }
 
     #[test]

