@@ -188,3 +188,37 @@ fn a_bad_acoustic_fix_is_named_and_skipped() {
         .count();
     assert_eq!(taken, fixes.len() - 2);
 }
+
+/// `usbl-no-dvl` (IMU, depth and fixes that carry their time of validity and delay; no DVL,
+/// GNSS or magnetometer), seeds 1-5, default run: the start placed by the first acoustic fix
+/// its neighbours agree with, the heading found in motion from the fixes; the forward
+/// horizontal RMS at most 1.5 times the fixes' median sigma, the forward NEES inside its
+/// 95 % bounds for at least 90 % of the epochs.
+#[test]
+fn a_dive_without_dvl_is_held_by_its_usbl() {
+    let scenario = Scenario::built_in("usbl-no-dvl").unwrap();
+    for seed in 1..=5 {
+        let log = common::simulated(&scenario, seed);
+        let fixes: &[AcousticFix] = log.role();
+        let mut sigmas: Vec<f64> = fixes.iter().filter_map(|f| f.horizontal_sigma_m).collect();
+        sigmas.sort_by(f64::total_cmp);
+        let median_sigma_m = sigmas[sigmas.len() / 2];
+        let r = log.reconstruct(&Config::default());
+        assert_eq!(r.summary.initialisation.position_source, "acoustic_fix");
+        let (fwd, smo) = common::output_errors(Streams::of(&log).truth, &r.solved);
+        let (fwd, smo) = (scores(&fwd).unwrap(), scores(&smo).unwrap());
+        eprintln!(
+            "seed {seed}: median sigma {median_sigma_m:.2} m; forward RMS {:.2} m, NEES inside \
+             {:.1} %; smoothed RMS {:.2} m, NEES inside {:.1} %",
+            fwd.horizontal_rms_m,
+            100.0 * fwd.nees_horizontal_inside_95,
+            smo.horizontal_rms_m,
+            100.0 * smo.nees_horizontal_inside_95
+        );
+        assert!(
+            fwd.horizontal_rms_m <= 1.5 * median_sigma_m,
+            "seed {seed}: {fwd:?}"
+        );
+        assert!(fwd.nees_horizontal_inside_95 >= 0.9, "seed {seed}: {fwd:?}");
+    }
+}

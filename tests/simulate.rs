@@ -83,6 +83,7 @@ fn every_scenario_log_is_valid_and_reads_back_identically() {
         "drop-entry",
         "usbl-survey",
         "lbl-box",
+        "usbl-no-dvl",
     ] {
         let log = check_log(name, &simulate(name, 1));
         assert!(log.stream("/truth").is_some(), "{name}");

@@ -8,7 +8,7 @@ use super::sensors::imu::Triad;
 use super::sensors::lbl::Lbl;
 use super::sensors::mag::MagSensor;
 use super::sensors::scalar::{Propeller as PropellerModel, ScalarSensor};
-use super::sensors::usbl::Usbl;
+use super::sensors::usbl::{Usbl, UsblStamp};
 use super::sensors::{normal, rng_for, stream};
 use super::truth::{KinematicTruth, TruthSample, TruthSource};
 use super::vibration::RealMotion;
@@ -255,6 +255,7 @@ struct Sensors {
     acoustic: Option<Usbl>,
     /// The receipt stamps of the USBL's outliers, for the `usbl_truth` record.
     acoustic_outliers_ns: Vec<i64>,
+    usbl_stamp: Option<UsblStamp>,
     /// The seabed beacons (`/lbl`).
     lbl: Option<Lbl>,
     fins: Option<Schedule>,
@@ -316,6 +317,7 @@ impl Sensors {
                 .map(|f| Schedule::new(1.0 / f.usbl_every_s)),
             acoustic: (scenario.usbl).map(|u| Usbl::new(u, rng_for(seed, stream::USBL))),
             acoustic_outliers_ns: Vec::new(),
+            usbl_stamp: scenario.usbl.map(|u| u.stamp),
             lbl: (scenario.lbl.clone()).map(|l| Lbl::new(l, rng_for(seed, stream::LBL))),
             fins: scenario.fins.map(|f| Schedule::new(f.rate_hz)),
             truth: Schedule::new(scenario.truth_rate_hz),
@@ -626,10 +628,11 @@ impl Sensors {
         if fix.outlier {
             self.acoustic_outliers_ns.push(stamp_ns);
         }
+        let both = self.usbl_stamp == Some(UsblStamp::ValidityAndDelay);
         let msg = AcousticFix {
-            stamp_ns,
-            stamp_is_validity: false,
-            received_after_s: None,
+            stamp_ns: if both { tick.stamp_ns } else { stamp_ns },
+            stamp_is_validity: both,
+            received_after_s: both.then_some(fix.delay_s),
             latitude_deg: lat.to_degrees(),
             longitude_deg: lon.to_degrees(),
             depth_m: Some(tick.depth_m + dd),

@@ -2,7 +2,8 @@
 //!
 //! - Position: a GNSS fix near the start (the one closest to the median of those within
 //!   `gnss_window_s`), else a `start` position fix near the
-//!   start, else the mission origin. Depth from the first depth reading.
+//!   start, else the first acoustic fix that two of the next four agree with, else the
+//!   mission origin. Depth from the first depth reading.
 //! - Roll and pitch at the first sample: the specific force over the first `window_s` of IMU
 //!   data, each sample carried to the start's body axes by the gyro, less the acceleration
 //!   the DVL saw (carried the same way), levelled. A vehicle that rolls or turns during the
@@ -22,6 +23,7 @@ use super::carry::Carry;
 use super::heading::combine;
 pub use super::heading::{DeclinationSource, DeclinationUsed, HeadingCandidate, HeadingSource};
 use crate::contract::{GnssFix, Truth};
+use crate::filters::ins::acoustic::{valid_fixes, AcousticAiding, ValidFix};
 use crate::filters::ins::error_state::{idx, ErrorMatrix, ErrorState};
 use crate::filters::ins::forward::{DvlMounting, Estimate};
 use crate::filters::ins::mechanization::NavState;
@@ -52,6 +54,8 @@ pub struct InitSettings<'a> {
     /// Forward speed (m/s) for a propeller reading (rev/min), when known: seed 002's in-run
     /// alignment needs it.
     pub speed_of_rpm: Option<&'a dyn Fn(f64) -> f64>,
+    /// How acoustic fixes are placed in time and weighted (`None`: they are not used).
+    pub acoustic: Option<AcousticAiding>,
 }
 
 /// Where the initial position came from.
@@ -61,6 +65,10 @@ pub enum PositionSource {
         stamp_ns: i64,
     },
     StartFix {
+        stamp_ns: i64,
+    },
+    /// An acoustic fix at its time of validity.
+    AcousticFix {
         stamp_ns: i64,
     },
     MissionOrigin,
@@ -373,8 +381,48 @@ fn start_gnss(fixes: &[GnssFix], near_start: impl Fn(i64) -> bool) -> Option<&Gn
     })
 }
 
-/// The start's position: a GNSS fix near the start, else a `start` position fix, else the
-/// mission origin; its depth from the first depth reading (else the fix's, else 0).
+/// The acoustic fixes read for the start: the first this many within
+/// [`ACOUSTIC_START_WINDOW_S`] of it ...
+const ACOUSTIC_START_FIXES: usize = 5;
+/// ... s.
+const ACOUSTIC_START_WINDOW_S: f64 = 60.0;
+/// The speed the vehicle may have moved at between the start and that fix when nothing
+/// tells it, m/s.
+const ACOUSTIC_START_SPEED_M_S: f64 = 1.0;
+
+/// Of the first acoustic fixes after the start (at their times of validity), the earliest
+/// that two others agree with (within three sigmas and the way the vehicle may have moved
+/// between them): a multipath outlier among them cannot place the start.
+fn start_acoustic_fix(src: &Streams<'_>, set: &InitSettings<'_>, t0: i64) -> Option<ValidFix> {
+    let fixes = valid_fixes(src.acoustic_fixes, src.ship, set.acoustic.as_ref()?);
+    let first: Vec<ValidFix> = fixes
+        .into_iter()
+        .filter(|f| {
+            let after_s = (f.stamp_ns - t0) as f64 * 1e-9;
+            (0.0..=ACOUSTIC_START_WINDOW_S).contains(&after_s)
+        })
+        .take(ACOUSTIC_START_FIXES)
+        .collect();
+    let agree = |a: &ValidFix, b: &ValidFix| {
+        let (north, east) = geodesy::local_north_east_m(a.lat_rad, a.lon_rad, b.lat_rad, b.lon_rad);
+        let apart_s = ((a.stamp_ns - b.stamp_ns) as f64 * 1e-9).abs();
+        north.hypot(east) <= 3.0 * a.sigma_m.hypot(b.sigma_m) + ACOUSTIC_START_SPEED_M_S * apart_s
+    };
+    first
+        .iter()
+        .find(|a| {
+            first
+                .iter()
+                .filter(|b| b.stamp_ns != a.stamp_ns && agree(a, b))
+                .count()
+                >= 2
+        })
+        .copied()
+}
+
+/// The start's position: a GNSS fix near the start, else a `start` position fix, else an
+/// acoustic fix, else the mission origin; its depth from the first depth reading (else the
+/// fix's, else 0).
 fn start_position(
     src: &Streams<'_>,
     mission: &Mission,
@@ -413,6 +461,17 @@ fn start_position(
                 stamp_ns: f.stamp_ns,
             },
             f.sigma_m.max(0.01),
+        )
+    } else if let Some(f) = start_acoustic_fix(src, set, t0) {
+        let late_s = ((f.stamp_ns - t0) as f64 * 1e-9).abs();
+        (
+            f.lat_rad,
+            f.lon_rad,
+            PositionSource::AcousticFix {
+                stamp_ns: f.stamp_ns,
+            },
+            f.sigma_m
+                .hypot(speed_guess_m_s.max(ACOUSTIC_START_SPEED_M_S) * late_s),
         )
     } else {
         (
@@ -978,6 +1037,9 @@ impl Initialisation {
         let position = match self.position {
             PositionSource::Gnss { .. } => "first GNSS fix",
             PositionSource::StartFix { .. } => "`start` position fix",
+            PositionSource::AcousticFix { .. } => {
+                "the first acoustic fix that two of the next four agree with"
+            }
             PositionSource::MissionOrigin => {
                 "mission origin (no GNSS fix or start mark near the start)"
             }
@@ -1112,6 +1174,7 @@ impl PositionSource {
         match self {
             PositionSource::Gnss { .. } => "gnss",
             PositionSource::StartFix { .. } => "start_fix",
+            PositionSource::AcousticFix { .. } => "acoustic_fix",
             PositionSource::MissionOrigin => "mission_origin",
             PositionSource::Truth => "truth",
         }
@@ -1163,6 +1226,7 @@ mod tests {
             water_sigma: [0.02, 0.2, 0.3],
             depth_sigma_m: 0.1,
             speed_of_rpm: None,
+            acoustic: None,
         }
     }
 

@@ -26,6 +26,9 @@ crate::config::with_defaults! {
         pub receipt_delay_s: [f64; 2] = [1.0, 3.0],
         /// ... with this 1-sigma jitter per fix, s (the serial link's and the clock's).
         pub receipt_jitter_s: f64 = 0.02,
+        /// What the fix's stamp says: the time of receipt alone, or the time of validity
+        /// with the delay after it (`received_after_s`, as EvoLogics' two times give it).
+        pub stamp: UsblStamp = UsblStamp::Receipt,
         /// Share of the fixes that are multipath outliers ...
         pub outlier_fraction: f64 = 0.0,
         /// ... their horizontal error, m, drawn evenly within `[min, max]` in a random
@@ -38,6 +41,16 @@ crate::config::with_defaults! {
         /// The ship holds the vehicle's horizontal position of this long before, s.
         pub ship_lag_s: f64 = 120.0,
     }
+}
+
+/// What a simulated USBL's stamps say.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UsblStamp {
+    /// Stamped when the ship received the fix; the delay is not told.
+    Receipt,
+    /// Stamped at the time of validity, the delay after it given.
+    ValidityAndDelay,
 }
 
 impl UsblSpec {
