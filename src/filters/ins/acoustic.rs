@@ -161,3 +161,102 @@ impl Aid for AcousticFixAid {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LAT: f64 = 35.1;
+    const LON: f64 = 129.05;
+
+    fn fix(stamp_s: f64, stamp_is_validity: bool, received_after_s: Option<f64>) -> AcousticFix {
+        AcousticFix {
+            stamp_ns: (stamp_s * 1e9) as i64,
+            stamp_is_validity,
+            received_after_s,
+            latitude_deg: LAT,
+            longitude_deg: LON,
+            depth_m: Some(40.0),
+            horizontal_sigma_m: None,
+            depth_sigma_m: None,
+            beacon_id: String::new(),
+        }
+    }
+
+    fn aiding() -> AcousticAiding {
+        AcousticAiding {
+            receipt_delay_s: 2.0,
+            slant_range_fraction: 0.01,
+            sigma_floor_m: 0.5,
+            sigma_without_ship_m: 5.0,
+            lever_arm_body_m: [0.0; 3],
+        }
+    }
+
+    #[test]
+    fn a_fix_is_placed_at_its_time_of_validity() {
+        let s = 1_000_000_000;
+        assert_eq!(validity_ns(&fix(100.0, true, Some(1.5)), 2.0), 100 * s);
+        assert_eq!(
+            validity_ns(&fix(100.0, false, Some(1.5)), 2.0),
+            98 * s + s / 2
+        );
+        assert_eq!(validity_ns(&fix(100.0, false, None), 2.0), 98 * s);
+        assert!(needs_delay(&fix(100.0, false, None)));
+        assert!(!needs_delay(&fix(100.0, false, Some(1.5))));
+        assert!(!needs_delay(&fix(100.0, true, None)));
+    }
+
+    /// A fix without a sigma: 1 % of its slant range from the ship (300 m north, 40 m down:
+    /// 302.65 m), at least the floor; without the ship's position, the default; its own sigma
+    /// when it gives one. The fixes come out in order of validity.
+    #[test]
+    fn a_fix_without_a_sigma_takes_one_from_its_slant_range() {
+        let (ship_lat, ship_lon) =
+            crate::geodesy::position_of_local_m(LAT.to_radians(), LON.to_radians(), -300.0, 0.0);
+        let ship = ShipPose {
+            stamp_ns: 97_000_000_000,
+            latitude_deg: ship_lat.to_degrees(),
+            longitude_deg: ship_lon.to_degrees(),
+            roll: 0.0,
+            pitch: 0.0,
+            yaw: 0.0,
+            horizontal_sigma_m: None,
+            heading_sigma_rad: None,
+        };
+        let given = AcousticFix {
+            horizontal_sigma_m: Some(0.7),
+            ..fix(98.0, true, None)
+        };
+        let readings = [fix(101.0, false, None), given];
+        let placed = valid_fixes(&readings, std::slice::from_ref(&ship), &aiding());
+        assert_eq!(placed[0].sigma_m, 0.7);
+        assert_eq!(placed[0].stamp_ns, 98_000_000_000);
+        assert_eq!(placed[1].stamp_ns, 99_000_000_000);
+        let slant = placed[1].slant_range_m.unwrap();
+        assert!((slant - 300f64.hypot(40.0)).abs() < 0.05, "{slant}");
+        assert!((placed[1].sigma_m - 0.01 * slant).abs() < 1e-12);
+        let near = ShipPose {
+            latitude_deg: LAT,
+            longitude_deg: LON,
+            ..ship.clone()
+        };
+        let floored = valid_fixes(&readings[..1], &[near], &aiding());
+        assert_eq!(
+            floored[0].sigma_m, 0.5,
+            "0.4 m from 40 m is under the floor"
+        );
+        let alone = valid_fixes(&readings[..1], &[], &aiding());
+        assert_eq!((alone[0].sigma_m, alone[0].slant_range_m), (5.0, None));
+        let stale = ShipPose {
+            stamp_ns: 80_000_000_000,
+            ..ship
+        };
+        let too_old = valid_fixes(&readings[..1], &[stale], &aiding());
+        assert_eq!(
+            too_old[0].slant_range_m, None,
+            "a ship pose 19 s old is not used"
+        );
+        assert_eq!(too_old[0].sigma_m, 5.0);
+    }
+}
