@@ -9,7 +9,7 @@ use hindsight::ingest::{roles, IngestOptions, MissionDefaults};
 pub struct SourceArgs {
     /// Topic playing a role: ROLE=TOPIC (repeatable), e.g. --topic imu=/vehicle/imu/data.
     /// Roles: imu, mag, dvl, eml, depth, altimeter, rpm, fins, attitude, gnss, position_fix,
-    /// truth. Without it a role takes its default topic (/imu), else the one topic of its
+    /// truth, and the acoustic ones: acoustic_fix, usbl, ship_pose, lbl. Without it a role takes its default topic (/imu), else the one topic of its
     /// type (a ROS 2 sensor_msgs/msg/Imu anywhere); two such topics are refused. A ROS
     /// nav_msgs/Odometry (a vehicle INS's track) is read only when named for truth, e.g.
     /// --topic truth=/ins/odometry: the solution is then scored against it, its world frame's

@@ -280,7 +280,8 @@ aiding_epochs = false      # also a row at every aiding measurement's epoch
 [topics]
 # The topic of each role, where neither the contract's default topic (/imu, /dvl, ...) nor
 # the message type tells (two topics of one type): the role's name, then its topic. Roles: imu, mag,
-# dvl, eml, depth, altimeter, rpm, fins, attitude, gnss, position_fix, truth.
+# dvl, eml, depth, altimeter, rpm, fins, attitude, gnss, position_fix, truth, acoustic_fix,
+# usbl, ship_pose, lbl.
 # imu = "/vehicle/imu/data"
 
 [frames]
