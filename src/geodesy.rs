@@ -199,6 +199,32 @@ pub fn local_north_east_m(
     )
 }
 
+/// Earth-centred, Earth-fixed coordinates of a WGS-84 latitude, longitude (rad) and height, m.
+pub fn ecef_m(lat_rad: f64, lon_rad: f64, height_m: f64) -> Vector3<f64> {
+    let n = prime_vertical_radius_m(lat_rad);
+    let (sl, cl) = lat_rad.sin_cos();
+    let (so, co) = lon_rad.sin_cos();
+    Vector3::new(
+        (n + height_m) * cl * co,
+        (n + height_m) * cl * so,
+        (n * (1.0 - E2) + height_m) * sl,
+    )
+}
+
+/// The straight line from `from` to `to` (each latitude, longitude rad, height m) in the
+/// north-east-down axes at `from`, m: exact (through ECEF), where [`local_north_east_m`]
+/// flattens the Earth onto the origin's radii.
+pub fn ned_offset_m(from: (f64, f64, f64), to: (f64, f64, f64)) -> Vector3<f64> {
+    let d = ecef_m(to.0, to.1, to.2) - ecef_m(from.0, from.1, from.2);
+    let (sl, cl) = from.0.sin_cos();
+    let (so, co) = from.1.sin_cos();
+    Vector3::new(
+        -sl * co * d.x - sl * so * d.y + cl * d.z,
+        -so * d.x + co * d.y,
+        -cl * co * d.x - cl * so * d.y - sl * d.z,
+    )
+}
+
 /// The position (latitude, longitude, rad) at north and east offsets (m) from an origin:
 /// the inverse of [`local_north_east_m`].
 pub fn position_of_local_m(
@@ -218,6 +244,25 @@ pub fn position_of_local_m(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A small offset is the local one; a kilometre's chord dips below the tangent plane by
+    /// about d^2 / 2R; the line's length does not depend on the end it is seen from.
+    #[test]
+    fn ned_offsets_are_the_straight_line() {
+        let (lat, lon) = (35.1f64.to_radians(), 129.05f64.to_radians());
+        let (n, e) = (3.0, -4.0);
+        let (lat2, lon2) = position_of_local_m(lat, lon, n, e);
+        let d = ned_offset_m((lat, lon, -10.0), (lat2, lon2, -15.0));
+        // (10-15 m below the ellipsoid the metres of a radian are 2e-6 fewer.)
+        assert!((d - Vector3::new(n, e, 5.0)).amax() < 5e-5, "{d}");
+        let (lat3, lon3) = position_of_local_m(lat, lon, 1000.0, 0.0);
+        let far = ned_offset_m((lat, lon, 0.0), (lat3, lon3, 0.0));
+        assert!((far.x - 1000.0).abs() < 1e-3 && far.y.abs() < 1e-6, "{far}");
+        let dip = 1000f64.powi(2) / (2.0 * meridian_radius_m(lat));
+        assert!((far.z - dip).abs() < 1e-3, "{far} {dip}");
+        let back = ned_offset_m((lat3, lon3, 0.0), (lat, lon, 0.0));
+        assert!((back.norm() - far.norm()).abs() < 1e-6);
+    }
 
     fn normal_gravity_m_s2(lat_rad: f64, height_m: f64) -> f64 {
         Local::at(lat_rad, height_m).normal_gravity_m_s2()

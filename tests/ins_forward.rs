@@ -43,6 +43,7 @@ fn aiding(eml_sigma_m_s: Option<f64>) -> Aiding {
         mag: None,
         rpm_velocity: None,
         acoustic: None,
+        lbl: None,
         gate_probability: Some(0.999),
         gate_reset_after: 0,
     }
@@ -122,6 +123,7 @@ fn initial_from_truth(
         water: Default::default(),
         // The z gyro's scale factor (the scenario's, 1.5 times, as the biases).
         gyro_scale_z: 0.0,
+        sound_speed_scale: 0.0,
         cov: ErrorMatrix::from_diagonal(&SVector::<f64, N>::from_fn(|i, _| {
             [
                 horizontal_var_m2,
@@ -149,6 +151,8 @@ fn initial_from_truth(
                 0.04,
                 0.04,
                 (1.5e-6 * scenario.imu.gyro.scale_ppm).powi(2),
+                // The speed of sound's scale (no acoustic ranges here: it stays there).
+                0.005f64.powi(2),
             ][i]
         })),
     }

@@ -82,6 +82,7 @@ fn initial(t0: &Truth, config: &Config, seed: u64) -> Estimate {
         dvl: Default::default(),
         water: Default::default(),
         gyro_scale_z: 0.0,
+        sound_speed_scale: 0.0,
         cov: ErrorMatrix::from_diagonal(&diag),
     }
 }
@@ -132,6 +133,7 @@ fn free_inertial(streams: &Streams<'_>, start: &NavState) -> Vec<(f64, Vector3<f
                     dvl: Default::default(),
                     water: Default::default(),
                     gyro_scale_z: 0.0,
+                    sound_speed_scale: 0.0,
                 },
                 sigma: ErrorState::repeat(1.0),
                 position_cov: nalgebra::Matrix3::identity(),

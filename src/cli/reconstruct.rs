@@ -14,7 +14,7 @@ use hindsight::reconstruction::summary::{dvl_calibration_line, estimated_text, S
 use hindsight::reconstruction::{Job, Note, Observer, Warning};
 use std::path::{Path, PathBuf};
 
-/// Reconstruct the trajectory: strapdown INS, 25-state error-state filter (with self-tuned noise), RTS smoother.
+/// Reconstruct the trajectory: strapdown INS, 26-state error-state filter (with self-tuned noise), RTS smoother.
 ///
 /// Reads the log and decides from it what to use (the plan, printed and kept in summary.json:
 /// every aid, calibration state and stage, used or not and why: the propeller's velocity
@@ -492,6 +492,12 @@ fn print_report(s: &Summary) {
     }
     if let Some(g) = &s.gyro_scale_factor_z {
         out!("z gyro scale factor: {}", estimated_text(g, 1.0, 6, ""));
+    }
+    if let Some(c) = &s.sound_speed_scale {
+        out!(
+            "speed of sound: the LBL ranges' times {}",
+            estimated_text(c, 1.0, 5, "")
+        );
     }
     out!("{}", s.consistency.verdict_line());
     for w in &s.warnings {

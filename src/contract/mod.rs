@@ -7,12 +7,14 @@
 //!
 //! May import: `time`. Nothing here does I/O.
 
+pub mod beacons;
 mod kind;
 pub mod messages;
 mod property;
 mod streams;
 mod validate;
 
+pub use beacons::Beacon;
 pub use kind::{all_kinds, kind_by_schema, Kind, MessageKind};
 pub use messages::*;
 pub use property::{Component, PropKind, PropValue, Property};

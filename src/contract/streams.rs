@@ -2,8 +2,8 @@
 //! reconstruction, its initialisation and its aiding table read the log from.
 
 use super::{
-    AcousticFix, Altimeter, ControlSurfaces, Depth, Dvl, GnssFix, Imu, MagneticField, PositionFix,
-    Propeller, ShipPose, SpeedLog, Truth,
+    AcousticFix, Altimeter, Beacon, ControlSurfaces, Depth, Dvl, GnssFix, Imu, LblRange,
+    MagneticField, PositionFix, Propeller, ShipPose, SpeedLog, Truth,
 };
 
 /// Time-sorted messages of each role (empty when the log has none).
@@ -22,4 +22,7 @@ pub struct Streams<'a> {
     pub truth: &'a [Truth],
     pub acoustic_fixes: &'a [AcousticFix],
     pub ship: &'a [ShipPose],
+    pub lbl: &'a [LblRange],
+    /// The acoustic beacons' places (the log's `beacons` record, or the settings').
+    pub beacons: &'a [Beacon],
 }

@@ -419,9 +419,14 @@ impl<'o, 's> Builder<'o, 's> {
         if let (true, Some(first)) = (self.options.strict_roles, role_problems.first()) {
             return Err(IngestError::Role(first.clone()));
         }
+        let (beacons, beacon_problems) = (self.metadata.get("beacons"))
+            .map(crate::contract::beacons::from_record)
+            .unwrap_or_default();
         Ok(Log {
             roles,
             role_problems,
+            beacons,
+            beacon_problems,
             streams,
             skipped,
             metadata: self.metadata,

@@ -6,7 +6,7 @@ use super::reader::Ending;
 use super::roles::{RoleChoice, RoleError};
 use super::samples::Samples;
 use super::stats;
-use crate::contract::{GnssFix, Message, Streams, Truth};
+use crate::contract::{Beacon, GnssFix, Message, Streams, Truth};
 use crate::ingest::ros::map::Convention;
 use std::collections::BTreeMap;
 
@@ -235,6 +235,10 @@ pub struct Log {
     pub roles: Vec<RoleChoice>,
     /// Roles that could not be resolved (only when reading was not strict about roles).
     pub role_problems: Vec<RoleError>,
+    /// The beacons of the `beacons` metadata record ...
+    pub beacons: Vec<Beacon>,
+    /// ... and what was wrong with those left out.
+    pub beacon_problems: Vec<String>,
 }
 
 impl Log {
@@ -413,6 +417,7 @@ impl Log {
             ))
         }));
         out.extend(self.role_problems.iter().map(|p| p.to_string()));
+        out.extend(self.beacon_problems.iter().cloned());
         if self.file.orphan_messages > 0 {
             out.push(format!(
                 "{} messages on undefined channels were skipped",
@@ -440,6 +445,8 @@ impl<'a> Streams<'a> {
             truth: log.role(),
             acoustic_fixes: log.role(),
             ship: log.role(),
+            lbl: log.role(),
+            beacons: &log.beacons,
         }
     }
 }

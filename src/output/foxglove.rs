@@ -172,6 +172,7 @@ mod tests {
             dvl: DvlCalibration::zeros(),
             water: WaterState::zeros(),
             gyro_scale_z: 0.0,
+            sound_speed_scale: 0.0,
         };
         Solution {
             stamp_ns,

@@ -684,6 +684,12 @@ fn calibration(s: &Summary) -> Section {
     if let Some(g) = &s.gyro_scale_factor_z {
         facts.push(("z gyro scale factor".into(), estimated_text(g, 1.0, 6, "")));
     }
+    if let Some(c) = &s.sound_speed_scale {
+        facts.push((
+            "speed of sound".into(),
+            format!("the LBL ranges' times {}", estimated_text(c, 1.0, 5, "")),
+        ));
+    }
     let m = &s.magnetometer;
     facts.push((
         "magnetometer".into(),

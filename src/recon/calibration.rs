@@ -1,5 +1,6 @@
 //! The DVL's calibration as the reconstruction estimated it: scale factor, bias and mounting
-//! misalignment; the EM log's scale and the water current; the z gyro's scale factor; with
+//! misalignment; the EM log's scale and the water current; the z gyro's scale factor; the
+//! speed of sound's scale; with
 //! their sigmas, and whether the
 //! log told them (the sigma well under its prior) or they were only carried (considered) at
 //! their prior.
@@ -78,6 +79,16 @@ pub fn gyro_scale_report(last: &Solution, prior_sigma: f64) -> Estimated {
     Estimated::new(
         1.0 + last.point.gyro_scale_z,
         last.sigma[idx::GYRO_SCALE_Z],
+        prior_sigma,
+    )
+}
+
+/// The speed of sound's scale (about 1: the true speed over the one the acoustic ranges were
+/// converted with) from the last forward solution, with its prior sigma.
+pub fn sound_speed_report(last: &Solution, prior_sigma: f64) -> Estimated {
+    Estimated::new(
+        1.0 + last.point.sound_speed_scale,
+        last.sigma[idx::SOUND_SPEED_SCALE],
         prior_sigma,
     )
 }

@@ -183,6 +183,18 @@ sigma_floor_m = 0.5          # ... and at least this, m
 sigma_without_ship_m = 5.0   # a fix without a sigma and without the ship's position, m
 lever_arm_m = [0.0, 0.0, 0.0]  # the transponder on the vehicle from the IMU, body FRD, m
 
+[lbl]
+# Ranges to the seabed beacons of a long-baseline network (/lbl), tightly coupled: each range
+# is an update at its time of validity (half its two-way travel time before its stamp), and
+# the speed of sound the ranges were converted with is corrected by a state of the filter.
+# The beacons' places: the log's `beacons` record, or the table below (which wins per id).
+use = true
+range_sigma_m = 0.5          # a range that carries no sigma, m
+sound_speed_m_s = 1500.0     # converts a travel time that carries no speed of sound, m/s
+sound_speed_sigma = 0.005    # prior 1-sigma of the speed of sound's scale (0.005: 0.5 %)
+lever_arm_m = [0.0, 0.0, 0.0]  # the LBL transceiver on the vehicle from the IMU, body FRD, m
+# beacons = [{ id = "A", latitude_deg = 35.098, longitude_deg = 129.048, depth_m = 80.0 }]
+
 [gate]
 # Chi-square innovation gate: a consistent measurement passes with this probability;
 # a rejected one is counted and recorded in residuals.parquet. 1.0 disables the gate.
@@ -614,6 +626,33 @@ impl AcousticFixConfig {
 }
 
 crate::config::with_defaults! {
+    /// Ranges to LBL beacons.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct LblConfig {
+        #[serde(rename = "use")]
+        pub enabled: bool = true,
+        pub range_sigma_m: f64 = 0.5,
+        pub sound_speed_m_s: f64 = 1500.0,
+        pub sound_speed_sigma: f64 = 0.005,
+        pub lever_arm_m: [f64; 3] = [0.0; 3],
+        /// Beacons' places; each wins over the log's of its id.
+        pub beacons: Vec<crate::contract::Beacon> = Vec::new(),
+    }
+}
+
+impl LblConfig {
+    /// The aid's settings, when it is used.
+    pub fn aid(&self) -> Option<crate::filters::ins::lbl::LblAiding> {
+        self.enabled.then_some(crate::filters::ins::lbl::LblAiding {
+            range_sigma_m: self.range_sigma_m,
+            sound_speed_m_s: self.sound_speed_m_s,
+            lever_arm_body_m: self.lever_arm_m,
+        })
+    }
+}
+
+crate::config::with_defaults! {
     /// The propeller's velocity filter's settings; the defaults are the filter's own.
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
@@ -782,6 +821,7 @@ pub struct Config {
     pub gnss: UseConfig,
     pub position_fix: UseConfig,
     pub acoustic_fix: AcousticFixConfig,
+    pub lbl: LblConfig,
     pub gate: GateConfig,
     pub propagation: PropagationConfig,
     pub initial: InitialConfig,
@@ -809,6 +849,7 @@ impl Config {
             Sensor::SpeedLog => self.eml.enabled,
             Sensor::PositionFix => self.position_fix.enabled,
             Sensor::AcousticFix => self.acoustic_fix.enabled,
+            Sensor::Lbl => self.lbl.enabled,
             Sensor::Magnetometer => self.mag.enabled,
             Sensor::RpmVelocity => self.rpm_velocity.enabled.is_on(),
             Sensor::ModelVelocity => self.model_velocity.enabled.is_on(),
@@ -854,7 +895,15 @@ impl Section for Config {
             all(Range::Positive, self.positive())
                 .chain(all(Range::NonNegative, self.non_negative()))
                 .chain(self.other_ranges()),
-        )
+        )?;
+        match self.lbl.beacons.iter().find_map(|b| b.problem()) {
+            Some(reason) => Err(ConfigError::Bad {
+                key: "lbl.beacons",
+                value: None,
+                reason,
+            }),
+            None => Ok(()),
+        }
     }
 
     /// The tunable keys ([`TUNABLE_KEYS`]) the file gives are kept as given.
@@ -887,6 +936,7 @@ impl Config {
             &keyed!(self.dvl => dvl; sigma_m_s, max_altitude_m),
             &keyed!(self.depth => depth; sigma_m),
             &keyed!(self.eml => eml; sigma_m_s),
+            &keyed!(self.lbl => lbl; sound_speed_m_s),
             &keyed!(self.propagation => propagation; covariance_interval_s, imu_gap_s),
             &keyed!(self.initial => initial;
                 window_s, magnetometer_sigma_deg, given_yaw_sigma_deg, origin_sigma_m),
@@ -905,6 +955,7 @@ impl Config {
             &keyed!(self.eml => eml; scale_sigma, current_sigma_m_s, current_walk_m_s_rt_h),
             &keyed!(self.acoustic_fix => acoustic_fix;
                 slant_range_fraction, sigma_floor_m, sigma_without_ship_m),
+            &keyed!(self.lbl => lbl; range_sigma_m, sound_speed_sigma),
             &keyed!(self.dvl => dvl;
                 altimeter_max_age_s, scale_sigma, misalignment_sigma_deg,
                 held_misalignment_sigma_deg, bias_sigma_m_s, bias_walk_m_s_rt_h,
@@ -1021,6 +1072,7 @@ impl Config {
                 mag: None,
                 rpm_velocity: self.rpm_velocity.aid(),
                 acoustic: self.acoustic_fix.aid(),
+                lbl: self.lbl.aid(),
                 gate_probability: (self.gate.probability < 1.0).then_some(self.gate.probability),
                 gate_reset_after: self.gate.reset_after,
             },
@@ -1045,6 +1097,7 @@ mod tests {
             .collect();
         let c = Config::from_toml(&uncommented).unwrap();
         assert_eq!(c.initial.yaw_deg, Some(45.0));
+        assert_eq!(c.lbl.beacons[0].depth_m, 80.0);
         assert_eq!(c.initial.declination_deg, Some(-7.8));
         assert_eq!(c.imu.gyro_bias_deg_h, Some(1.0));
         assert_eq!(c.topics["imu"], "/vehicle/imu/data");

@@ -406,6 +406,7 @@ fn initialise_for(
                 config.eml.current_sigma_m_s,
                 config.eml.current_sigma_m_s,
             ],
+            sound_speed_scale_sigma: config.lbl.sound_speed_sigma,
             depth_sigma_m: config.depth.sigma_m,
             speed_of_rpm: speed_of_rpm.as_ref().map(|f| f as &dyn Fn(f64) -> f64),
             acoustic: config.acoustic_fix.aid(),

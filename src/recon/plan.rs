@@ -139,7 +139,10 @@ impl LogFacts {
             dvl_gaps,
             dvl_longest_gap_s,
             vehicle: vehicle_of(config, mission),
-            farthest_positions: farthest_positions(streams, mission, config),
+            farthest_positions: best_pair(
+                farthest_positions(streams, mission, config),
+                lbl_farthest_positions(streams, config),
+            ),
             dvl_delay,
             acoustic_fixes_without_delay: streams
                 .acoustic_fixes
@@ -187,7 +190,8 @@ fn vehicle_of(config: &Config, mission: &Mission) -> Result<String, String> {
 }
 
 /// The farthest-apart pair of absolute positions (GNSS fixes, position fixes and acoustic
-/// fixes), thinned to the best-sigma position of each stretch.
+/// fixes), thinned to the best-sigma position of each stretch (LBL ranges:
+/// [`lbl_farthest_positions`]).
 fn farthest_positions(
     streams: &Streams<'_>,
     mission: &Mission,
@@ -254,6 +258,56 @@ fn farthest_positions(
         }
     }
     best
+}
+
+/// The pair of positions LBL ranges set farthest apart, at least: the vehicle moved at least
+/// as far as the range to one beacon changed (the triangle inequality), between the shortest
+/// and the longest range to it.
+fn lbl_farthest_positions(streams: &Streams<'_>, config: &Config) -> Option<PositionPair> {
+    use crate::filters::ins::lbl::range_and_travel_time;
+    let aiding = config.lbl.aid()?;
+    // Per beacon: the shortest and the longest range, each with its stamp and sigma.
+    type Extremes = ((f64, i64, f64), (f64, i64, f64));
+    let mut per_beacon: std::collections::BTreeMap<&str, Extremes> = Default::default();
+    for reply in streams.lbl {
+        if streams.beacons.iter().all(|b| b.id != reply.beacon_id) {
+            continue;
+        }
+        let Some((range_m, _)) = range_and_travel_time(reply, aiding.sound_speed_m_s) else {
+            continue;
+        };
+        let sigma_m = reply
+            .range_sigma_m
+            .filter(|s| *s > 0.0)
+            .unwrap_or(aiding.range_sigma_m);
+        let this = (range_m, reply.stamp_ns, sigma_m);
+        let e = per_beacon.entry(&reply.beacon_id).or_insert((this, this));
+        if range_m < e.0 .0 {
+            e.0 = this;
+        }
+        if range_m > e.1 .0 {
+            e.1 = this;
+        }
+    }
+    (per_beacon.values())
+        .map(|(near, far)| PositionPair {
+            distance_m: far.0 - near.0,
+            sigma_m: near.2.hypot(far.2),
+            seconds_apart: (far.1 - near.1).abs() as f64 * 1e-9,
+        })
+        .fold(None, |best, pair| best_pair(best, Some(pair)))
+}
+
+/// The pair whose distance stands out more from its sigma.
+fn best_pair(a: Option<PositionPair>, b: Option<PositionPair>) -> Option<PositionPair> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(if b.distance_m / b.sigma_m > a.distance_m / a.sigma_m {
+            b
+        } else {
+            a
+        }),
+        (a, b) => a.or(b),
+    }
 }
 
 /// A part of the reconstruction the plan decides on.

@@ -340,7 +340,11 @@ fn solve(
     // on disk, and its magnetometer is prepared in place (each would be 150 MB held twice).
     let parked = park_truth(&mut log, &job.config);
     let mag = (job.config.mag.enabled).then(|| log.take_role::<MagneticField>());
-    let streams = Streams::of(&log);
+    let beacons = crate::contract::beacons::merged(&job.config.lbl.beacons, &log.beacons);
+    let streams = Streams {
+        beacons: &beacons,
+        ..Streams::of(&log)
+    };
     let options = pipeline::Options {
         forward_progress: observer.forward_progress,
         on_stage: observer.on_stage,

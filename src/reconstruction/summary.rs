@@ -38,6 +38,9 @@ pub struct Summary {
     pub water: Option<WaterReport>,
     /// The z gyro's scale factor as estimated (it reads this times the true rate).
     pub gyro_scale_factor_z: Option<calibration::Estimated>,
+    /// The true speed of sound over the one the LBL ranges were converted with, as estimated
+    /// (absent without LBL ranges).
+    pub sound_speed_scale: Option<calibration::Estimated>,
     pub depth_skipped_by_interval: usize,
     pub eml_too_slow: usize,
     pub gate_resets: usize,
@@ -390,6 +393,12 @@ pub(crate) fn build(x: &Parts<'_>) -> Result<Summary, super::Error> {
         dvl_calibration,
         water,
         gyro_scale_factor_z,
+        sound_speed_scale: (outcome
+            .plan
+            .uses(crate::recon::plan::Part::Aid(Sensor::Lbl)))
+        .then_some(last_forward.as_ref())
+        .flatten()
+        .map(|last| calibration::sound_speed_report(last, config.lbl.sound_speed_sigma)),
         depth_skipped_by_interval: r.run.by_interval[Sensor::Depth],
         eml_too_slow: r.run.unused[Sensor::SpeedLog],
         gate_resets: r.run.gate_resets,

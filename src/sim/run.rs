@@ -5,7 +5,7 @@ use super::inertial::perfect_imu;
 use super::scenario::{Scenario, ScenarioError};
 use super::sensors::dvl::DvlSensor;
 use super::sensors::imu::Triad;
-use super::sensors::lbl::Lbl;
+use super::sensors::lbl::{Beacon, Lbl};
 use super::sensors::mag::MagSensor;
 use super::sensors::scalar::{Propeller as PropellerModel, ScalarSensor};
 use super::sensors::usbl::{Usbl, UsblStamp};
@@ -652,13 +652,17 @@ impl Sensors {
         let Some(lbl) = self.lbl.as_mut() else {
             return Ok(());
         };
-        let (t_s, ned_m) = (
-            tick.t_ns as f64 * 1e-9,
-            [tick.north_m, tick.east_m, tick.depth_m],
-        );
+        let t_s = tick.t_ns as f64 * 1e-9;
         let range_sigma_m = Some(lbl.spec().range_sigma_m);
         let sound_speed_m_s = Some(lbl.spec().sound_speed_m_s);
-        let mut replies = lbl.replies(t_s, ned_m);
+        let vel = tick.sample.motion.vel_ned;
+        // The straight line through the Earth, not the plane of the mission origin's radii
+        // (over a kilometre that plane stretches east-west distances by 1e-4).
+        let s = &tick.sample;
+        let vehicle = (s.lat_rad, s.lon_rad, s.height_m);
+        let origin = self.origin_rad;
+        let from_beacon = |b: &Beacon| (-geodesy::ned_offset_m(vehicle, b.geodetic(origin))).into();
+        let mut replies = lbl.replies(t_s, from_beacon, [vel.x, vel.y, vel.z]);
         replies.sort_by(|a, b| a.two_way_travel_time_s.total_cmp(&b.two_way_travel_time_s));
         for reply in replies {
             let received_ns = tick.stamp_ns + secs_ns(reply.two_way_travel_time_s);

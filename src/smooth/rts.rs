@@ -108,6 +108,7 @@ pub fn smooth_each(
             dvl: post.dvl + dx.fixed_rows::<{ error_state::DVL_STATES }>(idx::DVL),
             water: post.water + dx.fixed_rows::<{ error_state::WATER_STATES }>(idx::WATER),
             gyro_scale_z: post.gyro_scale_z + dx[idx::GYRO_SCALE_Z],
+            sound_speed_scale: post.sound_speed_scale + dx[idx::SOUND_SPEED_SCALE],
         };
         each(k, rec, Solution::from_cov(rec.stamp_ns, point, p));
     })

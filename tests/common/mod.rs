@@ -147,7 +147,7 @@ pub fn simulated(scenario: &hindsight::sim::scenario::Scenario, seed: u64) -> Si
 
 impl Simulated {
     /// The same log with each `T` reading on `topic` changed by `change` (`None`: left out);
-    /// every other message and the mission record as they were.
+    /// every other message and the metadata records as they were.
     pub fn with_changed<T: hindsight::contract::Message>(
         &self,
         topic: &str,
@@ -156,6 +156,9 @@ impl Simulated {
         let bytes = to_bytes(WriterOptions::default(), |w| {
             if let Ok(mission) = self.log.mission() {
                 w.write_mission(&mission)?;
+            }
+            for (name, record) in self.log.metadata.iter().filter(|(n, _)| *n != "mission") {
+                w.write_metadata(name, record.clone())?;
             }
             for m in mcap::MessageStream::new(&self.bytes).expect("an MCAP log") {
                 let m = m.expect("a whole message");

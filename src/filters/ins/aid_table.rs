@@ -11,9 +11,10 @@ use super::acoustic::{AcousticAiding, AcousticFixAid};
 use super::aid_sources;
 use super::error_state::N;
 use super::forward::{DvlMounting, Estimate};
+use super::lbl::{LblAid, LblAiding};
 use crate::contract::{
-    AcousticFix, ControlSurfaces, Depth, Dvl, GnssFix, MagneticField, Message, PositionFix,
-    Propeller, SpeedLog, Streams,
+    AcousticFix, ControlSurfaces, Depth, Dvl, GnssFix, LblRange, MagneticField, Message,
+    PositionFix, Propeller, SpeedLog, Streams,
 };
 use crate::filters::velocity::rpm::RpmFilter;
 use nalgebra::{SMatrix, SVector, Vector3};
@@ -33,6 +34,8 @@ pub enum Sensor {
     ModelVelocity,
     /// Positioned acoustic fixes (USBL, LBL systems) at their time of validity.
     AcousticFix,
+    /// Ranges to the seabed beacons of a long-baseline network.
+    Lbl,
 }
 
 impl std::fmt::Display for Sensor {
@@ -48,7 +51,7 @@ impl serde::Serialize for Sensor {
 }
 
 impl Sensor {
-    pub const ALL: [Sensor; 9] = [
+    pub const ALL: [Sensor; 10] = [
         Sensor::Dvl,
         Sensor::Depth,
         Sensor::Gnss,
@@ -58,6 +61,7 @@ impl Sensor {
         Sensor::RpmVelocity,
         Sensor::ModelVelocity,
         Sensor::AcousticFix,
+        Sensor::Lbl,
     ];
 
     /// Whether it reads the velocity in the body's axes, where a heading error and a velocity
@@ -79,6 +83,7 @@ impl Sensor {
             Sensor::RpmVelocity => "rpm_velocity",
             Sensor::ModelVelocity => "model_velocity",
             Sensor::AcousticFix => "acoustic_fix",
+            Sensor::Lbl => "lbl",
         }
     }
 
@@ -94,6 +99,7 @@ impl Sensor {
             Sensor::RpmVelocity => Propeller::DEFAULT_TOPIC,
             Sensor::ModelVelocity => ControlSurfaces::DEFAULT_TOPIC,
             Sensor::AcousticFix => AcousticFix::DEFAULT_TOPIC,
+            Sensor::Lbl => LblRange::DEFAULT_TOPIC,
         }
     }
 
@@ -109,6 +115,7 @@ impl Sensor {
             Sensor::RpmVelocity => streams.rpm.len(),
             Sensor::ModelVelocity => streams.fins.len(),
             Sensor::AcousticFix => streams.acoustic_fixes.len(),
+            Sensor::Lbl => streams.lbl.len(),
         }
     }
 
@@ -150,6 +157,10 @@ impl Sensor {
                 acoustic_fixes: &[],
                 ..streams
             },
+            Sensor::Lbl => Streams {
+                lbl: &[],
+                ..streams
+            },
         }
     }
 
@@ -157,7 +168,7 @@ impl Sensor {
     pub fn dims(self) -> usize {
         match self {
             Sensor::Dvl | Sensor::RpmVelocity | Sensor::ModelVelocity => 3,
-            Sensor::Depth | Sensor::SpeedLog | Sensor::Magnetometer => 1,
+            Sensor::Depth | Sensor::SpeedLog | Sensor::Magnetometer | Sensor::Lbl => 1,
             Sensor::Gnss | Sensor::PositionFix | Sensor::AcousticFix => 2,
         }
     }
@@ -313,6 +324,8 @@ pub struct Aiding {
     pub rpm_velocity: Option<RpmVelocity>,
     /// Positioned acoustic fixes (`None`: not used).
     pub acoustic: Option<AcousticAiding>,
+    /// Ranges to LBL beacons (`None`: not used).
+    pub lbl: Option<LblAiding>,
     /// Probability of the chi-square gate (a consistent measurement passes it with this
     /// probability); `None` disables gating.
     pub gate_probability: Option<f64>,
@@ -387,6 +400,9 @@ impl Aiding {
                 streams.ship,
                 &acoustic,
             )));
+        }
+        if let Some(lbl) = self.lbl.filter(|_| !streams.lbl.is_empty()) {
+            table.push(Box::new(LblAid::new(streams.lbl, streams.beacons, &lbl)));
         }
         if let Some(sigma_m_s) = self.eml_sigma_m_s {
             table.push(Box::new(aid_sources::SpeedLogAid {

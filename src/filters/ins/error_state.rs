@@ -1,7 +1,7 @@
-//! The 25-state error model of the strapdown mechanization (seed 000 eq. 13-15) with the
-//! DVL's calibration, the water's, and the z gyro's scale factor.
+//! The 26-state error model of the strapdown mechanization (seed 000 eq. 13-15) with the
+//! DVL's calibration, the water's, the z gyro's scale factor and the speed of sound's.
 //!
-//! Error state `dx = [dp, dv, psi, dbg, dba, dvl, water, sgz]`:
+//! Error state `dx = [dp, dv, psi, dbg, dba, dvl, water, sgz, ssc]`:
 //! - `dp`: position correction in metres along local north, east, down;
 //! - `dv`: NED velocity correction, m/s;
 //! - `psi`: attitude correction, a small rotation of the NED frame, rad;
@@ -16,6 +16,9 @@
 //!   = the mechanization's `(1 - sgz)`. Each turn leaves a heading error of the scale error
 //!   times the angle turned; on a survey whose turns alternate left and right, the lanes
 //!   alternate their heading errors and the cross-track errors add up lane after lane.
+//! - `ssc`: the speed of sound's scale correction, a constant: the true speed is the one the
+//!   acoustic ranges were converted with times `(1 + ssc)` (an LBL range then reads
+//!   `true range / (1 + ssc)`). Only acoustic ranges see it.
 //!
 //! Corrections are what to add to the nominal (mechanized) solution to get the truth:
 //! `truth = nominal (+) dx` ([`inject`]), with `C_b^n(true) = exp([psi x]) C_b^n(nominal)`,
@@ -29,7 +32,7 @@
 //! dp'  = F_pp dp + dv
 //! dv'  = F_vp dp + F_vv dv - [f^n x] psi - C dba
 //! psi' = F_ψp dp - B dv - [omega_in^n x] psi - C dbg - C e_z omega_z sgz
-//! dbg' = dba' = 0 (random walks through Q), sgz' = 0
+//! dbg' = dba' = 0 (random walks through Q), sgz' = ssc' = 0
 //! dvl' = 0, water' = 0 (the current a random walk through Q)
 
 use super::mechanization::NavState;
@@ -38,7 +41,7 @@ use crate::small_matrix;
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 /// Size of the error state.
-pub const N: usize = 25;
+pub const N: usize = 26;
 /// Error state vector.
 pub type ErrorState = SVector<f64, N>;
 /// Error-state matrix.
@@ -62,6 +65,8 @@ pub mod idx {
     pub const CURRENT: usize = 22;
     /// The z gyro's scale factor correction (1).
     pub const GYRO_SCALE_Z: usize = 24;
+    /// The speed of sound's scale correction (1).
+    pub const SOUND_SPEED_SCALE: usize = 25;
 }
 
 /// Number of water states.
@@ -227,7 +232,7 @@ pub type TransitionRows = SMatrix<f64, NAV_ROWS, N>;
 
 /// Columns of a transition's top rows that can be non-zero: the navigation errors, the IMU
 /// biases and the z gyro's scale. Nothing in the navigation errors' dynamics involves the
-/// DVL's calibration or the water (they enter the measurements only), so their columns of `F`
+/// DVL's calibration, the water or the speed of sound (they enter the measurements only), so their columns of `F`
 /// are zero, and so are they in every `Phi` and product of them (`[A B; 0 I]` keeps the zero
 /// columns of `B`).
 pub const TRANSITION_COLUMNS: [usize; MOVED_BY] = {

@@ -1,5 +1,5 @@
 //! Forward error-state filter: the mechanization at IMU rate, the error covariance carried
-//! along with the 25-state model, and aiding updates that correct the state (with reset).
+//! along with the 26-state model, and aiding updates that correct the state (with reset).
 //!
 //! Pure: `predict` and `update` take an [`Estimate`] and return a new one with what the step
 //! did, so a smoother can replay the forward pass from its records.
@@ -47,6 +47,9 @@ pub struct Estimate {
     /// Estimated scale factor error of the z gyro: its bias-corrected rate is multiplied by
     /// `1 - gyro_scale_z`.
     pub gyro_scale_z: f64,
+    /// Estimated scale correction of the speed of sound: the true speed is the acoustic
+    /// ranges' own times `1 + sound_speed_scale`.
+    pub sound_speed_scale: f64,
     /// Covariance of the error state.
     pub cov: ErrorMatrix,
 }
@@ -117,6 +120,7 @@ impl Estimate {
         self.dvl += dx.fixed_rows::<DVL_STATES>(idx::DVL);
         self.water += dx.fixed_rows::<WATER_STATES>(idx::WATER);
         self.gyro_scale_z += dx[idx::GYRO_SCALE_Z];
+        self.sound_speed_scale += dx[idx::SOUND_SPEED_SCALE];
     }
 
     /// The IMU sample with the bias and scale estimates removed: what the mechanization
@@ -511,6 +515,41 @@ pub mod measure {
             .copy_from(&(-arm_ned.cross_matrix()).fixed_rows::<2>(0));
         (y, m)
     }
+
+    /// An acoustic range from a beacon at `beacon_lat_rad, beacon_lon_rad` and
+    /// `beacon_depth_m` to the transponder `lever_arm_body_m` from the reference point, as
+    /// the system converted it with a speed of sound the truth is `1 + k` times: `z = rho /
+    /// (1 + k)` with `rho = |p + C l - b|`. With `u = (p + C l - b) / rho`: `H_p = u^T / (1 +
+    /// k)`, `H_psi = -u^T [(C l) x] / (1 + k)`, `H_k = -rho / (1 + k)^2`. The line to the
+    /// beacon is the straight one through the Earth ([`geodesy::ned_offset_m`]): the plane of
+    /// the vehicle's radii would bend a kilometre's range by a decimetre.
+    pub fn slant_range(
+        est: &Estimate,
+        beacon_lat_rad: f64,
+        beacon_lon_rad: f64,
+        beacon_depth_m: f64,
+        lever_arm_body_m: &Vector3<f64>,
+        range_m: f64,
+    ) -> (SVector<f64, 1>, SMatrix<f64, 1, N>) {
+        let nav = &est.nav;
+        let to_beacon = geodesy::ned_offset_m(
+            (nav.lat_rad, nav.lon_rad, nav.height_m),
+            (beacon_lat_rad, beacon_lon_rad, -beacon_depth_m),
+        );
+        let arm_ned = nav.ned_from_body * lever_arm_body_m;
+        let from_beacon = arm_ned - to_beacon;
+        let rho = from_beacon.norm();
+        let u = from_beacon / rho.max(1e-9);
+        let scale = 1.0 + est.sound_speed_scale;
+        let y = SVector::<f64, 1>::new(range_m - rho / scale);
+        let mut m = SMatrix::<f64, 1, N>::zeros();
+        m.fixed_view_mut::<1, 3>(0, idx::POS)
+            .copy_from(&(u.transpose() / scale));
+        m.fixed_view_mut::<1, 3>(0, idx::ATT)
+            .copy_from(&(-u.transpose() * arm_ned.cross_matrix() / scale));
+        m[(0, idx::SOUND_SPEED_SCALE)] = -rho / scale.powi(2);
+        (y, m)
+    }
 }
 
 #[cfg(test)]
@@ -532,6 +571,7 @@ mod tests {
             dvl: DvlCalibration::from_column_slice(&[0.003, 0.01, -0.02, 0.01, -0.005, 0.002]),
             water: WaterState::new(0.01, 0.1, -0.05),
             gyro_scale_z: 2e-4,
+            sound_speed_scale: -3e-3,
             cov: ErrorMatrix::identity() * 1e-4,
         }
     }
@@ -678,6 +718,36 @@ mod tests {
             );
         }
         assert!(ho.fixed_view::<2, 3>(0, idx::ATT).amax() > 0.1, "{ho}");
+    }
+
+    /// The LBL range's row: position, attitude through the lever arm, and the speed of
+    /// sound's scale, by central differences (the range curves: 1/(2 rho) per metre).
+    #[test]
+    fn slant_range_jacobian_matches_finite_differences() {
+        let est = estimate();
+        let arm = Vector3::new(1.2, -0.4, -0.6);
+        // A beacon 300 m south-west of the estimate and 60 m below it.
+        let (lat_b, lon_b) = (0.6 - 300.0 / 6.36e6, 0.1 - 250.0 / 5.2e6);
+        let range = |est: &Estimate| measure::slant_range(est, lat_b, lon_b, 80.0, &arm, 400.0);
+        let (_, h) = range(&est);
+        for i in 0..N {
+            // A centimetre's step in position (a micrometre's is lost in the latitude's
+            // rounding), a microradian's in attitude.
+            let eps = if i < idx::ATT { 0.01 } else { 1e-6 };
+            let mut dx = ErrorState::zeros();
+            dx[i] = eps;
+            let numeric =
+                (range(&est.corrected_by(&-dx)).0 - range(&est.corrected_by(&dx)).0) / (2.0 * eps);
+            // (A metre of height changes the radii the 300 m to the beacon are measured
+            // with by 5e-5 m: left out of the row.)
+            assert!(
+                (numeric - h.column(i)).amax() < 1e-4,
+                "slant range column {i}: {numeric} vs {}",
+                h.column(i)
+            );
+        }
+        assert!(h[(0, idx::SOUND_SPEED_SCALE)] < -300.0, "{h}");
+        assert!(h.fixed_view::<1, 3>(0, idx::ATT).amax() > 0.1, "{h}");
     }
 
     #[test]

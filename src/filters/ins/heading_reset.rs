@@ -110,6 +110,7 @@ mod tests {
             dvl: SVector::zeros(),
             water: SVector::zeros(),
             gyro_scale_z: 0.0,
+            sound_speed_scale: 0.0,
             cov,
         }
     }

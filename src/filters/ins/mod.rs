@@ -1,4 +1,4 @@
-//! Inertial navigation: strapdown mechanization, the 25-state error model, the forward
+//! Inertial navigation: strapdown mechanization, the 26-state error model, the forward
 //! filter and its driver over a mission, coarse alignment, and the records the smoother reads.
 
 pub mod acoustic;
@@ -8,6 +8,7 @@ pub mod driver;
 pub mod error_state;
 pub mod forward;
 pub mod heading_reset;
+pub mod lbl;
 pub mod mechanization;
 pub mod record;
 pub mod reopen;

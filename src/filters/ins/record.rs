@@ -1,14 +1,14 @@
 //! What the forward pass keeps per filter epoch for the smoother, stored compactly: a
-//! 5.5-hour mission at 10 Hz has about 200 000 epochs, and three full 25x25 matrices per
-//! epoch would need 3 GB (these records take 4.4 kB each, and go to a temporary file).
+//! 5.5-hour mission at 10 Hz has about 200 000 epochs, and three full 26x26 matrices per
+//! epoch would need 3 GB (these records take 4.6 kB each, and go to a temporary file).
 //!
-//! - Covariances are symmetric: only the upper triangle is kept (325 of 625 numbers).
+//! - Covariances are symmetric: only the upper triangle is kept (351 of 676 numbers).
 //! - The predicted covariance is not kept: one covariance step separates two epochs, so it
-//!   is `Phi P Phi^T + Q` again, and `Q` is diagonal (25 numbers).
+//!   is `Phi P Phi^T + Q` again, and `Q` is diagonal (26 numbers).
 //! - The transition matrix's rows below the navigation errors are always `[0 I]` (biases,
 //!   calibrations and current are constants or random walks, so the rows of `F` for them are
 //!   zero and every power of `F` keeps them so): only the top nine rows are kept, and of
-//!   them only the 16 columns that can be non-zero ([`TRANSITION_COLUMNS`]): 144 of 625 numbers.
+//!   them only the 16 columns that can be non-zero ([`TRANSITION_COLUMNS`]): 144 of 676 numbers.
 
 use super::error_state::{
     self, idx, DvlCalibration, ErrorMatrix, ErrorState, TransitionRows, WaterState, DVL_STATES, N,
@@ -109,8 +109,10 @@ impl PackedTransition {
     /// diagonal of its bias rows, which are `[0 I]` otherwise.
     pub fn from_top_rows(top: TransitionRows, dvl_bias_decay: f64) -> Self {
         debug_assert!(
-            (idx::DVL..idx::GYRO_SCALE_Z).all(|c| top.column(c).amax() == 0.0),
-            "transition's top rows involve the DVL or water states"
+            (idx::DVL..idx::GYRO_SCALE_Z)
+                .chain([idx::SOUND_SPEED_SCALE])
+                .all(|c| top.column(c).amax() == 0.0),
+            "transition's top rows involve the DVL, water or speed of sound states"
         );
         PackedTransition {
             top,
@@ -187,6 +189,7 @@ pub struct NavPoint {
     pub dvl: DvlCalibration,
     pub water: WaterState,
     pub gyro_scale_z: f64,
+    pub sound_speed_scale: f64,
 }
 
 /// What the forward pass keeps at one epoch (an IMU tick with a measurement or an output
@@ -254,6 +257,7 @@ impl From<&Estimate> for NavPoint {
             dvl: e.dvl,
             water: e.water,
             gyro_scale_z: e.gyro_scale_z,
+            sound_speed_scale: e.sound_speed_scale,
         }
     }
 }
@@ -343,12 +347,13 @@ pub fn correction_between(prior: &NavPoint, posterior: &NavPoint) -> ErrorState 
     d.fixed_rows_mut::<WATER_STATES>(idx::WATER)
         .copy_from(&(posterior.water - prior.water));
     d[idx::GYRO_SCALE_Z] = posterior.gyro_scale_z - prior.gyro_scale_z;
+    d[idx::SOUND_SPEED_SCALE] = posterior.sound_speed_scale - prior.sound_speed_scale;
     d
 }
 
 /// NavPoint as numbers: position, velocity, attitude quaternion (i, j, k, w), biases, DVL
-/// calibration, water states, z gyro scale.
-const NAV_POINT_NUMBERS: usize = 3 + 3 + 4 + 3 + 3 + DVL_STATES + WATER_STATES + 1;
+/// calibration, water states, z gyro scale, speed of sound scale.
+const NAV_POINT_NUMBERS: usize = 3 + 3 + 4 + 3 + 3 + DVL_STATES + WATER_STATES + 2;
 
 impl NavPoint {
     fn encode(&self, out: &mut Encoder) {
@@ -361,6 +366,7 @@ impl NavPoint {
         out.f64s(self.dvl.as_slice());
         out.f64s(self.water.as_slice());
         out.f64(self.gyro_scale_z);
+        out.f64(self.sound_speed_scale);
     }
 
     fn decode(d: &mut Decoder<'_>) -> Self {
@@ -380,6 +386,7 @@ impl NavPoint {
             dvl: DvlCalibration::from(d.f64s::<DVL_STATES>()),
             water: WaterState::from(d.f64s::<WATER_STATES>()),
             gyro_scale_z: d.f64(),
+            sound_speed_scale: d.f64(),
         }
     }
 }
@@ -498,6 +505,8 @@ mod tests {
             .copy_from(&a.fixed_view::<NAV_ROWS, N>(0, 0));
         phi.view_mut((0, idx::DVL), (NAV_ROWS, idx::GYRO_SCALE_Z - idx::DVL))
             .fill(0.0);
+        phi.view_mut((0, idx::SOUND_SPEED_SCALE), (NAV_ROWS, 1))
+            .fill(0.0);
         assert_eq!(PackedTransition::pack(&phi).unpack(), phi);
     }
 
@@ -510,6 +519,8 @@ mod tests {
         phi.fixed_view_mut::<NAV_ROWS, N>(0, 0)
             .copy_from(&(ErrorMatrix::identity() + a).fixed_view::<NAV_ROWS, N>(0, 0));
         phi.view_mut((0, idx::DVL), (NAV_ROWS, idx::GYRO_SCALE_Z - idx::DVL))
+            .fill(0.0);
+        phi.view_mut((0, idx::SOUND_SPEED_SCALE), (NAV_ROWS, 1))
             .fill(0.0);
         let decay = (-0.1f64 / 60.0).exp();
         for k in 0..3 {
@@ -557,6 +568,7 @@ mod tests {
             dvl: DvlCalibration::zeros(),
             water: WaterState::zeros(),
             gyro_scale_z: 0.0,
+            sound_speed_scale: 0.0,
             cov,
         }
     }
@@ -575,6 +587,8 @@ mod tests {
             .copy_from(&a.fixed_view::<NAV_ROWS, N>(0, 0));
         phi.view_mut((0, idx::DVL), (NAV_ROWS, idx::GYRO_SCALE_Z - idx::DVL))
             .fill(0.0);
+        phi.view_mut((0, idx::SOUND_SPEED_SCALE), (NAV_ROWS, 1))
+            .fill(0.0);
         let est = Estimate {
             nav: NavState {
                 lat_rad: 0.61,
@@ -588,6 +602,7 @@ mod tests {
             dvl: DvlCalibration::from_fn(|i, _| i as f64 * 1e-3),
             water: WaterState::new(0.01, 0.2, -0.1),
             gyro_scale_z: 1e-4,
+            sound_speed_scale: -3e-3,
             cov: a * a.transpose(),
         };
         let mut prior = est;

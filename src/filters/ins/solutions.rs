@@ -94,6 +94,7 @@ mod tests {
             dvl: crate::filters::ins::error_state::DvlCalibration::zeros(),
             water: crate::filters::ins::error_state::WaterState::zeros(),
             gyro_scale_z: 0.0,
+            sound_speed_scale: 0.0,
         };
         let cov = crate::filters::ins::error_state::ErrorMatrix::identity() * (k as f64 + 1.0);
         Solution::new(k as i64 * 100, point, &PackedCov::pack(&cov))

@@ -50,6 +50,8 @@ pub struct InitSettings<'a> {
     pub dvl_calibration_sigma: [f64; 6],
     /// Prior 1-sigma of the EM log's scale error and of the current north and east (m/s).
     pub water_sigma: [f64; 3],
+    /// Prior 1-sigma of the speed of sound's scale (of the acoustic ranges).
+    pub sound_speed_scale_sigma: f64,
     pub depth_sigma_m: f64,
     /// Forward speed (m/s) for a propeller reading (rev/min), when known: seed 002's in-run
     /// alignment needs it.
@@ -569,6 +571,7 @@ fn start_variances(set: &InitSettings<'_>, sigma: &StartSigmas) -> ErrorState {
     put(idx::DVL, &set.dvl_calibration_sigma);
     put(idx::WATER, &set.water_sigma);
     put(idx::GYRO_SCALE_Z, &[set.imu.gyro_scale()]);
+    put(idx::SOUND_SPEED_SCALE, &[set.sound_speed_scale_sigma]);
     v
 }
 
@@ -650,6 +653,7 @@ pub fn initialise(
             dvl: Default::default(),
             water: Default::default(),
             gyro_scale_z: 0.0,
+            sound_speed_scale: 0.0,
             cov,
         },
         position: at.source,
@@ -1224,6 +1228,7 @@ mod tests {
             dvl_mounting: DvlMounting::default(),
             dvl_calibration_sigma: [0.005, 0.01, 0.02, 0.001, 0.002, 0.003],
             water_sigma: [0.02, 0.2, 0.3],
+            sound_speed_scale_sigma: 0.005,
             depth_sigma_m: 0.1,
             speed_of_rpm: None,
             acoustic: None,

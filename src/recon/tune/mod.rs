@@ -203,6 +203,8 @@ pub(crate) fn first_span<'a>(streams: &Streams<'a>, span_s: f64) -> Streams<'a> 
         truth: cut(streams.truth, end),
         acoustic_fixes: cut(streams.acoustic_fixes, end),
         ship: cut(streams.ship, end),
+        lbl: cut(streams.lbl, end),
+        beacons: streams.beacons,
     }
 }
 
