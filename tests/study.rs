@@ -224,10 +224,12 @@ fn seed_000_study(runs: u64) -> Seed000 {
     f
 }
 
-/// The CI version: 5 runs per case.
+/// The CI version: 3 runs per case (the bars hold with margins of 2 to 10 times: at 5 h the
+/// proposed filter's forward RMS 30 m against its 300 m bar, Koifman's 690 m; 32 s alone on 2
+/// cores, where 5 runs took twice that).
 #[test]
-fn seed_000_model_aided_study_of_five_runs() {
-    seed_000_study(5);
+fn seed_000_model_aided_study_of_three_runs() {
+    seed_000_study(3);
 }
 
 /// The 100 runs per case (about 26 minutes on 2 cores, so not in CI):
