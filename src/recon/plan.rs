@@ -264,7 +264,7 @@ fn farthest_positions(
 /// as far as the range to one beacon changed (the triangle inequality), between the shortest
 /// and the longest range to it.
 fn lbl_farthest_positions(streams: &Streams<'_>, config: &Config) -> Option<PositionPair> {
-    use crate::filters::ins::lbl::range_and_travel_time;
+    use crate::filters::ins::lbl::{range_and_travel_time, range_sigma_m};
     let aiding = config.lbl.aid()?;
     // Per beacon: the shortest and the longest range, each with its stamp and sigma.
     type Extremes = ((f64, i64, f64), (f64, i64, f64));
@@ -276,11 +276,7 @@ fn lbl_farthest_positions(streams: &Streams<'_>, config: &Config) -> Option<Posi
         let Some((range_m, _)) = range_and_travel_time(reply, aiding.sound_speed_m_s) else {
             continue;
         };
-        let sigma_m = reply
-            .range_sigma_m
-            .filter(|s| *s > 0.0)
-            .unwrap_or(aiding.range_sigma_m);
-        let this = (range_m, reply.stamp_ns, sigma_m);
+        let this = (range_m, reply.stamp_ns, range_sigma_m(reply, &aiding));
         let e = per_beacon.entry(&reply.beacon_id).or_insert((this, this));
         if range_m < e.0 .0 {
             e.0 = this;

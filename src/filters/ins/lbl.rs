@@ -47,6 +47,14 @@ pub fn range_and_travel_time(reply: &LblRange, sound_speed_m_s: f64) -> Option<(
     }
 }
 
+/// The 1-sigma of a reply's range: its own, else the settings' `range_sigma_m`.
+pub fn range_sigma_m(reply: &LblRange, a: &LblAiding) -> f64 {
+    reply
+        .range_sigma_m
+        .filter(|s| *s > 0.0)
+        .unwrap_or(a.range_sigma_m)
+}
+
 /// The LBL ranges' row of the aiding table.
 pub struct LblAid {
     ranges: Vec<ValidRange>,
@@ -82,10 +90,7 @@ impl LblAid {
                 beacon_lon_rad: beacon.longitude_deg.to_radians(),
                 beacon_depth_m: beacon.depth_m,
                 range_m,
-                sigma_m: reply
-                    .range_sigma_m
-                    .filter(|s| *s > 0.0)
-                    .unwrap_or(a.range_sigma_m),
+                sigma_m: range_sigma_m(reply, a),
             });
         }
         aid.ranges.sort_by_key(|r| r.stamp_ns);
