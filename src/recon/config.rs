@@ -309,6 +309,9 @@ atmospheric_pressure_pa = 101325.0  # FluidPressure is absolute: this is the sur
 gravity_m_s2 = 9.80665
 gnss_sigma_unknown_m = 5.0        # 1-sigma of a NavSatFix without a covariance
 point_fix_sigma_m = 1.0           # 1-sigma of a PointStamped position fix (it has none)
+acoustic_stamp_is_validity = false  # an acoustic fix's (GeoPointStamped) header stamp is
+                                    # its time of validity; false: the time the ship
+                                    # received it (the delay is then estimated)
 
 [mission]
 # What stands in for a log without a `mission` record (a ROS 2 recording): the origin of

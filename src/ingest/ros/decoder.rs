@@ -116,6 +116,7 @@ impl Decoder for RosDecoder {
                 Box::new(Vec::<Dvl>::new())
             }
             RosType::Odometry => Box::new(Vec::<Truth>::new()),
+            RosType::GeoPointStamped => Box::new(Vec::<AcousticFix>::new()),
         }
     }
     fn decode_into(&self, data: &[u8], out: &mut dyn Samples) -> Result<(), FieldIssue> {
@@ -129,6 +130,7 @@ impl Decoder for RosDecoder {
             Converted::Attitude(m) => push(out, m),
             Converted::PositionFix(m) => push(out, m),
             Converted::Truth(m) => push(out, m),
+            Converted::AcousticFix(m) => push(out, m),
         }
     }
 }

@@ -8,7 +8,8 @@
 //! anything else, e.g. `base_link`, `odom`, `map`: REP-103), or from a per-topic override.
 
 use crate::contract::{
-    Altimeter, Attitude, Depth, Dvl, FieldIssue, GnssFix, Imu, MagneticField, PositionFix, Truth,
+    AcousticFix, Altimeter, Attitude, Depth, Dvl, FieldIssue, GnssFix, Imu, MagneticField,
+    PositionFix, Truth,
 };
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 
@@ -53,6 +54,9 @@ crate::config::with_defaults! {
         pub gnss_sigma_unknown_m: f64 = 5.0,
         /// 1-sigma of a PointStamped position fix (it carries none), m.
         pub point_fix_sigma_m: f64 = 1.0,
+        /// Whether an acoustic fix's header stamp is its time of validity (else the time the
+        /// ship received it, and the reconstruction estimates the delay).
+        pub acoustic_stamp_is_validity: bool = false,
     }
 }
 
@@ -80,6 +84,9 @@ pub enum RosType {
     /// `nav_msgs/Odometry`, a vehicle INS's or a localiser's track: read only for the topic
     /// named for the truth role, as the reference the solution is scored against.
     Odometry,
+    /// `geographic_msgs/GeoPointStamped`: a positioned acoustic fix (latitude, longitude,
+    /// altitude; no sigma, so one from the slant range).
+    GeoPointStamped,
 }
 
 /// The stamp's paths, first in every type's list.
@@ -88,7 +95,7 @@ const STAMP: [&str; 2] = ["header.stamp.sec", "header.stamp.nanosec"];
 pub const FRAME: [&str; 1] = ["header.frame_id"];
 
 impl RosType {
-    pub const ALL: [RosType; 12] = [
+    pub const ALL: [RosType; 13] = [
         RosType::Imu,
         RosType::MagneticField,
         RosType::NavSatFix,
@@ -101,6 +108,7 @@ impl RosType {
         RosType::WaterLinkedDvl,
         RosType::UuvDvl,
         RosType::Odometry,
+        RosType::GeoPointStamped,
     ];
 
     /// The type's full name, `pkg/Type`.
@@ -118,6 +126,7 @@ impl RosType {
             RosType::WaterLinkedDvl => "waterlinked_a50_ros_driver/DVL",
             RosType::UuvDvl => "uuv_sensor_ros_plugins_msgs/DVL",
             RosType::Odometry => "nav_msgs/Odometry",
+            RosType::GeoPointStamped => "geographic_msgs/GeoPointStamped",
         }
     }
 
@@ -142,7 +151,10 @@ impl RosType {
     fn in_body(self) -> bool {
         !matches!(
             self,
-            RosType::QuaternionStamped | RosType::PointStamped | RosType::Odometry
+            RosType::QuaternionStamped
+                | RosType::PointStamped
+                | RosType::Odometry
+                | RosType::GeoPointStamped
         )
     }
 
@@ -225,6 +237,11 @@ impl RosType {
                 "twist.twist.angular.y",
                 "twist.twist.angular.z",
             ],
+            RosType::GeoPointStamped => &[
+                "position.latitude",
+                "position.longitude",
+                "position.altitude",
+            ],
         }
     }
 
@@ -251,6 +268,7 @@ pub enum Converted {
     /// A reference track; its latitude and longitude are placed once the mission's origin
     /// is known ([`place_on_origin`]), until then they are the origin's (0, 0).
     Truth(Truth),
+    AcousticFix(AcousticFix),
 }
 
 /// The convention a message's frame name says.
@@ -442,6 +460,18 @@ pub fn convert(
             })
         }
         RosType::Odometry => Converted::Truth(reference(stamp_ns, f, c)?),
+        RosType::GeoPointStamped => Converted::AcousticFix(AcousticFix {
+            stamp_ns,
+            stamp_is_validity: s.acoustic_stamp_is_validity,
+            received_after_s: None,
+            latitude_deg: f[0],
+            longitude_deg: f[1],
+            // NaN is geographic_msgs' "unknown": a horizontal fix.
+            depth_m: (!f[2].is_nan()).then_some(-f[2]),
+            horizontal_sigma_m: None,
+            depth_sigma_m: None,
+            beacon_id: String::new(),
+        }),
         RosType::PointStamped => {
             let p = world(v3(0), c);
             Converted::PositionFix(PositionFix {
@@ -536,6 +566,43 @@ mod tests {
         assert!((a.yaw - yaw_enu).abs() < 1e-12 && (a.pitch - pitch).abs() < 1e-12);
         let bad = numbers(&[0.0, 0.0, 0.0, 0.0]);
         assert!(convert(RosType::QuaternionStamped, &bad, (0, 0), "map", None, &s).is_err());
+    }
+
+    /// A GeoPointStamped is an acoustic fix stamped on receipt unless the settings say
+    /// otherwise; its altitude is the depth's negative, NaN a horizontal fix.
+    #[test]
+    fn geo_points_become_acoustic_fixes() {
+        let s = RosSettings::default();
+        let fix = |alt: f64, s: &RosSettings| match convert(
+            RosType::GeoPointStamped,
+            &numbers(&[35.1, 129.05, alt]),
+            (3, 0),
+            "usbl",
+            None,
+            s,
+        )
+        .unwrap()
+        {
+            Converted::AcousticFix(f) => f,
+            other => panic!("{other:?}"),
+        };
+        let f = fix(-42.5, &s);
+        assert_eq!(
+            (f.stamp_ns, f.latitude_deg, f.longitude_deg),
+            (3_000_000_000, 35.1, 129.05)
+        );
+        assert_eq!((f.depth_m, f.stamp_is_validity), (Some(42.5), false));
+        assert_eq!((f.horizontal_sigma_m, f.received_after_s), (None, None));
+        assert_eq!(fix(f64::NAN, &s).depth_m, None);
+        let valid = RosSettings {
+            acoustic_stamp_is_validity: true,
+            ..s
+        };
+        assert!(fix(-1.0, &valid).stamp_is_validity);
+        assert_eq!(
+            RosType::of("geographic_msgs/GeoPointStamped"),
+            Some(RosType::GeoPointStamped)
+        );
     }
 
     #[test]

@@ -104,6 +104,16 @@ pub fn definition(ty: RosType, dialect: Dialect) -> Option<String> {
             "std_msgs/Header header\ngeometry_msgs/Quaternion quaternion\n",
             &[HEADER, TIME, QUATERNION],
         ),
+        RosType::GeoPointStamped => joined(
+            d,
+            "std_msgs/Header header\ngeographic_msgs/GeoPoint position\n",
+            &[
+                HEADER,
+                TIME,
+                "MSG: geographic_msgs/GeoPoint\nfloat64 latitude\nfloat64 longitude\n\
+                 float64 altitude\n",
+            ],
+        ),
         RosType::PointStamped => joined(
             d,
             "std_msgs/Header header\ngeometry_msgs/Point point\n",
