@@ -268,13 +268,26 @@ fn dive_without_dvl_holds_its_bars(seeds: std::ops::RangeInclusive<u64>) {
 /// sound 0.3 % below the true one), seeds 1-5, default run: the smoothed horizontal RMS at
 /// most 0.5 m against `/truth`; the speed of sound's scale found within 3 sigma of the
 /// simulator's (1.003); the forward NEES inside its 95 % bounds for at least 90 % of the
-/// epochs, the smoothed over the five seeds.
+/// epochs, the smoothed over the seeds.
+///
+/// CI runs seeds 1-3; all five: the ignored tests (README).
 #[test]
 fn an_lbl_box_finds_its_speed_of_sound() {
+    lbl_box_holds_its_bars(1..=3);
+}
+
+#[test]
+#[ignore]
+fn an_lbl_box_finds_its_speed_of_sound_seeds_1_to_5() {
+    lbl_box_holds_its_bars(1..=5);
+}
+
+fn lbl_box_holds_its_bars(seeds: std::ops::RangeInclusive<u64>) {
     let scenario = Scenario::built_in("lbl-box").unwrap();
     let true_scale = 1.0 + scenario.lbl.as_ref().unwrap().sound_speed_error;
     let mut smoothed_nees = 0.0;
-    for seed in 1..=5 {
+    let count = seeds.clone().count() as f64;
+    for seed in seeds {
         let log = common::simulated(&scenario, seed);
         let r = log.reconstruct(&Config::default());
         let (fwd, smo) = common::output_errors(Streams::of(&log).truth, &r.solved);
@@ -297,7 +310,7 @@ fn an_lbl_box_finds_its_speed_of_sound() {
             "seed {seed}: {scale:?}"
         );
         assert!(fwd.nees_horizontal_inside_95 >= 0.9, "seed {seed}: {fwd:?}");
-        smoothed_nees += smo.nees_horizontal_inside_95 / 5.0;
+        smoothed_nees += smo.nees_horizontal_inside_95 / count;
     }
     assert!(smoothed_nees >= 0.9, "{smoothed_nees}");
 }
