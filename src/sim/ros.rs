@@ -5,7 +5,8 @@
 
 use super::writer::{LogWriter, WriteError};
 use crate::contract::{
-    Altimeter, Attitude, Depth, Dvl, GnssFix, Imu, MagneticField, Message, PositionFix,
+    AcousticFix, Altimeter, Attitude, Depth, Dvl, GnssFix, Imu, MagneticField, Message,
+    PositionFix, ShipPose,
 };
 use crate::ingest::ros::map::RosType;
 use crate::ingest::ros::map::{ned_from_frd, Convention, RosSettings};
@@ -155,14 +156,9 @@ impl ToRos for Attitude {
     const ROS_TYPE: RosType = RosType::QuaternionStamped;
     fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
         let ned_from_body = UnitQuaternion::from_euler_angles(self.roll, self.pitch, self.yaw);
-        // The change of axes (NED-ENU, FRD-FLU) is its own inverse: the same map both ways.
-        let q = match c {
-            Convention::Native => ned_from_body,
-            Convention::Rep103 => ned_from_frd(&ned_from_body),
-        };
         let mut w = WireWriter::of(d);
         w.header(self.stamp_ns, &frame("map", c, "_ned"))
-            .f64s(&[q.i, q.j, q.k, q.w]);
+            .f64s(&quaternion(ned_from_body, c));
         w.into_bytes()
     }
 }
@@ -178,6 +174,115 @@ impl ToRos for PositionFix {
         };
         let mut w = WireWriter::of(d);
         w.header(self.stamp_ns, &frame("map", c, "_ned")).f64s(&p);
+        w.into_bytes()
+    }
+}
+
+/// A NED-from-body attitude as the convention's quaternion `[x, y, z, w]` (the change of
+/// axes, NED-ENU and FRD-FLU, is its own inverse: the same map both ways).
+fn quaternion(ned_from_body: UnitQuaternion<f64>, c: Convention) -> [f64; 4] {
+    let q = match c {
+        Convention::Native => ned_from_body,
+        Convention::Rep103 => ned_from_frd(&ned_from_body),
+    };
+    [q.i, q.j, q.k, q.w]
+}
+
+/// A depth as a geographic altitude (an unknown one: NaN, geographic_msgs' "unknown").
+fn altitude(depth_m: Option<f64>) -> f64 {
+    depth_m.map_or(f64::NAN, |d| -d)
+}
+
+impl ToRos for AcousticFix {
+    const ROS_TYPE: RosType = RosType::GeoPointStamped;
+    /// The point only: the sigmas, the time of receipt and the beacon have no place.
+    fn encode(&self, d: Dialect, _: Convention, _: &RosSettings) -> Vec<u8> {
+        let mut w = WireWriter::of(d);
+        w.header(self.stamp_ns, "usbl").f64s(&[
+            self.latitude_deg,
+            self.longitude_deg,
+            altitude(self.depth_m),
+        ]);
+        w.into_bytes()
+    }
+}
+
+/// An acoustic fix written as a `sensor_msgs/NavSatFix`, as USBL drivers publish it (on a
+/// topic whose name says `usbl`): its sigmas in the covariance (type unknown without them).
+pub struct AcousticNavSatFix<'a>(pub &'a AcousticFix);
+
+impl ToRos for AcousticNavSatFix<'_> {
+    const ROS_TYPE: RosType = RosType::AcousticNavSatFix;
+    fn encode(&self, d: Dialect, _: Convention, _: &RosSettings) -> Vec<u8> {
+        let fix = self.0;
+        let horizontal = fix.horizontal_sigma_m.map_or(0.0, |s| s * s);
+        let depth = fix.depth_sigma_m.map_or(0.0, |s| s * s);
+        let known = if fix.horizontal_sigma_m.is_some() {
+            2
+        } else {
+            0
+        };
+        let mut w = WireWriter::of(d);
+        w.header(fix.stamp_ns, "usbl")
+            .i8(0)
+            .u16(0)
+            .f64s(&[fix.latitude_deg, fix.longitude_deg, altitude(fix.depth_m)])
+            .f64s(&[horizontal, 0.0, 0.0, 0.0, horizontal, 0.0, 0.0, 0.0, depth])
+            .u8(known);
+        w.into_bytes()
+    }
+}
+
+/// An acoustic fix written as a `geographic_msgs/GeoPoseStamped` (its orientation the
+/// identity: a fix carries none).
+pub struct AcousticGeoPose<'a>(pub &'a AcousticFix);
+
+impl ToRos for AcousticGeoPose<'_> {
+    const ROS_TYPE: RosType = RosType::GeoPoseStamped;
+    fn encode(&self, d: Dialect, _: Convention, _: &RosSettings) -> Vec<u8> {
+        let fix = self.0;
+        let mut w = WireWriter::of(d);
+        w.header(fix.stamp_ns, "usbl")
+            .f64s(&[fix.latitude_deg, fix.longitude_deg, altitude(fix.depth_m)])
+            .f64s(&[0.0, 0.0, 0.0, 1.0]);
+        w.into_bytes()
+    }
+}
+
+impl ToRos for ShipPose {
+    const ROS_TYPE: RosType = RosType::ShipGeoPose;
+    /// At the sea surface (altitude 0); the sigmas have no place.
+    fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
+        let ned_from_body = UnitQuaternion::from_euler_angles(self.roll, self.pitch, self.yaw);
+        let mut w = WireWriter::of(d);
+        w.header(self.stamp_ns, &frame("ship", c, "_ned"))
+            .f64s(&[self.latitude_deg, self.longitude_deg, 0.0])
+            .f64s(&quaternion(ned_from_body, c));
+        w.into_bytes()
+    }
+}
+
+/// A local position fix written as a `geometry_msgs/PoseWithCovarianceStamped` (a
+/// localiser's USBL or LBL solution): its sigma in the covariance, orientation the identity.
+pub struct PositionFixPose<'a>(pub &'a PositionFix);
+
+impl ToRos for PositionFixPose<'_> {
+    const ROS_TYPE: RosType = RosType::PoseWithCovarianceStamped;
+    fn encode(&self, d: Dialect, c: Convention, _: &RosSettings) -> Vec<u8> {
+        let fix = self.0;
+        let down = fix.down_m.unwrap_or(f64::NAN);
+        let p = match c {
+            Convention::Native => [fix.north_m, fix.east_m, down],
+            Convention::Rep103 => [fix.east_m, fix.north_m, -down],
+        };
+        let variance = fix.sigma_m * fix.sigma_m;
+        let mut cov = [0.0; 36];
+        (cov[0], cov[7], cov[14]) = (variance, variance, variance);
+        let mut w = WireWriter::of(d);
+        w.header(fix.stamp_ns, &frame("map", c, "_ned"))
+            .f64s(&p)
+            .f64s(&[0.0, 0.0, 0.0, 1.0])
+            .f64s(&cov);
         w.into_bytes()
     }
 }
@@ -216,6 +321,8 @@ fn encoder_of<'a>(
         .or_else(|| typed::<GnssFix>(stream, d, c, s))
         .or_else(|| typed::<Attitude>(stream, d, c, s))
         .or_else(|| typed::<PositionFix>(stream, d, c, s))
+        .or_else(|| typed::<AcousticFix>(stream, d, c, s))
+        .or_else(|| typed::<ShipPose>(stream, d, c, s))
 }
 
 /// What [`write_as_ros`] does with a stream of no standard ROS type (`/eml`, `/rpm`,
@@ -383,19 +490,108 @@ mod tests {
     /// Writes `m` as its ROS type and reads it back through the schema text, in ROS 2 and
     /// in ROS 1; both must read the same.
     fn round_trip<T: ToRos + Message>(m: &T, c: Convention) -> T {
+        read_back(m, "", c)
+    }
+
+    /// Writes `m` as its ROS type on `topic` and reads it back as `T` through the schema
+    /// text, in ROS 2 and in ROS 1; both must read the same.
+    fn read_back<W: ToRos, T: Message>(m: &W, topic: &str, c: Convention) -> T {
+        use crate::ingest::ros::decoder::TopicRoles;
         let s = RosSettings::default();
+        let named = Default::default();
+        let roles = TopicRoles {
+            topic,
+            named: &named,
+        };
         let [ros1, ros2] = [Dialect::Ros1, Dialect::Ros2].map(|dialect| {
-            let name = T::type_name(dialect);
-            let d = RosDecoder::for_schema_in(dialect, &name, &T::definition_in(dialect), None, s)
+            let name = W::type_name(dialect);
+            let definition = W::definition_in(dialect);
+            let d = RosDecoder::for_topic_in(dialect, &name, &definition, roles, None, s)
                 .unwrap()
                 .unwrap();
+            assert_eq!(d.ros_type(), W::ROS_TYPE);
             let mut out = d.new_samples();
             d.decode_into(&m.encode(dialect, c, &s), out.as_mut())
                 .unwrap();
             out.as_slice::<T>().unwrap()[0].clone()
         });
-        assert_eq!(ros1, ros2, "{}", T::ROS_TYPE.name());
+        assert_eq!(ros1, ros2, "{}", W::ROS_TYPE.name());
         ros2
+    }
+
+    /// The acoustic types read back as written: the contract's fix where the type carries
+    /// all of it, its point (no sigma) where it does not.
+    #[test]
+    fn acoustic_types_read_back_as_written_in_both_conventions() {
+        let fix = AcousticFix {
+            stamp_ns: 1_700_000_000_123_456_789,
+            stamp_is_validity: false,
+            received_after_s: None,
+            latitude_deg: 35.1,
+            longitude_deg: 129.05,
+            depth_m: Some(42.5),
+            horizontal_sigma_m: Some(1.5),
+            depth_sigma_m: Some(0.5),
+            beacon_id: String::new(),
+        };
+        let point = AcousticFix {
+            horizontal_sigma_m: None,
+            depth_sigma_m: None,
+            ..fix.clone()
+        };
+        let no_sigma = AcousticFix {
+            depth_m: None,
+            ..point.clone()
+        };
+        for c in [Convention::Rep103, Convention::Native] {
+            assert_eq!(round_trip(&point, c), point);
+            assert_eq!(round_trip(&fix, c), point);
+            assert_eq!(round_trip(&no_sigma, c), no_sigma);
+            let nav: AcousticFix = read_back(&AcousticNavSatFix(&fix), "/usbl/fix", c);
+            assert_eq!(nav, fix);
+            let nav: AcousticFix = read_back(&AcousticNavSatFix(&no_sigma), "/usbl/fix", c);
+            assert_eq!(nav, no_sigma);
+            let pose: AcousticFix = read_back(&AcousticGeoPose(&fix), "/usbl/pose", c);
+            assert_eq!(pose, point);
+            let ship = ShipPose {
+                stamp_ns: 5,
+                latitude_deg: 35.2,
+                longitude_deg: 129.1,
+                roll: 0.05,
+                pitch: -0.02,
+                yaw: 2.5,
+                horizontal_sigma_m: None,
+                heading_sigma_rad: None,
+            };
+            let back: ShipPose = read_back(&ship, "/ship_pose", c);
+            assert_eq!(
+                (back.latitude_deg, back.longitude_deg),
+                (ship.latitude_deg, ship.longitude_deg)
+            );
+            for (a, b) in [
+                (ship.roll, back.roll),
+                (ship.pitch, back.pitch),
+                (ship.yaw, back.yaw),
+            ] {
+                assert!(
+                    crate::angle::wrap_pi(a - b).abs() < 1e-12,
+                    "{c:?}: {back:?}"
+                );
+            }
+            let local = PositionFix {
+                stamp_ns: 5,
+                north_m: 10.0,
+                east_m: -20.0,
+                down_m: Some(30.0),
+                sigma_m: 2.0,
+                label: String::new(),
+            };
+            let back: PositionFix = read_back(&PositionFixPose(&local), "/usbl/local", c);
+            assert_eq!(
+                (back.north_m, back.east_m, back.down_m, back.sigma_m),
+                (local.north_m, local.east_m, local.down_m, local.sigma_m)
+            );
+        }
     }
 
     #[test]

@@ -71,13 +71,13 @@ pub fn for_topic(
     if let Some(dialect) = ros_dialect(message_encoding) {
         let text = String::from_utf8_lossy(schema_text);
         let convention = options.frame_conventions.get(topic).copied();
-        let built = crate::ingest::ros::decoder::RosDecoder::for_schema_in(
-            dialect,
-            schema_name,
-            &text,
-            convention,
-            options.ros2,
-        )?;
+        use crate::ingest::ros::decoder::{RosDecoder, TopicRoles};
+        let roles = TopicRoles {
+            topic,
+            named: &options.topics,
+        };
+        let built =
+            RosDecoder::for_topic_in(dialect, schema_name, &text, roles, convention, options.ros2)?;
         // A type read only for a role the user names (an odometry as the reference) is
         // skipped on any other topic.
         let named = |role| options.topics.get(role).is_some_and(|t| t == topic);

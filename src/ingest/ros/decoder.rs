@@ -8,6 +8,7 @@ use super::msg::{full_name, parse_as, Dialect, SchemaError};
 use crate::contract::FieldIssue;
 use crate::ingest::decode::{push_validated as push, Decoder};
 use crate::ingest::samples::Samples;
+use std::collections::BTreeMap;
 
 /// Why a ROS topic cannot be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -18,6 +19,13 @@ pub enum RosSchemaError {
     Plan(#[from] PlanError),
     #[error("the schema of {ty} has no field `{field}`")]
     MissingField { ty: &'static str, field: String },
+}
+
+/// A topic and the topics named for roles (role -> topic).
+#[derive(Debug, Clone, Copy)]
+pub struct TopicRoles<'a> {
+    pub topic: &'a str,
+    pub named: &'a BTreeMap<String, String>,
 }
 
 /// Reads one topic of a standard ROS type.
@@ -34,7 +42,8 @@ pub struct RosDecoder {
 
 impl RosDecoder {
     /// The decoder of a topic of the given ROS whose schema is `schema_name` with
-    /// `schema_text`, if its type is one hindsight reads (`Ok(None)` otherwise).
+    /// `schema_text`, if its type is one hindsight reads (`Ok(None)` otherwise), read in
+    /// the type's usual role.
     pub fn for_schema_in(
         dialect: Dialect,
         schema_name: &str,
@@ -42,9 +51,35 @@ impl RosDecoder {
         convention: Option<Convention>,
         settings: RosSettings,
     ) -> Result<Option<RosDecoder>, RosSchemaError> {
+        let usual = BTreeMap::new();
+        let topic = TopicRoles {
+            topic: "",
+            named: &usual,
+        };
+        Self::for_topic_in(
+            dialect,
+            schema_name,
+            schema_text,
+            topic,
+            convention,
+            settings,
+        )
+    }
+
+    /// [`RosDecoder::for_schema_in`] for `topic`: a type that serves more than one role is
+    /// read in the one the topic plays (see [`RosType::on_topic`]).
+    pub fn for_topic_in(
+        dialect: Dialect,
+        schema_name: &str,
+        schema_text: &str,
+        topic: TopicRoles<'_>,
+        convention: Option<Convention>,
+        settings: RosSettings,
+    ) -> Result<Option<RosDecoder>, RosSchemaError> {
         let Some(ty) = full_name(schema_name).and_then(|n| RosType::of(&n)) else {
             return Ok(None);
         };
+        let ty = ty.on_topic(topic.topic, topic.named);
         let defs = parse_as(dialect, schema_name, schema_text)?;
         let numbers = ty.numbers();
         let plan = Plan::new(&defs, &numbers, &FRAME)?;
@@ -116,7 +151,11 @@ impl Decoder for RosDecoder {
                 Box::new(Vec::<Dvl>::new())
             }
             RosType::Odometry => Box::new(Vec::<Truth>::new()),
-            RosType::GeoPointStamped => Box::new(Vec::<AcousticFix>::new()),
+            RosType::GeoPointStamped | RosType::GeoPoseStamped | RosType::AcousticNavSatFix => {
+                Box::new(Vec::<AcousticFix>::new())
+            }
+            RosType::ShipGeoPose => Box::new(Vec::<ShipPose>::new()),
+            RosType::PoseWithCovarianceStamped => Box::new(Vec::<PositionFix>::new()),
         }
     }
     fn decode_into(&self, data: &[u8], out: &mut dyn Samples) -> Result<(), FieldIssue> {
@@ -131,6 +170,7 @@ impl Decoder for RosDecoder {
             Converted::PositionFix(m) => push(out, m),
             Converted::Truth(m) => push(out, m),
             Converted::AcousticFix(m) => push(out, m),
+            Converted::ShipPose(m) => push(out, m),
         }
     }
 }

@@ -9,9 +9,10 @@
 
 use crate::contract::{
     AcousticFix, Altimeter, Attitude, Depth, Dvl, FieldIssue, GnssFix, Imu, MagneticField,
-    PositionFix, Truth,
+    PositionFix, ShipPose, Truth,
 };
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
+use std::collections::BTreeMap;
 
 /// Frame convention of a message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -87,6 +88,30 @@ pub enum RosType {
     /// `geographic_msgs/GeoPointStamped`: a positioned acoustic fix (latitude, longitude,
     /// altitude; no sigma, so one from the slant range).
     GeoPointStamped,
+    /// `geographic_msgs/GeoPoseStamped`: a positioned acoustic fix (its orientation unused),
+    /// or on the ship's topic, the ship's pose ([`RosType::ShipGeoPose`]).
+    GeoPoseStamped,
+    /// `geometry_msgs/PoseWithCovarianceStamped`: a position fix in a local world frame
+    /// whose origin is the mission's (a USBL or LBL solution from a localiser), its sigma
+    /// from the covariance.
+    PoseWithCovarianceStamped,
+    /// A `sensor_msgs/NavSatFix` on an acoustic positioning topic (see
+    /// [`RosType::on_topic`]): an acoustic fix, its depth the altitude's negative.
+    AcousticNavSatFix,
+    /// A `geographic_msgs/GeoPoseStamped` on the ship's topic (see [`RosType::on_topic`]):
+    /// the support ship's position and attitude.
+    ShipGeoPose,
+}
+
+/// Whether a topic's name says it holds acoustic positions (`/usbl/fix`, `/acoustic_fix`).
+fn names_acoustic(topic: &str) -> bool {
+    let t = topic.to_ascii_lowercase();
+    t.contains("usbl") || t.contains("acoustic")
+}
+
+/// Whether a topic's name says it holds the support ship's pose (`/ship/pose`).
+fn names_ship(topic: &str) -> bool {
+    topic.to_ascii_lowercase().contains("ship")
 }
 
 /// The stamp's paths, first in every type's list.
@@ -95,7 +120,9 @@ const STAMP: [&str; 2] = ["header.stamp.sec", "header.stamp.nanosec"];
 pub const FRAME: [&str; 1] = ["header.frame_id"];
 
 impl RosType {
-    pub const ALL: [RosType; 13] = [
+    /// The types found by their name (the role readings of a type are not: see
+    /// [`RosType::on_topic`]).
+    pub const ALL: [RosType; 15] = [
         RosType::Imu,
         RosType::MagneticField,
         RosType::NavSatFix,
@@ -109,6 +136,8 @@ impl RosType {
         RosType::UuvDvl,
         RosType::Odometry,
         RosType::GeoPointStamped,
+        RosType::GeoPoseStamped,
+        RosType::PoseWithCovarianceStamped,
     ];
 
     /// The type's full name, `pkg/Type`.
@@ -116,7 +145,7 @@ impl RosType {
         match self {
             RosType::Imu => "sensor_msgs/Imu",
             RosType::MagneticField => "sensor_msgs/MagneticField",
-            RosType::NavSatFix => "sensor_msgs/NavSatFix",
+            RosType::NavSatFix | RosType::AcousticNavSatFix => "sensor_msgs/NavSatFix",
             RosType::FluidPressure => "sensor_msgs/FluidPressure",
             RosType::Range => "sensor_msgs/Range",
             RosType::TwistWithCovarianceStamped => "geometry_msgs/TwistWithCovarianceStamped",
@@ -127,6 +156,8 @@ impl RosType {
             RosType::UuvDvl => "uuv_sensor_ros_plugins_msgs/DVL",
             RosType::Odometry => "nav_msgs/Odometry",
             RosType::GeoPointStamped => "geographic_msgs/GeoPointStamped",
+            RosType::GeoPoseStamped | RosType::ShipGeoPose => "geographic_msgs/GeoPoseStamped",
+            RosType::PoseWithCovarianceStamped => "geometry_msgs/PoseWithCovarianceStamped",
         }
     }
 
@@ -146,6 +177,33 @@ impl RosType {
             .find(|t| t.name() == full_name || t.aliases().contains(&full_name))
     }
 
+    /// How this type is read on `topic`, where it serves more than one role (`named`: the
+    /// topics named for roles, role -> topic):
+    /// - a NavSatFix is an acoustic fix on the topic named for `acoustic_fix`, or one whose
+    ///   name says `usbl` or `acoustic` (unless it is named for `gnss`);
+    /// - a GeoPoseStamped is the ship's pose on the topic named for `ship_pose`, or one whose
+    ///   name says `ship` but not `usbl` or `acoustic` (unless it is named for
+    ///   `acoustic_fix`), else an acoustic fix.
+    pub fn on_topic(self, topic: &str, named: &BTreeMap<String, String>) -> RosType {
+        let named_for = |role: &str| named.get(role).is_some_and(|t| t == topic);
+        match self {
+            RosType::NavSatFix
+                if named_for("acoustic_fix") || names_acoustic(topic) && !named_for("gnss") =>
+            {
+                RosType::AcousticNavSatFix
+            }
+            RosType::GeoPoseStamped
+                if named_for("ship_pose")
+                    || names_ship(topic)
+                        && !names_acoustic(topic)
+                        && !named_for("acoustic_fix") =>
+            {
+                RosType::ShipGeoPose
+            }
+            other => other,
+        }
+    }
+
     /// Whether the type's frame is a body frame (else a world frame, whose convention pairs
     /// with the body's: ENU with FLU, NED with FRD).
     fn in_body(self) -> bool {
@@ -155,6 +213,10 @@ impl RosType {
                 | RosType::PointStamped
                 | RosType::Odometry
                 | RosType::GeoPointStamped
+                | RosType::GeoPoseStamped
+                | RosType::PoseWithCovarianceStamped
+                | RosType::AcousticNavSatFix
+                | RosType::ShipGeoPose
         )
     }
 
@@ -237,11 +299,49 @@ impl RosType {
                 "twist.twist.angular.y",
                 "twist.twist.angular.z",
             ],
+            RosType::GeoPointStamped
+            | RosType::GeoPoseStamped
+            | RosType::ShipGeoPose
+            | RosType::PoseWithCovarianceStamped
+            | RosType::AcousticNavSatFix => self.acoustic_fields(),
+        }
+    }
+
+    /// The numbers the acoustic positioning types read, after the stamp.
+    fn acoustic_fields(self) -> &'static [&'static str] {
+        match self {
             RosType::GeoPointStamped => &[
                 "position.latitude",
                 "position.longitude",
                 "position.altitude",
             ],
+            RosType::GeoPoseStamped | RosType::ShipGeoPose => &[
+                "pose.position.latitude",
+                "pose.position.longitude",
+                "pose.position.altitude",
+                "pose.orientation.x",
+                "pose.orientation.y",
+                "pose.orientation.z",
+                "pose.orientation.w",
+            ],
+            RosType::PoseWithCovarianceStamped => &[
+                "pose.pose.position.x",
+                "pose.pose.position.y",
+                "pose.pose.position.z",
+                "pose.covariance[0]",
+                "pose.covariance[7]",
+            ],
+            RosType::AcousticNavSatFix => &[
+                "status.status",
+                "latitude",
+                "longitude",
+                "altitude",
+                "position_covariance[0]",
+                "position_covariance[4]",
+                "position_covariance[8]",
+                "position_covariance_type",
+            ],
+            _ => &[],
         }
     }
 
@@ -269,6 +369,7 @@ pub enum Converted {
     /// is known ([`place_on_origin`]), until then they are the origin's (0, 0).
     Truth(Truth),
     AcousticFix(AcousticFix),
+    ShipPose(ShipPose),
 }
 
 /// The convention a message's frame name says.
@@ -383,6 +484,29 @@ fn gnss_fix(stamp_ns: i64, f: &[f64], s: &RosSettings) -> Result<GnssFix, FieldI
     })
 }
 
+/// An acoustic fix from a geographic point `[latitude, longitude, altitude]` (a NaN
+/// altitude, geographic_msgs' "unknown": a horizontal fix) and its sigmas (horizontal,
+/// depth; `None`: from the slant range), stamped as the settings say.
+fn acoustic_fix(
+    stamp_ns: i64,
+    [latitude_deg, longitude_deg, altitude]: [f64; 3],
+    [horizontal_sigma_m, depth_sigma_m]: [Option<f64>; 2],
+    s: &RosSettings,
+) -> AcousticFix {
+    let depth_m = (!altitude.is_nan()).then_some(-altitude);
+    AcousticFix {
+        stamp_ns,
+        stamp_is_validity: s.acoustic_stamp_is_validity,
+        received_after_s: None,
+        latitude_deg,
+        longitude_deg,
+        depth_m,
+        horizontal_sigma_m,
+        depth_sigma_m: depth_sigma_m.filter(|_| depth_m.is_some()),
+        beacon_id: String::new(),
+    }
+}
+
 /// A DVL reading of any of the DVL types: each marks bottom lock its own way.
 fn dvl(ty: RosType, stamp_ns: i64, f: &[f64], c: Convention) -> Dvl {
     let (valid, altitude) = match ty {
@@ -403,6 +527,70 @@ fn dvl(ty: RosType, stamp_ns: i64, f: &[f64], c: Convention) -> Dvl {
         valid,
         altitude,
     }
+}
+
+/// The message of an acoustic positioning type (`f`: its fields after the stamp).
+fn acoustic(
+    ty: RosType,
+    stamp_ns: i64,
+    f: &[f64],
+    frame_id: &str,
+    c: Convention,
+    s: &RosSettings,
+) -> Result<Converted, FieldIssue> {
+    let v3 = |i: usize| Vector3::new(f[i], f[i + 1], f[i + 2]);
+    Ok(match ty {
+        RosType::GeoPointStamped | RosType::GeoPoseStamped => {
+            Converted::AcousticFix(acoustic_fix(stamp_ns, [f[0], f[1], f[2]], [None; 2], s))
+        }
+        RosType::AcousticNavSatFix => {
+            if f[0] < 0.0 {
+                return Err(FieldIssue::new("status.status", "no fix (-1)"));
+            }
+            // An unknown covariance (type 0) or a variance of zero: the sigma from the slant
+            // range.
+            let sigma = |variance: f64| (f[7] != 0.0 && variance > 0.0).then(|| variance.sqrt());
+            let sigmas = [sigma(0.5 * (f[4] + f[5])), sigma(f[6])];
+            Converted::AcousticFix(acoustic_fix(stamp_ns, [f[1], f[2], f[3]], sigmas, s))
+        }
+        RosType::ShipGeoPose => {
+            let q = ned_from_body(&f[3..7], c, "pose.orientation")?;
+            let (roll, pitch, yaw) = q.euler_angles();
+            Converted::ShipPose(ShipPose {
+                stamp_ns,
+                latitude_deg: f[0],
+                longitude_deg: f[1],
+                roll,
+                pitch,
+                yaw,
+                horizontal_sigma_m: None,
+                heading_sigma_rad: None,
+            })
+        }
+        RosType::PoseWithCovarianceStamped => {
+            let p = world(v3(0), c);
+            let variance = 0.5 * (f[3] + f[4]);
+            Converted::PositionFix(PositionFix {
+                stamp_ns,
+                north_m: p.x,
+                east_m: p.y,
+                down_m: (!p.z.is_nan()).then_some(p.z),
+                // A covariance of zeros is a driver's "unknown".
+                sigma_m: if variance > 0.0 {
+                    variance.sqrt()
+                } else {
+                    s.point_fix_sigma_m
+                },
+                label: frame_id.to_string(),
+            })
+        }
+        _ => {
+            return Err(FieldIssue::new(
+                "(message)",
+                "internal: not an acoustic type",
+            ))
+        }
+    })
 }
 
 /// The contract message of one read message (`n`: the numbers in [`RosType::numbers`]
@@ -460,18 +648,11 @@ pub fn convert(
             })
         }
         RosType::Odometry => Converted::Truth(reference(stamp_ns, f, c)?),
-        RosType::GeoPointStamped => Converted::AcousticFix(AcousticFix {
-            stamp_ns,
-            stamp_is_validity: s.acoustic_stamp_is_validity,
-            received_after_s: None,
-            latitude_deg: f[0],
-            longitude_deg: f[1],
-            // NaN is geographic_msgs' "unknown": a horizontal fix.
-            depth_m: (!f[2].is_nan()).then_some(-f[2]),
-            horizontal_sigma_m: None,
-            depth_sigma_m: None,
-            beacon_id: String::new(),
-        }),
+        RosType::GeoPointStamped
+        | RosType::GeoPoseStamped
+        | RosType::AcousticNavSatFix
+        | RosType::ShipGeoPose
+        | RosType::PoseWithCovarianceStamped => acoustic(ty, stamp_ns, f, frame_id, c, s)?,
         RosType::PointStamped => {
             let p = world(v3(0), c);
             Converted::PositionFix(PositionFix {
@@ -566,6 +747,44 @@ mod tests {
         assert!((a.yaw - yaw_enu).abs() < 1e-12 && (a.pitch - pitch).abs() < 1e-12);
         let bad = numbers(&[0.0, 0.0, 0.0, 0.0]);
         assert!(convert(RosType::QuaternionStamped, &bad, (0, 0), "map", None, &s).is_err());
+    }
+
+    /// A NavSatFix is an acoustic fix on an acoustic topic or the one named for the role,
+    /// a GeoPoseStamped the ship's pose on the ship's; the names never overrule a role the
+    /// user named.
+    #[test]
+    fn a_topic_of_two_roles_is_read_as_the_one_it_plays() {
+        let none = BTreeMap::new();
+        let named = |role: &str, topic: &str| BTreeMap::from([(role.into(), topic.into())]);
+        let fix = RosType::NavSatFix;
+        assert_eq!(fix.on_topic("/gps/fix", &none), RosType::NavSatFix);
+        assert_eq!(fix.on_topic("/USBL/fix", &none), RosType::AcousticNavSatFix);
+        assert_eq!(fix.on_topic("/acoustic", &none), RosType::AcousticNavSatFix);
+        let acoustic = named("acoustic_fix", "/pos");
+        assert_eq!(fix.on_topic("/pos", &acoustic), RosType::AcousticNavSatFix);
+        let gnss = named("gnss", "/usbl/gps");
+        assert_eq!(fix.on_topic("/usbl/gps", &gnss), RosType::NavSatFix);
+        let pose = RosType::GeoPoseStamped;
+        assert_eq!(pose.on_topic("/ship/pose", &none), RosType::ShipGeoPose);
+        assert_eq!(
+            pose.on_topic("/ship/usbl/pose", &none),
+            RosType::GeoPoseStamped
+        );
+        assert_eq!(pose.on_topic("/pose", &none), RosType::GeoPoseStamped);
+        let ship = named("ship_pose", "/nav/pose");
+        assert_eq!(pose.on_topic("/nav/pose", &ship), RosType::ShipGeoPose);
+        let vehicle = named("acoustic_fix", "/ship_fix");
+        assert_eq!(
+            pose.on_topic("/ship_fix", &vehicle),
+            RosType::GeoPoseStamped
+        );
+        // Types of one role stay as they are.
+        assert_eq!(RosType::Imu.on_topic("/usbl", &none), RosType::Imu);
+        // The role readings are not found by their names.
+        assert_eq!(
+            RosType::of("sensor_msgs/NavSatFix"),
+            Some(RosType::NavSatFix)
+        );
     }
 
     /// A GeoPointStamped is an acoustic fix stamped on receipt unless the settings say

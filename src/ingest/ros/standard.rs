@@ -19,6 +19,11 @@ const POINT: &str = "MSG: geometry_msgs/Point\nfloat64 x\nfloat64 y\nfloat64 z\n
 const TWIST_WITH_COVARIANCE: &str =
     "MSG: geometry_msgs/TwistWithCovariance\nTwist twist\nfloat64[36] covariance\n";
 const TWIST: &str = "MSG: geometry_msgs/Twist\nVector3 linear\nVector3 angular\n";
+const POSE_WITH_COVARIANCE: &str =
+    "MSG: geometry_msgs/PoseWithCovariance\nPose pose\nfloat64[36] covariance\n";
+const POSE: &str = "MSG: geometry_msgs/Pose\nPoint position\nQuaternion orientation\n";
+const GEO_POINT: &str =
+    "MSG: geographic_msgs/GeoPoint\nfloat64 latitude\nfloat64 longitude\nfloat64 altitude\n";
 
 /// A message definition with its dependencies, written as ROS 2's: ROS 1's has its own
 /// header and no `Time`.
@@ -66,8 +71,8 @@ pub fn definition(ty: RosType, dialect: Dialect) -> Option<String> {
             &[
                 HEADER,
                 TIME,
-                "MSG: geometry_msgs/PoseWithCovariance\nPose pose\nfloat64[36] covariance\n",
-                "MSG: geometry_msgs/Pose\nPoint position\nQuaternion orientation\n",
+                POSE_WITH_COVARIANCE,
+                POSE,
                 POINT,
                 QUATERNION,
                 TWIST_WITH_COVARIANCE,
@@ -86,7 +91,7 @@ pub fn definition(ty: RosType, dialect: Dialect) -> Option<String> {
              float32 field_of_view\nfloat32 min_range\nfloat32 max_range\nfloat32 range\n",
             &[HEADER, TIME],
         ),
-        RosType::NavSatFix => joined(
+        RosType::NavSatFix | RosType::AcousticNavSatFix => joined(
             d,
             "std_msgs/Header header\nNavSatStatus status\nfloat64 latitude\nfloat64 longitude\n\
              float64 altitude\nfloat64[9] position_covariance\n\
@@ -107,12 +112,24 @@ pub fn definition(ty: RosType, dialect: Dialect) -> Option<String> {
         RosType::GeoPointStamped => joined(
             d,
             "std_msgs/Header header\ngeographic_msgs/GeoPoint position\n",
+            &[HEADER, TIME, GEO_POINT],
+        ),
+        RosType::GeoPoseStamped | RosType::ShipGeoPose => joined(
+            d,
+            "std_msgs/Header header\ngeographic_msgs/GeoPose pose\n",
             &[
                 HEADER,
                 TIME,
-                "MSG: geographic_msgs/GeoPoint\nfloat64 latitude\nfloat64 longitude\n\
-                 float64 altitude\n",
+                "MSG: geographic_msgs/GeoPose\nGeoPoint position\n\
+                 geometry_msgs/Quaternion orientation\n",
+                GEO_POINT,
+                QUATERNION,
             ],
+        ),
+        RosType::PoseWithCovarianceStamped => joined(
+            d,
+            "std_msgs/Header header\ngeometry_msgs/PoseWithCovariance pose\n",
+            &[HEADER, TIME, POSE_WITH_COVARIANCE, POSE, POINT, QUATERNION],
         ),
         RosType::PointStamped => joined(
             d,
