@@ -5,6 +5,7 @@
 mod common;
 
 mod acoustic;
+mod acoustic_raw;
 mod acoustic_ros;
 mod alignment;
 mod attitude_cli;

@@ -44,6 +44,7 @@ fn aiding(eml_sigma_m_s: Option<f64>) -> Aiding {
         rpm_velocity: None,
         acoustic: None,
         lbl: None,
+        usbl: None,
         gate_probability: Some(0.999),
         gate_reset_after: 0,
     }

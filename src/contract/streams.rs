@@ -3,7 +3,7 @@
 
 use super::{
     AcousticFix, Altimeter, Beacon, ControlSurfaces, Depth, Dvl, GnssFix, Imu, LblRange,
-    MagneticField, PositionFix, Propeller, ShipPose, SpeedLog, Truth,
+    MagneticField, PositionFix, Propeller, ShipPose, SpeedLog, Truth, UsblObservation,
 };
 
 /// Time-sorted messages of each role (empty when the log has none).
@@ -21,6 +21,8 @@ pub struct Streams<'a> {
     pub fins: &'a [ControlSurfaces],
     pub truth: &'a [Truth],
     pub acoustic_fixes: &'a [AcousticFix],
+    /// Ship-relative USBL observations, with the ship's poses.
+    pub usbl: &'a [UsblObservation],
     pub ship: &'a [ShipPose],
     pub lbl: &'a [LblRange],
     /// The acoustic beacons' places (the log's `beacons` record, or the settings').

@@ -444,6 +444,7 @@ impl<'a> Streams<'a> {
             fins: log.role(),
             truth: log.role(),
             acoustic_fixes: log.role(),
+            usbl: log.role(),
             ship: log.role(),
             lbl: log.role(),
             beacons: &log.beacons,

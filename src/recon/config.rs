@@ -183,6 +183,26 @@ sigma_floor_m = 0.5          # ... and at least this, m
 sigma_without_ship_m = 5.0   # a fix without a sigma and without the ship's position, m
 lever_arm_m = [0.0, 0.0, 0.0]  # the transponder on the vehicle from the IMU, body FRD, m
 
+[usbl]
+# Ship-relative USBL observations (/usbl: range, bearing and elevation in the axes of the
+# ship's transducer) placed by the ship's pose (/ship_pose), each an update at its time of
+# validity, found as the acoustic fixes' is ([acoustic_fix] receipt_delay_s; the transponder
+# is [acoustic_fix] lever_arm_m). The errors of the ship's position, heading and tilt are in
+# each observation's noise: a heading error grows with the horizontal range.
+use = true
+range_fraction = 0.002       # a range without a sigma: this fraction of it ...
+range_sigma_floor_m = 0.2    # ... and at least this, m
+angle_sigma_deg = 0.2        # a bearing or an elevation without a sigma, deg
+transducer_lever_arm_m = [0.0, 0.0, 0.0]    # the transducer from the point the ship's
+                                            # position is of, ship body FRD, m
+transducer_alignment_deg = [0.0, 0.0, 0.0]  # the transducer's axes in the ship's: roll,
+                                            # pitch, yaw (Z-Y-X), deg
+ship_position_sigma_m = 1.0  # the ship's horizontal position where its pose carries none, m
+ship_height_sigma_m = 0.5    # the transducer's height (the ship's heave), m
+ship_heading_sigma_deg = 0.1 # the ship's heading where its pose carries none, deg
+ship_tilt_sigma_deg = 0.05   # the ship's roll and pitch, deg
+ship_max_gap_s = 5.0         # ship poses further apart than this are not interpolated, s
+
 [lbl]
 # Ranges to the seabed beacons of a long-baseline network (/lbl), tightly coupled: each range
 # is an update at its time of validity (half its two-way travel time before its stamp), and
@@ -629,6 +649,53 @@ impl AcousticFixConfig {
 }
 
 crate::config::with_defaults! {
+    /// Ship-relative USBL observations.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    pub struct UsblConfig {
+        #[serde(rename = "use")]
+        pub enabled: bool = true,
+        pub range_fraction: f64 = 0.002,
+        pub range_sigma_floor_m: f64 = 0.2,
+        pub angle_sigma_deg: f64 = 0.2,
+        pub transducer_lever_arm_m: [f64; 3] = [0.0; 3],
+        pub transducer_alignment_deg: [f64; 3] = [0.0; 3],
+        pub ship_position_sigma_m: f64 = 1.0,
+        pub ship_height_sigma_m: f64 = 0.5,
+        pub ship_heading_sigma_deg: f64 = 0.1,
+        pub ship_tilt_sigma_deg: f64 = 0.05,
+        pub ship_max_gap_s: f64 = 5.0,
+    }
+}
+
+impl UsblConfig {
+    /// The aid's settings, when it is used: the receipt delay and the transponder are the
+    /// acoustic fixes' (one acoustic system on one vehicle); the delay only where it is
+    /// known (`delay_known`: given).
+    pub fn aid(
+        &self,
+        fixes: &AcousticFixConfig,
+        delay_known: bool,
+    ) -> Option<crate::filters::ins::usbl::UsblAiding> {
+        self.enabled
+            .then_some(crate::filters::ins::usbl::UsblAiding {
+                receipt_delay_s: delay_known.then_some(fixes.receipt_delay_s),
+                range_fraction: self.range_fraction,
+                range_sigma_floor_m: self.range_sigma_floor_m,
+                angle_sigma_rad: self.angle_sigma_deg.to_radians(),
+                transducer_lever_arm_m: self.transducer_lever_arm_m,
+                transducer_alignment_rad: self.transducer_alignment_deg.map(f64::to_radians),
+                ship_position_sigma_m: self.ship_position_sigma_m,
+                ship_height_sigma_m: self.ship_height_sigma_m,
+                ship_heading_sigma_rad: self.ship_heading_sigma_deg.to_radians(),
+                ship_tilt_sigma_rad: self.ship_tilt_sigma_deg.to_radians(),
+                ship_max_gap_s: self.ship_max_gap_s,
+                lever_arm_body_m: fixes.lever_arm_m,
+            })
+    }
+}
+
+crate::config::with_defaults! {
     /// Ranges to LBL beacons.
     #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
     #[serde(deny_unknown_fields, default)]
@@ -824,6 +891,7 @@ pub struct Config {
     pub gnss: UseConfig,
     pub position_fix: UseConfig,
     pub acoustic_fix: AcousticFixConfig,
+    pub usbl: UsblConfig,
     pub lbl: LblConfig,
     pub gate: GateConfig,
     pub propagation: PropagationConfig,
@@ -853,6 +921,7 @@ impl Config {
             Sensor::PositionFix => self.position_fix.enabled,
             Sensor::AcousticFix => self.acoustic_fix.enabled,
             Sensor::Lbl => self.lbl.enabled,
+            Sensor::Usbl => self.usbl.enabled,
             Sensor::Magnetometer => self.mag.enabled,
             Sensor::RpmVelocity => self.rpm_velocity.enabled.is_on(),
             Sensor::ModelVelocity => self.model_velocity.enabled.is_on(),
@@ -940,6 +1009,7 @@ impl Config {
             &keyed!(self.depth => depth; sigma_m),
             &keyed!(self.eml => eml; sigma_m_s),
             &keyed!(self.lbl => lbl; sound_speed_m_s),
+            &keyed!(self.usbl => usbl; ship_max_gap_s),
             &keyed!(self.propagation => propagation; covariance_interval_s, imu_gap_s),
             &keyed!(self.initial => initial;
                 window_s, magnetometer_sigma_deg, given_yaw_sigma_deg, origin_sigma_m),
@@ -959,6 +1029,9 @@ impl Config {
             &keyed!(self.acoustic_fix => acoustic_fix;
                 slant_range_fraction, sigma_floor_m, sigma_without_ship_m),
             &keyed!(self.lbl => lbl; range_sigma_m, sound_speed_sigma),
+            &keyed!(self.usbl => usbl;
+                range_fraction, range_sigma_floor_m, angle_sigma_deg, ship_position_sigma_m,
+                ship_height_sigma_m, ship_heading_sigma_deg, ship_tilt_sigma_deg),
             &keyed!(self.dvl => dvl;
                 altimeter_max_age_s, scale_sigma, misalignment_sigma_deg,
                 held_misalignment_sigma_deg, bias_sigma_m_s, bias_walk_m_s_rt_h,
@@ -1076,6 +1149,10 @@ impl Config {
                 rpm_velocity: self.rpm_velocity.aid(),
                 acoustic: self.acoustic_fix.aid(),
                 lbl: self.lbl.aid(),
+                usbl: self.usbl.aid(
+                    &self.acoustic_fix,
+                    self.fixed.contains("acoustic_fix.receipt_delay_s"),
+                ),
                 gate_probability: (self.gate.probability < 1.0).then_some(self.gate.probability),
                 gate_reset_after: self.gate.reset_after,
             },

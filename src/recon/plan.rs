@@ -189,8 +189,8 @@ fn vehicle_of(config: &Config, mission: &Mission) -> Result<String, String> {
     }
 }
 
-/// The farthest-apart pair of absolute positions (GNSS fixes, position fixes and acoustic
-/// fixes), thinned to the best-sigma position of each stretch (LBL ranges:
+/// The farthest-apart pair of absolute positions (GNSS fixes, position fixes, acoustic
+/// fixes and USBL observations placed by the ship's pose), thinned to the best-sigma position of each stretch (LBL ranges:
 /// [`lbl_farthest_positions`]).
 fn farthest_positions(
     streams: &Streams<'_>,
@@ -218,6 +218,24 @@ fn farthest_positions(
                 f.sigma_m,
             )
         });
+    let usbl = config
+        .usbl
+        .aid(
+            &config.acoustic_fix,
+            config.fixed.contains("acoustic_fix.receipt_delay_s"),
+        )
+        .map(|a| crate::filters::ins::usbl::UsblAid::new(streams.usbl, streams.ship, &a));
+    let usbl = usbl.iter().flat_map(|aid| {
+        (0..aid.observations().len()).map(move |i| {
+            let (lat, lon) = aid.positioned_rad(i);
+            (
+                aid.observations()[i].stamp_ns,
+                (lat - lat0) * EARTH_RADIUS_M,
+                (lon - lon0) * EARTH_RADIUS_M * lat0.cos(),
+                aid.positioned_sigma_m(i),
+            )
+        })
+    });
     let mut all: Vec<(i64, f64, f64, f64)> = streams
         .gnss
         .iter()
@@ -236,6 +254,7 @@ fn farthest_positions(
                 .map(|f| (f.stamp_ns, f.north_m, f.east_m, f.sigma_m)),
         )
         .chain(acoustic)
+        .chain(usbl)
         .filter(|p| p.3 > 0.0 && p.1.is_finite() && p.2.is_finite())
         .collect();
     all.sort_by_key(|p| p.0);

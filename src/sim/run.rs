@@ -8,7 +8,7 @@ use super::sensors::imu::Triad;
 use super::sensors::lbl::{Beacon, Lbl};
 use super::sensors::mag::MagSensor;
 use super::sensors::scalar::{Propeller as PropellerModel, ScalarSensor};
-use super::sensors::usbl::{Usbl, UsblStamp};
+use super::sensors::usbl::{Fix, ShipTruth, Usbl, UsblForm, UsblStamp};
 use super::sensors::{normal, rng_for, stream};
 use super::truth::{KinematicTruth, TruthSample, TruthSource};
 use super::vibration::RealMotion;
@@ -618,7 +618,22 @@ impl Sensors {
     ) -> Result<(), WriteError> {
         let t_s = tick.t_ns as f64 * 1e-9;
         let ned_m = [tick.north_m, tick.east_m, tick.depth_m];
-        let Some(fix) = self.acoustic.as_mut().and_then(|u| u.fix(t_s, ned_m)) else {
+        let Some(usbl) = self.acoustic.as_mut() else {
+            return Ok(());
+        };
+        let fix = usbl.fix(t_s, ned_m);
+        let raw = usbl.spec().form == UsblForm::Raw;
+        if raw {
+            if let Some(pose) = usbl.ship_pose(t_s) {
+                let (heading_sigma_deg, position_sigma_m) = (
+                    usbl.spec().ship_heading_sigma_deg,
+                    usbl.spec().ship_position_sigma_m,
+                );
+                let msg = self.ship_pose_message(tick, &pose, position_sigma_m, heading_sigma_deg);
+                w.write("/ship_pose", &msg, tick.log_ns(0.0))?;
+            }
+        }
+        let Some(fix) = fix else {
             return Ok(());
         };
         let [dn, de, dd] = fix.error_ned_m;
@@ -629,6 +644,10 @@ impl Sensors {
             self.acoustic_outliers_ns.push(stamp_ns);
         }
         let both = self.usbl_stamp == Some(UsblStamp::ValidityAndDelay);
+        if raw {
+            let msg = self.raw_observation(tick, &fix, stamp_ns, both);
+            return w.write("/usbl", &msg, stamp_ns.max(0) as u64);
+        }
         let msg = AcousticFix {
             stamp_ns: if both { tick.stamp_ns } else { stamp_ns },
             stamp_is_validity: both,
@@ -641,6 +660,72 @@ impl Sensors {
             beacon_id: String::new(),
         };
         w.write("/acoustic_fix", &msg, stamp_ns.max(0) as u64)
+    }
+
+    /// The ship's pose as its sensors give it, placed on the mission's origin.
+    fn ship_pose_message(
+        &self,
+        tick: &Tick,
+        pose: &ShipTruth,
+        position_sigma_m: f64,
+        heading_sigma_deg: f64,
+    ) -> ShipPose {
+        let (lat, lon) = self.ship_geodetic(pose);
+        let [roll, pitch, yaw] = pose.attitude_rad;
+        ShipPose {
+            stamp_ns: tick.stamp_ns,
+            latitude_deg: lat.to_degrees(),
+            longitude_deg: lon.to_degrees(),
+            roll,
+            pitch,
+            yaw,
+            horizontal_sigma_m: Some(position_sigma_m),
+            heading_sigma_rad: Some(heading_sigma_deg.to_radians()),
+        }
+    }
+
+    /// Where the ship is, latitude and longitude, rad.
+    fn ship_geodetic(&self, ship: &ShipTruth) -> (f64, f64) {
+        let (lat0, lon0) = self.origin_rad;
+        geodesy::position_of_local_m(lat0, lon0, ship.north_m, ship.east_m)
+    }
+
+    /// The USBL's raw observation of the vehicle at `tick` from the true ship (the
+    /// transducer at its reference point, in its axes): the straight line through the Earth
+    /// turned into the ship's axes, an outlier's offset added, then the USBL's noise.
+    fn raw_observation(
+        &mut self,
+        tick: &Tick,
+        fix: &Fix,
+        receipt_ns: i64,
+        both: bool,
+    ) -> UsblObservation {
+        let (lat, lon) = self.ship_geodetic(&fix.ship);
+        let mut d_ned = geodesy::ned_offset_m(
+            (lat, lon, 0.0),
+            (tick.sample.lat_rad, tick.sample.lon_rad, -tick.depth_m),
+        );
+        d_ned.x += fix.outlier_ne_m[0];
+        d_ned.y += fix.outlier_ne_m[1];
+        let [roll, pitch, yaw] = fix.ship.attitude_rad;
+        let d = nalgebra::Rotation3::from_euler_angles(roll, pitch, yaw).inverse() * d_ned;
+        let usbl = self.acoustic.as_mut().expect("a raw USBL observes");
+        let o = usbl.observe(d.into());
+        let [range, bearing, elevation] = o.range_bearing_elevation;
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        UsblObservation {
+            stamp_ns: if both { tick.stamp_ns } else { receipt_ns },
+            stamp_is_validity: both,
+            received_after_s: both.then_some(fix.delay_s),
+            range_m: range.max(0.0),
+            bearing_rad: bearing,
+            elevation_rad: elevation.clamp(-half_pi, half_pi),
+            range_sigma_m: Some(o.sigmas[0]),
+            bearing_sigma_rad: Some(o.sigmas[1]),
+            elevation_sigma_rad: Some(o.sigmas[2]),
+            sound_speed_m_s: None,
+            beacon_id: String::new(),
+        }
     }
 
     /// The beacons' replies to an interrogation, each stamped and logged when it was received.

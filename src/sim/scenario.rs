@@ -42,6 +42,7 @@ pub const BUILT_IN: &[(&str, &str)] = shipped![
     "drop-entry",
     "drop-no-dvl",
     "usbl-survey",
+    "usbl-raw-survey",
     "usbl-no-dvl",
     "lbl-box",
 ];

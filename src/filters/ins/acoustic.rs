@@ -45,11 +45,27 @@ pub struct ValidFix {
 /// The time of validity of a fix: its stamp, or its stamp less its own delay, or less
 /// `receipt_delay_s`.
 pub fn validity_ns(fix: &AcousticFix, receipt_delay_s: f64) -> i64 {
-    if fix.stamp_is_validity {
-        return fix.stamp_ns;
+    validity_of(
+        fix.stamp_ns,
+        fix.stamp_is_validity,
+        fix.received_after_s,
+        receipt_delay_s,
+    )
+}
+
+/// The time of validity of an acoustic observation stamped `stamp_ns`: the stamp itself when
+/// it is the time of validity, else less its own delay, else less `receipt_delay_s`.
+pub fn validity_of(
+    stamp_ns: i64,
+    stamp_is_validity: bool,
+    received_after_s: Option<f64>,
+    receipt_delay_s: f64,
+) -> i64 {
+    if stamp_is_validity {
+        return stamp_ns;
     }
-    let delay_s = fix.received_after_s.unwrap_or(receipt_delay_s);
-    fix.stamp_ns - (delay_s * 1e9).round() as i64
+    let delay_s = received_after_s.unwrap_or(receipt_delay_s);
+    stamp_ns - (delay_s * 1e9).round() as i64
 }
 
 /// Whether the fix's time of validity is not known from the log alone.

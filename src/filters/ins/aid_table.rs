@@ -12,9 +12,10 @@ use super::aid_sources;
 use super::error_state::N;
 use super::forward::{DvlMounting, Estimate};
 use super::lbl::{LblAid, LblAiding};
+use super::usbl::{UsblAid, UsblAiding};
 use crate::contract::{
     AcousticFix, ControlSurfaces, Depth, Dvl, GnssFix, LblRange, MagneticField, Message,
-    PositionFix, Propeller, SpeedLog, Streams,
+    PositionFix, Propeller, SpeedLog, Streams, UsblObservation,
 };
 use crate::filters::velocity::rpm::RpmFilter;
 use nalgebra::{SMatrix, SVector, Vector3};
@@ -36,6 +37,8 @@ pub enum Sensor {
     AcousticFix,
     /// Ranges to the seabed beacons of a long-baseline network.
     Lbl,
+    /// Ship-relative USBL observations (range, bearing, elevation), placed by the ship's pose.
+    Usbl,
 }
 
 impl std::fmt::Display for Sensor {
@@ -51,7 +54,7 @@ impl serde::Serialize for Sensor {
 }
 
 impl Sensor {
-    pub const ALL: [Sensor; 10] = [
+    pub const ALL: [Sensor; 11] = [
         Sensor::Dvl,
         Sensor::Depth,
         Sensor::Gnss,
@@ -62,6 +65,7 @@ impl Sensor {
         Sensor::ModelVelocity,
         Sensor::AcousticFix,
         Sensor::Lbl,
+        Sensor::Usbl,
     ];
 
     /// Whether it reads the velocity in the body's axes, where a heading error and a velocity
@@ -84,6 +88,7 @@ impl Sensor {
             Sensor::ModelVelocity => "model_velocity",
             Sensor::AcousticFix => "acoustic_fix",
             Sensor::Lbl => "lbl",
+            Sensor::Usbl => "usbl",
         }
     }
 
@@ -100,6 +105,7 @@ impl Sensor {
             Sensor::ModelVelocity => ControlSurfaces::DEFAULT_TOPIC,
             Sensor::AcousticFix => AcousticFix::DEFAULT_TOPIC,
             Sensor::Lbl => LblRange::DEFAULT_TOPIC,
+            Sensor::Usbl => UsblObservation::DEFAULT_TOPIC,
         }
     }
 
@@ -116,6 +122,7 @@ impl Sensor {
             Sensor::ModelVelocity => streams.fins.len(),
             Sensor::AcousticFix => streams.acoustic_fixes.len(),
             Sensor::Lbl => streams.lbl.len(),
+            Sensor::Usbl => streams.usbl.len(),
         }
     }
 
@@ -161,13 +168,17 @@ impl Sensor {
                 lbl: &[],
                 ..streams
             },
+            Sensor::Usbl => Streams {
+                usbl: &[],
+                ..streams
+            },
         }
     }
 
     /// Number of components of its innovation.
     pub fn dims(self) -> usize {
         match self {
-            Sensor::Dvl | Sensor::RpmVelocity | Sensor::ModelVelocity => 3,
+            Sensor::Dvl | Sensor::RpmVelocity | Sensor::ModelVelocity | Sensor::Usbl => 3,
             Sensor::Depth | Sensor::SpeedLog | Sensor::Magnetometer | Sensor::Lbl => 1,
             Sensor::Gnss | Sensor::PositionFix | Sensor::AcousticFix => 2,
         }
@@ -326,6 +337,8 @@ pub struct Aiding {
     pub acoustic: Option<AcousticAiding>,
     /// Ranges to LBL beacons (`None`: not used).
     pub lbl: Option<LblAiding>,
+    /// Ship-relative USBL observations (`None`: not used).
+    pub usbl: Option<UsblAiding>,
     /// Probability of the chi-square gate (a consistent measurement passes it with this
     /// probability); `None` disables gating.
     pub gate_probability: Option<f64>,
@@ -403,6 +416,9 @@ impl Aiding {
         }
         if let Some(lbl) = self.lbl.filter(|_| !streams.lbl.is_empty()) {
             table.push(Box::new(LblAid::new(streams.lbl, streams.beacons, &lbl)));
+        }
+        if let Some(usbl) = self.usbl.filter(|_| !streams.usbl.is_empty()) {
+            table.push(Box::new(UsblAid::new(streams.usbl, streams.ship, &usbl)));
         }
         if let Some(sigma_m_s) = self.eml_sigma_m_s {
             table.push(Box::new(aid_sources::SpeedLogAid {

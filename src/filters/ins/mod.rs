@@ -13,3 +13,4 @@ pub mod mechanization;
 pub mod record;
 pub mod reopen;
 pub mod solutions;
+pub mod usbl;

@@ -202,6 +202,7 @@ pub(crate) fn first_span<'a>(streams: &Streams<'a>, span_s: f64) -> Streams<'a> 
         fins: cut(streams.fins, end),
         truth: cut(streams.truth, end),
         acoustic_fixes: cut(streams.acoustic_fixes, end),
+        usbl: cut(streams.usbl, end),
         ship: cut(streams.ship, end),
         lbl: cut(streams.lbl, end),
         beacons: streams.beacons,

@@ -40,8 +40,52 @@ crate::config::with_defaults! {
         pub max_range_m: f64 = 1000.0,
         /// The ship holds the vehicle's horizontal position of this long before, s.
         pub ship_lag_s: f64 = 120.0,
+        /// What the USBL writes: positioned fixes, or raw observations with the ship's pose.
+        pub form: UsblForm = UsblForm::Positioned,
+        /// Raw: 1-sigma of the range as a fraction of it (at least `sigma_floor_m`) ...
+        pub range_sigma_fraction: f64 = 0.002,
+        /// ... and of the bearing and the elevation, deg.
+        pub angle_sigma_deg: f64 = 0.2,
+        /// Raw: the ship's pose is logged this often, s ...
+        pub ship_every_s: f64 = 0.5,
+        /// ... its GNSS position with this 1-sigma per axis, white, m ...
+        pub ship_position_sigma_m: f64 = 0.5,
+        /// ... its heading with this 1-sigma, deg, correlated over `ship_heading_correlation_s`
+        /// (a first-order Gauss-Markov error) ...
+        pub ship_heading_sigma_deg: f64 = 0.1,
+        pub ship_heading_correlation_s: f64 = 10.0,
+        /// ... its roll and pitch with this 1-sigma, white, deg ...
+        pub ship_tilt_sigma_deg: f64 = 0.05,
+        /// ... while it rolls and pitches in the swell by these amplitudes, deg (periods of
+        /// 8 s and 6 s).
+        pub ship_roll_deg: f64 = 3.0,
+        pub ship_pitch_deg: f64 = 1.5,
     }
 }
+
+/// What a simulated USBL writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UsblForm {
+    /// Fixes the ship positioned (`/acoustic_fix`).
+    Positioned,
+    /// Range, bearing and elevation in the axes of the ship's transducer (`/usbl`), with the
+    /// ship's pose from its own GNSS and heading sensor (`/ship_pose`). The transducer is at
+    /// the point the ship's position is of, in the ship's axes.
+    Raw,
+}
+
+/// The ship when a pose or an observation is made: where (north and east of the mission's
+/// origin, m) and how turned (roll, pitch, yaw, rad).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShipTruth {
+    pub north_m: f64,
+    pub east_m: f64,
+    pub attitude_rad: [f64; 3],
+}
+
+/// The roll and pitch periods of the ship in the swell, s.
+const SWELL_PERIODS_S: [f64; 2] = [8.0, 6.0];
 
 /// What a simulated USBL's stamps say.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -74,6 +118,24 @@ impl UsblSpec {
         }
         let positive = [self.range_fraction, self.sigma_floor_m, self.max_range_m];
         let lags = [self.ship_lag_s, self.receipt_jitter_s];
+        let raw = [
+            self.range_sigma_fraction,
+            self.angle_sigma_deg,
+            self.ship_position_sigma_m,
+            self.ship_heading_sigma_deg,
+            self.ship_tilt_sigma_deg,
+            self.ship_roll_deg,
+            self.ship_pitch_deg,
+        ];
+        if raw.iter().any(|&x| x < 0.0) || self.ship_every_s <= 0.0 {
+            return Some(
+                "usbl's raw sigmas and swell must not be negative, ship_every_s must be positive"
+                    .into(),
+            );
+        }
+        if self.ship_heading_correlation_s <= 0.0 {
+            return Some("usbl.ship_heading_correlation_s must be positive".into());
+        }
         if positive.iter().chain(&lags).any(|&x| x < 0.0) {
             return Some(
                 "usbl sigmas, max_range_m, ship_lag_s and receipt_jitter_s must not be negative"
@@ -94,6 +156,10 @@ pub struct Fix {
     /// Receipt after validity, s.
     pub delay_s: f64,
     pub outlier: bool,
+    /// The outlier's part of the error, north and east, m (zero for a good fix).
+    pub outlier_ne_m: [f64; 2],
+    /// The ship when the fix was valid.
+    pub ship: ShipTruth,
 }
 
 /// The USBL of one run.
@@ -106,6 +172,18 @@ pub struct Usbl {
     in_outlier_run: bool,
     /// The vehicle's horizontal track over the ship's lag: (s, north, east).
     track: VecDeque<(f64, f64, f64)>,
+    /// The ship's heading: along its track once it moves, rad.
+    ship_yaw_rad: f64,
+    /// Raw: when the ship's next pose is due, s, and its heading sensor's error, rad.
+    next_ship_pose_s: f64,
+    ship_heading_error_rad: f64,
+}
+
+/// A raw observation: range (m), bearing and elevation (rad), and their sigmas.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RawObservation {
+    pub range_bearing_elevation: [f64; 3],
+    pub sigmas: [f64; 3],
 }
 
 impl Usbl {
@@ -119,7 +197,85 @@ impl Usbl {
             rng,
             in_outlier_run: false,
             track: VecDeque::new(),
+            ship_yaw_rad: 0.0,
+            next_ship_pose_s: 0.0,
+            ship_heading_error_rad: 0.0,
         }
+    }
+
+    /// The ship's pose as its own sensors give it at `t_s` when one is due (after
+    /// [`Usbl::fix`] has seen the vehicle at `t_s`): north and east with the GNSS's white
+    /// error, the swell's roll and pitch with the tilt's, the heading with its correlated
+    /// error.
+    pub fn ship_pose(&mut self, t_s: f64) -> Option<ShipTruth> {
+        if t_s < self.next_ship_pose_s {
+            return None;
+        }
+        let dt_s = self.spec.ship_every_s;
+        self.next_ship_pose_s = t_s + dt_s;
+        let truth = self.ship(t_s)?;
+        let spec = self.spec;
+        let rng = &mut self.rng;
+        let phi = (-dt_s / spec.ship_heading_correlation_s).exp();
+        self.ship_heading_error_rad = phi * self.ship_heading_error_rad
+            + (1.0 - phi * phi).sqrt() * spec.ship_heading_sigma_deg.to_radians() * normal(rng);
+        let tilt = spec.ship_tilt_sigma_deg.to_radians();
+        let [roll, pitch, yaw] = truth.attitude_rad;
+        Some(ShipTruth {
+            north_m: truth.north_m + spec.ship_position_sigma_m * normal(rng),
+            east_m: truth.east_m + spec.ship_position_sigma_m * normal(rng),
+            attitude_rad: [
+                roll + tilt * normal(rng),
+                pitch + tilt * normal(rng),
+                crate::angle::wrap_pi(yaw + self.ship_heading_error_rad),
+            ],
+        })
+    }
+
+    /// The raw observation of the transponder at `d` in the transducer's axes (m), with the
+    /// USBL's noise.
+    pub fn observe(&mut self, d: [f64; 3]) -> RawObservation {
+        let [x, y, z] = d;
+        let horizontal = x.hypot(y);
+        let range = horizontal.hypot(z);
+        let angle = self.spec.angle_sigma_deg.to_radians();
+        let sigmas = [
+            (self.spec.range_sigma_fraction * range).max(self.spec.sigma_floor_m),
+            angle,
+            angle,
+        ];
+        let rng = &mut self.rng;
+        RawObservation {
+            range_bearing_elevation: [
+                range + sigmas[0] * normal(rng),
+                crate::angle::wrap_pi(y.atan2(x) + sigmas[1] * normal(rng)),
+                z.atan2(horizontal) + sigmas[2] * normal(rng),
+            ],
+            sigmas,
+        }
+    }
+
+    /// The parameters.
+    pub fn spec(&self) -> &UsblSpec {
+        &self.spec
+    }
+
+    /// The ship at `t_s` (after [`Usbl::fix`] has seen the vehicle at `t_s`): at the head of
+    /// the lagged track, heading along it, rolling and pitching in the swell.
+    pub fn ship(&self, t_s: f64) -> Option<ShipTruth> {
+        let &(_, north_m, east_m) = self.track.front()?;
+        let swell = |amplitude_deg: f64, period_s: f64| {
+            amplitude_deg.to_radians() * (std::f64::consts::TAU * t_s / period_s).sin()
+        };
+        Some(ShipTruth {
+            north_m,
+            east_m,
+            attitude_rad: [
+                swell(self.spec.ship_roll_deg, SWELL_PERIODS_S[0]),
+                swell(self.spec.ship_pitch_deg, SWELL_PERIODS_S[1]),
+                self.ship_yaw_rad,
+            ],
+        })
     }
 
     /// The fix of the vehicle at `t_s` (north, east, down m), when one is due and in range.
@@ -128,25 +284,34 @@ impl Usbl {
         while self.track.len() > 1 && self.track[1].0 <= t_s - self.spec.ship_lag_s {
             self.track.pop_front();
         }
+        if let (Some(&(_, n0, e0)), Some(&(_, n1, e1))) = (self.track.front(), self.track.get(1)) {
+            if (n1 - n0).hypot(e1 - e0) > 1e-3 {
+                self.ship_yaw_rad = (e1 - e0).atan2(n1 - n0);
+            }
+        }
+        let ship = self.ship(t_s)?;
         if t_s < self.next_s {
             return None;
         }
         let [lo, hi] = self.spec.every_s;
         self.next_s = t_s + self.rng.random_range(lo..=hi);
-        let ship = self.track[0];
-        let slant_m = (ned_m[0] - ship.1).hypot(ned_m[1] - ship.2).hypot(ned_m[2]);
+        let slant_m = (ned_m[0] - ship.north_m)
+            .hypot(ned_m[1] - ship.east_m)
+            .hypot(ned_m[2]);
         if slant_m > self.spec.max_range_m {
             return None;
         }
         let sigma_m = (self.spec.range_fraction * slant_m).max(self.spec.sigma_floor_m);
         let mut error_ned_m: [f64; 3] = std::array::from_fn(|_| sigma_m * normal(&mut self.rng));
         let outlier = self.outlier_now();
+        let mut outlier_ne_m = [0.0; 2];
         if outlier {
             let [lo, hi] = self.spec.outlier_m;
             let size = self.rng.random_range(lo..=hi);
             let bearing = self.rng.random_range(0.0..std::f64::consts::TAU);
-            error_ned_m[0] += size * bearing.cos();
-            error_ned_m[1] += size * bearing.sin();
+            outlier_ne_m = [size * bearing.cos(), size * bearing.sin()];
+            error_ned_m[0] += outlier_ne_m[0];
+            error_ned_m[1] += outlier_ne_m[1];
         }
         let jitter_s = self.spec.receipt_jitter_s * normal(&mut self.rng);
         Some(Fix {
@@ -154,6 +319,8 @@ impl Usbl {
             sigma_m,
             delay_s: (self.delay_s + jitter_s).max(0.0),
             outlier,
+            outlier_ne_m,
+            ship,
         })
     }
 

@@ -1,0 +1,682 @@
+//! Ship-relative USBL observations (`/usbl`, with the ship's `/ship_pose`) as an aid, raw:
+//! each observation is the transponder's position in the axes of the ship's transducer, not
+//! a fix the ship positioned. The ship's pose places the transducer; its errors (the GNSS
+//! position, the heading and the tilt) go into the observation's noise, where a heading error
+//! grows with the horizontal range.
+//!
+//! The range, bearing and elevation are taken as the vector they give in the transducer's
+//! axes, `d = r (cos e cos b, cos e sin b, sin e)`, with the covariance their sigmas give
+//! it. Unlike the angles, the vector has no singularity under the transducer and needs no
+//! wrapping. The range is converted with the speed of sound the ranges share with the LBL
+//! (`idx::SOUND_SPEED_SCALE`): the vector reads `d / (1 + k)`.
+//!
+//! An observation stamped when the ship received it is applied where it was valid, as the
+//! positioned fixes are ([`super::acoustic`]): less the delay it carries, or the estimated one.
+
+use super::acoustic::validity_of;
+use super::aid_table::{Aid, Epoch, Measurement, Sensor, SensorReading, Update};
+use super::error_state::{idx, N};
+use super::forward::Estimate;
+use crate::align::interpolate;
+use crate::contract::{ShipPose, UsblObservation};
+use crate::geodesy;
+use nalgebra::{Matrix3, Matrix6, Rotation3, SMatrix, SVector, Vector3};
+
+/// How the USBL observations are taken.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UsblAiding {
+    /// Time of receipt less time of validity, s, of the observations stamped on receipt that
+    /// do not carry theirs (shared with the positioned fixes: one acoustic system); `None`:
+    /// not known, and those observations are left out.
+    pub receipt_delay_s: Option<f64>,
+    /// 1-sigma of a range that carries none: this fraction of the range ...
+    pub range_fraction: f64,
+    /// ... and at least this, m.
+    pub range_sigma_floor_m: f64,
+    /// 1-sigma of a bearing or an elevation that carries none, rad.
+    pub angle_sigma_rad: f64,
+    /// The transducer on the ship: from the point the ship's position is of, in the ship's
+    /// body axes (FRD), m ...
+    pub transducer_lever_arm_m: [f64; 3],
+    /// ... and its axes: the transducer-from-ship rotation (Z-Y-X Euler: roll, pitch, yaw),
+    /// rad.
+    pub transducer_alignment_rad: [f64; 3],
+    /// 1-sigma of the ship's horizontal position, per axis, where its pose carries none, m.
+    pub ship_position_sigma_m: f64,
+    /// 1-sigma of the ship's reference point's height (heave), m.
+    pub ship_height_sigma_m: f64,
+    /// 1-sigma of the ship's heading where its pose carries none, rad.
+    pub ship_heading_sigma_rad: f64,
+    /// 1-sigma of the ship's roll and pitch, rad.
+    pub ship_tilt_sigma_rad: f64,
+    /// The ship's poses are interpolated across gaps up to this long, s.
+    pub ship_max_gap_s: f64,
+    /// The transponder on the vehicle, body FRD from the IMU, m.
+    pub lever_arm_body_m: [f64; 3],
+}
+
+/// The ship when an observation was valid: where, how turned, how well known.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShipAt {
+    pub lat_rad: f64,
+    pub lon_rad: f64,
+    /// Height of the ship's reference point, m (the poses carry none: the sea surface, 0).
+    pub height_m: f64,
+    pub ned_from_ship: Rotation3<f64>,
+    /// 1-sigma of the horizontal position per axis, m.
+    pub position_sigma_m: f64,
+    /// 1-sigma of the heading, rad.
+    pub heading_sigma_rad: f64,
+}
+
+/// The ship's pose at `t_ns`, interpolated (`None` outside the poses or across a gap longer
+/// than the settings allow), with its sigmas or the settings'.
+pub fn ship_at(ship: &[ShipPose], t_ns: i64, a: &UsblAiding) -> Option<ShipAt> {
+    let pose = interpolate(ship, t_ns, (a.ship_max_gap_s * 1e9) as i64)?;
+    Some(ShipAt {
+        lat_rad: pose.latitude_deg.to_radians(),
+        lon_rad: pose.longitude_deg.to_radians(),
+        height_m: 0.0,
+        ned_from_ship: Rotation3::from_euler_angles(pose.roll, pose.pitch, pose.yaw),
+        position_sigma_m: (pose.horizontal_sigma_m.filter(|s| *s > 0.0))
+            .unwrap_or(a.ship_position_sigma_m),
+        heading_sigma_rad: (pose.heading_sigma_rad.filter(|s| *s > 0.0))
+            .unwrap_or(a.ship_heading_sigma_rad),
+    })
+}
+
+/// An observation made ready: when it was valid, the vector it measured, its sigmas, and
+/// the ship then.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ValidObservation {
+    /// Time of validity, ns.
+    pub stamp_ns: i64,
+    /// The transponder in the transducer's axes, m.
+    pub transducer_m: Vector3<f64>,
+    /// 1-sigma of the range (m), the bearing and the elevation (rad).
+    pub sigmas: [f64; 3],
+    pub ship: ShipAt,
+}
+
+/// The vector a range, bearing and elevation give in the transducer's axes.
+pub fn transducer_vector(range_m: f64, bearing_rad: f64, elevation_rad: f64) -> Vector3<f64> {
+    let (sb, cb) = bearing_rad.sin_cos();
+    let (se, ce) = elevation_rad.sin_cos();
+    Vector3::new(ce * cb, ce * sb, se) * range_m
+}
+
+/// The covariance of [`transducer_vector`] from the sigmas of its range, bearing and
+/// elevation, to first order, at the vector `d`.
+pub fn transducer_covariance(d: &Vector3<f64>, sigmas: [f64; 3]) -> Matrix3<f64> {
+    let range = d.norm().max(1e-9);
+    let horizontal = d.x.hypot(d.y);
+    let (cb, sb) = if horizontal > 1e-9 {
+        (d.x / horizontal, d.y / horizontal)
+    } else {
+        (1.0, 0.0)
+    };
+    let (ce, se) = (horizontal / range, d.z / range);
+    let by_range = d / range;
+    let by_bearing = Vector3::new(-sb, cb, 0.0) * horizontal;
+    let by_elevation = Vector3::new(-se * cb, -se * sb, ce) * range;
+    let [sr, sb_, se_] = sigmas;
+    by_range * by_range.transpose() * sr.powi(2)
+        + by_bearing * by_bearing.transpose() * sb_.powi(2)
+        + by_elevation * by_elevation.transpose() * se_.powi(2)
+}
+
+/// The geometry of the ship's transducer and the vehicle's transponder.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mounting {
+    pub transducer_lever_arm_m: Vector3<f64>,
+    pub transducer_from_ship: Rotation3<f64>,
+    pub lever_arm_body_m: Vector3<f64>,
+}
+
+impl Mounting {
+    pub fn of(a: &UsblAiding) -> Mounting {
+        let [roll, pitch, yaw] = a.transducer_alignment_rad;
+        Mounting {
+            transducer_lever_arm_m: Vector3::from(a.transducer_lever_arm_m),
+            transducer_from_ship: Rotation3::from_euler_angles(roll, pitch, yaw),
+            lever_arm_body_m: Vector3::from(a.lever_arm_body_m),
+        }
+    }
+}
+
+/// What the estimate predicts of an observation: the transponder in the transducer's axes
+/// as the ranges read it (`d / (1 + k)`), its rows in the error state, and its rows in the
+/// ship's errors (north, east, down of its position, m; the small rotation of its attitude
+/// about north, east, down, rad).
+///
+/// With `D` the ship's reference point to the transponder in the ship's NED (`p - s + C l`),
+/// `S` the ship's attitude and `T` the transducer's: `d = T (S^T D - l_t)`, so
+/// `H_p = T S^T / (1 + k)`, `H_psi = -T S^T [(C l) x] / (1 + k)`, `H_k = -d / (1 + k)^2`; the
+/// ship's position `-T S^T / (1 + k)` and attitude `T S^T [D x] / (1 + k)`. The vehicle's
+/// NED axes and the ship's differ by the angle between their verticals (1.6e-4 rad a
+/// kilometre apart): in `D` they are told apart, in the rows not.
+pub fn predicted(
+    est: &Estimate,
+    ship: &ShipAt,
+    m: &Mounting,
+) -> (Vector3<f64>, SMatrix<f64, 3, N>, SMatrix<f64, 3, 6>) {
+    let nav = &est.nav;
+    let arm_ned = nav.ned_from_body * m.lever_arm_body_m;
+    let to_vehicle = geodesy::ned_offset_m(
+        (ship.lat_rad, ship.lon_rad, ship.height_m),
+        (nav.lat_rad, nav.lon_rad, nav.height_m),
+    );
+    let d_ned = to_vehicle + arm_ned;
+    let t = m.transducer_from_ship.matrix();
+    let a = t * ship.ned_from_ship.matrix().transpose();
+    let d = a * d_ned - t * m.transducer_lever_arm_m;
+    let scale = 1.0 + est.sound_speed_scale;
+    let mut h = SMatrix::<f64, 3, N>::zeros();
+    h.fixed_view_mut::<3, 3>(0, idx::POS)
+        .copy_from(&(a / scale));
+    h.fixed_view_mut::<3, 3>(0, idx::ATT)
+        .copy_from(&(-a * arm_ned.cross_matrix() / scale));
+    h.fixed_view_mut::<3, 1>(0, idx::SOUND_SPEED_SCALE)
+        .copy_from(&(-d / scale.powi(2)));
+    let mut ship_rows = SMatrix::<f64, 3, 6>::zeros();
+    ship_rows
+        .fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&(-a / scale));
+    ship_rows
+        .fixed_view_mut::<3, 3>(0, 3)
+        .copy_from(&(a * d_ned.cross_matrix() / scale));
+    (d / scale, h, ship_rows)
+}
+
+/// The covariance of the ship's errors in [`predicted`]'s order: its position (horizontal
+/// and height sigmas), then its attitude: the heading's sigma about down, the tilt's about
+/// the ship's own x and y axes.
+pub fn ship_covariance(ship: &ShipAt, height_sigma_m: f64, tilt_sigma_rad: f64) -> Matrix6<f64> {
+    let mut cov = Matrix6::zeros();
+    let horizontal = ship.position_sigma_m.powi(2);
+    cov.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(&Matrix3::from_diagonal(&Vector3::new(
+            horizontal,
+            horizontal,
+            height_sigma_m.powi(2),
+        )));
+    let s = ship.ned_from_ship.matrix();
+    let tilt = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 0.0)) * tilt_sigma_rad.powi(2);
+    let mut attitude = s * tilt * s.transpose();
+    attitude[(2, 2)] += ship.heading_sigma_rad.powi(2);
+    cov.fixed_view_mut::<3, 3>(3, 3).copy_from(&attitude);
+    cov
+}
+
+/// The USBL observations' row of the aiding table.
+pub struct UsblAid {
+    observations: Vec<ValidObservation>,
+    mounting: Mounting,
+    ship_height_sigma_m: f64,
+    ship_tilt_sigma_rad: f64,
+    /// Observations left out: no ship pose when they were valid.
+    without_ship: usize,
+    /// Observations left out: stamped on receipt, with no delay known.
+    without_delay: usize,
+}
+
+impl UsblAid {
+    pub fn new(readings: &[UsblObservation], ship: &[ShipPose], a: &UsblAiding) -> Self {
+        let (mut without_ship, mut without_delay) = (0, 0);
+        let mut observations: Vec<ValidObservation> = Vec::with_capacity(readings.len());
+        for o in readings {
+            // The settings' delay serves only observations that carry no time of validity.
+            let carries_validity = o.stamp_is_validity || o.received_after_s.is_some();
+            let delay_s = match a.receipt_delay_s {
+                Some(delay_s) => delay_s,
+                None if carries_validity => 0.0,
+                None => {
+                    without_delay += 1;
+                    continue;
+                }
+            };
+            let stamp_ns =
+                validity_of(o.stamp_ns, o.stamp_is_validity, o.received_after_s, delay_s);
+            let Some(ship) = ship_at(ship, stamp_ns, a) else {
+                without_ship += 1;
+                continue;
+            };
+            let own = |s: Option<f64>| s.filter(|s| *s > 0.0);
+            let range_sigma = (a.range_fraction * o.range_m).max(a.range_sigma_floor_m);
+            observations.push(ValidObservation {
+                stamp_ns,
+                transducer_m: transducer_vector(o.range_m, o.bearing_rad, o.elevation_rad),
+                sigmas: [
+                    own(o.range_sigma_m).unwrap_or(range_sigma),
+                    own(o.bearing_sigma_rad).unwrap_or(a.angle_sigma_rad),
+                    own(o.elevation_sigma_rad).unwrap_or(a.angle_sigma_rad),
+                ],
+                ship,
+            });
+        }
+        observations.sort_by_key(|o| o.stamp_ns);
+        UsblAid {
+            observations,
+            mounting: Mounting::of(a),
+            ship_height_sigma_m: a.ship_height_sigma_m,
+            ship_tilt_sigma_rad: a.ship_tilt_sigma_rad,
+            without_ship,
+            without_delay,
+        }
+    }
+
+    /// The observations in use, in time order.
+    pub fn observations(&self) -> &[ValidObservation] {
+        &self.observations
+    }
+
+    /// The update of observation `i` at the estimate: the innovation, its rows, and the
+    /// noise of the observation and of the ship's pose.
+    pub fn update(&self, i: usize, est: &Estimate) -> Measurement<3> {
+        let o = &self.observations[i];
+        let (d, h, ship_rows) = predicted(est, &o.ship, &self.mounting);
+        let ship = ship_covariance(&o.ship, self.ship_height_sigma_m, self.ship_tilt_sigma_rad);
+        // The observation's own noise at the predicted vector: an outlier does not choose
+        // its own sigma.
+        let r = transducer_covariance(&d, o.sigmas) + ship_rows * ship * ship_rows.transpose();
+        Measurement {
+            y: SVector::<f64, 3>::from(o.transducer_m - d),
+            h,
+            r,
+        }
+    }
+
+    /// The 1-sigma per horizontal axis of the position observation `i` gives the transponder
+    /// (the observation's own noise and the ship's errors, at the vector it measured), m: the
+    /// sigma a positioned fix of it would carry.
+    pub fn positioned_sigma_m(&self, i: usize) -> f64 {
+        let o = &self.observations[i];
+        let m = &self.mounting;
+        let ned_from_transducer =
+            o.ship.ned_from_ship.matrix() * m.transducer_from_ship.matrix().transpose();
+        let own = transducer_covariance(&o.transducer_m, o.sigmas);
+        let d_ned = self.ship_to_transponder_ned_m(i);
+        let ship = ship_covariance(&o.ship, self.ship_height_sigma_m, self.ship_tilt_sigma_rad);
+        let turn = d_ned.cross_matrix();
+        let cov = ned_from_transducer * own * ned_from_transducer.transpose()
+            + ship.fixed_view::<3, 3>(0, 0)
+            + turn * ship.fixed_view::<3, 3>(3, 3) * turn.transpose();
+        (0.5 * (cov[(0, 0)] + cov[(1, 1)])).sqrt()
+    }
+
+    /// Where observation `i` puts the transponder from the ship's reference point, in the
+    /// ship's NED axes, m (the ship's pose taken as it is).
+    fn ship_to_transponder_ned_m(&self, i: usize) -> Vector3<f64> {
+        let (o, m) = (&self.observations[i], &self.mounting);
+        let in_ship = m.transducer_from_ship.inverse() * o.transducer_m + m.transducer_lever_arm_m;
+        o.ship.ned_from_ship * in_ship
+    }
+
+    /// Where observation `i` puts the transponder, latitude and longitude, rad.
+    pub fn positioned_rad(&self, i: usize) -> (f64, f64) {
+        let (ship, ned) = (
+            &self.observations[i].ship,
+            self.ship_to_transponder_ned_m(i),
+        );
+        geodesy::position_of_local_m(ship.lat_rad, ship.lon_rad, ned.x, ned.y)
+    }
+
+    /// Where observation `i` puts the transponder, north and east of the first observation's
+    /// ship, m.
+    pub fn positioned_ne_m(&self, i: usize) -> Option<[f64; 2]> {
+        let (first, o) = (self.observations.first()?, &self.observations[i]);
+        let (north, east) = geodesy::local_north_east_m(
+            first.ship.lat_rad,
+            first.ship.lon_rad,
+            o.ship.lat_rad,
+            o.ship.lon_rad,
+        );
+        let ned = self.ship_to_transponder_ned_m(i);
+        Some([north + ned.x, east + ned.y])
+    }
+}
+
+impl Aid for UsblAid {
+    fn sensor(&self) -> Sensor {
+        Sensor::Usbl
+    }
+    fn len(&self) -> usize {
+        self.observations.len()
+    }
+    fn stamp_ns(&self, i: usize) -> i64 {
+        self.observations[i].stamp_ns
+    }
+    fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
+        Some(Update::Three(self.update(i, at.est)))
+    }
+    /// The positioned observation, so that a run of refused observations reopens the gate
+    /// only when they follow one smooth track ([`super::reopen`]): multipath scatters off it.
+    fn reading(&self, i: usize) -> Option<SensorReading> {
+        let [north, east] = self.positioned_ne_m(i)?;
+        Some(SensorReading {
+            dims: 2,
+            value: [north, east, 0.0],
+        })
+    }
+    fn notes(&self) -> Vec<String> {
+        let mut notes = Vec::new();
+        if self.without_delay > 0 {
+            notes.push(format!(
+                "{} USBL observations were left out: they are stamped when the ship received \
+                 them, and their delay is not estimated for raw observations; give it \
+                 ([acoustic_fix] receipt_delay_s)",
+                self.without_delay
+            ));
+        }
+        if self.without_ship > 0 {
+            notes.push(format!(
+                "{} USBL observations were left out: no ship's pose (/ship_pose) around the \
+                 time they were valid (poses further apart than [usbl] ship_max_gap_s are \
+                 not interpolated)",
+                self.without_ship
+            ));
+        }
+        notes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filters::ins::error_state::{DvlCalibration, ErrorMatrix, ErrorState, WaterState};
+    use crate::filters::ins::mechanization::NavState;
+    use nalgebra::UnitQuaternion;
+
+    const LAT: f64 = 0.6;
+    const LON: f64 = 0.1;
+
+    fn estimate(lat_rad: f64, lon_rad: f64, depth_m: f64) -> Estimate {
+        Estimate {
+            nav: NavState {
+                lat_rad,
+                lon_rad,
+                height_m: -depth_m,
+                vel_ned_m_s: Vector3::new(1.2, 0.8, 0.1),
+                ned_from_body: UnitQuaternion::from_euler_angles(0.02, -0.05, 0.7),
+            },
+            gyro_bias: Vector3::zeros(),
+            accel_bias: Vector3::zeros(),
+            dvl: DvlCalibration::zeros(),
+            water: WaterState::new(0.0, 0.0, 0.0),
+            gyro_scale_z: 0.0,
+            sound_speed_scale: 2e-3,
+            cov: ErrorMatrix::identity() * 1e-4,
+        }
+    }
+
+    fn ship(yaw_rad: f64) -> ShipAt {
+        ShipAt {
+            lat_rad: LAT,
+            lon_rad: LON,
+            height_m: 0.0,
+            ned_from_ship: Rotation3::from_euler_angles(0.03, -0.02, yaw_rad),
+            position_sigma_m: 1.0,
+            heading_sigma_rad: 0.1_f64.to_radians(),
+        }
+    }
+
+    fn mounting() -> Mounting {
+        Mounting {
+            transducer_lever_arm_m: Vector3::new(3.0, 1.0, 4.5),
+            transducer_from_ship: Rotation3::from_euler_angles(0.01, 0.02, -0.03),
+            lever_arm_body_m: Vector3::new(1.2, -0.4, -0.6),
+        }
+    }
+
+    /// A vehicle 100 m north of a level ship heading east, 50 m down, the transducer at the
+    /// ship's reference point and in its axes: 100 m to port (FRD y -100), 50 m below.
+    #[test]
+    fn the_vehicle_is_seen_in_the_transducers_axes() {
+        let (lat, lon) = geodesy::position_of_local_m(LAT, LON, 100.0, 0.0);
+        let mut est = estimate(lat, lon, 50.0);
+        est.sound_speed_scale = 0.0;
+        let level = ShipAt {
+            ned_from_ship: Rotation3::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2),
+            ..ship(0.0)
+        };
+        let m = Mounting {
+            transducer_lever_arm_m: Vector3::zeros(),
+            transducer_from_ship: Rotation3::identity(),
+            lever_arm_body_m: Vector3::zeros(),
+        };
+        let (d, _, _) = predicted(&est, &level, &m);
+        // The Earth's curvature over 100 m puts the vehicle 0.8 mm lower.
+        assert!((d - Vector3::new(0.0, -100.0, 50.0)).amax() < 2e-3, "{d}");
+        let seen = transducer_vector(
+            d.norm(),
+            (-90.0_f64).to_radians(),
+            (50.0_f64 / 100.0).atan(),
+        );
+        assert!((seen - d).amax() < 2e-3, "{seen} against {d}");
+    }
+
+    /// The rows in the error state and in the ship's errors, by central differences: a
+    /// centimetre's step in position, a microradian's in the angles.
+    #[test]
+    fn the_rows_match_finite_differences() {
+        // The vehicle 400 m south-west of the ship and 120 m down.
+        let (lat, lon) = geodesy::position_of_local_m(LAT, LON, -300.0, -250.0);
+        let est = estimate(lat, lon, 120.0);
+        let (ship, m) = (ship(0.8), mounting());
+        let (_, h, ship_rows) = predicted(&est, &ship, &m);
+        for i in 0..N {
+            let eps = if i < idx::ATT { 0.01 } else { 1e-6 };
+            let mut dx = ErrorState::zeros();
+            dx[i] = eps;
+            let at = |dx: &ErrorState| predicted(&est.corrected_by(dx), &ship, &m).0;
+            let numeric = (at(&dx) - at(&-dx)) / (2.0 * eps);
+            assert!(
+                (numeric - h.column(i)).amax() < 1e-4,
+                "column {i}: {numeric} vs {}",
+                h.column(i)
+            );
+        }
+        assert!(h.fixed_view::<3, 3>(0, idx::ATT).amax() > 0.1, "{h}");
+        // The ship moved north, east, down, and turned about north, east, down.
+        let moved = |k: usize, eps: f64| {
+            let mut s = ship;
+            if k < 3 {
+                let mut ned = Vector3::zeros();
+                ned[k] = eps;
+                (s.lat_rad, s.lon_rad) = geodesy::position_of_local_m(LAT, LON, ned.x, ned.y);
+                s.height_m = -ned.z;
+            } else {
+                let mut turn = Vector3::zeros();
+                turn[k - 3] = eps;
+                s.ned_from_ship = Rotation3::new(turn) * ship.ned_from_ship;
+            }
+            predicted(&est, &s, &m).0
+        };
+        for k in 0..6 {
+            let eps = if k < 3 { 0.01 } else { 1e-6 };
+            let numeric = (moved(k, eps) - moved(k, -eps)) / (2.0 * eps);
+            assert!(
+                (numeric - ship_rows.column(k)).amax() < 1e-3,
+                "ship column {k}: {numeric} vs {}",
+                ship_rows.column(k)
+            );
+        }
+    }
+
+    /// The vector's covariance is `J diag(sigma^2) J^T` with `J` the vector's derivatives by
+    /// range, bearing and elevation (central differences).
+    #[test]
+    fn the_vectors_covariance_follows_its_sigmas() {
+        let (r, b, e) = (600.0, 2.3, 0.4);
+        let sigmas = [1.5, 0.004, 0.006];
+        let step = [1e-3, 1e-7, 1e-7];
+        let mut j = Matrix3::zeros();
+        for k in 0..3 {
+            let mut plus = [r, b, e];
+            let mut minus = plus;
+            plus[k] += step[k];
+            minus[k] -= step[k];
+            let column = (transducer_vector(plus[0], plus[1], plus[2])
+                - transducer_vector(minus[0], minus[1], minus[2]))
+                / (2.0 * step[k]);
+            j.set_column(k, &column);
+        }
+        let expected =
+            j * Matrix3::from_diagonal(&Vector3::from(sigmas.map(|s: f64| s * s))) * j.transpose();
+        let got = transducer_covariance(&transducer_vector(r, b, e), sigmas);
+        assert!(
+            (got - expected).amax() < 1e-6 * expected.amax(),
+            "{got} against {expected}"
+        );
+        // Under the transducer the bearing has no say, and nothing divides by zero.
+        let below = transducer_covariance(&Vector3::new(0.0, 0.0, 80.0), sigmas);
+        assert!(below.iter().all(|x| x.is_finite()));
+        assert!((below[(2, 2)] - 1.5f64.powi(2)).abs() < 1e-9);
+    }
+
+    /// The ship's heading error spreads the observation across the line of sight by the
+    /// horizontal range times the heading's sigma: at 1000 m, 0.5 deg is 8.7 m.
+    #[test]
+    fn the_ships_heading_error_grows_with_the_range() {
+        let a = UsblAiding {
+            receipt_delay_s: None,
+            range_fraction: 0.0,
+            range_sigma_floor_m: 0.1,
+            angle_sigma_rad: 1e-6,
+            transducer_lever_arm_m: [0.0; 3],
+            transducer_alignment_rad: [0.0; 3],
+            ship_position_sigma_m: 0.0,
+            ship_height_sigma_m: 0.0,
+            ship_heading_sigma_rad: 0.0,
+            ship_tilt_sigma_rad: 0.0,
+            ship_max_gap_s: 5.0,
+            lever_arm_body_m: [0.0; 3],
+        };
+        let pose = |t_s: i64, heading_sigma_deg: f64| ShipPose {
+            stamp_ns: t_s * 1_000_000_000,
+            latitude_deg: LAT.to_degrees(),
+            longitude_deg: LON.to_degrees(),
+            roll: 0.0,
+            pitch: 0.0,
+            yaw: 0.0,
+            horizontal_sigma_m: None,
+            heading_sigma_rad: Some(heading_sigma_deg.to_radians()),
+        };
+        for north_m in [100.0, 1000.0] {
+            let (lat, lon) = geodesy::position_of_local_m(LAT, LON, north_m, 0.0);
+            let mut est = estimate(lat, lon, 50.0);
+            est.nav.ned_from_body = UnitQuaternion::identity();
+            est.sound_speed_scale = 0.0;
+            let seen = UsblObservation {
+                stamp_ns: 10_000_000_000,
+                stamp_is_validity: true,
+                received_after_s: None,
+                range_m: north_m.hypot(50.0),
+                bearing_rad: 0.0,
+                elevation_rad: (50.0 / north_m).atan(),
+                range_sigma_m: None,
+                bearing_sigma_rad: None,
+                elevation_sigma_rad: None,
+                sound_speed_m_s: None,
+                beacon_id: String::new(),
+            };
+            let cross_range_sigma = |heading_sigma_deg: f64| {
+                let ship = [pose(9, heading_sigma_deg), pose(11, heading_sigma_deg)];
+                let aid = UsblAid::new(std::slice::from_ref(&seen), &ship, &a);
+                aid.update(0, &est).r[(1, 1)].sqrt()
+            };
+            let ship = [pose(9, 0.5), pose(11, 0.5)];
+            let aid = UsblAid::new(std::slice::from_ref(&seen), &ship, &a);
+            // Positioned: the heading's spread (east, across the line of sight) and the
+            // range's 0.1 m (north), over two axes.
+            let positioned = aid.positioned_sigma_m(0);
+            let spread = north_m * 0.5_f64.to_radians();
+            let along = 0.1 * north_m / north_m.hypot(50.0);
+            let expected_positioned = (0.5 * (spread * spread + along * along)).sqrt();
+            assert!(
+                (positioned - expected_positioned).abs() < 1e-3 * expected_positioned,
+                "{north_m} m: positioned {positioned} against {expected_positioned}"
+            );
+            let grown = cross_range_sigma(0.5);
+            let expected = north_m * 0.5_f64.to_radians();
+            assert!(cross_range_sigma(0.0) < 1e-3);
+            assert!(
+                (grown - expected).abs() < 1e-3 * expected,
+                "{north_m} m: {grown} against {expected}"
+            );
+        }
+    }
+
+    /// An observation is placed at its time of validity and the ship interpolated there; one
+    /// without a ship's pose around it is counted and named.
+    #[test]
+    fn an_observation_is_placed_where_the_ship_was_when_it_was_valid() {
+        let a = UsblAiding {
+            receipt_delay_s: Some(2.0),
+            range_fraction: 0.005,
+            range_sigma_floor_m: 0.3,
+            angle_sigma_rad: 0.003,
+            transducer_lever_arm_m: [0.0; 3],
+            transducer_alignment_rad: [0.0; 3],
+            ship_position_sigma_m: 1.0,
+            ship_height_sigma_m: 0.2,
+            ship_heading_sigma_rad: 0.002,
+            ship_tilt_sigma_rad: 0.001,
+            ship_max_gap_s: 5.0,
+            lever_arm_body_m: [0.0; 3],
+        };
+        // The ship sails east, 1 m/s (poses every second from 0 to 20 s).
+        let ship: Vec<ShipPose> = (0..=20)
+            .map(|t| {
+                let (lat, lon) = geodesy::position_of_local_m(LAT, LON, 0.0, t as f64);
+                ShipPose {
+                    stamp_ns: t * 1_000_000_000,
+                    latitude_deg: lat.to_degrees(),
+                    longitude_deg: lon.to_degrees(),
+                    roll: 0.0,
+                    pitch: 0.0,
+                    yaw: std::f64::consts::FRAC_PI_2,
+                    horizontal_sigma_m: Some(0.5),
+                    heading_sigma_rad: None,
+                }
+            })
+            .collect();
+        let seen = |stamp_s: f64| UsblObservation {
+            stamp_ns: (stamp_s * 1e9) as i64,
+            stamp_is_validity: false,
+            received_after_s: None,
+            range_m: 200.0,
+            bearing_rad: 0.0,
+            elevation_rad: 0.5,
+            range_sigma_m: None,
+            bearing_sigma_rad: Some(0.01),
+            elevation_sigma_rad: None,
+            sound_speed_m_s: None,
+            beacon_id: String::new(),
+        };
+        let aid = UsblAid::new(&[seen(12.5), seen(30.0), seen(1.0)], &ship, &a);
+        let o = aid.observations();
+        assert_eq!(o.len(), 1, "{o:?}");
+        assert_eq!(o[0].stamp_ns, 10_500_000_000);
+        let (north, east) =
+            geodesy::local_north_east_m(LAT, LON, o[0].ship.lat_rad, o[0].ship.lon_rad);
+        assert!(
+            north.abs() < 1e-6 && (east - 10.5).abs() < 1e-6,
+            "{north} {east}"
+        );
+        assert_eq!(o[0].ship.position_sigma_m, 0.5);
+        assert_eq!(o[0].ship.heading_sigma_rad, 0.002);
+        assert_eq!(o[0].sigmas, [1.0, 0.01, 0.003]);
+        let notes = aid.notes();
+        assert!(
+            notes[0].starts_with("2 USBL observations were left out"),
+            "{notes:?}"
+        );
+        // Positioned: ahead of the ship (east), 200 m * cos(0.5) away.
+        let [n, e] = aid.positioned_ne_m(0).unwrap();
+        assert!(
+            n.abs() < 1e-6 && (e - 200.0 * 0.5f64.cos()).abs() < 1e-6,
+            "{n} {e}"
+        );
+    }
+}
