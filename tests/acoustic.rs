@@ -352,4 +352,9 @@ fn an_unknown_beacon_and_a_negative_range_are_named_and_skipped() {
         .filter(|x| x.sensor == Sensor::Lbl)
         .count();
     assert_eq!(taken, replies.len() - 8);
+    // The ranges left out do not make the plan say the LBL was not used.
+    let lbl = (r.summary.plan.decisions.iter())
+        .find(|d| d.part == Part::Aid(Sensor::Lbl))
+        .unwrap();
+    assert!(lbl.used, "{lbl:?}");
 }

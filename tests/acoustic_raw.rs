@@ -8,10 +8,12 @@
 //! stamped on receipt is not estimated yet.
 
 use crate::common;
+use hindsight::config::Section;
 use hindsight::contract::UsblObservation;
 use hindsight::filters::ins::aid_table::Sensor;
 use hindsight::filters::ins::usbl::UsblAid;
 use hindsight::recon::config::Config;
+use hindsight::recon::plan::Part;
 use hindsight::recon::score::scores;
 use hindsight::recon::Streams;
 use hindsight::sim::scenario::Scenario;
@@ -141,4 +143,56 @@ fn a_raw_usbl_survey_is_placed_by_its_observations_and_refuses_its_outliers() {
         good_refused as f64 <= 0.01 * good as f64,
         "{good_refused} of {good} good observations refused"
     );
+}
+
+/// Stamped on receipt, as shipped: without a delay the observations are left out, named in
+/// a warning and the plan; with the delay given (the simulator's, from `usbl_truth`) they
+/// are placed where they were valid, every outlier refused and no good one.
+#[test]
+fn raw_observations_stamped_on_receipt_wait_for_their_delay() {
+    let scenario = Scenario::built_in("usbl-raw-survey").unwrap();
+    let log = common::simulated(&scenario, 1);
+    let r = log.reconstruct(&Config::default());
+    let usbl = (r.summary.plan.decisions.iter())
+        .find(|d| d.part == Part::Aid(Sensor::Usbl))
+        .unwrap();
+    assert!(!usbl.used, "{usbl:?}");
+    let warnings: Vec<String> = r.summary.warnings.iter().map(|w| w.to_string()).collect();
+    assert!(
+        warnings.iter().any(|w| w.contains("USBL observations were left out")
+            && w.contains("receipt_delay_s")),
+        "{warnings:?}"
+    );
+    let truth = &log.metadata["usbl_truth"];
+    let delay_s: f64 = truth["receipt_delay_s"].parse().unwrap();
+    let outlier_receipts: BTreeSet<i64> = truth["outlier_receipt_stamps_ns"]
+        .split(',')
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let given = format!("[acoustic_fix]\nreceipt_delay_s = {delay_s}\n");
+    let r = log.reconstruct(&Config::from_toml(&given).unwrap());
+    let delay_ns = (delay_s * 1e9).round() as i64;
+    let (mut outliers, mut outliers_refused, mut good, mut good_refused) = (0, 0, 0, 0);
+    for res in (r.solved.run.residuals.iter()).filter(|x| x.sensor == Sensor::Usbl) {
+        if outlier_receipts.contains(&(res.stamp_ns + delay_ns)) {
+            outliers += 1;
+            outliers_refused += usize::from(!res.accepted);
+        } else {
+            good += 1;
+            good_refused += usize::from(!res.accepted);
+        }
+    }
+    let observations = log.role::<UsblObservation>().len();
+    eprintln!(
+        "delay {delay_s:.3} s given: {} of {observations} observations applied; \
+         {outliers_refused} of {outliers} outliers and {good_refused} of {good} good ones \
+         refused",
+        outliers + good
+    );
+    // The last observation may fall after the ship's last pose.
+    assert!(outliers + good + 1 >= observations);
+    assert_eq!(outliers, outlier_receipts.len());
+    assert_eq!(outliers_refused, outliers);
+    assert!(good_refused as f64 <= 0.01 * good as f64);
 }

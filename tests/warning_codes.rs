@@ -42,6 +42,13 @@ fn of_the_plan_and_tuning() -> Vec<(Warning, &'static str)> {
             "aid_refused",
         ),
         (
+            pipeline(P::AidLeftOut {
+                sensor: Sensor::Lbl,
+                why: "3 ranges to beacon `E` were left out".into(),
+            }),
+            "aid_left_out",
+        ),
+        (
             pipeline(P::Retuned {
                 tuned_from_deg: 10.0,
                 checked_deg: 20.0,
@@ -226,6 +233,7 @@ fn every_kind_is_listed() {
             Warning::Pipeline(p) => match p {
                 pipeline::Warning::ForcedOnRefused { .. }
                 | pipeline::Warning::AidRefused { .. }
+                | pipeline::Warning::AidLeftOut { .. }
                 | pipeline::Warning::Retuned { .. }
                 | pipeline::Warning::DvlClock { .. }
                 | pipeline::Warning::MagSaturated { .. }

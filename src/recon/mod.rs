@@ -154,17 +154,22 @@ pub struct ForwardPass {
     pub model_attitude: Option<AttitudeTrack>,
 }
 
-/// What an aiding source said of itself (it could not be used, and why).
+/// What an aiding source said of itself: it could not be used, and why; or some of its
+/// readings were left out, the others used.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AidNote {
     pub sensor: Sensor,
-    /// Why it could not be used.
     pub why: String,
+    /// Whether the source as a whole could not be used.
+    pub refused: bool,
 }
 
 impl std::fmt::Display for AidNote {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}: not used: {}", self.sensor, self.why)
+        match self.refused {
+            true => write!(f, "{}: not used: {}", self.sensor, self.why),
+            false => write!(f, "{}: {}", self.sensor, self.why),
+        }
     }
 }
 
@@ -290,13 +295,22 @@ pub(crate) fn forward_pass(
     };
     aid_notes.extend(aids.iter().flat_map(|aid| {
         let sensor = aid.sensor();
-        aid.notes()
-            .into_iter()
-            .map(move |why| AidNote { sensor, why })
+        let refused = aid.notes().into_iter().map(move |why| AidNote {
+            sensor,
+            why,
+            refused: true,
+        });
+        let left_out = aid.left_out_notes().into_iter().map(move |why| AidNote {
+            sensor,
+            why,
+            refused: false,
+        });
+        refused.chain(left_out)
     }));
     aid_notes.extend(model_note.map(|why| AidNote {
         sensor: Sensor::ModelVelocity,
         why,
+        refused: true,
     }));
     // The table borrows the magnetometer's readings. Readings prepared here are a copy of
     // the log's: freed. Readings handed in are kept (the log no longer has them).
@@ -354,6 +368,7 @@ fn with_model(
         Err(why) => Ok(Err(AidNote {
             sensor: Sensor::ModelVelocity,
             why: why.to_string(),
+            refused: true,
         })),
     }
 }

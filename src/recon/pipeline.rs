@@ -93,6 +93,8 @@ pub enum Warning {
     },
     /// An aid refused itself when it ran.
     AidRefused { sensor: Sensor, why: String },
+    /// An aid left some of its readings out, and used the others.
+    AidLeftOut { sensor: Sensor, why: String },
     /// The checked start heading moved from the one tuning started from: tuned again.
     Retuned {
         tuned_from_deg: f64,
@@ -129,6 +131,7 @@ impl fmt::Display for Warning {
                 write!(f, "{part}: switched on, but not used: {why}")
             }
             Warning::AidRefused { sensor, why } => write!(f, "{sensor}: not used: {why}"),
+            Warning::AidLeftOut { sensor, why } => write!(f, "{sensor}: {why}"),
             Warning::Retuned {
                 tuned_from_deg,
                 checked_deg,
@@ -310,7 +313,7 @@ pub(crate) fn forward(
         },
     )?;
     times.forward_s = stages.lap();
-    for note in &pass.aid_notes {
+    for note in pass.aid_notes.iter().filter(|n| n.refused) {
         plan.refuse(Part::Aid(note.sensor), note.to_string());
     }
     let sensors = stats::sensor_stats(&pass.run.residuals);
@@ -506,9 +509,12 @@ fn pass_warnings(
     config: &Config,
     tuning: Option<&Tuning>,
 ) -> Vec<Warning> {
-    let refused = pass.aid_notes.iter().map(|note| Warning::AidRefused {
-        sensor: note.sensor,
-        why: note.why.clone(),
+    let refused = pass.aid_notes.iter().map(|note| {
+        let (sensor, why) = (note.sensor, note.why.clone());
+        match note.refused {
+            true => Warning::AidRefused { sensor, why },
+            false => Warning::AidLeftOut { sensor, why },
+        }
     });
     let run = stats::warnings(&pass.run, &pass.init, sensors)
         .into_iter()

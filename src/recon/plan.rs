@@ -74,6 +74,8 @@ pub struct LogFacts {
     pub dvl_delay: Option<StampDelay>,
     /// Acoustic fixes stamped on receipt that carry no delay.
     pub acoustic_fixes_without_delay: usize,
+    /// USBL observations stamped on receipt without their delay.
+    pub usbl_without_delay: usize,
 }
 
 /// Two absolute positions and what lies between them.
@@ -148,6 +150,9 @@ impl LogFacts {
                 .acoustic_fixes
                 .iter()
                 .filter(|f| crate::filters::ins::acoustic::needs_delay(f))
+                .count(),
+            usbl_without_delay: (streams.usbl.iter())
+                .filter(|o| !o.stamp_is_validity && o.received_after_s.is_none())
                 .count(),
         }
     }
@@ -720,7 +725,7 @@ impl Plan {
             };
             decisions.push(decision(part, on, why));
         }
-        if uses(&decisions, Sensor::AcousticFix) {
+        if uses(&decisions, Sensor::AcousticFix) || uses(&decisions, Sensor::Usbl) {
             decisions.push(acoustic_fix_delay(facts, config));
         }
         Plan {
@@ -933,12 +938,19 @@ fn without_dvl(part: Part) -> Decision {
 /// to estimate (it needs a track: [`Plan::estimated_acoustic_delay`]).
 fn acoustic_fix_delay(facts: &LogFacts, config: &Config) -> Decision {
     let part = Part::AcousticFixDelay;
-    if facts.acoustic_fixes_without_delay == 0 {
-        return decision(part, true, Why::CarriedByFixes);
-    }
+    // A given delay stands even where no fix needs it: the USBL's raw observations share it.
     if config.fixed.contains(ACOUSTIC_DELAY_KEY) {
         let value = config.acoustic_fix.receipt_delay_s;
         return decision(part, value != 0.0, Why::Given { value });
+    }
+    if facts.acoustic_fixes_without_delay == 0 {
+        if facts.usbl_without_delay > 0 {
+            let detail = "not estimated for raw USBL observations yet: give it \
+                          ([acoustic_fix] receipt_delay_s)"
+                .to_string();
+            return decision(part, false, Why::CannotTell { detail });
+        }
+        return decision(part, true, Why::CarriedByFixes);
     }
     let detail = "not estimated yet".to_string();
     decision(part, false, Why::CannotTell { detail })
@@ -1148,6 +1160,7 @@ mod tests {
             farthest_positions: None,
             dvl_delay: None,
             acoustic_fixes_without_delay: 0,
+            usbl_without_delay: 0,
         }
     }
 

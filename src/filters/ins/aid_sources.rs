@@ -511,6 +511,9 @@ impl Aid for Borrowed<'_> {
     fn notes(&self) -> Vec<String> {
         self.0.notes()
     }
+    fn left_out_notes(&self) -> Vec<String> {
+        self.0.left_out_notes()
+    }
 }
 
 #[cfg(test)]

@@ -289,6 +289,11 @@ pub trait Aid: Sync {
     fn notes(&self) -> Vec<String> {
         Vec::new()
     }
+    /// Readings the source left out that a user should know of, the others used (ranges to
+    /// beacons not in the table, observations without a ship's pose).
+    fn left_out_notes(&self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// The table the driver walks, in the order the sources are applied within an epoch.

@@ -126,7 +126,24 @@ impl Aid for LblAid {
         let r = SMatrix::<f64, 1, 1>::new(r.sigma_m.powi(2));
         Some(Update::One(Measurement { y, h, r }))
     }
+    /// Every range left out: the source could not be used.
     fn notes(&self) -> Vec<String> {
+        match self.ranges.is_empty() {
+            true => self.why_left_out(),
+            false => Vec::new(),
+        }
+    }
+    fn left_out_notes(&self) -> Vec<String> {
+        match self.ranges.is_empty() {
+            true => Vec::new(),
+            false => self.why_left_out(),
+        }
+    }
+}
+
+impl LblAid {
+    /// Why replies were left out.
+    fn why_left_out(&self) -> Vec<String> {
         let mut notes: Vec<String> = (self.unknown_beacons.iter())
             .map(|(id, n)| {
                 format!(
@@ -193,7 +210,7 @@ mod tests {
         // A range alone: its travel time from that speed too.
         assert_eq!(r[2].stamp_ns, 14_000_000_000 - 200_000_000);
         assert_eq!(r[2].sigma_m, 0.4);
-        let notes = aid.notes();
+        let notes = aid.left_out_notes();
         assert_eq!(notes.len(), 2, "{notes:?}");
         assert!(
             notes[0].starts_with("2 ranges to beacon `Z`"),

@@ -358,7 +358,24 @@ impl Aid for UsblAid {
             value: [north, east, 0.0],
         })
     }
+    /// Every observation left out: the source could not be used.
     fn notes(&self) -> Vec<String> {
+        match self.observations.is_empty() {
+            true => self.why_left_out(),
+            false => Vec::new(),
+        }
+    }
+    fn left_out_notes(&self) -> Vec<String> {
+        match self.observations.is_empty() {
+            true => Vec::new(),
+            false => self.why_left_out(),
+        }
+    }
+}
+
+impl UsblAid {
+    /// Why observations were left out.
+    fn why_left_out(&self) -> Vec<String> {
         let mut notes = Vec::new();
         if self.without_delay > 0 {
             notes.push(format!(
@@ -667,7 +684,7 @@ mod tests {
         assert_eq!(o[0].ship.position_sigma_m, 0.5);
         assert_eq!(o[0].ship.heading_sigma_rad, 0.002);
         assert_eq!(o[0].sigmas, [1.0, 0.01, 0.003]);
-        let notes = aid.notes();
+        let notes = aid.left_out_notes();
         assert!(
             notes[0].starts_with("2 USBL observations were left out"),
             "{notes:?}"
