@@ -3,7 +3,7 @@
 //! outliers. Scored against the simulator's `/truth` and its `usbl_truth` record (the run's
 //! delay and which fixes were outliers), which the reconstruction never reads.
 
-use crate::common;
+use crate::common::{self, AcousticRun, Refusals};
 use hindsight::config::Section;
 use hindsight::contract::{AcousticFix, LblRange};
 use hindsight::filters::ins::aid_table::Sensor;
@@ -14,88 +14,26 @@ use hindsight::recon::Streams;
 use hindsight::sim::scenario::Scenario;
 use std::collections::BTreeSet;
 
-/// What one seed's default run did with its fixes, against the simulator's truth.
-#[derive(Debug)]
-struct UsblRun {
-    seed: u64,
-    true_delay_s: f64,
-    found_delay_s: f64,
-    median_sigma_m: f64,
-    smoothed_rms_m: f64,
-    forward_rms_m: f64,
-    forward_nees_inside: f64,
-    smoothed_nees_inside: f64,
-    outliers: usize,
-    outliers_refused: usize,
-    good: usize,
-    good_refused: usize,
-}
-
-fn usbl_run(scenario: &Scenario, seed: u64) -> UsblRun {
+/// One seed's default run: the fixes' outliers by their stamp of receipt, the stamp of
+/// validity plus the delay found.
+fn usbl_run(scenario: &Scenario, seed: u64) -> AcousticRun {
     let log = common::simulated(scenario, seed);
-    let truth = &log.metadata["usbl_truth"];
-    let true_delay_s: f64 = truth["receipt_delay_s"].parse().unwrap();
-    let outlier_stamps: BTreeSet<i64> = truth["outlier_receipt_stamps_ns"]
-        .split(',')
-        .filter(|s| !s.is_empty())
-        .map(|s| s.parse().unwrap())
-        .collect();
     let fixes: &[AcousticFix] = log.role();
     let mut sigmas: Vec<f64> = fixes.iter().filter_map(|f| f.horizontal_sigma_m).collect();
     sigmas.sort_by(f64::total_cmp);
     let median_sigma_m = sigmas[sigmas.len() / 2];
-
     let r = log.reconstruct(&Config::default());
-    let found_delay_s = r
-        .summary
-        .plan
-        .decisions
-        .iter()
-        .find(|d| d.part == Part::AcousticFixDelay)
-        .and_then(|d| match d.why {
-            Why::EstimatedReceiptDelay { delay_s, .. } if d.used => Some(delay_s),
-            _ => None,
-        })
-        .expect("the delay estimated and used");
-    let delay_ns = (found_delay_s * 1e9).round() as i64;
-    let (mut outliers, mut outliers_refused, mut good, mut good_refused) = (0, 0, 0, 0);
-    for res in r
-        .solved
-        .run
-        .residuals
-        .iter()
-        .filter(|x| x.sensor == Sensor::AcousticFix)
-    {
-        let received_ns = res.stamp_ns + delay_ns;
-        if outlier_stamps.contains(&received_ns) {
-            outliers += 1;
-            outliers_refused += usize::from(!res.accepted);
-        } else {
-            good += 1;
-            good_refused += usize::from(!res.accepted);
-        }
-    }
-    assert_eq!(
-        outliers,
-        outlier_stamps.len(),
-        "every outlier reached the filter"
-    );
-    let (fwd, smo) = common::output_errors(Streams::of(&log).truth, &r.solved);
-    let (fwd, smo) = (scores(&fwd).unwrap(), scores(&smo).unwrap());
-    UsblRun {
-        seed,
-        true_delay_s,
-        found_delay_s,
+    let found_s = common::found_acoustic_delay_s(&r).expect("the delay estimated and used");
+    let delay_ns = (found_s * 1e9).round() as i64;
+    let outliers = log.usbl_truth().outlier_receipts_ns;
+    let is_outlier = |stamp_ns: i64| outliers.contains(&(stamp_ns + delay_ns));
+    AcousticRun::of(
+        (&log, seed),
+        &r,
+        Sensor::AcousticFix,
         median_sigma_m,
-        smoothed_rms_m: smo.horizontal_rms_m,
-        forward_rms_m: fwd.horizontal_rms_m,
-        forward_nees_inside: fwd.nees_horizontal_inside_95,
-        smoothed_nees_inside: smo.nees_horizontal_inside_95,
-        outliers,
-        outliers_refused,
-        good,
-        good_refused,
-    }
+        is_outlier,
+    )
 }
 
 /// `usbl-survey`, seeds 1-5, default run: the delay found within 0.1 s; the smoothed
@@ -103,7 +41,7 @@ fn usbl_run(scenario: &Scenario, seed: u64) -> UsblRun {
 /// refused and at most 1 % of the good fixes; the horizontal NEES inside its 95 % bounds for
 /// at least 90 % of the epochs.
 ///
-/// CI runs seeds 1-3; all five: `cargo test --release --test all acoustic:: -- --ignored
+/// CI runs seeds 1-3; all five: `cargo test --release --test all acoustic -- --ignored
 /// --nocapture` (README).
 #[test]
 fn a_usbl_survey_finds_its_delay_and_refuses_its_outliers() {
@@ -118,50 +56,27 @@ fn a_usbl_survey_finds_its_delay_and_refuses_its_outliers_seeds_1_to_5() {
 
 fn usbl_survey_holds_its_bars(seeds: std::ops::RangeInclusive<u64>) {
     let scenario = Scenario::built_in("usbl-survey").unwrap();
-    let runs: Vec<UsblRun> = seeds.map(|seed| usbl_run(&scenario, seed)).collect();
+    let runs: Vec<AcousticRun> = seeds.map(|seed| usbl_run(&scenario, seed)).collect();
     for run in &runs {
         eprintln!("{run:?}");
     }
     for run in &runs {
-        assert!(
-            (run.found_delay_s - run.true_delay_s).abs() <= 0.1,
-            "seed {}: delay {:.3} s found, {:.3} s true",
-            run.seed,
-            run.found_delay_s,
-            run.true_delay_s
-        );
-        assert!(
-            run.smoothed_rms_m <= 0.5 * run.median_sigma_m,
-            "seed {}: smoothed RMS {:.2} m against a median sigma of {:.2} m",
-            run.seed,
-            run.smoothed_rms_m,
-            run.median_sigma_m
-        );
+        run.assert_delay_found();
+        run.assert_placed();
         assert!(run.forward_nees_inside >= 0.9, "{run:?}");
-        assert!(run.forward_rms_m <= run.median_sigma_m, "{run:?}");
     }
     // The smoothed NEES over the seeds (seed 5's last lane sits above its bound for a few
     // minutes: 85 % inside).
-    let smoothed_nees =
-        runs.iter().map(|r| r.smoothed_nees_inside).sum::<f64>() / runs.len() as f64;
+    let smoothed_nees = AcousticRun::mean_smoothed_nees_inside(&runs);
     assert!(smoothed_nees >= 0.9, "{smoothed_nees}");
-    let outliers: usize = runs.iter().map(|r| r.outliers).sum();
-    let refused: usize = runs.iter().map(|r| r.outliers_refused).sum();
-    let good: usize = runs.iter().map(|r| r.good).sum();
-    let good_refused: usize = runs.iter().map(|r| r.good_refused).sum();
+    let refusals = Refusals::total(runs.iter().map(|r| &r.refusals));
     assert!(
-        outliers >= 30,
-        "{outliers} outliers in {} seeds",
+        refusals.outliers >= 30,
+        "{} outliers in {} seeds",
+        refusals.outliers,
         runs.len()
     );
-    assert!(
-        refused as f64 >= 0.99 * outliers as f64,
-        "{refused} of {outliers} outliers refused"
-    );
-    assert!(
-        good_refused as f64 <= 0.01 * good as f64,
-        "{good_refused} of {good} good fixes refused"
-    );
+    refusals.assert_outliers_cannot_move_the_track();
 }
 
 /// A fix with a NaN latitude (JSON writes it as null) and one with a negative sigma are named
@@ -199,7 +114,7 @@ fn a_bad_acoustic_fix_is_named_and_skipped() {
     );
     // The delay given (the simulator's), so that the run skips its estimate: what is
     // checked here is the skipping.
-    let delay_s = &log.metadata["usbl_truth"]["receipt_delay_s"];
+    let delay_s = log.usbl_truth().receipt_delay_s;
     let config = format!("[acoustic_fix]\nreceipt_delay_s = {delay_s}\n");
     let r = bad.reconstruct(&Config::from_toml(&config).unwrap());
     assert!(r

@@ -6,16 +6,21 @@
 //! dead-reckoned track builds up slowly. Over a window of a few minutes that drift is an
 //! offset and a scale and turn of the path travelled (a DVL's scale factor, a heading error,
 //! the heading turning steadily with a gyro's bias); what they cannot take up is the
-//! velocity's change (the turns) times the delay's error. The delay is the trial one whose fixes fit the
-//! track with each window's drift taken out best: a grid over `[0, MAX_DELAY_S]`, then a
-//! parabola through the best point and its neighbours, whose curvature gives the sigma
-//! (scaled up by the fit's chi-square per degree of freedom when the fixes scatter more than
-//! their sigmas say). Outliers (multipath) are left out of each window's drift and count a
-//! fixed cost, so that they cannot pull the delay.
+//! velocity's change (the turns) times the delay's error. The delay is the trial one whose
+//! fixes fit the track with each window's drift taken out best: a grid over
+//! `[0, MAX_DELAY_S]`, then a parabola through the best point and its neighbours, whose
+//! curvature gives the sigma (scaled up by the fit's chi-square per degree of freedom when
+//! the fixes scatter more than their sigmas say). Outliers (multipath) are left out of each
+//! window's drift and count a fixed cost, so that they cannot pull the delay.
+//!
+//! The USBL's raw observations (range and angles from the ship) are placed from where the
+//! ship was at each trial time of validity: their error is the vehicle's velocity relative
+//! to the ship's times `t - d`.
 
-use crate::contract::{AcousticFix, ShipPose};
+use crate::contract::{AcousticFix, ShipPose, UsblObservation};
 use crate::filters::ins::acoustic::{needs_delay, valid_fixes, AcousticAiding};
 use crate::filters::ins::driver::NavAt;
+use crate::filters::ins::usbl::{observation_needs_delay, ship_at, UsblAid, UsblAiding};
 use crate::geodesy;
 use nalgebra::{SMatrix, SVector, Vector2, Vector3};
 use serde::Serialize;
@@ -55,6 +60,7 @@ impl ReceiptDelay {
 
 /// A fix to place: its receipt stamp, where it is (north and east of the track's first
 /// point), its sigma.
+#[derive(Clone)]
 struct Fix {
     receipt_s: f64,
     ne_m: Vector2<f64>,
@@ -255,47 +261,100 @@ fn windows_of(fixes: &[Fix]) -> Vec<Window> {
     out
 }
 
-/// The receipt delay of the fixes that carry none, from `track` (a pass without the fixes);
-/// `None` without such fixes or a track under them.
-pub fn estimate(
-    readings: &[AcousticFix],
-    ship: &[ShipPose],
-    aiding: &AcousticAiding,
-    track: &[NavAt],
-) -> Option<ReceiptDelay> {
-    let (track, origin) = Track::new(track, &Vector3::from(aiding.lever_arm_body_m))?;
-    let undelayed: Vec<AcousticFix> = readings
-        .iter()
-        .filter(|f| needs_delay(f))
-        .cloned()
-        .collect();
-    let at_receipt = AcousticAiding {
-        receipt_delay_s: 0.0,
-        ..*aiding
-    };
-    let fixes: Vec<Fix> = valid_fixes(&undelayed, ship, &at_receipt)
-        .into_iter()
-        .map(|f| {
-            let (n, e) = geodesy::local_north_east_m(origin.0, origin.1, f.lat_rad, f.lon_rad);
-            Fix {
-                receipt_s: f.stamp_ns as f64 * 1e-9,
-                ne_m: Vector2::new(n, e),
-                sigma_m: f.sigma_m,
+/// The acoustic readings whose receipt delay is to be found, each kind with its settings
+/// (`None`: not used).
+pub struct Delayed<'a> {
+    /// Positioned fixes.
+    pub fixes: Option<(&'a [AcousticFix], &'a AcousticAiding)>,
+    /// Ship-relative USBL observations, placed by the ship's pose.
+    pub usbl: Option<(&'a [UsblObservation], &'a UsblAiding)>,
+    pub ship: &'a [ShipPose],
+    /// The transponder on the vehicle, body FRD from the IMU, m.
+    pub lever_arm_body_m: [f64; 3],
+}
+
+impl Delayed<'_> {
+    /// The readings that carry no time of validity, placed north and east of `origin` as
+    /// though received `delay_s` after they were valid, in receipt order. A positioned fix
+    /// stays where it is; a raw observation is placed from where the ship was then, so its
+    /// place moves with the trial delay as the ship moves. Only observations the ship's pose
+    /// covers at every trial delay are taken, so that each trial places the same readings.
+    fn placer(&self, origin: (f64, f64)) -> impl Fn(f64) -> Vec<Fix> + '_ {
+        let ne = move |lat_rad: f64, lon_rad: f64| {
+            let (n, e) = geodesy::local_north_east_m(origin.0, origin.1, lat_rad, lon_rad);
+            Vector2::new(n, e)
+        };
+        let positioned: Vec<Fix> = self.fixes.map_or_else(Vec::new, |(readings, aiding)| {
+            let undelayed: Vec<AcousticFix> = readings
+                .iter()
+                .filter(|f| needs_delay(f))
+                .cloned()
+                .collect();
+            let at_receipt = AcousticAiding {
+                receipt_delay_s: 0.0,
+                ..*aiding
+            };
+            (valid_fixes(&undelayed, self.ship, &at_receipt).into_iter())
+                .map(|f| Fix {
+                    receipt_s: f.stamp_ns as f64 * 1e-9,
+                    ne_m: ne(f.lat_rad, f.lon_rad),
+                    sigma_m: f.sigma_m,
+                })
+                .collect()
+        });
+        let raw: Vec<UsblObservation> = self.usbl.map_or_else(Vec::new, |(readings, aiding)| {
+            let steps = (MAX_DELAY_S / STEP_S).round() as i64;
+            let step_ns = (STEP_S * 1e9).round() as i64;
+            (readings.iter())
+                .filter(|o| observation_needs_delay(o))
+                .filter(|o| {
+                    (0..=steps)
+                        .all(|k| ship_at(self.ship, o.stamp_ns - k * step_ns, aiding).is_some())
+                })
+                .cloned()
+                .collect()
+        });
+        move |delay_s: f64| {
+            let mut fixes = positioned.clone();
+            if let Some((_, aiding)) = self.usbl {
+                let trial = UsblAiding {
+                    receipt_delay_s: Some(delay_s),
+                    ..*aiding
+                };
+                let aid = UsblAid::new(&raw, self.ship, &trial);
+                fixes.extend((0..aid.observations().len()).map(|i| {
+                    let (lat_rad, lon_rad) = aid.positioned_rad(i);
+                    Fix {
+                        receipt_s: aid.observations()[i].stamp_ns as f64 * 1e-9 + delay_s,
+                        ne_m: ne(lat_rad, lon_rad),
+                        sigma_m: aid.positioned_sigma_m(i),
+                    }
+                }));
             }
-        })
-        .collect();
-    let windows = windows_of(&fixes);
+            fixes.sort_by(|a, b| a.receipt_s.total_cmp(&b.receipt_s));
+            fixes
+        }
+    }
+}
+
+/// The receipt delay of the readings that carry none, from `track` (a pass without them);
+/// `None` without such readings or a track under them.
+pub fn estimate(readings: &Delayed<'_>, track: &[NavAt]) -> Option<ReceiptDelay> {
+    let (track, origin) = Track::new(track, &Vector3::from(readings.lever_arm_body_m))?;
+    let fixes_at = readings.placer(origin);
+    let windows = windows_of(&fixes_at(0.0));
     if windows.is_empty() {
         return None;
     }
+    let trial = |d: f64, inliers: Option<&[bool]>| cost(&fixes_at(d), &windows, &track, d, inliers);
     let steps = (MAX_DELAY_S / STEP_S).round() as usize;
     let (best_k, _) = (0..=steps)
-        .map(|k| (k, cost(&fixes, &windows, &track, k as f64 * STEP_S, None).0))
+        .map(|k| (k, trial(k as f64 * STEP_S, None).0))
         .min_by(|a, b| a.1.total_cmp(&b.1))?;
     // The neighbours of the grid's best, with its inliers held: a parabola.
     let best_s = (best_k.clamp(1, steps - 1)) as f64 * STEP_S;
-    let (_, inliers) = cost(&fixes, &windows, &track, best_s, None);
-    let held = |d: f64| cost(&fixes, &windows, &track, d, Some(&inliers)).0;
+    let (_, inliers) = trial(best_s, None);
+    let held = |d: f64| trial(d, Some(&inliers)).0;
     let (before, at, after) = (held(best_s - STEP_S), held(best_s), held(best_s + STEP_S));
     let curvature = (before - 2.0 * at + after) / STEP_S.powi(2);
     let used = inliers.iter().filter(|&&k| k).count();
@@ -449,6 +508,15 @@ mod tests {
         (track, fixes)
     }
 
+    fn positioned<'a>(fixes: &'a [AcousticFix], aiding: &'a AcousticAiding) -> Delayed<'a> {
+        Delayed {
+            fixes: Some((fixes, aiding)),
+            usbl: None,
+            ship: &[],
+            lever_arm_body_m: [0.0; 3],
+        }
+    }
+
     fn aiding() -> AcousticAiding {
         AcousticAiding {
             receipt_delay_s: 0.0,
@@ -463,7 +531,7 @@ mod tests {
     fn the_delay_is_found_through_drift_and_outliers() {
         for (delay_s, seed) in [(1.3, 1), (2.0, 2), (2.85, 3)] {
             let (track, fixes) = scene(delay_s, seed);
-            let d = estimate(&fixes, &[], &aiding(), &track).expect("an estimate");
+            let d = estimate(&positioned(&fixes, &aiding()), &track).expect("an estimate");
             assert!(d.is_clear(), "{d:?}");
             assert!(
                 (d.delay_s - delay_s).abs() < 3.0 * d.sigma_s.max(0.01),
@@ -471,6 +539,84 @@ mod tests {
             );
             assert!((d.delay_s - delay_s).abs() < 0.1, "{d:?} vs {delay_s}");
             assert!((5..=30).contains(&d.outliers), "{d:?}");
+        }
+    }
+
+    /// Raw observations from a ship following the vehicle 120 s behind (so that the ship
+    /// turns as the vehicle did): the transponder in the ship's axes, received `delay_s`
+    /// late. A trial delay moves the ship's place with the ship's own velocity; were the
+    /// observations placed as positioned fixes, the ship's turns would bias the delay.
+    fn raw_scene(delay_s: f64) -> (Vec<ShipPose>, Vec<UsblObservation>) {
+        let ship_ne = |t: f64| true_ne_m((t - 120.0).max(0.0));
+        let ship: Vec<ShipPose> = (0..=3000)
+            .map(|k| {
+                let t = k as f64 * 0.5;
+                let (lat, lon) = lat_lon(ship_ne(t));
+                ShipPose {
+                    stamp_ns: (t * 1e9) as i64,
+                    latitude_deg: lat.to_degrees(),
+                    longitude_deg: lon.to_degrees(),
+                    roll: 0.0,
+                    pitch: 0.0,
+                    yaw: 0.0,
+                    horizontal_sigma_m: None,
+                    heading_sigma_rad: None,
+                }
+            })
+            .collect();
+        let observations = (60..480)
+            .map(|k| {
+                let t = k as f64 * 3.0;
+                let d = true_ne_m(t) - ship_ne(t);
+                let horizontal = d.norm();
+                UsblObservation {
+                    stamp_ns: ((t + delay_s) * 1e9) as i64,
+                    stamp_is_validity: false,
+                    received_after_s: None,
+                    range_m: horizontal.hypot(20.0),
+                    bearing_rad: d.y.atan2(d.x),
+                    elevation_rad: 20.0f64.atan2(horizontal),
+                    range_sigma_m: None,
+                    bearing_sigma_rad: None,
+                    elevation_sigma_rad: None,
+                    sound_speed_m_s: None,
+                    beacon_id: String::new(),
+                }
+            })
+            .collect();
+        (ship, observations)
+    }
+
+    #[test]
+    fn the_delay_of_raw_observations_is_found_where_the_ship_was() {
+        let usbl = UsblAiding {
+            receipt_delay_s: None,
+            range_fraction: 0.002,
+            range_sigma_floor_m: 0.2,
+            angle_sigma_rad: 0.2f64.to_radians(),
+            transducer_lever_arm_m: [0.0; 3],
+            transducer_alignment_rad: [0.0; 3],
+            ship_position_sigma_m: 0.5,
+            ship_height_sigma_m: 0.5,
+            ship_heading_sigma_rad: 0.1f64.to_radians(),
+            ship_tilt_sigma_rad: 0.05f64.to_radians(),
+            ship_max_gap_s: 5.0,
+            lever_arm_body_m: [0.0; 3],
+        };
+        let (track, _) = scene(0.0, 6);
+        for delay_s in [1.4, 2.7] {
+            let (ship, observations) = raw_scene(delay_s);
+            let readings = Delayed {
+                fixes: None,
+                usbl: Some((&observations, &usbl)),
+                ship: &ship,
+                lever_arm_body_m: [0.0; 3],
+            };
+            let d = estimate(&readings, &track).expect("an estimate");
+            assert!(d.is_clear(), "{d:?}");
+            assert!((d.delay_s - delay_s).abs() < 0.1, "{d:?} vs {delay_s}");
+            // The ship's poses cover every trial delay of all but the first observations.
+            assert!(d.fixes >= observations.len() - 4, "{d:?}");
         }
     }
 
@@ -500,7 +646,7 @@ mod tests {
         for f in &mut fixes {
             f.received_after_s = Some(2.0);
         }
-        assert_eq!(estimate(&fixes, &[], &aiding(), &track), None);
+        assert_eq!(estimate(&positioned(&fixes, &aiding()), &track), None);
     }
 
     #[test]
@@ -516,7 +662,7 @@ mod tests {
             let (lat, lon) = lat_lon(Vector2::new(1.5 * t, 0.3));
             (f.latitude_deg, f.longitude_deg) = (lat.to_degrees(), lon.to_degrees());
         }
-        let d = estimate(&fixes, &[], &aiding(), &track).expect("an estimate");
+        let d = estimate(&positioned(&fixes, &aiding()), &track).expect("an estimate");
         assert!(!d.is_clear(), "{d:?}");
     }
 }

@@ -671,7 +671,7 @@ crate::config::with_defaults! {
 impl UsblConfig {
     /// The aid's settings, when it is used: the receipt delay and the transponder are the
     /// acoustic fixes' (one acoustic system on one vehicle); the delay only where it is
-    /// known (`delay_known`: given).
+    /// known ([`Config::acoustic_delay_known`]).
     pub fn aid(
         &self,
         fixes: &AcousticFixConfig,
@@ -908,9 +908,19 @@ pub struct Config {
     /// The tunable keys ([`TUNABLE_KEYS`]) the configuration gave: kept as given.
     #[serde(skip)]
     pub fixed: std::collections::BTreeSet<String>,
+    /// The reconstruction placed the acoustic receipt delay (estimated it from the log, or
+    /// found it could not): the USBL's raw observations stamped on receipt take
+    /// `acoustic_fix.receipt_delay_s` as given.
+    #[serde(skip)]
+    pub acoustic_delay_placed: bool,
 }
 
 impl Config {
+    /// Whether the acoustic receipt delay is known: given, or placed by the reconstruction.
+    pub fn acoustic_delay_known(&self) -> bool {
+        self.acoustic_delay_placed || self.fixed.contains("acoustic_fix.receipt_delay_s")
+    }
+
     /// Whether the configuration uses the sensor (its section's `use`).
     pub fn uses(&self, sensor: Sensor) -> bool {
         match sensor {
@@ -1149,10 +1159,9 @@ impl Config {
                 rpm_velocity: self.rpm_velocity.aid(),
                 acoustic: self.acoustic_fix.aid(),
                 lbl: self.lbl.aid(),
-                usbl: self.usbl.aid(
-                    &self.acoustic_fix,
-                    self.fixed.contains("acoustic_fix.receipt_delay_s"),
-                ),
+                usbl: self
+                    .usbl
+                    .aid(&self.acoustic_fix, self.acoustic_delay_known()),
                 gate_probability: (self.gate.probability < 1.0).then_some(self.gate.probability),
                 gate_reset_after: self.gate.reset_after,
             },

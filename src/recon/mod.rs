@@ -295,6 +295,8 @@ pub(crate) fn forward_pass(
     };
     aid_notes.extend(aids.iter().flat_map(|aid| {
         let sensor = aid.sensor();
+        // Readings left out of a source that has none left: the source could not be used.
+        let none_left = aid.is_empty();
         let refused = aid.notes().into_iter().map(move |why| AidNote {
             sensor,
             why,
@@ -303,7 +305,7 @@ pub(crate) fn forward_pass(
         let left_out = aid.left_out_notes().into_iter().map(move |why| AidNote {
             sensor,
             why,
-            refused: false,
+            refused: none_left,
         });
         refused.chain(left_out)
     }));

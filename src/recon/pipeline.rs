@@ -395,7 +395,8 @@ fn settle_and_place_fixes(
 ) -> Result<Settled, ReconError> {
     let delay_unknown = plan.acoustic_delay_to_estimate();
     let settling = if delay_unknown {
-        Sensor::AcousticFix.left_out_of(*streams)
+        let without_fixes = Sensor::AcousticFix.left_out_of(*streams);
+        Sensor::Usbl.left_out_of(without_fixes)
     } else {
         *streams
     };
@@ -413,6 +414,7 @@ fn settle_and_place_fixes(
         plan.estimated_acoustic_delay(estimate.as_ref());
     }
     settled.config.acoustic_fix.receipt_delay_s = plan.acoustic_delay_s();
+    settled.config.acoustic_delay_placed = true;
     Ok(settled)
 }
 
@@ -444,15 +446,17 @@ fn acoustic_delay(
             ..PassOptions::default()
         },
     )?;
-    let Some(aiding) = config.acoustic_fix.aid() else {
-        return Ok(None);
+    let (fixes, usbl) = (
+        config.acoustic_fix.aid(),
+        config.usbl.aid(&config.acoustic_fix, true),
+    );
+    let readings = super::acoustic_delay::Delayed {
+        fixes: fixes.as_ref().map(|a| (streams.acoustic_fixes, a)),
+        usbl: usbl.as_ref().map(|a| (streams.usbl, a)),
+        ship: streams.ship,
+        lever_arm_body_m: config.acoustic_fix.lever_arm_m,
     };
-    let Some(first) = super::acoustic_delay::estimate(
-        streams.acoustic_fixes,
-        streams.ship,
-        &aiding,
-        &pass.run.navigation,
-    ) else {
+    let Some(first) = super::acoustic_delay::estimate(&readings, &pass.run.navigation) else {
         return Ok(None);
     };
     if !first.is_clear() {
@@ -465,9 +469,11 @@ fn acoustic_delay(
     let log_likelihood = |delay_s: f64| {
         let mut trial = unaided.clone();
         trial.acoustic_fix.receipt_delay_s = delay_s;
+        trial.acoustic_delay_placed = true;
         forward_pass(streams, mission, &trial, from.scored()).map_or(f64::NEG_INFINITY, |p| {
-            p.run
-                .log_likelihood_of(i64::MIN, |s| s == Sensor::AcousticFix)
+            p.run.log_likelihood_of(i64::MIN, |s| {
+                matches!(s, Sensor::AcousticFix | Sensor::Usbl)
+            })
         })
     };
     Ok(Some(super::acoustic_delay::refine(&first, &log_likelihood)))

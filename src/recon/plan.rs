@@ -152,7 +152,7 @@ impl LogFacts {
                 .filter(|f| crate::filters::ins::acoustic::needs_delay(f))
                 .count(),
             usbl_without_delay: (streams.usbl.iter())
-                .filter(|o| !o.stamp_is_validity && o.received_after_s.is_none())
+                .filter(|o| crate::filters::ins::usbl::observation_needs_delay(o))
                 .count(),
         }
     }
@@ -225,10 +225,9 @@ fn farthest_positions(
         });
     let usbl = config
         .usbl
-        .aid(
-            &config.acoustic_fix,
-            config.fixed.contains("acoustic_fix.receipt_delay_s"),
-        )
+        // Where the observations are, for the plan: a delay of seconds does not move them
+        // by much.
+        .aid(&config.acoustic_fix, true)
         .map(|a| crate::filters::ins::usbl::UsblAid::new(streams.usbl, streams.ship, &a));
     let usbl = usbl.iter().flat_map(|aid| {
         (0..aid.observations().len()).map(move |i| {
@@ -769,7 +768,7 @@ impl Plan {
     pub fn acoustic_delay_to_estimate(&self) -> bool {
         self.decisions.iter().any(|d| {
             d.part == Part::AcousticFixDelay && matches!(d.why, Why::CannotTell { .. }) && !d.used
-        }) && self.uses(Part::Aid(Sensor::AcousticFix))
+        }) && (self.uses(Part::Aid(Sensor::AcousticFix)) || self.uses(Part::Aid(Sensor::Usbl)))
     }
 
     /// The acoustic fixes' receipt delay used, s.
@@ -943,13 +942,7 @@ fn acoustic_fix_delay(facts: &LogFacts, config: &Config) -> Decision {
         let value = config.acoustic_fix.receipt_delay_s;
         return decision(part, value != 0.0, Why::Given { value });
     }
-    if facts.acoustic_fixes_without_delay == 0 {
-        if facts.usbl_without_delay > 0 {
-            let detail = "not estimated for raw USBL observations yet: give it \
-                          ([acoustic_fix] receipt_delay_s)"
-                .to_string();
-            return decision(part, false, Why::CannotTell { detail });
-        }
+    if facts.acoustic_fixes_without_delay == 0 && facts.usbl_without_delay == 0 {
         return decision(part, true, Why::CarriedByFixes);
     }
     let detail = "not estimated yet".to_string();

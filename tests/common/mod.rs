@@ -437,3 +437,172 @@ pub fn skip_unless_required(require: &str, missing: &str, skipped: &str) {
     );
     eprintln!("{skipped}");
 }
+
+/// What the simulator recorded of its USBL (`usbl_truth`), which the reconstruction never
+/// reads: the receipt delay and which observations were multipath outliers.
+pub struct UsblTruth {
+    pub receipt_delay_s: f64,
+    /// The outliers' stamps of receipt, ns.
+    pub outlier_receipts_ns: std::collections::BTreeSet<i64>,
+}
+
+impl Simulated {
+    pub fn usbl_truth(&self) -> UsblTruth {
+        let truth = &self.log.metadata["usbl_truth"];
+        UsblTruth {
+            receipt_delay_s: truth["receipt_delay_s"].parse().unwrap(),
+            outlier_receipts_ns: truth["outlier_receipt_stamps_ns"]
+                .split(',')
+                .filter(|s| !s.is_empty())
+                .map(|s| s.parse().unwrap())
+                .collect(),
+        }
+    }
+}
+
+/// A source's readings as the forward filter took them, told apart by the simulator's
+/// outliers.
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+pub struct Refusals {
+    pub outliers: usize,
+    pub outliers_refused: usize,
+    pub good: usize,
+    pub good_refused: usize,
+}
+
+impl Refusals {
+    /// The `sensor`'s residuals, an outlier where `is_outlier` says so of its stamp.
+    pub fn of(
+        residuals: &[hindsight::filters::ins::driver::Residual],
+        sensor: hindsight::filters::ins::aid_table::Sensor,
+        is_outlier: impl Fn(i64) -> bool,
+    ) -> Refusals {
+        let mut r = Refusals::default();
+        for res in residuals.iter().filter(|x| x.sensor == sensor) {
+            let refused = usize::from(!res.accepted);
+            if is_outlier(res.stamp_ns) {
+                r.outliers += 1;
+                r.outliers_refused += refused;
+            } else {
+                r.good += 1;
+                r.good_refused += refused;
+            }
+        }
+        r
+    }
+
+    /// Several runs' together.
+    pub fn total<'a>(runs: impl IntoIterator<Item = &'a Refusals>) -> Refusals {
+        runs.into_iter().fold(Refusals::default(), |a, r| Refusals {
+            outliers: a.outliers + r.outliers,
+            outliers_refused: a.outliers_refused + r.outliers_refused,
+            good: a.good + r.good,
+            good_refused: a.good_refused + r.good_refused,
+        })
+    }
+
+    /// Issue 58's bars: at least 99 % of the outliers refused, at most 1 % of the good
+    /// readings.
+    pub fn assert_outliers_cannot_move_the_track(&self) {
+        assert!(
+            self.outliers_refused as f64 >= 0.99 * self.outliers as f64,
+            "{} of {} outliers refused",
+            self.outliers_refused,
+            self.outliers
+        );
+        assert!(
+            self.good_refused as f64 <= 0.01 * self.good as f64,
+            "{} of {} good readings refused",
+            self.good_refused,
+            self.good
+        );
+    }
+}
+
+/// The acoustic receipt delay the plan estimated and used, s.
+pub fn found_acoustic_delay_s(r: &hindsight::Reconstruction) -> Option<f64> {
+    use hindsight::recon::plan::{Part, Why};
+    let d = (r.summary.plan.decisions.iter()).find(|d| d.part == Part::AcousticFixDelay)?;
+    match d.why {
+        Why::EstimatedReceiptDelay { delay_s, .. } if d.used => Some(delay_s),
+        _ => None,
+    }
+}
+
+/// One seed's run with acoustic positions, against the simulator's truth.
+#[derive(Debug)]
+pub struct AcousticRun {
+    pub seed: u64,
+    pub true_delay_s: f64,
+    pub found_delay_s: Option<f64>,
+    /// The good readings' median horizontal sigma as positions, m.
+    pub median_sigma_m: f64,
+    pub smoothed_rms_m: f64,
+    pub forward_rms_m: f64,
+    pub forward_nees_inside: f64,
+    pub smoothed_nees_inside: f64,
+    pub refusals: Refusals,
+}
+
+impl AcousticRun {
+    /// The run `r` of `log` scored: the `sensor`'s residuals told apart by `is_outlier` (of
+    /// a residual's stamp), the output against `/truth`.
+    pub fn of(
+        (log, seed): (&Simulated, u64),
+        r: &hindsight::Reconstruction,
+        sensor: hindsight::filters::ins::aid_table::Sensor,
+        median_sigma_m: f64,
+        is_outlier: impl Fn(i64) -> bool,
+    ) -> AcousticRun {
+        use hindsight::recon::score::scores;
+        let truth = log.usbl_truth();
+        let refusals = Refusals::of(&r.solved.run.residuals, sensor, is_outlier);
+        assert_eq!(
+            refusals.outliers,
+            truth.outlier_receipts_ns.len(),
+            "every outlier reached the filter"
+        );
+        let (fwd, smo) = output_errors(hindsight::recon::Streams::of(log).truth, &r.solved);
+        let (fwd, smo) = (scores(&fwd).unwrap(), scores(&smo).unwrap());
+        AcousticRun {
+            seed,
+            true_delay_s: truth.receipt_delay_s,
+            found_delay_s: found_acoustic_delay_s(r),
+            median_sigma_m,
+            smoothed_rms_m: smo.horizontal_rms_m,
+            forward_rms_m: fwd.horizontal_rms_m,
+            forward_nees_inside: fwd.nees_horizontal_inside_95,
+            smoothed_nees_inside: smo.nees_horizontal_inside_95,
+            refusals,
+        }
+    }
+
+    /// The delay found within 0.1 s of the simulator's.
+    pub fn assert_delay_found(&self) {
+        let found = self.found_delay_s.expect("the delay estimated and used");
+        assert!(
+            (found - self.true_delay_s).abs() <= 0.1,
+            "seed {}: delay {found:.3} s found, {:.3} s true",
+            self.seed,
+            self.true_delay_s
+        );
+    }
+
+    /// The smoothed horizontal RMS at most half the median sigma, the forward one at most
+    /// the median sigma.
+    pub fn assert_placed(&self) {
+        assert!(
+            self.smoothed_rms_m <= 0.5 * self.median_sigma_m,
+            "seed {}: smoothed RMS {:.2} m against a median sigma of {:.2} m",
+            self.seed,
+            self.smoothed_rms_m,
+            self.median_sigma_m
+        );
+        assert!(self.forward_rms_m <= self.median_sigma_m, "{self:?}");
+    }
+
+    /// The runs' smoothed NEES inside its 95 % bounds, over the seeds.
+    pub fn mean_smoothed_nees_inside(runs: &[AcousticRun]) -> f64 {
+        runs.iter().map(|r| r.smoothed_nees_inside).sum::<f64>() / runs.len() as f64
+    }
+}

@@ -289,8 +289,9 @@ pub trait Aid: Sync {
     fn notes(&self) -> Vec<String> {
         Vec::new()
     }
-    /// Readings the source left out that a user should know of, the others used (ranges to
-    /// beacons not in the table, observations without a ship's pose).
+    /// Readings the source left out that a user should know of (ranges to beacons not in the
+    /// table, observations without a ship's pose). When it left out every reading, these
+    /// say why the source could not be used.
     fn left_out_notes(&self) -> Vec<String> {
         Vec::new()
     }

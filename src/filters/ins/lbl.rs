@@ -126,18 +126,8 @@ impl Aid for LblAid {
         let r = SMatrix::<f64, 1, 1>::new(r.sigma_m.powi(2));
         Some(Update::One(Measurement { y, h, r }))
     }
-    /// Every range left out: the source could not be used.
-    fn notes(&self) -> Vec<String> {
-        match self.ranges.is_empty() {
-            true => self.why_left_out(),
-            false => Vec::new(),
-        }
-    }
     fn left_out_notes(&self) -> Vec<String> {
-        match self.ranges.is_empty() {
-            true => Vec::new(),
-            false => self.why_left_out(),
-        }
+        self.why_left_out()
     }
 }
 

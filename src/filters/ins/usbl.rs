@@ -85,6 +85,12 @@ pub fn ship_at(ship: &[ShipPose], t_ns: i64, a: &UsblAiding) -> Option<ShipAt> {
     })
 }
 
+/// Whether an observation is stamped on receipt and carries no delay: it needs the
+/// system's receipt delay to be placed where it was valid.
+pub fn observation_needs_delay(o: &UsblObservation) -> bool {
+    !o.stamp_is_validity && o.received_after_s.is_none()
+}
+
 /// An observation made ready: when it was valid, the vector it measured, its sigmas, and
 /// the ship then.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -226,10 +232,9 @@ impl UsblAid {
         let mut observations: Vec<ValidObservation> = Vec::with_capacity(readings.len());
         for o in readings {
             // The settings' delay serves only observations that carry no time of validity.
-            let carries_validity = o.stamp_is_validity || o.received_after_s.is_some();
             let delay_s = match a.receipt_delay_s {
                 Some(delay_s) => delay_s,
-                None if carries_validity => 0.0,
+                None if !observation_needs_delay(o) => 0.0,
                 None => {
                     without_delay += 1;
                     continue;
@@ -358,18 +363,8 @@ impl Aid for UsblAid {
             value: [north, east, 0.0],
         })
     }
-    /// Every observation left out: the source could not be used.
-    fn notes(&self) -> Vec<String> {
-        match self.observations.is_empty() {
-            true => self.why_left_out(),
-            false => Vec::new(),
-        }
-    }
     fn left_out_notes(&self) -> Vec<String> {
-        match self.observations.is_empty() {
-            true => Vec::new(),
-            false => self.why_left_out(),
-        }
+        self.why_left_out()
     }
 }
 
@@ -380,7 +375,7 @@ impl UsblAid {
         if self.without_delay > 0 {
             notes.push(format!(
                 "{} USBL observations were left out: they are stamped when the ship received \
-                 them, and their delay is not estimated for raw observations; give it \
+                 them, and no receipt delay was given or estimated; give it \
                  ([acoustic_fix] receipt_delay_s)",
                 self.without_delay
             ));
@@ -406,6 +401,24 @@ mod tests {
 
     const LAT: f64 = 0.6;
     const LON: f64 = 0.1;
+
+    /// Settings of a USBL on the ship's reference point, received 2 s late.
+    fn aiding() -> UsblAiding {
+        UsblAiding {
+            receipt_delay_s: Some(2.0),
+            range_fraction: 0.005,
+            range_sigma_floor_m: 0.3,
+            angle_sigma_rad: 0.003,
+            transducer_lever_arm_m: [0.0; 3],
+            transducer_alignment_rad: [0.0; 3],
+            ship_position_sigma_m: 1.0,
+            ship_height_sigma_m: 0.2,
+            ship_heading_sigma_rad: 0.002,
+            ship_tilt_sigma_rad: 0.001,
+            ship_max_gap_s: 5.0,
+            lever_arm_body_m: [0.0; 3],
+        }
+    }
 
     fn estimate(lat_rad: f64, lon_rad: f64, depth_m: f64) -> Estimate {
         Estimate {
@@ -560,14 +573,11 @@ mod tests {
             range_fraction: 0.0,
             range_sigma_floor_m: 0.1,
             angle_sigma_rad: 1e-6,
-            transducer_lever_arm_m: [0.0; 3],
-            transducer_alignment_rad: [0.0; 3],
             ship_position_sigma_m: 0.0,
             ship_height_sigma_m: 0.0,
             ship_heading_sigma_rad: 0.0,
             ship_tilt_sigma_rad: 0.0,
-            ship_max_gap_s: 5.0,
-            lever_arm_body_m: [0.0; 3],
+            ..aiding()
         };
         let pose = |t_s: i64, heading_sigma_deg: f64| ShipPose {
             stamp_ns: t_s * 1_000_000_000,
@@ -628,20 +638,7 @@ mod tests {
     /// without a ship's pose around it is counted and named.
     #[test]
     fn an_observation_is_placed_where_the_ship_was_when_it_was_valid() {
-        let a = UsblAiding {
-            receipt_delay_s: Some(2.0),
-            range_fraction: 0.005,
-            range_sigma_floor_m: 0.3,
-            angle_sigma_rad: 0.003,
-            transducer_lever_arm_m: [0.0; 3],
-            transducer_alignment_rad: [0.0; 3],
-            ship_position_sigma_m: 1.0,
-            ship_height_sigma_m: 0.2,
-            ship_heading_sigma_rad: 0.002,
-            ship_tilt_sigma_rad: 0.001,
-            ship_max_gap_s: 5.0,
-            lever_arm_body_m: [0.0; 3],
-        };
+        let a = aiding();
         // The ship sails east, 1 m/s (poses every second from 0 to 20 s).
         let ship: Vec<ShipPose> = (0..=20)
             .map(|t| {
