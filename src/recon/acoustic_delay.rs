@@ -599,6 +599,7 @@ mod tests {
             ship_position_sigma_m: 0.5,
             ship_height_sigma_m: 0.5,
             ship_heading_sigma_rad: 0.1f64.to_radians(),
+            ship_heading_correlation_s: 10.0,
             ship_tilt_sigma_rad: 0.05f64.to_radians(),
             ship_max_gap_s: 5.0,
             lever_arm_body_m: [0.0; 3],

@@ -200,6 +200,9 @@ transducer_alignment_deg = [0.0, 0.0, 0.0]  # the transducer's axes in the ship'
 ship_position_sigma_m = 1.0  # the ship's horizontal position where its pose carries none, m
 ship_height_sigma_m = 0.5    # the transducer's height (the ship's heave), m
 ship_heading_sigma_deg = 0.1 # the ship's heading where its pose carries none, deg
+ship_heading_correlation_s = 10.0  # how long the ship's heading error lasts (a Gauss-Markov
+                             # correlation time), s: observations closer together than this
+                             # share it, and each is taken to tell that much less
 ship_tilt_sigma_deg = 0.05   # the ship's roll and pitch, deg
 ship_max_gap_s = 5.0         # ship poses further apart than this are not interpolated, s
 
@@ -663,6 +666,7 @@ crate::config::with_defaults! {
         pub ship_position_sigma_m: f64 = 1.0,
         pub ship_height_sigma_m: f64 = 0.5,
         pub ship_heading_sigma_deg: f64 = 0.1,
+        pub ship_heading_correlation_s: f64 = 10.0,
         pub ship_tilt_sigma_deg: f64 = 0.05,
         pub ship_max_gap_s: f64 = 5.0,
     }
@@ -688,6 +692,7 @@ impl UsblConfig {
                 ship_position_sigma_m: self.ship_position_sigma_m,
                 ship_height_sigma_m: self.ship_height_sigma_m,
                 ship_heading_sigma_rad: self.ship_heading_sigma_deg.to_radians(),
+                ship_heading_correlation_s: self.ship_heading_correlation_s,
                 ship_tilt_sigma_rad: self.ship_tilt_sigma_deg.to_radians(),
                 ship_max_gap_s: self.ship_max_gap_s,
                 lever_arm_body_m: fixes.lever_arm_m,
@@ -1041,7 +1046,8 @@ impl Config {
             &keyed!(self.lbl => lbl; range_sigma_m, sound_speed_sigma),
             &keyed!(self.usbl => usbl;
                 range_fraction, range_sigma_floor_m, angle_sigma_deg, ship_position_sigma_m,
-                ship_height_sigma_m, ship_heading_sigma_deg, ship_tilt_sigma_deg),
+                ship_height_sigma_m, ship_heading_sigma_deg, ship_heading_correlation_s,
+                ship_tilt_sigma_deg),
             &keyed!(self.dvl => dvl;
                 altimeter_max_age_s, scale_sigma, misalignment_sigma_deg,
                 held_misalignment_sigma_deg, bias_sigma_m_s, bias_walk_m_s_rt_h,

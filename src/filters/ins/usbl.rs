@@ -47,6 +47,8 @@ pub struct UsblAiding {
     pub ship_height_sigma_m: f64,
     /// 1-sigma of the ship's heading where its pose carries none, rad.
     pub ship_heading_sigma_rad: f64,
+    /// The heading error's correlation time, s (0: white): see [`heading_share`].
+    pub ship_heading_correlation_s: f64,
     /// 1-sigma of the ship's roll and pitch, rad.
     pub ship_tilt_sigma_rad: f64,
     /// The ship's poses are interpolated across gaps up to this long, s.
@@ -102,6 +104,30 @@ pub struct ValidObservation {
     /// 1-sigma of the range (m), the bearing and the elevation (rad).
     pub sigmas: [f64; 3],
     pub ship: ShipAt,
+    /// How many times its heading error's variance the observation is taken to carry
+    /// ([`heading_share`]).
+    pub heading_inflation: f64,
+}
+
+/// The factor on the ship's heading variance of an observation `interval_s` from its
+/// neighbour, when the heading's error is a Gauss-Markov process of `correlation_s`.
+///
+/// Observations closer together than the correlation time share the error: taken as white,
+/// `n` of them would average it down by `n`, where they average it down by only about
+/// `n (1 - rho) / (1 + rho)`, `rho = exp(-interval / correlation)` (the steady state of a
+/// first-order process sampled at that interval). The filter treats each observation as
+/// independent, so the heading's variance in each is scaled up by `(1 + rho) / (1 - rho)`:
+/// the information the run of them carries about the heading error is then the true one.
+/// The own noise of the range and the angles is white and is not scaled.
+pub fn heading_share(interval_s: f64, correlation_s: f64) -> f64 {
+    if correlation_s <= 0.0 || !interval_s.is_finite() {
+        return 1.0;
+    }
+    let rho = (-interval_s.max(0.0) / correlation_s).exp();
+    if rho >= 1.0 {
+        return f64::MAX.sqrt();
+    }
+    (1.0 + rho) / (1.0 - rho)
 }
 
 /// The vector a range, bearing and elevation give in the transducer's axes.
@@ -257,9 +283,22 @@ impl UsblAid {
                     own(o.elevation_sigma_rad).unwrap_or(a.angle_sigma_rad),
                 ],
                 ship,
+                heading_inflation: 1.0,
             });
         }
         observations.sort_by_key(|o| o.stamp_ns);
+        // Each observation's interval to its neighbour before (the first: after).
+        let stamps: Vec<i64> = observations.iter().map(|o| o.stamp_ns).collect();
+        for (i, o) in observations.iter_mut().enumerate() {
+            let neighbour = if i > 0 {
+                stamps.get(i - 1)
+            } else {
+                stamps.get(1)
+            };
+            let interval_s =
+                neighbour.map_or(f64::INFINITY, |&t| (o.stamp_ns - t).abs() as f64 * 1e-9);
+            o.heading_inflation = heading_share(interval_s, a.ship_heading_correlation_s);
+        }
         UsblAid {
             observations,
             mounting: Mounting::of(a),
@@ -280,7 +319,11 @@ impl UsblAid {
     pub fn update(&self, i: usize, est: &Estimate) -> Measurement<3> {
         let o = &self.observations[i];
         let (d, h, ship_rows) = predicted(est, &o.ship, &self.mounting);
-        let ship = ship_covariance(&o.ship, self.ship_height_sigma_m, self.ship_tilt_sigma_rad);
+        let shared = ShipAt {
+            heading_sigma_rad: o.ship.heading_sigma_rad * o.heading_inflation.sqrt(),
+            ..o.ship
+        };
+        let ship = ship_covariance(&shared, self.ship_height_sigma_m, self.ship_tilt_sigma_rad);
         // The observation's own noise at the predicted vector: an outlier does not choose
         // its own sigma.
         let r = transducer_covariance(&d, o.sigmas) + ship_rows * ship * ship_rows.transpose();
@@ -293,7 +336,8 @@ impl UsblAid {
 
     /// The 1-sigma per horizontal axis of the position observation `i` gives the transponder
     /// (the observation's own noise and the ship's errors, at the vector it measured), m: the
-    /// sigma a positioned fix of it would carry.
+    /// sigma a positioned fix of it would carry (its heading error not scaled up for the
+    /// neighbours that share it: one observation's own accuracy).
     pub fn positioned_sigma_m(&self, i: usize) -> f64 {
         let o = &self.observations[i];
         let m = &self.mounting;
@@ -414,6 +458,7 @@ mod tests {
             ship_position_sigma_m: 1.0,
             ship_height_sigma_m: 0.2,
             ship_heading_sigma_rad: 0.002,
+            ship_heading_correlation_s: 0.0,
             ship_tilt_sigma_rad: 0.001,
             ship_max_gap_s: 5.0,
             lever_arm_body_m: [0.0; 3],
@@ -632,6 +677,99 @@ mod tests {
                 "{north_m} m: {grown} against {expected}"
             );
         }
+    }
+
+    /// The mean of `n` samples of a first-order Gauss-Markov error, `interval` apart, has the
+    /// variance of `n` independent samples of `heading_share` times the variance: exactly,
+    /// `sigma^2 / n^2 (n + 2 sum_k (n - k) rho^k)`, for long runs.
+    #[test]
+    fn a_shared_heading_error_counts_as_fewer_observations() {
+        for (interval_s, correlation_s) in [(3.5f64, 10.0f64), (2.0, 60.0), (5.0, 1.0)] {
+            let rho: f64 = (-interval_s / correlation_s).exp();
+            let n = 20_000usize;
+            let sum: f64 = (1..n).map(|k| (n - k) as f64 * rho.powi(k as i32)).sum();
+            let exact = (n as f64 + 2.0 * sum) / (n as f64).powi(2);
+            let taken = heading_share(interval_s, correlation_s) / n as f64;
+            assert!(
+                (taken / exact - 1.0).abs() < 0.01,
+                "{interval_s} s apart, {correlation_s} s: {taken} against {exact}"
+            );
+        }
+        assert_eq!(heading_share(3.0, 0.0), 1.0);
+        assert_eq!(heading_share(f64::INFINITY, 10.0), 1.0);
+        assert!(heading_share(0.0, 10.0).is_finite());
+    }
+
+    /// The ship's heading variance of a run of observations is scaled by their intervals;
+    /// the positioned sigma (one observation's own accuracy) is not.
+    #[test]
+    fn observations_close_together_share_their_heading_error() {
+        let a = UsblAiding {
+            ship_heading_correlation_s: 10.0,
+            receipt_delay_s: Some(0.0),
+            ..aiding()
+        };
+        let ship: Vec<ShipPose> = (0..=60)
+            .map(|t| ShipPose {
+                stamp_ns: t * 1_000_000_000,
+                latitude_deg: LAT.to_degrees(),
+                longitude_deg: LON.to_degrees(),
+                roll: 0.0,
+                pitch: 0.0,
+                yaw: 0.0,
+                horizontal_sigma_m: None,
+                heading_sigma_rad: None,
+            })
+            .collect();
+        let seen = |t_s: i64| UsblObservation {
+            stamp_ns: t_s * 1_000_000_000,
+            stamp_is_validity: true,
+            received_after_s: None,
+            range_m: 300.0,
+            bearing_rad: 0.0,
+            elevation_rad: 0.0,
+            range_sigma_m: None,
+            bearing_sigma_rad: None,
+            elevation_sigma_rad: None,
+            sound_speed_m_s: None,
+            beacon_id: String::new(),
+        };
+        // 3 s apart, then one 40 s later.
+        let readings = [seen(10), seen(13), seen(16), seen(56)];
+        let aid = UsblAid::new(&readings, &ship, &a);
+        let factors: Vec<f64> = aid
+            .observations()
+            .iter()
+            .map(|o| o.heading_inflation)
+            .collect();
+        let close = heading_share(3.0, 10.0);
+        assert_eq!(&factors[..3], &[close; 3]);
+        assert!((factors[3] - heading_share(40.0, 10.0)).abs() < 1e-12);
+        assert!(factors[3] < 1.04 && close > 4.0);
+        let white = UsblAid::new(
+            &readings,
+            &ship,
+            &UsblAiding {
+                ship_heading_correlation_s: 0.0,
+                ..a
+            },
+        );
+        let (lat, lon) = geodesy::position_of_local_m(LAT, LON, 300.0, 0.0);
+        let mut est = estimate(lat, lon, 0.0);
+        est.nav.ned_from_body = UnitQuaternion::identity();
+        est.sound_speed_scale = 0.0;
+        // Across the line of sight (y) the heading's share of the noise is scaled; along it
+        // (x) nothing changes.
+        let (shared, own) = (aid.update(0, &est).r, white.update(0, &est).r);
+        let heading_part = (300.0 * a.ship_heading_sigma_rad).powi(2);
+        let added = shared[(1, 1)] - own[(1, 1)];
+        assert!(
+            (added / ((close - 1.0) * heading_part) - 1.0).abs() < 1e-6,
+            "{added} against {}",
+            (close - 1.0) * heading_part
+        );
+        assert!((shared[(0, 0)] - own[(0, 0)]).abs() < 1e-9);
+        assert_eq!(aid.positioned_sigma_m(0), white.positioned_sigma_m(0));
     }
 
     /// An observation is placed at its time of validity and the ship interpolated there; one
