@@ -263,13 +263,20 @@ fn an_unknown_beacon_and_a_negative_range_are_named_and_skipped() {
             .any(|w| w.contains("7 ranges to beacon `E`") && w.contains("beacon table")),
         "{warnings:?}"
     );
-    let taken = (r.solved.run.residuals.iter())
+    let taken: Vec<_> = (r.solved.run.residuals.iter())
         .filter(|x| x.sensor == Sensor::Lbl)
-        .count();
-    assert_eq!(taken, replies.len() - 8);
+        .collect();
+    assert_eq!(taken.len(), replies.len() - 8);
     // The ranges left out do not make the plan say the LBL was not used.
     let lbl = (r.summary.plan.decisions.iter())
         .find(|d| d.part == Part::Aid(Sensor::Lbl))
         .unwrap();
     assert!(lbl.used, "{lbl:?}");
+    // Each range's residual carries its slant range (residuals.parquet, the report's plot of
+    // the residuals against it): the range itself, metres to a kilometre and more here.
+    assert!(
+        (taken.iter()).all(|x| x.slant_range_m.is_some_and(|m| (50.0..2000.0).contains(&m))),
+        "{:?}",
+        taken.iter().find(|x| x.slant_range_m.is_none())
+    );
 }

@@ -110,6 +110,15 @@ fn a_given_delay_places_the_observations() {
         truth.receipt_delay_s,
         refusals.outliers + refusals.good,
     );
+    // Each observation's residual carries the range it measured (residuals.parquet; the
+    // report draws the residuals against it).
+    let usbl = (r.solved.run.residuals.iter()).filter(|x| x.sensor == Sensor::Usbl);
+    assert!(
+        usbl.clone()
+            .all(|x| x.slant_range_m.is_some_and(|m| (0.0..1100.0).contains(&m))),
+        "{:?}",
+        usbl.clone().find(|x| x.slant_range_m.is_none())
+    );
     // The last observation may fall after the ship's last pose.
     assert!(refusals.outliers + refusals.good + 1 >= observations);
     assert_eq!(refusals.outliers, outliers.len());

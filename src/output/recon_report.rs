@@ -617,7 +617,7 @@ fn innovations(s: &Summary, residuals: &[Residual], axis: &TimeAxis) -> Section 
     ));
     for sensor in Sensor::ALL {
         let mine: Vec<&Residual> = residuals.iter().filter(|r| r.sensor == sensor).collect();
-        let Some(dims) = mine.first().map(|r| r.dims) else {
+        let Some(dims) = mine.first().map(|r| usize::from(r.dims)) else {
             continue;
         };
         let mut plot = axis.plot(
@@ -661,8 +661,65 @@ fn innovations(s: &Summary, residuals: &[Residual], axis: &TimeAxis) -> Section 
             ),
             plot,
         ));
+        if let Some(figure) = against_slant_range(sensor, &mine) {
+            section.push(figure);
+        }
     }
     section
+}
+
+/// An acoustic sensor's residuals (a fix's horizontal distance from the prediction, a
+/// range's signed difference, m) against the slant range they were made over, the refused
+/// ones marked: an acoustic error grows with the range, and multipath stands out of it.
+fn against_slant_range(sensor: Sensor, mine: &[&Residual]) -> Option<Block> {
+    let residual_m = |r: &Residual| match r.dims {
+        1 => r.innovation[0],
+        2 => r.innovation[0].hypot(r.innovation[1]),
+        _ => r.innovation[0]
+            .hypot(r.innovation[1])
+            .hypot(r.innovation[2]),
+    };
+    let points = |accepted: bool| -> Vec<(f64, f64)> {
+        let mut p: Vec<(f64, f64)> = (mine.iter())
+            .filter(|r| r.accepted == accepted)
+            .filter_map(|r| Some((f64::from(r.slant_range_m?), residual_m(r))))
+            .collect();
+        p.sort_by(|a, b| a.0.total_cmp(&b.0));
+        p
+    };
+    let (taken, refused) = (points(true), points(false));
+    if taken.is_empty() && refused.is_empty() {
+        return None;
+    }
+    let what = match mine.first().map_or(0, |r| r.dims) {
+        1 => "range measured minus predicted (m)",
+        2 => "horizontal distance from the prediction (m)",
+        _ => "distance from the prediction (m)",
+    };
+    let mut plot = Plot::new(
+        format!("{} residuals against slant range", sensor.name()),
+        "slant range (m)",
+        what,
+    );
+    plot.series.push(Series::dots(
+        "taken",
+        sample_cloud(&taken, DOT_POINTS, OUTLIER),
+    ));
+    if !refused.is_empty() {
+        plot.series.push(
+            Series::dots("refused by the gate", thin(&refused, DOT_POINTS)).coloured(colour::BLACK),
+        );
+    }
+    Some(Block::figure(
+        &format!("slant_range_{}", sensor.name()),
+        format!(
+            "{}: {} readings with a slant range, {} refused by the gate.",
+            sensor.name(),
+            taken.len() + refused.len(),
+            refused.len()
+        ),
+        plot,
+    ))
 }
 
 fn calibration(s: &Summary) -> Section {
@@ -731,4 +788,61 @@ fn calibration(s: &Summary) -> Section {
         )),
     }
     section
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn residual(dims: u8, innovation: [f64; 3], slant_m: Option<f32>, accepted: bool) -> Residual {
+        Residual {
+            stamp_ns: 0,
+            sensor: Sensor::Usbl,
+            innovation,
+            sigma: [1.0; 3],
+            dims,
+            nis: 1.0,
+            accepted,
+            log_likelihood: 0.0,
+            repeats: false,
+            slant_range_m: slant_m,
+        }
+    }
+
+    /// Each reading with a slant range is a dot at its range and its distance from the
+    /// prediction (the range's signed difference for a range); the refused ones apart, in
+    /// black.
+    #[test]
+    fn acoustic_residuals_are_drawn_against_their_slant_range() {
+        let readings = [
+            residual(3, [3.0, 4.0, 12.0], Some(150.0), true),
+            residual(3, [0.3, 0.4, 0.0], Some(90.0), true),
+            residual(3, [30.0, 40.0, 0.0], Some(120.0), false),
+            residual(3, [1.0, 1.0, 1.0], None, true),
+        ];
+        let mine: Vec<&Residual> = readings.iter().collect();
+        let Some(Block::Figure(f)) = against_slant_range(Sensor::Usbl, &mine) else {
+            panic!("a figure")
+        };
+        assert_eq!(f.stem, "slant_range_usbl");
+        assert!(
+            f.caption
+                .contains("3 readings with a slant range, 1 refused by the gate"),
+            "{}",
+            f.caption
+        );
+        let [taken, refused] = &f.plot.series[..] else {
+            panic!("{:?}", f.plot.series)
+        };
+        assert_eq!(taken.points, [(90.0, 0.5), (150.0, 13.0)]);
+        assert_eq!(refused.points, [(120.0, 50.0)]);
+        assert_eq!(refused.colour, Some(colour::BLACK));
+        let range = [residual(1, [-0.4, 0.0, 0.0], Some(800.0), true)];
+        let Some(Block::Figure(f)) = against_slant_range(Sensor::Lbl, &[&range[0]]) else {
+            panic!("a figure")
+        };
+        assert_eq!(f.plot.series[0].points, [(800.0, -0.4)]);
+        let none = [residual(3, [1.0; 3], None, true)];
+        assert!(against_slant_range(Sensor::Usbl, &[&none[0]]).is_none());
+    }
 }

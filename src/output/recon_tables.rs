@@ -141,7 +141,7 @@ pub fn residuals_batch(rows: &[Residual]) -> Result<RecordBatch, ArrowError> {
             &format!("innovation_{i}"),
             "sensor unit",
             rows.iter()
-                .map(|r| (i < r.dims).then_some(r.innovation[i]))
+                .map(|r| (i < usize::from(r.dims)).then_some(r.innovation[i]))
                 .collect(),
         );
     }
@@ -150,14 +150,14 @@ pub fn residuals_batch(rows: &[Residual]) -> Result<RecordBatch, ArrowError> {
             &format!("sigma_{i}"),
             "sensor unit",
             rows.iter()
-                .map(|r| (i < r.dims).then_some(r.sigma[i]))
+                .map(|r| (i < usize::from(r.dims)).then_some(r.sigma[i]))
                 .collect(),
         );
     }
     c.push(
         Field::new("dims", DataType::UInt8, false),
         Arc::new(UInt8Array::from(
-            rows.iter().map(|r| r.dims as u8).collect::<Vec<_>>(),
+            rows.iter().map(|r| r.dims).collect::<Vec<_>>(),
         )),
     );
     c.number("nis", "", rows.iter().map(|r| r.nis).collect());
@@ -166,6 +166,13 @@ pub fn residuals_batch(rows: &[Residual]) -> Result<RecordBatch, ArrowError> {
         Arc::new(BooleanArray::from(
             rows.iter().map(|r| r.accepted).collect::<Vec<_>>(),
         )),
+    );
+    c.optional(
+        "slant_range_m",
+        "m",
+        (rows.iter())
+            .map(|r| r.slant_range_m.map(f64::from))
+            .collect(),
     );
     c.finish()
 }

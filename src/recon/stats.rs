@@ -65,7 +65,7 @@ pub fn sensor_stats(residuals: &[Residual]) -> Vec<SensorStats> {
             let mean_nis = accepted.iter().map(|r| r.nis).sum::<f64>() / n;
             let z: Vec<f64> = accepted
                 .iter()
-                .flat_map(|r| (0..r.dims).map(move |i| r.innovation[i] / r.sigma[i]))
+                .flat_map(|r| (0..usize::from(r.dims)).map(move |i| r.innovation[i] / r.sigma[i]))
                 .collect();
             let m = z.len().max(1) as f64;
             let mean = z.iter().sum::<f64>() / m;
@@ -406,6 +406,7 @@ mod tests {
             accepted,
             log_likelihood: 0.0,
             repeats: false,
+            slant_range_m: None,
         }
     }
 
@@ -455,6 +456,7 @@ mod tests {
                     accepted: k % 100 != 0,
                     log_likelihood: 0.0,
                     repeats: false,
+                    slant_range_m: None,
                 }
             })
             .collect();

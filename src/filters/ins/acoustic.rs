@@ -164,6 +164,9 @@ impl Aid for AcousticFixAid {
         let r = SMatrix::<f64, 2, 2>::identity() * f.sigma_m.powi(2);
         Some(Update::Two(Measurement { y, h, r }))
     }
+    fn slant_range_m(&self, i: usize) -> Option<f64> {
+        self.fixes[i].slant_range_m
+    }
     /// The fix in metres from the first, so that a run of refused fixes reopens the gate
     /// only when the fixes follow one smooth track ([`super::reopen`]): multipath outliers
     /// scatter off it.

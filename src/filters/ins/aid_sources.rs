@@ -505,6 +505,9 @@ impl Aid for Borrowed<'_> {
     fn repeats(&self, i: usize) -> bool {
         self.0.repeats(i)
     }
+    fn slant_range_m(&self, i: usize) -> Option<f64> {
+        self.0.slant_range_m(i)
+    }
     fn left_out(&self) -> LeftOut {
         self.0.left_out()
     }

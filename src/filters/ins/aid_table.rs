@@ -275,6 +275,11 @@ pub trait Aid: Sync {
     fn reading(&self, _i: usize) -> Option<SensorReading> {
         None
     }
+    /// Reading `i`'s slant range from the acoustic observer that made it (the ship, the
+    /// beacon), m, what an acoustic reading's error grows with; `None` for other sources.
+    fn slant_range_m(&self, _i: usize) -> Option<f64> {
+        None
+    }
     /// Whether reading `i` repeats the readings before it exactly, every component: a stuck
     /// sensor's sign (such a reading never reopens the gate). False for sources whose
     /// readings may repeat honestly.

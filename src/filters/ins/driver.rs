@@ -99,14 +99,20 @@ pub struct Residual {
     pub innovation: [f64; 3],
     /// Predicted 1-sigma of each component.
     pub sigma: [f64; 3],
-    pub dims: usize,
+    pub dims: u8,
     pub nis: f64,
     pub accepted: bool,
     /// This reading's term of the pass's log-likelihood ([`ForwardRun::log_likelihood`]).
     pub log_likelihood: f64,
     /// The reading repeated the ones before exactly (a stuck sensor's sign).
     pub repeats: bool,
+    /// An acoustic reading's slant range from the ship or the beacon, m (single precision:
+    /// a plot's axis, and the residual stays 88 bytes).
+    pub slant_range_m: Option<f32>,
 }
+
+// A long dive keeps millions of residuals: the slant range came in without growing them.
+const _: () = assert!(std::mem::size_of::<Residual>() <= 88);
 
 impl Residual {
     fn from_record<const M: usize>(
@@ -114,7 +120,7 @@ impl Residual {
         sensor: Sensor,
         rec: &UpdateRecord<M>,
         log_likelihood: f64,
-        repeats: bool,
+        given: AsGiven,
     ) -> Self {
         let mut innovation = [0.0; 3];
         let mut sigma = [0.0; 3];
@@ -127,11 +133,12 @@ impl Residual {
             sensor,
             innovation,
             sigma,
-            dims: M,
+            dims: M as u8,
             nis: rec.nis,
             accepted: rec.accepted,
             log_likelihood,
-            repeats,
+            repeats: given.repeats,
+            slant_range_m: given.slant_range_m.map(|m| m as f32),
         }
     }
 }
@@ -270,6 +277,8 @@ struct AsGiven {
     reading: Option<SensorReading>,
     /// It repeats the readings before exactly.
     repeats: bool,
+    /// Its slant range from its acoustic observer, m.
+    slant_range_m: Option<f64>,
 }
 
 /// An update's attitude correction beyond which one linearisation does not hold, rad (1 deg).
@@ -686,7 +695,7 @@ impl Pass<'_> {
             sensor,
             &rec,
             log_likelihood,
-            given.repeats,
+            given,
         ));
     }
 
@@ -739,6 +748,7 @@ impl Pass<'_> {
                         let given = AsGiven {
                             reading: aid.reading(i),
                             repeats: aid.repeats(i),
+                            slant_range_m: aid.slant_range_m(i),
                         };
                         let omega_nb_body = self.omega_nb_body;
                         let remeasure =
@@ -777,6 +787,7 @@ mod tests {
             accepted: true,
             log_likelihood,
             repeats: false,
+            slant_range_m: None,
         };
         let run = ForwardRun {
             residuals: vec![residual(10, -1.0), residual(20, -2.0), residual(30, -4.0)],

@@ -126,6 +126,9 @@ impl Aid for LblAid {
         let r = SMatrix::<f64, 1, 1>::new(r.sigma_m.powi(2));
         Some(Update::One(Measurement { y, h, r }))
     }
+    fn slant_range_m(&self, i: usize) -> Option<f64> {
+        Some(self.ranges[i].range_m)
+    }
     fn left_out_notes(&self) -> Vec<String> {
         self.why_left_out()
     }

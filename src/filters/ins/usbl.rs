@@ -398,6 +398,10 @@ impl Aid for UsblAid {
     fn measure(&self, i: usize, at: &Epoch<'_>) -> Option<Update> {
         Some(Update::Three(self.update(i, at.est)))
     }
+    /// The range measured: what the observation's error grows with.
+    fn slant_range_m(&self, i: usize) -> Option<f64> {
+        Some(self.observations[i].transducer_m.norm())
+    }
     /// The positioned observation, so that a run of refused observations reopens the gate
     /// only when they follow one smooth track ([`super::reopen`]): multipath scatters off it.
     fn reading(&self, i: usize) -> Option<SensorReading> {

@@ -87,11 +87,11 @@ fn log_likelihood(residuals: &[Residual], gate_probability: f64) -> f64 {
     residuals
         .iter()
         .map(|r| {
-            let ln_det: f64 = r.sigma[..r.dims]
+            let ln_det: f64 = r.sigma[..usize::from(r.dims)]
                 .iter()
                 .map(|s| (s * s).max(1e-300).ln())
                 .sum();
-            -0.5 * (r.nis.min(caps[r.dims - 1]) + ln_det)
+            -0.5 * (r.nis.min(caps[usize::from(r.dims) - 1]) + ln_det)
         })
         .sum()
 }
