@@ -81,7 +81,9 @@ fn every_scenario_log_is_valid_and_reads_back_identically() {
         "zigzag-planes-10-10",
         "turning-circle",
         "drop-entry",
-        "usbl-survey",
+        // usbl-survey's messages are usbl-no-dvl's (the acoustic fixes) and usbl-raw-survey's
+        // (the ship's pose).
+        "usbl-raw-survey",
         "lbl-box",
         "usbl-no-dvl",
     ] {

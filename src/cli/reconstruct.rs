@@ -495,7 +495,7 @@ fn print_report(s: &Summary) {
     }
     if let Some(c) = &s.sound_speed_scale {
         out!(
-            "speed of sound: the LBL ranges' times {}",
+            "speed of sound: the acoustic ranges' times {}",
             estimated_text(c, 1.0, 5, "")
         );
     }

@@ -744,7 +744,10 @@ fn calibration(s: &Summary) -> Section {
     if let Some(c) = &s.sound_speed_scale {
         facts.push((
             "speed of sound".into(),
-            format!("the LBL ranges' times {}", estimated_text(c, 1.0, 5, "")),
+            format!(
+                "the acoustic ranges' times {}",
+                estimated_text(c, 1.0, 5, "")
+            ),
         ));
     }
     let m = &s.magnetometer;

@@ -322,13 +322,10 @@ impl Delayed<'_> {
                     ..*aiding
                 };
                 let aid = UsblAid::new(&raw, self.ship, &trial);
-                fixes.extend((0..aid.observations().len()).map(|i| {
-                    let (lat_rad, lon_rad) = aid.positioned_rad(i);
-                    Fix {
-                        receipt_s: aid.observations()[i].stamp_ns as f64 * 1e-9 + delay_s,
-                        ne_m: ne(lat_rad, lon_rad),
-                        sigma_m: aid.positioned_sigma_m(i),
-                    }
+                fixes.extend(aid.positioned_fixes().map(|f| Fix {
+                    receipt_s: f.stamp_ns as f64 * 1e-9 + delay_s,
+                    ne_m: ne(f.lat_rad, f.lon_rad),
+                    sigma_m: f.sigma_m,
                 }));
             }
             fixes.sort_by(|a, b| a.receipt_s.total_cmp(&b.receipt_s));

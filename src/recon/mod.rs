@@ -427,6 +427,9 @@ fn initialise_for(
             depth_sigma_m: config.depth.sigma_m,
             speed_of_rpm: speed_of_rpm.as_ref().map(|f| f as &dyn Fn(f64) -> f64),
             acoustic: config.acoustic_fix.aid(),
+            usbl: config
+                .usbl
+                .aid(&config.acoustic_fix, config.acoustic_delay_known()),
         },
     )?;
     if config.initial.from_truth {

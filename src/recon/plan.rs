@@ -195,8 +195,8 @@ fn vehicle_of(config: &Config, mission: &Mission) -> Result<String, String> {
 }
 
 /// The farthest-apart pair of absolute positions (GNSS fixes, position fixes, acoustic
-/// fixes and USBL observations placed by the ship's pose), thinned to the best-sigma position of each stretch (LBL ranges:
-/// [`lbl_farthest_positions`]).
+/// fixes and USBL observations placed by the ship's pose), thinned to the best-sigma position
+/// of each stretch (LBL ranges: [`lbl_farthest_positions`]).
 fn farthest_positions(
     streams: &Streams<'_>,
     mission: &Mission,
@@ -207,38 +207,24 @@ fn farthest_positions(
         mission.origin_latitude_deg.to_radians(),
         mission.origin_longitude_deg.to_radians(),
     );
-    let acoustic = config
-        .acoustic_fix
-        .aid()
+    let mut acoustic = (config.acoustic_fix.aid())
         .map(|a| {
             crate::filters::ins::acoustic::valid_fixes(streams.acoustic_fixes, streams.ship, &a)
         })
-        .unwrap_or_default()
-        .into_iter()
-        .map(|f| {
-            (
-                f.stamp_ns,
-                (f.lat_rad - lat0) * EARTH_RADIUS_M,
-                (f.lon_rad - lon0) * EARTH_RADIUS_M * lat0.cos(),
-                f.sigma_m,
-            )
-        });
-    let usbl = config
-        .usbl
-        // Where the observations are, for the plan: a delay of seconds does not move them
-        // by much.
-        .aid(&config.acoustic_fix, true)
-        .map(|a| crate::filters::ins::usbl::UsblAid::new(streams.usbl, streams.ship, &a));
-    let usbl = usbl.iter().flat_map(|aid| {
-        (0..aid.observations().len()).map(move |i| {
-            let (lat, lon) = aid.positioned_rad(i);
-            (
-                aid.observations()[i].stamp_ns,
-                (lat - lat0) * EARTH_RADIUS_M,
-                (lon - lon0) * EARTH_RADIUS_M * lat0.cos(),
-                aid.positioned_sigma_m(i),
-            )
-        })
+        .unwrap_or_default();
+    // Where the USBL's observations are, for the plan: a delay of seconds does not move them
+    // by much.
+    if let Some(a) = config.usbl.aid(&config.acoustic_fix, true) {
+        let aid = crate::filters::ins::usbl::UsblAid::new(streams.usbl, streams.ship, &a);
+        acoustic.extend(aid.positioned_fixes());
+    }
+    let acoustic = acoustic.into_iter().map(|f| {
+        (
+            f.stamp_ns,
+            (f.lat_rad - lat0) * EARTH_RADIUS_M,
+            (f.lon_rad - lon0) * EARTH_RADIUS_M * lat0.cos(),
+            f.sigma_m,
+        )
     });
     let mut all: Vec<(i64, f64, f64, f64)> = streams
         .gnss
@@ -258,7 +244,6 @@ fn farthest_positions(
                 .map(|f| (f.stamp_ns, f.north_m, f.east_m, f.sigma_m)),
         )
         .chain(acoustic)
-        .chain(usbl)
         .filter(|p| p.3 > 0.0 && p.1.is_finite() && p.2.is_finite())
         .collect();
     all.sort_by_key(|p| p.0);

@@ -393,12 +393,12 @@ pub(crate) fn build(x: &Parts<'_>) -> Result<Summary, super::Error> {
         dvl_calibration,
         water,
         gyro_scale_factor_z,
-        sound_speed_scale: (outcome
-            .plan
-            .uses(crate::recon::plan::Part::Aid(Sensor::Lbl)))
-        .then_some(last_forward.as_ref())
-        .flatten()
-        .map(|last| calibration::sound_speed_report(last, config.lbl.sound_speed_sigma)),
+        sound_speed_scale: [Sensor::Lbl, Sensor::Usbl]
+            .into_iter()
+            .any(|s| outcome.plan.uses(crate::recon::plan::Part::Aid(s)))
+            .then_some(last_forward.as_ref())
+            .flatten()
+            .map(|last| calibration::sound_speed_report(last, config.lbl.sound_speed_sigma)),
         depth_skipped_by_interval: r.run.by_interval[Sensor::Depth],
         eml_too_slow: r.run.unused[Sensor::SpeedLog],
         gate_resets: r.run.gate_resets,

@@ -44,6 +44,7 @@ pub const BUILT_IN: &[(&str, &str)] = shipped![
     "usbl-survey",
     "usbl-raw-survey",
     "usbl-no-dvl",
+    "usbl-raw-no-dvl",
     "lbl-box",
 ];
 

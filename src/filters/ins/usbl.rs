@@ -13,7 +13,7 @@
 //! An observation stamped when the ship received it is applied where it was valid, as the
 //! positioned fixes are ([`super::acoustic`]): less the delay it carries, or the estimated one.
 
-use super::acoustic::validity_of;
+use super::acoustic::{validity_of, ValidFix};
 use super::aid_table::{Aid, Epoch, Measurement, Sensor, SensorReading, Update};
 use super::error_state::{idx, N};
 use super::forward::Estimate;
@@ -368,6 +368,23 @@ impl UsblAid {
             self.ship_to_transponder_ned_m(i),
         );
         geodesy::position_of_local_m(ship.lat_rad, ship.lon_rad, ned.x, ned.y)
+    }
+
+    /// The observations as positioned fixes would be, in time order: where each puts the
+    /// transponder, its sigma ([`Self::positioned_sigma_m`]), its range as the slant range.
+    /// What the start, the plan and the delay's estimate place, where the filter takes the
+    /// raw observation.
+    pub fn positioned_fixes(&self) -> impl Iterator<Item = ValidFix> + '_ {
+        (0..self.observations.len()).map(|i| {
+            let (lat_rad, lon_rad) = self.positioned_rad(i);
+            ValidFix {
+                stamp_ns: self.observations[i].stamp_ns,
+                lat_rad,
+                lon_rad,
+                sigma_m: self.positioned_sigma_m(i),
+                slant_range_m: Some(self.observations[i].transducer_m.norm()),
+            }
+        })
     }
 
     /// Where observation `i` puts the transponder, north and east of the first observation's

@@ -2,8 +2,9 @@
 //!
 //! - Position: a GNSS fix near the start (the one closest to the median of those within
 //!   `gnss_window_s`), else a `start` position fix near the
-//!   start, else the first acoustic fix that two of the next four agree with, else the
-//!   mission origin. Depth from the first depth reading.
+//!   start, else the first acoustic fix (or raw USBL observation placed by the ship's pose)
+//!   that two of the next four agree with, else the mission origin. Depth from the first
+//!   depth reading.
 //! - Roll and pitch at the first sample: the specific force over the first `window_s` of IMU
 //!   data, each sample carried to the start's body axes by the gyro, less the acceleration
 //!   the DVL saw (carried the same way), levelled. A vehicle that rolls or turns during the
@@ -27,6 +28,7 @@ use crate::filters::ins::acoustic::{valid_fixes, AcousticAiding, ValidFix};
 use crate::filters::ins::error_state::{idx, ErrorMatrix, ErrorState};
 use crate::filters::ins::forward::{DvlMounting, Estimate};
 use crate::filters::ins::mechanization::NavState;
+use crate::filters::ins::usbl::{UsblAid, UsblAiding};
 use crate::geodesy;
 use crate::ingest::Mission;
 use crate::recon::alignment::at_rest;
@@ -58,6 +60,8 @@ pub struct InitSettings<'a> {
     pub speed_of_rpm: Option<&'a dyn Fn(f64) -> f64>,
     /// How acoustic fixes are placed in time and weighted (`None`: they are not used).
     pub acoustic: Option<AcousticAiding>,
+    /// How the USBL's raw observations are placed (`None`: they are not used).
+    pub usbl: Option<UsblAiding>,
 }
 
 /// Where the initial position came from.
@@ -396,8 +400,7 @@ const ACOUSTIC_START_SPEED_M_S: f64 = 1.0;
 /// that two others agree with (within three sigmas and the way the vehicle may have moved
 /// between them): a multipath outlier among them cannot place the start.
 fn start_acoustic_fix(src: &Streams<'_>, set: &InitSettings<'_>, t0: i64) -> Option<ValidFix> {
-    let fixes = valid_fixes(src.acoustic_fixes, src.ship, set.acoustic.as_ref()?);
-    let first: Vec<ValidFix> = fixes
+    let first: Vec<ValidFix> = acoustic_positions(src, set)
         .into_iter()
         .filter(|f| {
             let after_s = (f.stamp_ns - t0) as f64 * 1e-9;
@@ -420,6 +423,19 @@ fn start_acoustic_fix(src: &Streams<'_>, set: &InitSettings<'_>, t0: i64) -> Opt
                 >= 2
         })
         .copied()
+}
+
+/// The acoustic fixes and the USBL's raw observations placed by the ship's pose, in time
+/// order.
+fn acoustic_positions(src: &Streams<'_>, set: &InitSettings<'_>) -> Vec<ValidFix> {
+    let mut positions = (set.acoustic.as_ref())
+        .map(|a| valid_fixes(src.acoustic_fixes, src.ship, a))
+        .unwrap_or_default();
+    if let Some(a) = &set.usbl {
+        positions.extend(UsblAid::new(src.usbl, src.ship, a).positioned_fixes());
+        positions.sort_by_key(|f| f.stamp_ns);
+    }
+    positions
 }
 
 /// The start's position: a GNSS fix near the start, else a `start` position fix, else an
@@ -1042,7 +1058,7 @@ impl Initialisation {
             PositionSource::Gnss { .. } => "first GNSS fix",
             PositionSource::StartFix { .. } => "`start` position fix",
             PositionSource::AcousticFix { .. } => {
-                "the first acoustic fix that two of the next four agree with"
+                "the first acoustic fix (or USBL observation) that two of the next four agree with"
             }
             PositionSource::MissionOrigin => {
                 "mission origin (no GNSS fix or start mark near the start)"
@@ -1232,6 +1248,7 @@ mod tests {
             depth_sigma_m: 0.1,
             speed_of_rpm: None,
             acoustic: None,
+            usbl: None,
         }
     }
 
