@@ -25,7 +25,7 @@ pub mod stats;
 pub mod tune;
 
 use crate::contract::Imu;
-use crate::filters::ins::aid_table::{MagAiding, Sensor};
+use crate::filters::ins::aid_table::{Aid, MagAiding, Sensor};
 use crate::filters::ins::driver::{run_forward, ForwardRun, Inputs, Keep};
 use crate::filters::ins::record::Solution;
 use crate::filters::ins::solutions::Solutions;
@@ -230,6 +230,24 @@ impl<'a> Prepared<'a> {
     }
 }
 
+/// What an aid says of its readings: why it could not be used, and the readings it left out
+/// (all of them: it could not be used either).
+fn notes_of(aid: &dyn Aid) -> impl Iterator<Item = AidNote> {
+    let sensor = aid.sensor();
+    let none_left = aid.is_empty();
+    let refused = aid.notes().into_iter().map(move |why| AidNote {
+        sensor,
+        why,
+        refused: true,
+    });
+    let left_out = aid.left_out_notes().into_iter().map(move |why| AidNote {
+        sensor,
+        why,
+        refused: none_left,
+    });
+    refused.chain(left_out)
+}
+
 /// Initialises from the log and runs the forward filter as `options` say.
 pub(crate) fn forward_pass(
     streams: &Streams<'_>,
@@ -293,22 +311,7 @@ pub(crate) fn forward_pass(
             (run_forward(&settings, &inputs, init.estimate), None, None)
         }
     };
-    aid_notes.extend(aids.iter().flat_map(|aid| {
-        let sensor = aid.sensor();
-        // Readings left out of a source that has none left: the source could not be used.
-        let none_left = aid.is_empty();
-        let refused = aid.notes().into_iter().map(move |why| AidNote {
-            sensor,
-            why,
-            refused: true,
-        });
-        let left_out = aid.left_out_notes().into_iter().map(move |why| AidNote {
-            sensor,
-            why,
-            refused: none_left,
-        });
-        refused.chain(left_out)
-    }));
+    aid_notes.extend(aids.iter().flat_map(|aid| notes_of(aid.as_ref())));
     aid_notes.extend(model_note.map(|why| AidNote {
         sensor: Sensor::ModelVelocity,
         why,
