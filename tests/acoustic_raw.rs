@@ -76,16 +76,7 @@ fn raw_survey_holds_its_bars(seeds: std::ops::RangeInclusive<u64>) {
             100.0 * run.smoothed_nees_inside
         );
     }
-    for run in &runs {
-        run.assert_delay_found();
-        run.assert_placed();
-        assert!(run.forward_nees_inside >= 0.9, "{run:?}");
-    }
-    let smoothed_nees = AcousticRun::mean_smoothed_nees_inside(&runs);
-    assert!(smoothed_nees >= 0.9, "{smoothed_nees}");
-    let refusals = Refusals::total(runs.iter().map(|r| &r.refusals));
-    assert!(refusals.outliers >= 20, "{} outliers", refusals.outliers);
-    refusals.assert_outliers_cannot_move_the_track();
+    AcousticRun::assert_survey_bars(&runs, 20);
 }
 
 /// A delay given is taken as given, not estimated: with the simulator's, the observations

@@ -605,4 +605,26 @@ impl AcousticRun {
     pub fn mean_smoothed_nees_inside(runs: &[AcousticRun]) -> f64 {
         runs.iter().map(|r| r.smoothed_nees_inside).sum::<f64>() / runs.len() as f64
     }
+
+    /// Issue 58's bars of a USBL survey: on each seed the delay found, the track placed and
+    /// the forward NEES inside its 95 % bounds for at least 90 % of the epochs; over the
+    /// seeds the smoothed NEES likewise, and at least `min_outliers` outliers, which cannot
+    /// move the track.
+    pub fn assert_survey_bars(runs: &[AcousticRun], min_outliers: usize) {
+        for run in runs {
+            run.assert_delay_found();
+            run.assert_placed();
+            assert!(run.forward_nees_inside >= 0.9, "{run:?}");
+        }
+        let smoothed_nees = AcousticRun::mean_smoothed_nees_inside(runs);
+        assert!(smoothed_nees >= 0.9, "{smoothed_nees}");
+        let refusals = Refusals::total(runs.iter().map(|r| &r.refusals));
+        assert!(
+            refusals.outliers >= min_outliers,
+            "{} outliers in {} seeds",
+            refusals.outliers,
+            runs.len()
+        );
+        refusals.assert_outliers_cannot_move_the_track();
+    }
 }

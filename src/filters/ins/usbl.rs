@@ -467,6 +467,42 @@ mod tests {
     const LAT: f64 = 0.6;
     const LON: f64 = 0.1;
 
+    /// A level ship heading north at (`LAT`, `LON`) at `t_s`, its pose without sigmas.
+    fn level_pose(t_s: i64) -> ShipPose {
+        ShipPose {
+            stamp_ns: t_s * 1_000_000_000,
+            latitude_deg: LAT.to_degrees(),
+            longitude_deg: LON.to_degrees(),
+            roll: 0.0,
+            pitch: 0.0,
+            yaw: 0.0,
+            horizontal_sigma_m: None,
+            heading_sigma_rad: None,
+        }
+    }
+
+    /// An observation at its time of validity `stamp_ns`, without sigmas.
+    fn observed(
+        stamp_ns: i64,
+        range_m: f64,
+        bearing_rad: f64,
+        elevation_rad: f64,
+    ) -> UsblObservation {
+        UsblObservation {
+            stamp_ns,
+            stamp_is_validity: true,
+            received_after_s: None,
+            range_m,
+            bearing_rad,
+            elevation_rad,
+            range_sigma_m: None,
+            bearing_sigma_rad: None,
+            elevation_sigma_rad: None,
+            sound_speed_m_s: None,
+            beacon_id: String::new(),
+        }
+    }
+
     /// Settings of a USBL on the ship's reference point, received 2 s late.
     fn aiding() -> UsblAiding {
         UsblAiding {
@@ -646,33 +682,20 @@ mod tests {
             ..aiding()
         };
         let pose = |t_s: i64, heading_sigma_deg: f64| ShipPose {
-            stamp_ns: t_s * 1_000_000_000,
-            latitude_deg: LAT.to_degrees(),
-            longitude_deg: LON.to_degrees(),
-            roll: 0.0,
-            pitch: 0.0,
-            yaw: 0.0,
-            horizontal_sigma_m: None,
             heading_sigma_rad: Some(heading_sigma_deg.to_radians()),
+            ..level_pose(t_s)
         };
         for north_m in [100.0, 1000.0] {
             let (lat, lon) = geodesy::position_of_local_m(LAT, LON, north_m, 0.0);
             let mut est = estimate(lat, lon, 50.0);
             est.nav.ned_from_body = UnitQuaternion::identity();
             est.sound_speed_scale = 0.0;
-            let seen = UsblObservation {
-                stamp_ns: 10_000_000_000,
-                stamp_is_validity: true,
-                received_after_s: None,
-                range_m: north_m.hypot(50.0),
-                bearing_rad: 0.0,
-                elevation_rad: (50.0 / north_m).atan(),
-                range_sigma_m: None,
-                bearing_sigma_rad: None,
-                elevation_sigma_rad: None,
-                sound_speed_m_s: None,
-                beacon_id: String::new(),
-            };
+            let seen = observed(
+                10_000_000_000,
+                north_m.hypot(50.0),
+                0.0,
+                (50.0 / north_m).atan(),
+            );
             let cross_range_sigma = |heading_sigma_deg: f64| {
                 let ship = [pose(9, heading_sigma_deg), pose(11, heading_sigma_deg)];
                 let aid = UsblAid::new(std::slice::from_ref(&seen), &ship, &a);
@@ -730,31 +753,8 @@ mod tests {
             receipt_delay_s: Some(0.0),
             ..aiding()
         };
-        let ship: Vec<ShipPose> = (0..=60)
-            .map(|t| ShipPose {
-                stamp_ns: t * 1_000_000_000,
-                latitude_deg: LAT.to_degrees(),
-                longitude_deg: LON.to_degrees(),
-                roll: 0.0,
-                pitch: 0.0,
-                yaw: 0.0,
-                horizontal_sigma_m: None,
-                heading_sigma_rad: None,
-            })
-            .collect();
-        let seen = |t_s: i64| UsblObservation {
-            stamp_ns: t_s * 1_000_000_000,
-            stamp_is_validity: true,
-            received_after_s: None,
-            range_m: 300.0,
-            bearing_rad: 0.0,
-            elevation_rad: 0.0,
-            range_sigma_m: None,
-            bearing_sigma_rad: None,
-            elevation_sigma_rad: None,
-            sound_speed_m_s: None,
-            beacon_id: String::new(),
-        };
+        let ship: Vec<ShipPose> = (0..=60).map(level_pose).collect();
+        let seen = |t_s: i64| observed(t_s * 1_000_000_000, 300.0, 0.0, 0.0);
         // 3 s apart, then one 40 s later.
         let readings = [seen(10), seen(13), seen(16), seen(56)];
         let aid = UsblAid::new(&readings, &ship, &a);
@@ -803,29 +803,18 @@ mod tests {
             .map(|t| {
                 let (lat, lon) = geodesy::position_of_local_m(LAT, LON, 0.0, t as f64);
                 ShipPose {
-                    stamp_ns: t * 1_000_000_000,
                     latitude_deg: lat.to_degrees(),
                     longitude_deg: lon.to_degrees(),
-                    roll: 0.0,
-                    pitch: 0.0,
                     yaw: std::f64::consts::FRAC_PI_2,
                     horizontal_sigma_m: Some(0.5),
-                    heading_sigma_rad: None,
+                    ..level_pose(t)
                 }
             })
             .collect();
         let seen = |stamp_s: f64| UsblObservation {
-            stamp_ns: (stamp_s * 1e9) as i64,
             stamp_is_validity: false,
-            received_after_s: None,
-            range_m: 200.0,
-            bearing_rad: 0.0,
-            elevation_rad: 0.5,
-            range_sigma_m: None,
             bearing_sigma_rad: Some(0.01),
-            elevation_sigma_rad: None,
-            sound_speed_m_s: None,
-            beacon_id: String::new(),
+            ..observed((stamp_s * 1e9) as i64, 200.0, 0.0, 0.5)
         };
         let aid = UsblAid::new(&[seen(12.5), seen(30.0), seen(1.0)], &ship, &a);
         let o = aid.observations();
