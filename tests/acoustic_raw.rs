@@ -8,7 +8,6 @@ use crate::common::{self, AcousticRun, Refusals};
 use hindsight::config::Section;
 use hindsight::contract::UsblObservation;
 use hindsight::filters::ins::aid_table::Sensor;
-use hindsight::filters::ins::usbl::UsblAid;
 use hindsight::recon::config::Config;
 use hindsight::recon::plan::{Part, Why};
 use hindsight::recon::Streams;
@@ -20,31 +19,12 @@ use hindsight::sim::scenario::Scenario;
 fn raw_run(scenario: &Scenario, seed: u64) -> AcousticRun {
     let log = common::simulated(scenario, seed);
     let outliers = log.usbl_truth().outlier_receipts_ns;
-    let median_sigma_m = median_positioned_sigma_m(&log);
+    let median_sigma_m = common::median_positioned_sigma_m(&log);
     let r = log.reconstruct(&Config::default());
     let found_s = common::found_acoustic_delay_s(&r).expect("the delay estimated and used");
     let delay_ns = (found_s * 1e9).round() as i64;
     let is_outlier = |stamp_ns: i64| outliers.contains(&(stamp_ns + delay_ns));
     AcousticRun::of((&log, seed), &r, Sensor::Usbl, median_sigma_m, is_outlier)
-}
-
-/// The good observations' median positioned sigma (their own noise and the ship's errors),
-/// m, each placed at its stamp: the ship a few seconds off moves the sigma little.
-fn median_positioned_sigma_m(log: &common::Simulated) -> f64 {
-    let outliers = log.usbl_truth().outlier_receipts_ns;
-    let config = Config::default();
-    let aiding = config.usbl.aid(&config.acoustic_fix, true).unwrap();
-    let received_ns = |o: &UsblObservation| {
-        o.stamp_ns + o.received_after_s.map_or(0, |s| (s * 1e9).round() as i64)
-    };
-    let good: Vec<UsblObservation> = (log.role::<UsblObservation>().iter())
-        .filter(|o| !outliers.contains(&received_ns(o)))
-        .cloned()
-        .collect();
-    let aid = UsblAid::new(&good, Streams::of(log).ship, &aiding);
-    let mut sigmas: Vec<f64> = aid.positioned_fixes().map(|f| f.sigma_m).collect();
-    sigmas.sort_by(f64::total_cmp);
-    sigmas[sigmas.len() / 2]
 }
 
 /// `usbl-raw-survey`, default run: the delay found within 0.1 s; the smoothed horizontal
@@ -146,7 +126,7 @@ fn a_raw_dive_without_gnss_starts_where_its_first_observations_put_it() {
     let sigma_m = first.position_sigma_m.xy().norm();
     eprintln!("start {horizontal_m:.2} m off, claimed 1-sigma {sigma_m:.2} m (2-D)");
     assert!(horizontal_m <= sigma_m, "{first:?}");
-    let median_sigma_m = median_positioned_sigma_m(&log);
+    let median_sigma_m = common::median_positioned_sigma_m(&log);
     let scores = hindsight::recon::score::scores(&fwd).unwrap();
     eprintln!("median sigma {median_sigma_m:.2} m; {scores:?}");
     assert!(

@@ -1,13 +1,16 @@
 //! The acoustic ROS types (issue 58): each, written by hindsight's ROS writer in ROS 1 and in
 //! ROS 2, reads as the contract's messages carrying what the type carries. The fixes are the
-//! `usbl-survey` simulation's; the ship's poses turn through every heading.
+//! `usbl-survey` simulation's; the ship's poses turn through every heading; the EvoLogics
+//! observations are `usbl-raw-survey`'s.
 
 use crate::common;
-use hindsight::contract::{AcousticFix, Message, PositionFix, ShipPose};
+use hindsight::contract::{AcousticFix, Message, PositionFix, ShipPose, UsblObservation};
+use hindsight::ingest::ros::map::Convention;
 use hindsight::ingest::ros::msg::Dialect;
 use hindsight::ingest::Log;
 use hindsight::sim::ros::{
     message_encoding, AcousticGeoPose, AcousticNavSatFix, PositionFixPose, ToRos,
+    UsblLongWithoutCurrentTime,
 };
 use hindsight::sim::scenario::Scenario;
 use hindsight::sim::writer::{to_bytes, WriterOptions};
@@ -172,4 +175,144 @@ fn a_ship_pose_and_a_local_fix_in_ros_read_as_the_contract_messages() {
             "{dialect:?}"
         );
     }
+}
+
+/// `usbl-raw-survey` seed 1's observations as an EvoLogics driver gives them: its
+/// `current_time` and `measurement_time` the simulator's delay apart (`with_times`; else
+/// stamped on receipt only), the vehicle's transponder at address 2, no sigmas; those at
+/// zero range (the simulator's first, at the ship) have no direction to write and are left
+/// out. Returns them with the simulation.
+fn driver_observations(with_times: bool) -> (common::Simulated, Vec<UsblObservation>) {
+    let sim = common::simulated(&Scenario::built_in("usbl-raw-survey").unwrap(), 1);
+    let delay_s = sim.usbl_truth().receipt_delay_s;
+    let observations = (sim.role::<UsblObservation>().iter())
+        .filter(|o| o.range_m > 0.0)
+        .map(|o| as_driver_gives(o, with_times.then_some(delay_s)))
+        .collect();
+    (sim, observations)
+}
+
+/// A receipt-stamped observation as a driver gives it, with the delay when it knows it.
+fn as_driver_gives(o: &UsblObservation, delay_s: Option<f64>) -> UsblObservation {
+    assert!(!o.stamp_is_validity && o.received_after_s.is_none());
+    let delay_ns = delay_s.map_or(0, |s| (s * 1e9).round() as i64);
+    UsblObservation {
+        stamp_ns: o.stamp_ns - delay_ns,
+        stamp_is_validity: delay_s.is_some(),
+        received_after_s: delay_s,
+        range_sigma_m: None,
+        bearing_sigma_rad: None,
+        elevation_sigma_rad: None,
+        beacon_id: "2".into(),
+        ..o.clone()
+    }
+}
+
+/// Equal but for the `float32`s of the message: the target's position to 0.1 mm per km, the
+/// device's times to a quarter of a millisecond.
+fn assert_close(read: &[UsblObservation], expected: &[UsblObservation], what: &str) {
+    assert_eq!(read.len(), expected.len(), "{what}");
+    for (r, e) in read.iter().zip(expected) {
+        let close = (r.stamp_ns - e.stamp_ns).abs() <= 1_000_000
+            && r.stamp_is_validity == e.stamp_is_validity
+            && match (r.received_after_s, e.received_after_s) {
+                (Some(a), Some(b)) => (a - b).abs() <= 1e-3,
+                (a, b) => a == b,
+            }
+            && (r.range_m - e.range_m).abs() <= 1e-7 * e.range_m.max(1000.0)
+            && (r.bearing_rad - e.bearing_rad).abs() <= 1e-6
+            && (r.elevation_rad - e.elevation_rad).abs() <= 1e-6
+            && (r.range_sigma_m, r.bearing_sigma_rad, r.elevation_sigma_rad) == (None, None, None)
+            && match (r.sound_speed_m_s, e.sound_speed_m_s) {
+                (Some(a), Some(b)) => (a - b).abs() <= 1e-3,
+                (a, b) => a == b,
+            }
+            && r.beacon_id == e.beacon_id;
+        assert!(close, "{what}: read {r:?}, expected {e:?}");
+    }
+}
+
+/// EvoLogics' `USBLLONG` (issue 58's vendor message with both times): its two device times
+/// place each observation at its time of validity, the delay kept; the older message
+/// without `current_time` is read as stamped on receipt; the target's position becomes the
+/// range, bearing and elevation in the transducer's axes.
+#[test]
+fn evologics_usbllong_reads_as_the_contract_observations() {
+    let (_, timed) = driver_observations(true);
+    let (_, receipt) = driver_observations(false);
+    assert!(timed.len() > 400, "{}", timed.len());
+    let expected_timed = contract_log(&timed);
+    let expected_receipt = contract_log(&receipt);
+    let received_ns =
+        |o: &UsblObservation| o.stamp_ns + o.received_after_s.map_or(0, |s| (s * 1e9) as i64);
+    for dialect in [Dialect::Ros1, Dialect::Ros2] {
+        let log = ros_log(dialect, "/evologics/usbllong", &timed, |o| {
+            (received_ns(o), o.clone())
+        });
+        assert!(log.warnings().is_empty(), "{:?}", log.warnings());
+        assert_close(
+            log.role::<UsblObservation>(),
+            expected_timed.role::<UsblObservation>(),
+            &format!("{dialect:?} USBLLONG"),
+        );
+        let log = ros_log(dialect, "/evologics/usbllong", &receipt, |o| {
+            (o.stamp_ns, UsblLongWithoutCurrentTime(o))
+        });
+        assert_close(
+            log.role::<UsblObservation>(),
+            expected_receipt.role::<UsblObservation>(),
+            &format!("{dialect:?} USBLLONG without current_time"),
+        );
+    }
+}
+
+/// A survey whose USBL comes as `USBLLONG` (ROS 2, in the same file as the contract's other
+/// topics), default run: the observations are placed by their own two times, so no delay is
+/// estimated; every outlier is refused and no good observation; the track keeps the raw
+/// survey's bars (smoothed RMS at most half the median positioned sigma, forward NEES inside
+/// its bounds at least 90 % of the time).
+#[test]
+fn a_usbllong_survey_is_placed_by_its_two_times() {
+    let (sim, written) = driver_observations(false);
+    let truth = sim.usbl_truth();
+    let delay_s = truth.receipt_delay_s;
+    let ros = sim.with_rewritten("/usbl", |o: &UsblObservation, raw| {
+        if o.range_m <= 0.0 {
+            return None;
+        }
+        let o = as_driver_gives(o, Some(delay_s));
+        Some(common::RawMessage {
+            schema_name: UsblObservation::type_name(Dialect::Ros2),
+            schema_text: UsblObservation::definition_in(Dialect::Ros2),
+            encoding: message_encoding(Dialect::Ros2).into(),
+            data: o.encode(Dialect::Ros2, Convention::Native, &Default::default()),
+            ..raw
+        })
+    });
+    let read = ros.role::<UsblObservation>();
+    assert_eq!(read.len(), written.len());
+    assert!(read.iter().all(|o| o.stamp_is_validity));
+    let r = ros.reconstruct(&hindsight::recon::config::Config::default());
+    let delay = (r.summary.plan.decisions.iter())
+        .find(|d| d.part == hindsight::recon::plan::Part::AcousticFixDelay);
+    assert!(
+        delay.is_some_and(|d| d.why == hindsight::recon::plan::Why::CarriedByFixes),
+        "the delay carried by the observations: {delay:?}"
+    );
+    let delay_ns = (delay_s * 1e9).round() as i64;
+    // The stamps of validity come through the device's float32 times: to a millisecond.
+    let is_outlier = |stamp_ns: i64| {
+        let receipt_ns = stamp_ns + delay_ns;
+        (truth.outlier_receipts_ns.range(receipt_ns - 1_000_000..=receipt_ns + 1_000_000))
+            .next()
+            .is_some()
+    };
+    let median_sigma_m = common::median_positioned_sigma_m(&sim);
+    let sensor = hindsight::filters::ins::aid_table::Sensor::Usbl;
+    let run = common::AcousticRun::of((&ros, 1), &r, sensor, median_sigma_m, is_outlier);
+    eprintln!("USBLLONG: {run:?}");
+    run.assert_placed();
+    assert!(run.forward_nees_inside >= 0.9, "{run:?}");
+    assert_eq!(run.refusals.outliers_refused, run.refusals.outliers);
+    run.refusals.assert_outliers_cannot_move_the_track();
 }

@@ -51,7 +51,8 @@ contract (the message names topic, log time and field); 4 an output could not be
 Logs follow the recorded-log contract: MCAP with JSON messages whose schemas are in schemas/,
 or ROS 2 recordings (rosbag2 MCAP, cdr) of the standard types (sensor_msgs Imu, MagneticField,
 NavSatFix, FluidPressure, Range; geometry_msgs TwistWithCovarianceStamped, QuaternionStamped,
-PointStamped, PoseWithCovarianceStamped; geographic_msgs GeoPointStamped, GeoPoseStamped), or
+PointStamped, PoseWithCovarianceStamped; geographic_msgs GeoPointStamped, GeoPoseStamped;
+driver types such as Water Linked's DVL and EvoLogics' USBLLONG: docs/guide/logs.md), or
 both in one file. Each role (imu, dvl, ...) takes its default topic, else
 the one topic of its type, else --topic ROLE=TOPIC.";
 

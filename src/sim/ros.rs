@@ -6,7 +6,7 @@
 use super::writer::{LogWriter, WriteError};
 use crate::contract::{
     AcousticFix, Altimeter, Attitude, Depth, Dvl, GnssFix, Imu, MagneticField, Message,
-    PositionFix, ShipPose,
+    PositionFix, ShipPose, UsblObservation,
 };
 use crate::ingest::ros::map::RosType;
 use crate::ingest::ros::map::{ned_from_frd, Convention, RosSettings};
@@ -287,6 +287,69 @@ impl ToRos for PositionFixPose<'_> {
     }
 }
 
+/// The EvoLogics device's clock of an observation: seconds within the hour, plus 100 s
+/// (small, as a device's uptime: `float32` keeps them to 0.25 ms).
+fn device_clock_s(stamp_ns: i64) -> f64 {
+    100.0 + stamp_ns.rem_euclid(3_600_000_000_000) as f64 * 1e-9
+}
+
+/// A USBL observation as EvoLogics' `USBLLONG` (the inverse of
+/// [`crate::ingest::ros::evologics`]): the header stamped on receipt, the device's two
+/// times the delay apart (0 for a time of validity without one; `current_time` NaN for a
+/// stamp of receipt), the target in the
+/// transducer's axes, the propagation time from the speed of sound (0 without one), the
+/// beacon id as the remote address (0 when it is not a number). The device's own attitude
+/// and motion-compensated position are written as zeros: the reader takes the ship's.
+fn usbl_long(o: &UsblObservation, d: Dialect, with_current_time: bool) -> Vec<u8> {
+    // A time of validity without a delay: received at once.
+    let delay_s = o
+        .stamp_is_validity
+        .then(|| o.received_after_s.unwrap_or(0.0));
+    let receipt_ns = o.stamp_ns + delay_s.map_or(0, |s| (s * 1e9).round() as i64);
+    let measurement_time = device_clock_s(o.stamp_ns);
+    let current_time = delay_s.map_or(f64::NAN, |s| measurement_time + s);
+    let (cos_e, sin_e) = (o.elevation_rad.cos(), o.elevation_rad.sin());
+    let target = [
+        o.range_m * cos_e * o.bearing_rad.cos(),
+        o.range_m * cos_e * o.bearing_rad.sin(),
+        o.range_m * sin_e,
+    ];
+    let propagation_us = o.sound_speed_m_s.map_or(0.0, |c| o.range_m / c * 1e6);
+    let mut w = WireWriter::of(d);
+    w.header(receipt_ns, "usbl");
+    if with_current_time {
+        w.f32(current_time as f32);
+    }
+    w.f32(measurement_time as f32)
+        .u8(o.beacon_id.parse().unwrap_or(0));
+    for v in target.into_iter().chain([0.0; 6]) {
+        w.f32(v as f32);
+    }
+    w.f32(propagation_us as f32).f32(0.0).u32(0);
+    w.into_bytes()
+}
+
+impl ToRos for UsblObservation {
+    const ROS_TYPE: RosType = RosType::EvologicsUsblLong;
+    fn encode(&self, d: Dialect, _: Convention, _: &RosSettings) -> Vec<u8> {
+        usbl_long(self, d, true)
+    }
+}
+
+/// A USBL observation as the older `USBLLONG` message of the same driver, which has no
+/// `current_time`: stamped on receipt only.
+pub struct UsblLongWithoutCurrentTime<'a>(pub &'a UsblObservation);
+
+impl ToRos for UsblLongWithoutCurrentTime<'_> {
+    const ROS_TYPE: RosType = RosType::EvologicsUsblLong;
+    fn encode(&self, d: Dialect, _: Convention, _: &RosSettings) -> Vec<u8> {
+        usbl_long(self.0, d, false)
+    }
+    fn definition_in(dialect: Dialect) -> String {
+        UsblObservation::definition_in(dialect).replacen("float32 current_time\n", "", 1)
+    }
+}
+
 /// The encoder of one stream: its messages in their standard type.
 struct StreamEncoder<'a> {
     type_name: String,
@@ -323,6 +386,7 @@ fn encoder_of<'a>(
         .or_else(|| typed::<PositionFix>(stream, d, c, s))
         .or_else(|| typed::<AcousticFix>(stream, d, c, s))
         .or_else(|| typed::<ShipPose>(stream, d, c, s))
+        .or_else(|| typed::<UsblObservation>(stream, d, c, s))
 }
 
 /// What [`write_as_ros`] does with a stream of no standard ROS type (`/eml`, `/rpm`,

@@ -152,6 +152,15 @@ pub fn simulated(scenario: &hindsight::sim::scenario::Scenario, seed: u64) -> Si
     }
 }
 
+/// One message as written: its schema, encoding, bytes and log time.
+pub struct RawMessage {
+    pub schema_name: String,
+    pub schema_text: String,
+    pub encoding: String,
+    pub data: Vec<u8>,
+    pub log_time: u64,
+}
+
 impl Simulated {
     /// The same log with each `T` reading on `topic` changed by `change` (`None`: left out);
     /// every other message and the metadata records as they were.
@@ -159,6 +168,23 @@ impl Simulated {
         &self,
         topic: &str,
         change: impl Fn(&T) -> Option<T>,
+    ) -> Simulated {
+        self.with_rewritten(topic, |reading: &T, raw| {
+            let changed = change(reading)?;
+            Some(RawMessage {
+                data: serde_json::to_vec(&changed).expect("json"),
+                ..raw
+            })
+        })
+    }
+
+    /// The same log with each `T` reading on `topic` written as `rewrite` says (given the
+    /// reading and the message as it stands; `None`: left out), e.g. in a ROS type; every
+    /// other message and the metadata records as they were.
+    pub fn with_rewritten<T: hindsight::contract::Message>(
+        &self,
+        topic: &str,
+        rewrite: impl Fn(&T, RawMessage) -> Option<RawMessage>,
     ) -> Simulated {
         let bytes = to_bytes(WriterOptions::default(), |w| {
             if let Ok(mission) = self.log.mission() {
@@ -171,23 +197,29 @@ impl Simulated {
                 let m = m.expect("a whole message");
                 let c = &m.channel;
                 let schema = c.schema.as_ref().expect("a schema");
-                let data = if c.topic == topic {
+                let raw = RawMessage {
+                    schema_name: schema.name.clone(),
+                    schema_text: String::from_utf8(schema.data.to_vec()).expect("a text schema"),
+                    encoding: c.message_encoding.clone(),
+                    data: m.data.to_vec(),
+                    log_time: m.log_time,
+                };
+                let raw = if c.topic == topic {
                     let reading: T = serde_json::from_slice(&m.data).expect("a json message");
-                    match change(&reading) {
-                        Some(changed) => serde_json::to_vec(&changed).expect("json"),
+                    match rewrite(&reading, raw) {
+                        Some(raw) => raw,
                         None => continue,
                     }
                 } else {
-                    m.data.to_vec()
+                    raw
                 };
-                let text = std::str::from_utf8(&schema.data).expect("a text schema");
                 w.write_raw(
                     &c.topic,
-                    &schema.name,
-                    text,
-                    &c.message_encoding,
-                    &data,
-                    m.log_time,
+                    &raw.schema_name,
+                    &raw.schema_text,
+                    &raw.encoding,
+                    &raw.data,
+                    raw.log_time,
                 )?;
             }
             Ok(())
@@ -517,6 +549,30 @@ impl Refusals {
             self.good
         );
     }
+}
+
+/// The good observations' median positioned sigma (their own noise and the ship's errors),
+/// m, each placed at its stamp: the ship a few seconds off moves the sigma little.
+pub fn median_positioned_sigma_m(log: &Simulated) -> f64 {
+    let outliers = log.usbl_truth().outlier_receipts_ns;
+    let config = hindsight::recon::config::Config::default();
+    let aiding = config.usbl.aid(&config.acoustic_fix, true).unwrap();
+    let received_ns = |o: &hindsight::contract::UsblObservation| {
+        o.stamp_ns + o.received_after_s.map_or(0, |s| (s * 1e9).round() as i64)
+    };
+    let good: Vec<hindsight::contract::UsblObservation> =
+        (log.role::<hindsight::contract::UsblObservation>().iter())
+            .filter(|o| !outliers.contains(&received_ns(o)))
+            .cloned()
+            .collect();
+    let aid = hindsight::filters::ins::usbl::UsblAid::new(
+        &good,
+        hindsight::recon::Streams::of(log).ship,
+        &aiding,
+    );
+    let mut sigmas: Vec<f64> = aid.positioned_fixes().map(|f| f.sigma_m).collect();
+    sigmas.sort_by(f64::total_cmp);
+    sigmas[sigmas.len() / 2]
 }
 
 /// The acoustic receipt delay the plan estimated and used, s.

@@ -83,7 +83,9 @@ impl RosDecoder {
         let defs = parse_as(dialect, schema_name, schema_text)?;
         let numbers = ty.numbers();
         let plan = Plan::new(&defs, &numbers, &FRAME)?;
-        if let Some(i) = (0..numbers.len()).find(|&i| !plan.has_number(i)) {
+        if let Some(i) =
+            (0..numbers.len()).find(|&i| !plan.has_number(i) && !ty.may_lack(numbers[i]))
+        {
             return Err(RosSchemaError::MissingField {
                 ty: ty.name(),
                 field: numbers[i].to_string(),
@@ -156,6 +158,7 @@ impl Decoder for RosDecoder {
             }
             RosType::ShipGeoPose => Box::new(Vec::<ShipPose>::new()),
             RosType::PoseWithCovarianceStamped => Box::new(Vec::<PositionFix>::new()),
+            RosType::EvologicsUsblLong => Box::new(Vec::<UsblObservation>::new()),
         }
     }
     fn decode_into(&self, data: &[u8], out: &mut dyn Samples) -> Result<(), FieldIssue> {
@@ -171,6 +174,7 @@ impl Decoder for RosDecoder {
             Converted::Truth(m) => push(out, m),
             Converted::AcousticFix(m) => push(out, m),
             Converted::ShipPose(m) => push(out, m),
+            Converted::Usbl(m) => push(out, m),
         }
     }
 }

@@ -9,7 +9,7 @@
 
 use crate::contract::{
     AcousticFix, Altimeter, Attitude, Depth, Dvl, FieldIssue, GnssFix, Imu, MagneticField,
-    PositionFix, ShipPose, Truth,
+    PositionFix, ShipPose, Truth, UsblObservation,
 };
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use std::collections::BTreeMap;
@@ -101,6 +101,10 @@ pub enum RosType {
     /// A `geographic_msgs/GeoPoseStamped` on the ship's topic (see [`RosType::on_topic`]):
     /// the support ship's position and attitude.
     ShipGeoPose,
+    /// EvoLogics' `USBLLONG` as its ROS drivers publish it
+    /// (`vehicle_interface/AcousticModemUSBLLONG`): a ship-relative USBL observation (see
+    /// [`super::evologics`]).
+    EvologicsUsblLong,
 }
 
 /// Whether a topic's name says it holds acoustic positions (`/usbl/fix`, `/acoustic_fix`).
@@ -122,7 +126,7 @@ pub const FRAME: [&str; 1] = ["header.frame_id"];
 impl RosType {
     /// The types found by their name (the role readings of a type are not: see
     /// [`RosType::on_topic`]).
-    pub const ALL: [RosType; 15] = [
+    pub const ALL: [RosType; 16] = [
         RosType::Imu,
         RosType::MagneticField,
         RosType::NavSatFix,
@@ -138,6 +142,7 @@ impl RosType {
         RosType::GeoPointStamped,
         RosType::GeoPoseStamped,
         RosType::PoseWithCovarianceStamped,
+        RosType::EvologicsUsblLong,
     ];
 
     /// The type's full name, `pkg/Type`.
@@ -158,6 +163,7 @@ impl RosType {
             RosType::GeoPointStamped => "geographic_msgs/GeoPointStamped",
             RosType::GeoPoseStamped | RosType::ShipGeoPose => "geographic_msgs/GeoPoseStamped",
             RosType::PoseWithCovarianceStamped => "geometry_msgs/PoseWithCovarianceStamped",
+            RosType::EvologicsUsblLong => "vehicle_interface/AcousticModemUSBLLONG",
         }
     }
 
@@ -166,6 +172,11 @@ impl RosType {
         match self {
             RosType::WaterLinkedDvl => &["dvl_msgs/DVL"],
             RosType::UuvDvl => &["uuv_sensor_plugins_ros_msgs/DVL"],
+            // The same message copied into other drivers' packages.
+            RosType::EvologicsUsblLong => &[
+                "vehicle_msgs/AcousticModemUSBLLONG",
+                "evologics_ros/AcousticModemUSBLLONG",
+            ],
             _ => &[],
         }
     }
@@ -225,6 +236,11 @@ impl RosType {
     /// several (wheel, visual, the filter's own), and none of them is a truth by itself.
     pub fn only_when_named_for(self) -> Option<&'static str> {
         (self == RosType::Odometry).then_some("truth")
+    }
+
+    /// Whether a field may be missing from the type's schema (read as NaN then).
+    pub fn may_lack(self, path: &str) -> bool {
+        self == RosType::EvologicsUsblLong && super::evologics::OPTIONAL.contains(&path)
     }
 
     /// The numbers read, after the stamp.
@@ -304,6 +320,7 @@ impl RosType {
             | RosType::ShipGeoPose
             | RosType::PoseWithCovarianceStamped
             | RosType::AcousticNavSatFix => self.acoustic_fields(),
+            RosType::EvologicsUsblLong => &super::evologics::FIELDS,
         }
     }
 
@@ -370,6 +387,7 @@ pub enum Converted {
     Truth(Truth),
     AcousticFix(AcousticFix),
     ShipPose(ShipPose),
+    Usbl(UsblObservation),
 }
 
 /// The convention a message's frame name says.
@@ -610,7 +628,9 @@ pub fn convert(
         .ok_or_else(|| FieldIssue::new("header.stamp", "out of range"))?;
     let c = given.unwrap_or_else(|| match ty {
         // The message defines its frame: z toward the seabed, x forward (so y starboard).
-        RosType::AcousticDvl | RosType::WaterLinkedDvl => Convention::Native,
+        RosType::AcousticDvl | RosType::WaterLinkedDvl | RosType::EvologicsUsblLong => {
+            Convention::Native
+        }
         _ => convention_of(frame_id, ty.in_body()),
     });
     let f = &n[STAMP.len()..];
@@ -653,6 +673,7 @@ pub fn convert(
         | RosType::AcousticNavSatFix
         | RosType::ShipGeoPose
         | RosType::PoseWithCovarianceStamped => acoustic(ty, stamp_ns, f, frame_id, c, s)?,
+        RosType::EvologicsUsblLong => Converted::Usbl(super::evologics::usbl_long(stamp_ns, f, s)?),
         RosType::PointStamped => {
             let p = world(v3(0), c);
             Converted::PositionFix(PositionFix {

@@ -6,6 +6,7 @@
 
 pub mod cdr;
 pub mod decoder;
+pub mod evologics;
 pub mod map;
 pub mod msg;
 pub mod standard;

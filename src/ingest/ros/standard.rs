@@ -25,6 +25,14 @@ const POSE: &str = "MSG: geometry_msgs/Pose\nPoint position\nQuaternion orientat
 const GEO_POINT: &str =
     "MSG: geographic_msgs/GeoPoint\nfloat64 latitude\nfloat64 longitude\nfloat64 altitude\n";
 
+/// `vehicle_interface/AcousticModemUSBLLONG` as the oceansystemslab EvoLogics driver
+/// publishes it (an older variant has no `current_time`).
+const USBL_LONG: &str = "std_msgs/Header header\nfloat32 current_time\nfloat32 measurement_time\n\
+     uint8 remote_address\nfloat32 X\nfloat32 Y\nfloat32 Z\nfloat32 N\nfloat32 E\nfloat32 U\n\
+     float32 roll\nfloat32 pitch\nfloat32 yaw\nfloat32 propagation_time\nfloat32 accuracy\n\
+     diagnostic_msgs/KeyValue[] info\n";
+const KEY_VALUE: &str = "MSG: diagnostic_msgs/KeyValue\nstring key\nstring value\n";
+
 /// A message definition with its dependencies, written as ROS 2's: ROS 1's has its own
 /// header and no `Time`.
 fn joined(dialect: Dialect, main: &str, dependencies: &[&str]) -> String {
@@ -136,6 +144,7 @@ pub fn definition(ty: RosType, dialect: Dialect) -> Option<String> {
             "std_msgs/Header header\ngeometry_msgs/Point point\n",
             &[HEADER, TIME, POINT],
         ),
+        RosType::EvologicsUsblLong => joined(d, USBL_LONG, &[HEADER, TIME, KEY_VALUE]),
         RosType::AcousticDvl | RosType::WaterLinkedDvl | RosType::UuvDvl => return None,
     })
 }
