@@ -303,9 +303,11 @@ fn a_usbllong_survey_is_placed_by_its_two_times() {
     // The stamps of validity come through the device's float32 times: to a millisecond.
     let is_outlier = |stamp_ns: i64| {
         let receipt_ns = stamp_ns + delay_ns;
-        (truth.outlier_receipts_ns.range(receipt_ns - 1_000_000..=receipt_ns + 1_000_000))
-            .next()
-            .is_some()
+        (truth
+            .outlier_receipts_ns
+            .range(receipt_ns - 1_000_000..=receipt_ns + 1_000_000))
+        .next()
+        .is_some()
     };
     let median_sigma_m = common::median_positioned_sigma_m(&sim);
     let sensor = hindsight::filters::ins::aid_table::Sensor::Usbl;

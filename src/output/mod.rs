@@ -13,6 +13,7 @@ pub mod foxglove;
 pub mod identify_tables;
 pub mod parquet;
 pub mod plots;
+pub mod recon_arrow;
 pub mod recon_blocks;
 pub mod recon_folder;
 pub mod recon_report;

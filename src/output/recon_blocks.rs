@@ -19,6 +19,8 @@ use crate::filters::ins::record::Solution;
 use crate::recon::score::{self, EpochError};
 use crate::recon::stats::Distance;
 use crate::recon::Reconstruction;
+use arrow_array::RecordBatch;
+use arrow_schema::ArrowError;
 use std::path::PathBuf;
 use std::sync::{mpsc, Arc};
 
@@ -108,18 +110,29 @@ pub fn trajectory_parquet(
         let schema = recon_tables::trajectory_batch("forward", &[], origin_rad)?.schema();
         let mut w = TableWriter::new(file, schema)?;
         for b in blocks {
-            if b.kept.is_empty() {
-                continue;
-            }
-            for (name, all) in [("forward", &b.forward), ("smoothed", &b.smoothed)] {
-                let rows = b.kept_of(all);
-                w.write(&recon_tables::trajectory_batch(name, &rows, origin_rad)?)?;
+            for batch in trajectory_batches(&b, origin_rad)? {
+                w.write(&batch)?;
             }
         }
         w.finish()?;
         Ok(())
     };
     write().map_err(WriteError::at(&path))
+}
+
+/// A block's rows of trajectory.parquet: its forward rows, then its smoothed rows (none
+/// when it keeps no row).
+pub fn trajectory_batches(
+    b: &Block,
+    origin_rad: (f64, f64),
+) -> Result<Vec<RecordBatch>, ArrowError> {
+    if b.kept.is_empty() {
+        return Ok(Vec::new());
+    }
+    [("forward", &b.forward), ("smoothed", &b.smoothed)]
+        .into_iter()
+        .map(|(name, all)| recon_tables::trajectory_batch(name, &b.kept_of(all), origin_rad))
+        .collect()
 }
 
 /// trajectory.mcap from the blocks: the forward and smoothed solutions at each row as
@@ -291,17 +304,31 @@ pub fn errors_parquet((path, file): Staged, blocks: mpsc::Receiver<BlockErrors>)
     let write = || -> Result<(), AnyError> {
         let schema = recon_tables::errors_batch("forward", &[])?.schema();
         let mut w = TableWriter::new(file, schema)?;
-        for (fwd, smo) in blocks {
-            for (name, rows) in [("forward", &fwd), ("smoothed", &smo)] {
-                if !rows.is_empty() {
-                    w.write(&recon_tables::errors_batch(name, rows)?)?;
-                }
+        for block in blocks {
+            for batch in errors_batches(&block)? {
+                w.write(&batch)?;
             }
         }
         w.finish()?;
         Ok(())
     };
     write().map_err(WriteError::at(&path))
+}
+
+/// A block's rows of errors.parquet: its forward rows, then its smoothed rows.
+pub fn errors_batches((fwd, smo): &BlockErrors) -> Result<Vec<RecordBatch>, ArrowError> {
+    [("forward", fwd), ("smoothed", smo)]
+        .into_iter()
+        .filter(|(_, rows)| !rows.is_empty())
+        .map(|(name, rows)| recon_tables::errors_batch(name, rows))
+        .collect()
+}
+
+/// A thread's result; its panic goes on.
+pub fn joined<T>(thread: std::thread::ScopedJoinHandle<'_, T>) -> T {
+    thread
+        .join()
+        .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
 }
 
 /// The rows the report draws: a picture thins to a few thousand points anyway, and a

@@ -8,7 +8,7 @@
 //! batch), so that no thread waits on the pool from outside it.
 
 use super::files::Folder;
-use super::recon_blocks::{self, Tables};
+use super::recon_blocks::{self, joined, Tables};
 use super::recon_report;
 use super::recon_tables;
 use super::WriteError;
@@ -46,13 +46,6 @@ fn report(r: &Reconstruction) -> super::report::Report {
         truth_errors: (r.scored.errors.as_ref()).map(|(f, s)| (&f.points[..], &s.points[..])),
         init_text: r.solved.init.to_string(),
     })
-}
-
-/// A thread's result; its panic goes on.
-fn joined<T>(thread: std::thread::ScopedJoinHandle<'_, T>) -> T {
-    thread
-        .join()
-        .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
 }
 
 /// The tables, from one read of the solutions: trajectory.parquet (then residuals.parquet),

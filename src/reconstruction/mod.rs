@@ -273,6 +273,12 @@ impl Reconstruction {
     pub fn write(&mut self, dir: &Path) -> Result<Vec<PathBuf>, Error> {
         crate::output::recon_folder::write(self, dir)
     }
+
+    /// The output folder's tables as Arrow batches in memory (trajectory, residuals and
+    /// errors), as the files hold them.
+    pub fn tables(&self) -> Result<crate::output::recon_arrow::ArrowTables, Error> {
+        crate::output::recon_arrow::tables(self)
+    }
 }
 
 /// The log, read and put on one clock.

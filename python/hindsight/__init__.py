@@ -1,0 +1,156 @@
+"""hindsight from Python: the reconstruction of an underwater vehicle's recorded dive.
+
+    >>> import hindsight
+    >>> r = hindsight.reconstruct("sample-logs/survey-short-seed1.mcap")
+    >>> r.trajectory.num_rows
+    >>> import pyarrow; pyarrow.table(r.trajectory)     # no copy
+    >>> r.write("out/")                                 # the CLI's output folder
+
+The work runs in Rust with the GIL released; the tables cross as Arrow through the
+PyCapsule interface (``__arrow_c_stream__``), so pyarrow, polars and DuckDB take their
+buffers as they are. Errors are :class:`LogError`, :class:`SettingsError` or
+:class:`OutputError` (all :class:`HindsightError`), with the message the CLI prints.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Mapping, Optional, Union
+
+from ._hindsight import (
+    ArrowTable,
+    HindsightError,
+    LogError,
+    OutputError,
+    SettingsError,
+)
+from ._hindsight import reconstruct as _reconstruct
+
+__all__ = [
+    "reconstruct",
+    "Reconstruction",
+    "ArrowTable",
+    "HindsightError",
+    "LogError",
+    "SettingsError",
+    "OutputError",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def _toml_value(value: Any, key: str) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v, key) for v in value) + "]"
+    raise SettingsError(f"`{key}`: {type(value).__name__} is not a setting's type")
+
+
+def _toml(settings: Mapping[str, Any], prefix: str = "") -> str:
+    """TOML text of nested settings: top-level keys, then one table per section."""
+    lines, tables = [], []
+    for key, value in settings.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, Mapping):
+            tables.append((name, value))
+        else:
+            lines.append(f"{key} = {_toml_value(value, name)}")
+    text = "\n".join(lines) + ("\n" if lines else "")
+    for name, table in tables:
+        text += f"\n[{name}]\n" + _toml(table, prefix=f"{name}.")
+    return text
+
+
+def _merged(base: dict, over: Mapping[str, Any]) -> dict:
+    out = dict(base)
+    for key, value in over.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = _merged(dict(out[key]), value)
+        else:
+            out[key] = value
+    return out
+
+
+def _settings_toml(settings: Union[None, PathLike, Mapping[str, Any]], overrides) -> str:
+    if settings is None:
+        base: dict = {}
+    elif isinstance(settings, Mapping):
+        base = dict(settings)
+    else:
+        import tomllib  # Python 3.11+; a dict works on any version
+
+        path = os.fspath(settings)
+        try:
+            with open(path, "rb") as f:
+                base = tomllib.load(f)
+        except OSError as e:
+            raise SettingsError(f"reading {path}: {e.strerror}") from None
+        except tomllib.TOMLDecodeError as e:
+            raise SettingsError(f"{path}: {e}") from None
+    return _toml(_merged(base, overrides))
+
+
+class Reconstruction:
+    """One reconstructed mission: its tables, its plan and summary, its output folder."""
+
+    def __init__(self, inner) -> None:
+        self._inner = inner
+        self._summary: Optional[dict] = None
+
+    @property
+    def trajectory(self) -> ArrowTable:
+        """trajectory.parquet's rows (forward and smoothed solutions), as Arrow."""
+        return self._inner.trajectory
+
+    @property
+    def residuals(self) -> ArrowTable:
+        """residuals.parquet's rows: every aiding reading's innovation, as Arrow."""
+        return self._inner.residuals
+
+    @property
+    def errors(self) -> ArrowTable:
+        """errors.parquet's rows against the log's truth (none without one), as Arrow."""
+        return self._inner.errors
+
+    @property
+    def summary(self) -> dict:
+        """summary.json's content."""
+        if self._summary is None:
+            self._summary = json.loads(self._inner.summary_json)
+        return self._summary
+
+    @property
+    def plan(self) -> dict:
+        """What the run decided from the log, and why (summary.json's ``plan``)."""
+        return self.summary["plan"]
+
+    @property
+    def warnings(self) -> list:
+        """The run's warnings (summary.json's ``warnings``)."""
+        return self.summary.get("warnings", [])
+
+    def write(self, dir: PathLike) -> list:
+        """Writes the output folder, as ``hindsight reconstruct --out DIR`` does."""
+        return [os.fspath(p) for p in self._inner.write(os.fspath(dir))]
+
+
+def reconstruct(
+    log: PathLike,
+    settings: Union[None, PathLike, Mapping[str, Any]] = None,
+    **overrides: Mapping[str, Any],
+) -> Reconstruction:
+    """Reconstructs the mission in ``log`` (MCAP, ROS 1 bag, rosbag2 folder).
+
+    ``settings``: a TOML file as ``hindsight reconstruct --config`` takes, or the same as a
+    dict. ``overrides``: sections laid over it, e.g. ``usbl={"ship_heading_correlation_s": 5}``.
+    Raises :class:`LogError` or :class:`SettingsError` with the CLI's message.
+    """
+    text = _settings_toml(settings, overrides)
+    path = os.fspath(log)
+    return Reconstruction(_reconstruct(path, text))
