@@ -9,6 +9,7 @@
 pub mod align;
 pub mod angle;
 pub mod attitude;
+pub mod batch;
 pub mod config;
 pub mod contract;
 pub mod disk_backed;

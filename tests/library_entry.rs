@@ -107,3 +107,37 @@ fn every_warning_in_the_summary_has_a_code_and_its_message() {
         .expect("a rejection");
     assert!(rejected["rejected"].as_u64().is_some() && rejected["count"].as_u64().is_some());
 }
+
+/// The tables in memory (what the Python package hands over) are the rows the files hold:
+/// trajectory.parquet, residuals.parquet and errors.parquet read back, batch for batch
+/// concatenated, equal them column by column.
+#[test]
+fn the_tables_in_memory_are_the_files_rows() {
+    let dir = scratch_dir("entry-tables");
+    let job = hindsight::Job::new(Path::new(SAMPLE), Config::default());
+    let mut r = hindsight::reconstruct(&job, Default::default()).expect("reconstructs");
+    let tables = r.tables().expect("tables");
+    r.write(&dir).expect("writes");
+    let concat = |batches: &[arrow_array::RecordBatch]| {
+        arrow_select::concat::concat_batches(&batches[0].schema(), batches).unwrap()
+    };
+    for (name, in_memory) in [
+        ("trajectory.parquet", &tables.trajectory),
+        ("residuals.parquet", &tables.residuals),
+        ("errors.parquet", &tables.errors),
+    ] {
+        let from_file = concat(&crate::common::read_parquet(&dir.join(name)));
+        let in_memory = concat(in_memory);
+        assert!(
+            in_memory.num_rows() > 100,
+            "{name}: {}",
+            in_memory.num_rows()
+        );
+        assert_eq!(in_memory.num_rows(), from_file.num_rows(), "{name}");
+        for field in in_memory.schema().fields() {
+            let a = in_memory.column_by_name(field.name()).unwrap();
+            let b = from_file.column_by_name(field.name()).unwrap();
+            assert_eq!(a.to_data(), b.to_data(), "{name}: {}", field.name());
+        }
+    }
+}

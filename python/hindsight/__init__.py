@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Any, Mapping, Optional, Union
+from typing import Any, Callable, Mapping, Optional, Union
 
 from ._hindsight import (
     ArrowTable,
@@ -25,10 +25,16 @@ from ._hindsight import (
     OutputError,
     SettingsError,
 )
+from ._hindsight import batch_mission as _batch_mission
+from ._hindsight import read_log as _read_log
 from ._hindsight import reconstruct as _reconstruct
+from ._hindsight import write_batch_summary as _write_batch_summary
 
 __all__ = [
     "reconstruct",
+    "read_log",
+    "batch_mission",
+    "write_batch_summary",
     "Reconstruction",
     "ArrowTable",
     "HindsightError",
@@ -143,14 +149,47 @@ class Reconstruction:
 def reconstruct(
     log: PathLike,
     settings: Union[None, PathLike, Mapping[str, Any]] = None,
+    progress: Optional[Callable[[str, float], Any]] = None,
     **overrides: Mapping[str, Any],
 ) -> Reconstruction:
     """Reconstructs the mission in ``log`` (MCAP, ROS 1 bag, rosbag2 folder).
 
     ``settings``: a TOML file as ``hindsight reconstruct --config`` takes, or the same as a
     dict. ``overrides``: sections laid over it, e.g. ``usbl={"ship_heading_correlation_s": 5}``.
-    Raises :class:`LogError` or :class:`SettingsError` with the CLI's message.
+    ``progress(stage, fraction)``: told now and then how far ``"read"``, ``"forward"`` and
+    ``"smoother"`` are (from the worker threads; an exception it raises ends the run after
+    it). Raises :class:`LogError` or :class:`SettingsError` with the CLI's message.
     """
     text = _settings_toml(settings, overrides)
     path = os.fspath(log)
-    return Reconstruction(_reconstruct(path, text))
+    return Reconstruction(_reconstruct(path, text, progress))
+
+
+def read_log(log: PathLike) -> dict:
+    """Every topic of ``log`` as an Arrow table (``stamp_ns``, ``log_time_ns``, then every
+    field, as ``hindsight export`` writes them), by topic name."""
+    return dict(_read_log(os.fspath(log)))
+
+
+def batch_mission(
+    log: PathLike,
+    out: PathLike,
+    settings: Union[None, PathLike, Mapping[str, Any]] = None,
+    force: bool = False,
+    **overrides: Mapping[str, Any],
+) -> dict:
+    """One mission of a batch, as ``hindsight batch`` runs each log: reconstructed into
+    ``out/mission=<log's stem>/`` (a hive-style partition) unless its outputs are complete
+    there already (and not ``force``). Returns its row of ``batch_summary.parquet``; a failed
+    mission is a row too (``status`` "failed", ``error``). The tables go to disk from here:
+    only the row comes back. A task for Dask or Ray: see :mod:`hindsight.fleet`.
+    """
+    text = _settings_toml(settings, overrides)
+    return json.loads(_batch_mission(os.fspath(log), os.fspath(out), text, force))
+
+
+def write_batch_summary(rows: list, out: PathLike, shard: Optional[tuple] = None) -> str:
+    """``batch_summary.parquet`` and the batch's ``report.html`` in ``out`` from the missions'
+    rows (in the order given), as ``hindsight batch`` writes them. Returns the summary's path.
+    """
+    return os.fspath(_write_batch_summary(json.dumps(list(rows)), os.fspath(out), shard))

@@ -7,6 +7,7 @@
 
 use arrow_array::ffi_stream::FFI_ArrowArrayStream;
 use arrow_array::{RecordBatch, RecordBatchIterator};
+use hindsight::output::batch_tables::MissionRow;
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
@@ -39,17 +40,7 @@ create_exception!(
     "An output could not be written (nothing is left half-written)."
 );
 
-/// The message the command line prints: the error and its causes, joined by `: `.
-fn chain(err: &(dyn std::error::Error + 'static)) -> String {
-    let mut text = err.to_string();
-    let mut source = err.source();
-    while let Some(s) = source {
-        text.push_str(": ");
-        text.push_str(&s.to_string());
-        source = s.source();
-    }
-    text
-}
+use hindsight::batch::error_chain as chain;
 
 /// A reconstruction's failure as the package's exception.
 fn to_python(err: hindsight::reconstruction::Error) -> PyErr {
@@ -62,17 +53,70 @@ fn to_python(err: hindsight::reconstruction::Error) -> PyErr {
     }
 }
 
-/// Reconstructs `log` with the settings' TOML text (`""`: the defaults), the GIL released.
-#[pyfunction]
-#[pyo3(signature = (log, settings_toml))]
-fn reconstruct(py: Python<'_>, log: PathBuf, settings_toml: &str) -> PyResult<Reconstruction> {
+/// The settings of their TOML text (`""`: the defaults).
+fn settings(settings_toml: &str) -> PyResult<hindsight::recon::config::Config> {
     use hindsight::config::Section;
-    let config = hindsight::recon::config::Config::from_toml(settings_toml)
-        .map_err(|e| SettingsError::new_err(chain(&e)))?;
+    hindsight::recon::config::Config::from_toml(settings_toml)
+        .map_err(|e| SettingsError::new_err(chain(&e)))
+}
+
+/// Tells a Python callback `(stage, fraction)` from the worker threads, the GIL taken for
+/// each call; the first exception it raises is kept (and raised after the run), the rest of
+/// the calls skipped.
+struct Told {
+    callback: Option<Py<PyAny>>,
+    raised: Mutex<Option<PyErr>>,
+}
+
+impl Told {
+    fn tell(&self, stage: &str, fraction: f64) {
+        let Some(callback) = &self.callback else {
+            return;
+        };
+        let mut raised = self.raised.lock().expect("not poisoned");
+        if raised.is_none() {
+            Python::attach(|py| {
+                if let Err(e) = callback.call1(py, (stage, fraction)) {
+                    *raised = Some(e);
+                }
+            });
+        }
+    }
+}
+
+/// Reconstructs `log` with the settings' TOML text (`""`: the defaults), the GIL released;
+/// `progress(stage, fraction)` is told how far reading ("read"), the forward pass
+/// ("forward") and the smoother ("smoother") are.
+#[pyfunction]
+#[pyo3(signature = (log, settings_toml, progress=None))]
+fn reconstruct(
+    py: Python<'_>,
+    log: PathBuf,
+    settings_toml: &str,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Reconstruction> {
+    let config = settings(settings_toml)?;
     let job = hindsight::Job::new(&log, config);
-    let solved = py
-        .detach(|| hindsight::reconstruct(&job, hindsight::Observer::default()))
-        .map_err(to_python)?;
+    let told = Told {
+        callback: progress,
+        raised: Mutex::new(None),
+    };
+    let read = |f: f64| told.tell("read", f);
+    let forward = |f: f64| told.tell("forward", f);
+    let smoother = |f: f64| told.tell("smoother", f);
+    let solved = py.detach(|| {
+        let observer = hindsight::Observer {
+            read_progress: Some(&read),
+            forward_progress: Some(&forward),
+            smoother_progress: Some(&smoother),
+            ..Default::default()
+        };
+        hindsight::reconstruct(&job, observer)
+    });
+    if let Some(e) = told.raised.lock().expect("not poisoned").take() {
+        return Err(e);
+    }
+    let solved = solved.map_err(to_python)?;
     let summary_json = serde_json::to_string(&solved.summary)
         .map_err(|e| HindsightError::new_err(e.to_string()))?;
     Ok(Reconstruction {
@@ -197,6 +241,104 @@ impl ArrowTable {
     }
 }
 
+/// Every topic of a log as an Arrow table (as `hindsight export` writes them: `stamp_ns`,
+/// `log_time_ns`, then every field), the GIL released while it is read.
+#[pyfunction]
+fn read_log(py: Python<'_>, path: PathBuf) -> PyResult<Vec<(String, ArrowTable)>> {
+    let options = hindsight::ingest::IngestOptions::default();
+    let log = py
+        .detach(|| hindsight::ingest::read_log(&path, &options))
+        .map_err(|e| LogError::new_err(format!("reading {}: {}", path.display(), chain(&e))))?;
+    let table = |s: &hindsight::ingest::Stream| -> PyResult<(String, ArrowTable)> {
+        let batches = hindsight::output::tables::stream_batches(s)
+            .map_err(|e| HindsightError::new_err(e.to_string()))?;
+        Ok((s.topic.clone(), ArrowTable::of(batches)))
+    };
+    log.streams.iter().map(table).collect()
+}
+
+/// One mission of a batch (as `hindsight batch` runs each log): reconstructed into
+/// `out/mission=<name>/` unless complete there already (and not `force`), the GIL released.
+/// Returns its row of batch_summary.parquet as JSON text; a failed mission is a row too.
+#[pyfunction]
+#[pyo3(signature = (log, out, settings_toml, force))]
+fn batch_mission(
+    py: Python<'_>,
+    log: PathBuf,
+    out: PathBuf,
+    settings_toml: &str,
+    force: bool,
+) -> PyResult<String> {
+    let config = settings(settings_toml)?;
+    let row = py.detach(|| hindsight::batch::run_mission(&log, &out, &config, force));
+    Ok(row_json(&row).to_string())
+}
+
+/// A row as JSON (its fields by name).
+fn row_json(r: &MissionRow) -> serde_json::Value {
+    serde_json::json!({
+        "mission": r.mission,
+        "log": r.log,
+        "status": r.status,
+        "error": r.error,
+        "run_time_s": r.run_time_s,
+        "duration_s": r.duration_s,
+        "distance_travelled_m": r.distance_travelled_m,
+        "final_horizontal_sigma_forward_m": r.final_horizontal_sigma_forward_m,
+        "final_horizontal_sigma_smoothed_m": r.final_horizontal_sigma_smoothed_m,
+        "consistent": r.consistent,
+        "forward_horizontal_rms_m": r.forward_horizontal_rms_m,
+        "smoothed_horizontal_rms_m": r.smoothed_horizontal_rms_m,
+    })
+}
+
+/// A row of its JSON ([`row_json`]'s).
+fn row_of(v: &serde_json::Value) -> PyResult<MissionRow> {
+    let text = |k: &str| v[k].as_str().map(str::to_string);
+    let number = |k: &str| v[k].as_f64();
+    let status = match v["status"].as_str() {
+        Some("done") => "done",
+        Some("complete") => "complete",
+        Some("failed") => "failed",
+        other => {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "a batch row's status is done, complete or failed, not {other:?}"
+            )))
+        }
+    };
+    Ok(MissionRow {
+        mission: text("mission").unwrap_or_default(),
+        log: text("log").unwrap_or_default(),
+        status,
+        error: text("error"),
+        run_time_s: number("run_time_s"),
+        duration_s: number("duration_s"),
+        distance_travelled_m: number("distance_travelled_m"),
+        final_horizontal_sigma_forward_m: number("final_horizontal_sigma_forward_m"),
+        final_horizontal_sigma_smoothed_m: number("final_horizontal_sigma_smoothed_m"),
+        consistent: v["consistent"].as_bool(),
+        forward_horizontal_rms_m: number("forward_horizontal_rms_m"),
+        smoothed_horizontal_rms_m: number("smoothed_horizontal_rms_m"),
+    })
+}
+
+/// batch_summary.parquet and the batch's report.html from the missions' rows (JSON text, in
+/// order), as `hindsight batch` writes them; returns the summary's path.
+#[pyfunction]
+#[pyo3(signature = (rows_json, out, shard=None))]
+fn write_batch_summary(
+    py: Python<'_>,
+    rows_json: &str,
+    out: PathBuf,
+    shard: Option<(usize, usize)>,
+) -> PyResult<PathBuf> {
+    let values: Vec<serde_json::Value> = serde_json::from_str(rows_json)
+        .map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))?;
+    let rows = values.iter().map(row_of).collect::<PyResult<Vec<_>>>()?;
+    py.detach(|| hindsight::batch::write_summary(&rows, &out, shard))
+        .map_err(|e| OutputError::new_err(chain(&e)))
+}
+
 #[pymodule]
 fn _hindsight(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -205,6 +347,9 @@ fn _hindsight(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SettingsError", py.get_type::<SettingsError>())?;
     m.add("OutputError", py.get_type::<OutputError>())?;
     m.add_function(wrap_pyfunction!(reconstruct, m)?)?;
+    m.add_function(wrap_pyfunction!(batch_mission, m)?)?;
+    m.add_function(wrap_pyfunction!(read_log, m)?)?;
+    m.add_function(wrap_pyfunction!(write_batch_summary, m)?)?;
     m.add_class::<Reconstruction>()?;
     m.add_class::<ArrowTable>()?;
     Ok(())

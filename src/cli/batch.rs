@@ -4,9 +4,8 @@
 use super::console;
 use super::OutputFailed;
 use anyhow::{Context, Result};
-use hindsight::output::batch_tables::{batch_summary, MissionRow};
-use hindsight::output::files::Folder;
-use hindsight::output::report::{Block, Report, Section};
+use hindsight::batch;
+use hindsight::output::batch_tables::MissionRow;
 use hindsight::recon::config::Config;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -133,12 +132,7 @@ fn walk(dir: &Path, logs: &mut Vec<PathBuf>) -> std::io::Result<()> {
 fn missions(logs: &[PathBuf]) -> Result<Vec<(String, PathBuf)>> {
     let mut named: Vec<(String, PathBuf)> = logs
         .iter()
-        .map(|l| {
-            let stem = l
-                .file_stem()
-                .map_or_else(|| "log".to_string(), |s| s.to_string_lossy().into_owned());
-            (stem, l.clone())
-        })
+        .map(|l| (batch::mission_name(l), l.clone()))
         .collect();
     named.sort();
     if let Some(w) = named.windows(2).find(|w| w[0].0 == w[1].0) {
@@ -157,48 +151,6 @@ fn missions(logs: &[PathBuf]) -> Result<Vec<(String, PathBuf)>> {
 /// The logs of shard `i` of `n`: those whose place in the list is `i` modulo `n`.
 pub fn shard<T: Clone>(items: &[T], i: usize, n: usize) -> Vec<T> {
     items.iter().skip(i).step_by(n.max(1)).cloned().collect()
-}
-
-/// A mission's summary.json, if it is there and names `log`: its outputs are complete (the
-/// summary is renamed into place last).
-fn complete_summary(dir: &Path, log: &Path) -> Option<serde_json::Value> {
-    let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
-    let summary: serde_json::Value = serde_json::from_str(&text).ok()?;
-    (summary["log"].as_str() == Some(&log.display().to_string())).then_some(summary)
-}
-
-fn row_from(mission: &str, log: &Path, summary: &serde_json::Value) -> MissionRow {
-    let f = |path: &[&str]| {
-        path.iter()
-            .try_fold(summary, |v, k| v.get(*k))
-            .and_then(|v| v.as_f64())
-    };
-    MissionRow {
-        mission: mission.to_string(),
-        log: log.display().to_string(),
-        duration_s: f(&["duration_s"]),
-        distance_travelled_m: f(&["distance_travelled_m"]),
-        final_horizontal_sigma_forward_m: f(&["final_sigma", "forward", "horizontal_m"]),
-        final_horizontal_sigma_smoothed_m: f(&["final_sigma", "smoothed", "horizontal_m"]),
-        consistent: summary["consistency"]["consistent"].as_bool(),
-        forward_horizontal_rms_m: f(&["truth", "forward", "horizontal_rms_m"]),
-        smoothed_horizontal_rms_m: f(&["truth", "smoothed", "horizontal_rms_m"]),
-        ..MissionRow::default()
-    }
-}
-
-/// Reconstructs one mission as `reconstruct` would; a panic is reported as a failure, not
-/// carried into the others.
-fn run_mission(log: &Path, dir: &Path, config: &Config) -> Result<()> {
-    let job = hindsight::Job::new(log, config.clone());
-    let reconstructed = || -> Result<()> {
-        hindsight::reconstruct(&job, Default::default())?.write(dir)?;
-        Ok(())
-    };
-    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(reconstructed)) {
-        Ok(result) => result,
-        Err(_) => anyhow::bail!("internal error (a panic) while reconstructing: please report it"),
-    }
 }
 
 /// Some missions of a batch failed (exit status 3); the others are complete.
@@ -236,7 +188,8 @@ pub fn run(args: BatchArgs) -> Result<()> {
     // The missions' own messages would interleave: each says its outcome in one line.
     console::set_quiet(true);
     let one = |(name, log): &(String, PathBuf)| -> MissionRow {
-        let row = mission_row(name, log, &args, &config);
+        let row = batch::run_mission(log, &args.out, &config, args.force);
+        debug_assert_eq!(&row.mission, name);
         bar.suspend(|| tell(outcome_line(&row)));
         bar.inc(1);
         row
@@ -285,108 +238,12 @@ fn batch_config(path: Option<&Path>) -> Result<Config> {
     Ok(config)
 }
 
-/// One mission's row: complete already (unless forced), else reconstructed now.
-fn mission_row(name: &str, log: &Path, args: &BatchArgs, config: &Config) -> MissionRow {
-    let dir = args.out.join(format!("mission={name}"));
-    if let Some(summary) = complete_summary(&dir, log).filter(|_| !args.force) {
-        return MissionRow {
-            status: "complete",
-            ..row_from(name, log, &summary)
-        };
-    }
-    let t = Instant::now();
-    let outcome = run_mission(log, &dir, config);
-    let run_time_s = Some(t.elapsed().as_secs_f64());
-    let summary =
-        outcome.and_then(|()| complete_summary(&dir, log).context("no summary.json after the run"));
-    match summary {
-        Ok(summary) => MissionRow {
-            status: "done",
-            run_time_s,
-            ..row_from(name, log, &summary)
-        },
-        Err(e) => MissionRow {
-            mission: name.to_string(),
-            log: log.display().to_string(),
-            status: "failed",
-            error: Some(format!("{e:#}")),
-            run_time_s,
-            ..MissionRow::default()
-        },
-    }
-}
-
 /// batch_summary.parquet and the batch's report.html (each named for its shard); returns the
 /// summary's path.
 fn write_batch_outputs(rows: &[MissionRow], args: &BatchArgs) -> Result<PathBuf> {
-    let shard = |stem: &str, ext: &str| match args.shard {
-        Some((i, n)) => format!("{stem}.shard-{i}-of-{n}.{ext}"),
-        None => format!("{stem}.{ext}"),
-    };
-    let (summary, page) = (shard("batch_summary", "parquet"), shard("report", "html"));
-    let mut folder = Folder::create(&args.out)?;
-    folder.table(&summary, batch_summary(rows)?)?;
-    let html = report(rows, &args.out)
-        .to_html()
-        .with_context(|| OutputFailed {
-            path: args.out.join(&page),
-        })?;
-    folder.text(&page, &html)?;
-    folder.commit()?;
-    Ok(args.out.join(summary))
-}
-
-/// The batch's page: every mission's outcome (each mission's own report.html is in its
-/// folder).
-fn report(rows: &[MissionRow], out: &Path) -> Report {
-    let na = |v: Option<f64>, digits: usize| v.map_or("-".to_string(), |v| format!("{v:.digits$}"));
-    let table = rows
-        .iter()
-        .map(|r| {
-            vec![
-                r.mission.clone(),
-                r.status.to_string(),
-                na(r.duration_s, 0),
-                na(r.distance_travelled_m, 0),
-                na(r.final_horizontal_sigma_smoothed_m, 2),
-                r.consistent
-                    .map_or("-", |c| if c { "yes" } else { "NO" })
-                    .to_string(),
-                na(r.smoothed_horizontal_rms_m, 2),
-                na(r.run_time_s, 1),
-            ]
-        })
-        .collect();
-    let failed: Vec<String> = rows
-        .iter()
-        .filter_map(|r| Some(format!("mission={}: {}", r.mission, r.error.as_ref()?)))
-        .collect();
-    Report {
-        title: format!("hindsight batch: {} missions", rows.len()),
-        subtitle: out.display().to_string(),
-        sections: vec![
-            Section::new("Missions")
-                .with(Block::text(
-                    "Each mission's outputs and its own report.html are in mission=<name>/. \
-                     complete: its outputs were there already (not run again).",
-                ))
-                .with(Block::table(
-                    [
-                        "mission",
-                        "status",
-                        "duration s",
-                        "distance m",
-                        "final 1-sigma m",
-                        "consistent",
-                        "RMS vs truth m",
-                        "run time s",
-                    ],
-                    table,
-                )),
-            Section::new("Failed missions").with(Block::Warnings(failed)),
-        ],
-        footer: format!("hindsight {}", env!("CARGO_PKG_VERSION")),
-    }
+    batch::write_summary(rows, &args.out, args.shard).with_context(|| OutputFailed {
+        path: args.out.clone(),
+    })
 }
 
 fn outcome_line(r: &MissionRow) -> String {

@@ -114,6 +114,20 @@ pub fn stream_batch(
     batch(columns)
 }
 
+/// Every row of one stream, a batch of at most [`super::parquet::ROWS_PER_BATCH`] rows at a
+/// time (one empty batch for an empty stream, which carries the schema).
+pub fn stream_batches(stream: &Stream) -> Result<Vec<RecordBatch>, ArrowError> {
+    let n = stream.samples.len();
+    if n == 0 {
+        return Ok(vec![stream_batch(stream, 0..0)?]);
+    }
+    let step = super::parquet::ROWS_PER_BATCH;
+    (0..n)
+        .step_by(step)
+        .map(|start| stream_batch(stream, start..(start + step).min(n)))
+        .collect()
+}
+
 /// Column-name prefix of a topic: `/nav/dvl` -> `nav_dvl_`.
 pub fn topic_prefix(topic: &str) -> String {
     let cleaned: String = topic

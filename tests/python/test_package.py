@@ -96,3 +96,28 @@ def test_settings_come_from_a_file_a_dict_and_overrides(tmp_path):
     assert rows[1] == rows[2] < rows[0]
     assert rows[3] < rows[1]
     assert abs(rows[1] / rows[0] - 0.2) < 0.01, rows
+
+
+def test_progress_is_told_and_a_failing_callback_ends_the_run():
+    told = []
+    hindsight.reconstruct(SAMPLE, progress=lambda stage, f: told.append((stage, f)))
+    stages = {stage for stage, _ in told}
+    # The smoother tells every 16384 epochs: the sample log is shorter.
+    assert {"read", "forward"} <= stages, stages
+    assert all(0.0 <= f <= 1.0 for _, f in told)
+
+    def fail(stage, fraction):
+        raise RuntimeError("stop here")
+
+    with pytest.raises(RuntimeError, match="stop here"):
+        hindsight.reconstruct(SAMPLE, progress=fail)
+
+
+def test_read_log_gives_every_topic_as_arrow():
+    topics = hindsight.read_log(SAMPLE)
+    assert "/imu" in topics and "/truth" in topics
+    imu = pyarrow.table(topics["/imu"])
+    assert imu.column_names[:2] == ["stamp_ns", "log_time_ns"]
+    assert imu.num_rows > 10000
+    with pytest.raises(hindsight.LogError, match="no-such.mcap"):
+        hindsight.read_log("no-such.mcap")
