@@ -28,11 +28,13 @@ from ._hindsight import (
 from ._hindsight import batch_mission as _batch_mission
 from ._hindsight import read_log as _read_log
 from ._hindsight import reconstruct as _reconstruct
+from ._hindsight import simulate as _simulate
 from ._hindsight import write_batch_summary as _write_batch_summary
 
 __all__ = [
     "reconstruct",
     "read_log",
+    "simulate",
     "batch_mission",
     "write_batch_summary",
     "Reconstruction",
@@ -83,23 +85,37 @@ def _merged(base: dict, over: Mapping[str, Any]) -> dict:
     return out
 
 
-def _settings_toml(settings: Union[None, PathLike, Mapping[str, Any]], overrides) -> str:
+def _settings_toml(settings: Union[None, PathLike, Mapping[str, Any]], overrides) -> tuple:
+    """The settings' TOML text, and what to call them in a message: a file given alone is
+    passed as it is (its lines as the CLI names them), else the merged settings as TOML."""
     if settings is None:
         base: dict = {}
     elif isinstance(settings, Mapping):
         base = dict(settings)
     else:
-        import tomllib  # Python 3.11+; a dict works on any version
-
         path = os.fspath(settings)
         try:
-            with open(path, "rb") as f:
-                base = tomllib.load(f)
+            with open(path, encoding="utf-8") as f:
+                text = f.read()
         except OSError as e:
-            raise SettingsError(f"reading {path}: {e.strerror}") from None
+            raise SettingsError(f"configuration {path}: {e.strerror}") from None
+        if not overrides:
+            return text, f"configuration {path}"
+        import tomllib  # Python 3.11+; a dict works on any version
+
+        try:
+            base = tomllib.loads(text)
         except tomllib.TOMLDecodeError as e:
-            raise SettingsError(f"{path}: {e}") from None
-    return _toml(_merged(base, overrides))
+            raise SettingsError(f"configuration {path}: {e}") from None
+    return _toml(_merged(base, overrides)).lstrip("\n"), "settings"
+
+
+def _settings_said(call, origin: str, *args):
+    """``call(*args)``, a settings error named as the CLI names it (``configuration FILE:``)."""
+    try:
+        return call(*args)
+    except SettingsError as e:
+        raise SettingsError(f"{origin}: {e}") from None
 
 
 class Reconstruction:
@@ -160,9 +176,17 @@ def reconstruct(
     ``"smoother"`` are (from the worker threads; an exception it raises ends the run after
     it). Raises :class:`LogError` or :class:`SettingsError` with the CLI's message.
     """
-    text = _settings_toml(settings, overrides)
-    path = os.fspath(log)
-    return Reconstruction(_reconstruct(path, text, progress))
+    text, origin = _settings_toml(settings, overrides)
+    return Reconstruction(_settings_said(_reconstruct, origin, os.fspath(log), text, progress))
+
+
+def simulate(scenario: str, seed: int, out: PathLike) -> dict:
+    """Simulates the built-in ``scenario`` (``hindsight simulate --list`` names them) with
+    ``seed`` into the log file ``out``, with ``/truth``, as ``hindsight simulate`` writes it
+    (the same scenario and seed give the same file). Returns the messages written and the
+    mission's duration. An unknown scenario is a :class:`SettingsError`."""
+    messages, duration_s = _simulate(scenario, seed, os.fspath(out))
+    return {"messages": messages, "duration_s": duration_s}
 
 
 def read_log(log: PathLike) -> dict:
@@ -184,8 +208,9 @@ def batch_mission(
     mission is a row too (``status`` "failed", ``error``). The tables go to disk from here:
     only the row comes back. A task for Dask or Ray: see :mod:`hindsight.fleet`.
     """
-    text = _settings_toml(settings, overrides)
-    return json.loads(_batch_mission(os.fspath(log), os.fspath(out), text, force))
+    text, origin = _settings_toml(settings, overrides)
+    row = _settings_said(_batch_mission, origin, os.fspath(log), os.fspath(out), text, force)
+    return json.loads(row)
 
 
 def write_batch_summary(rows: list, out: PathLike, shard: Optional[tuple] = None) -> str:

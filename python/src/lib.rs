@@ -241,6 +241,19 @@ impl ArrowTable {
     }
 }
 
+/// Simulates the built-in scenario `scenario` with `seed` into the log file `out` (as
+/// `hindsight simulate --scenario NAME --seed SEED --out FILE` writes it), the GIL released;
+/// returns the messages written and the mission's duration, s.
+#[pyfunction]
+fn simulate(py: Python<'_>, scenario: &str, seed: u64, out: PathBuf) -> PyResult<(u64, f64)> {
+    let scenario = hindsight::sim::scenario::Scenario::built_in(scenario)
+        .map_err(|e| SettingsError::new_err(chain(&e)))?;
+    let summary = py
+        .detach(|| hindsight::sim::file::simulate_to_file(&scenario, seed, &out, |_| {}))
+        .map_err(|e| OutputError::new_err(chain(&e)))?;
+    Ok((summary.messages, summary.duration_s))
+}
+
 /// Every topic of a log as an Arrow table (as `hindsight export` writes them: `stamp_ns`,
 /// `log_time_ns`, then every field), the GIL released while it is read.
 #[pyfunction]
@@ -349,6 +362,7 @@ fn _hindsight(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(reconstruct, m)?)?;
     m.add_function(wrap_pyfunction!(batch_mission, m)?)?;
     m.add_function(wrap_pyfunction!(read_log, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(write_batch_summary, m)?)?;
     m.add_class::<Reconstruction>()?;
     m.add_class::<ArrowTable>()?;

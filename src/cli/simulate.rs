@@ -4,9 +4,10 @@ use super::console::{out, say};
 use super::OutputFailed;
 use anyhow::{bail, Context, Result};
 use hindsight::output::atomic::Staging;
+use hindsight::sim::file::{simulate_to_file, SimFileError};
 use hindsight::sim::scenario::{Scenario, BUILT_IN};
+use hindsight::sim::writer;
 use hindsight::sim::zigzag;
-use hindsight::sim::{run, writer};
 use hindsight::vehicle::six_dof::description::Vehicle;
 use std::path::PathBuf;
 
@@ -127,15 +128,15 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         bail!("give --out FILE.mcap")
     };
     let started = std::time::Instant::now();
-    let mut staging = Staging::new();
-    let file = staging
-        .create(&out)
-        .with_context(|| OutputFailed { path: out.clone() })?;
-    let mut w = writer::LogWriter::new(
-        std::io::BufWriter::new(file),
-        writer::WriterOptions::default(),
-    )?;
     if let Some(spec) = zigzag {
+        let mut staging = Staging::new();
+        let file = staging
+            .create(&out)
+            .with_context(|| OutputFailed { path: out.clone() })?;
+        let mut w = writer::LogWriter::new(
+            std::io::BufWriter::new(file),
+            writer::WriterOptions::default(),
+        )?;
         say!("simulating `{}` (seed {}) ...", spec.name, args.seed);
         let r = zigzag::run(&spec, args.seed, &mut w)?;
         finish_log(w, staging, &out)?;
@@ -157,15 +158,20 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     };
     say!("simulating `{}` (seed {}) ...", scenario.name, args.seed);
     let interactive = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let summary = run::run_with_progress(&scenario, args.seed, &mut w, |done| {
+    let summary = simulate_to_file(&scenario, args.seed, &out, |done| {
         if interactive {
             eprint!("\r  {:3.0} % of the mission", done * 100.0);
         }
+    })
+    .map_err(|e| match e {
+        SimFileError::Output { path, source } => {
+            anyhow::Error::new(source).context(OutputFailed { path })
+        }
+        SimFileError::Run(e) => e.into(),
     })?;
     if interactive {
         say!();
     }
-    finish_log(w, staging, &out)?;
     let bytes = std::fs::metadata(&out).map(|m| m.len()).unwrap_or(0);
     out!(
         "{}: {} messages, {:.0} s of mission, {:.1} MB, simulated in {:.1} s",

@@ -6,6 +6,7 @@
 
 pub mod bag;
 pub mod dynamic;
+pub mod file;
 pub mod inertial;
 pub mod profile;
 pub mod ros;

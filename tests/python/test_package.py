@@ -69,6 +69,35 @@ def test_write_gives_the_clis_files(r, tmp_path):
         assert a == b, name
 
 
+def clis_error(*args):
+    """The message the CLI prints for a run that fails (its `error: ` line)."""
+    done = subprocess.run([CLI, *args], capture_output=True, text=True)
+    assert done.returncode != 0
+    return done.stderr.splitlines()[0].removeprefix("error: ")
+
+
+def test_bad_input_carries_the_clis_message(tmp_path):
+    if not CLI.exists():
+        pytest.skip("the CLI is built by `cargo test --release` first")
+    out = tmp_path / "out"
+    not_a_log = tmp_path / "not-a-log.mcap"
+    not_a_log.write_text("not a log")
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[output]\nrate_hz = "ten"\n')
+    for exception, args, kwargs in [
+        (hindsight.LogError, [tmp_path / "no-such.mcap"], {}),
+        (hindsight.LogError, [not_a_log], {}),
+        (hindsight.SettingsError, [SAMPLE], {"settings": bad}),
+    ]:
+        with pytest.raises(exception) as raised:
+            hindsight.reconstruct(*args, **kwargs)
+        cli_args = ["reconstruct", *args, "--out", out]
+        if "settings" in kwargs:
+            cli_args += ["--config", kwargs["settings"]]
+        assert str(raised.value) == clis_error(*cli_args)
+    assert not out.exists()
+
+
 def test_bad_input_raises_the_named_exception_and_writes_nothing(tmp_path):
     with pytest.raises(hindsight.LogError, match="no-such.mcap"):
         hindsight.reconstruct(tmp_path / "no-such.mcap")
@@ -121,3 +150,17 @@ def test_read_log_gives_every_topic_as_arrow():
     assert imu.num_rows > 10000
     with pytest.raises(hindsight.LogError, match="no-such.mcap"):
         hindsight.read_log("no-such.mcap")
+
+
+def test_simulate_writes_the_clis_file(tmp_path):
+    if not CLI.exists():
+        pytest.skip("the CLI is built by `cargo test --release` first")
+    written = hindsight.simulate("survey-short", 3, tmp_path / "py.mcap")
+    assert written["messages"] > 10000 and written["duration_s"] > 100
+    cli = tmp_path / "cli.mcap"
+    args = ["simulate", "--scenario", "survey-short", "--seed", "3", "--out", cli, "--quiet"]
+    subprocess.run([CLI, *args], check=True)
+    assert (tmp_path / "py.mcap").read_bytes() == cli.read_bytes()
+    with pytest.raises(hindsight.SettingsError, match="no-such-scenario"):
+        hindsight.simulate("no-such-scenario", 1, tmp_path / "x.mcap")
+    assert sorted(os.listdir(tmp_path)) == ["cli.mcap", "py.mcap"]
