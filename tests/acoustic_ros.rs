@@ -177,19 +177,22 @@ fn a_ship_pose_and_a_local_fix_in_ros_read_as_the_contract_messages() {
     }
 }
 
-/// `usbl-raw-survey` seed 1's observations as an EvoLogics driver gives them: its
+/// The simulation's observations (`usbl-raw-survey` seed 1) as an EvoLogics driver gives them: its
 /// `current_time` and `measurement_time` the simulator's delay apart (`with_times`; else
 /// stamped on receipt only), the vehicle's transponder at address 2, no sigmas; those at
 /// zero range (the simulator's first, at the ship) have no direction to write and are left
-/// out. Returns them with the simulation.
-fn driver_observations(with_times: bool) -> (common::Simulated, Vec<UsblObservation>) {
-    let sim = common::simulated(&Scenario::built_in("usbl-raw-survey").unwrap(), 1);
+/// out.
+fn driver_observations(sim: &common::Simulated, with_times: bool) -> Vec<UsblObservation> {
     let delay_s = sim.usbl_truth().receipt_delay_s;
-    let observations = (sim.role::<UsblObservation>().iter())
+    (sim.role::<UsblObservation>().iter())
         .filter(|o| o.range_m > 0.0)
         .map(|o| as_driver_gives(o, with_times.then_some(delay_s)))
-        .collect();
-    (sim, observations)
+        .collect()
+}
+
+/// `usbl-raw-survey` seed 1.
+fn raw_survey() -> common::Simulated {
+    common::simulated(&Scenario::built_in("usbl-raw-survey").unwrap(), 1)
 }
 
 /// A receipt-stamped observation as a driver gives it, with the delay when it knows it.
@@ -238,8 +241,11 @@ fn assert_close(read: &[UsblObservation], expected: &[UsblObservation], what: &s
 /// range, bearing and elevation in the transducer's axes.
 #[test]
 fn evologics_usbllong_reads_as_the_contract_observations() {
-    let (_, timed) = driver_observations(true);
-    let (_, receipt) = driver_observations(false);
+    let sim = raw_survey();
+    let (timed, receipt) = (
+        driver_observations(&sim, true),
+        driver_observations(&sim, false),
+    );
     assert!(timed.len() > 400, "{}", timed.len());
     let expected_timed = contract_log(&timed);
     let expected_receipt = contract_log(&receipt);
@@ -273,7 +279,8 @@ fn evologics_usbllong_reads_as_the_contract_observations() {
 /// its bounds at least 90 % of the time).
 #[test]
 fn a_usbllong_survey_is_placed_by_its_two_times() {
-    let (sim, written) = driver_observations(false);
+    let sim = raw_survey();
+    let written = driver_observations(&sim, false);
     let truth = sim.usbl_truth();
     let delay_s = truth.receipt_delay_s;
     let ros = sim.with_rewritten("/usbl", |o: &UsblObservation, raw| {

@@ -284,28 +284,10 @@ fn batch_mission(
 ) -> PyResult<String> {
     let config = settings(settings_toml)?;
     let row = py.detach(|| hindsight::batch::run_mission(&log, &out, &config, force));
-    Ok(row_json(&row).to_string())
+    serde_json::to_string(&row).map_err(|e| HindsightError::new_err(e.to_string()))
 }
 
-/// A row as JSON (its fields by name).
-fn row_json(r: &MissionRow) -> serde_json::Value {
-    serde_json::json!({
-        "mission": r.mission,
-        "log": r.log,
-        "status": r.status,
-        "error": r.error,
-        "run_time_s": r.run_time_s,
-        "duration_s": r.duration_s,
-        "distance_travelled_m": r.distance_travelled_m,
-        "final_horizontal_sigma_forward_m": r.final_horizontal_sigma_forward_m,
-        "final_horizontal_sigma_smoothed_m": r.final_horizontal_sigma_smoothed_m,
-        "consistent": r.consistent,
-        "forward_horizontal_rms_m": r.forward_horizontal_rms_m,
-        "smoothed_horizontal_rms_m": r.smoothed_horizontal_rms_m,
-    })
-}
-
-/// A row of its JSON ([`row_json`]'s).
+/// A row of its JSON (as `MissionRow` serialises).
 fn row_of(v: &serde_json::Value) -> PyResult<MissionRow> {
     let text = |k: &str| v[k].as_str().map(str::to_string);
     let number = |k: &str| v[k].as_f64();

@@ -5,7 +5,7 @@ use arrow_array::RecordBatch;
 use arrow_schema::ArrowError;
 
 /// What became of one mission of a batch.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct MissionRow {
     /// The mission's name: its partition is `mission=<name>`.
     pub mission: String,
